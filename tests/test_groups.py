@@ -149,13 +149,16 @@ def test_dexp_against_finite_differences(scale):
     np.testing.assert_allclose(SO3G.dexp_inv(u, SO3G.dexp(u, v)), v, atol=1e-11)
 
 
-def test_dexp_inv_dual_is_adjoint_for_weighted_inner_product():
+def test_dexp_duals_are_adjoints_for_weighted_inner_product():
     rng = np.random.default_rng(6)
     g = animation_group(4, joint_weights=[0.5, 1.0, 2.0, 3.0], translation_weight=7.0)
     u = rng.normal(size=(10, g.dim))
     a, b = rng.normal(size=(2, 10, g.dim))
     np.testing.assert_allclose(
         g.inner(g.dexp_inv(u, a), b), g.inner(a, g.dexp_inv_dual(u, b)), rtol=1e-12, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        g.inner(g.dexp(u, a), b), g.inner(a, g.dexp_dual(u, b)), rtol=1e-12, atol=1e-12
     )
     x = g.exp(rng.normal(size=(10, g.dim)))
     np.testing.assert_allclose(g.inner(g.adjoint(x, a), b), g.inner(a, g.adjoint_dual(x, b)), rtol=1e-12)

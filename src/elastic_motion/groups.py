@@ -335,6 +335,10 @@ class LieGroup:
         """Inverse of :meth:`dexp` in its second argument (valid for ``|u| < 2 pi``)."""
         raise NotImplementedError
 
+    def dexp_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``dexp_u^† v``, the adjoint of ``dexp_u`` for the group's inner product."""
+        raise NotImplementedError
+
     def dexp_inv_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``(dexp_u^{-1})^† v`` for the group's inner product (paper 000, Thm. 4.5)."""
         raise NotImplementedError
@@ -493,6 +497,7 @@ class Euclidean(LieGroup):
         return np.broadcast_to(v, np.broadcast_shapes(np.shape(u), np.shape(v))).astype(np.float64)
 
     dexp_inv = dexp
+    dexp_dual = dexp
     dexp_inv_dual = dexp
 
     def project(self, g: np.ndarray) -> np.ndarray:
@@ -626,6 +631,10 @@ class SO3(LieGroup):
         )
         uv = np.cross(u, v)
         return v - 0.5 * uv + e[..., None] * np.cross(u, uv)
+
+    def dexp_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        # hat(u) is skew for the (scaled) dot product: dexp_u^† = dexp_{-u}.
+        return self.dexp(-np.asarray(u, dtype=np.float64), v)
 
     def dexp_inv_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         # hat(u) is skew for the (scaled) dot product: (dexp_u^{-1})^† = dexp_{-u}^{-1}.
@@ -762,6 +771,9 @@ class PowerGroup(LieGroup):
 
     def dexp_inv(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return self._join(self.base.dexp_inv(self._split(u), self._split(v)))
+
+    def dexp_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._join(self.base.dexp_dual(self._split(u), self._split(v)))
 
     def dexp_inv_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return self._join(self.base.dexp_inv_dual(self._split(u), self._split(v)))
@@ -904,6 +916,9 @@ class ProductGroup(LieGroup):
 
     def dexp_inv(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return self._map_algebra("dexp_inv", u, v, False)
+
+    def dexp_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._map_algebra("dexp_dual", u, v, False)
 
     def dexp_inv_dual(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return self._map_algebra("dexp_inv_dual", u, v, False)
