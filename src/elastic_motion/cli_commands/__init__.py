@@ -1,0 +1,1 @@
+"""Sub-commands of the ``elastic-motion`` CLI; each module has ``register(subparsers)``."""

@@ -1,0 +1,57 @@
+"""``elastic-motion info FILE [--json]``: joints, frames, fps, duration, units, channels."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from elastic_motion.errors import ParseError
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``info`` sub-command to ``subparsers`` (sets ``func`` to :func:`run`)."""
+    p = subparsers.add_parser(
+        "info",
+        help="describe a motion file (BVH, ASF/AMC, DeepMimic)",
+        description=(
+            "Print a motion file's joints, frame count, frame rate, duration, length unit, "
+            "up axis and per-joint channel layout."
+        ),
+    )
+    p.add_argument("file", help="a .bvh, .amc (skeleton .asf found beside it) or DeepMimic .txt/.json file")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.add_argument(
+        "--asf", default=None, help="the .asf skeleton of an .amc file (default: found in its folder)"
+    )
+    p.add_argument("--fps", type=float, default=None, help="frame rate of an .amc file (default 120)")
+    p.add_argument(
+        "--units", default=None, help="length unit of a .bvh file (m, cm, mm, inch, cmu; default: guessed)"
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Read ``args.file`` and print its summary; exit code 0, or 2 for an unreadable file."""
+    from elastic_motion.motion import format_info, motion_info, read_motion
+
+    kw = {}
+    name = args.file.lower()
+    if name.endswith(".amc"):
+        if args.asf is not None:
+            kw["asf"] = args.asf
+        if args.fps is not None:
+            kw["fps"] = args.fps
+    elif name.endswith(".bvh") and args.units is not None:
+        kw["units"] = args.units
+    try:
+        motion = read_motion(args.file, **kw)
+    except (ParseError, ValueError) as exc:
+        print(f"elastic-motion info: {exc}", file=sys.stderr)
+        return 2
+    info = motion_info(motion)
+    if args.json:
+        print(json.dumps(info, indent=2))
+    else:
+        print(format_info(info))
+    return 0

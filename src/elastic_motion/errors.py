@@ -1,0 +1,47 @@
+"""Exceptions shared by the package.
+
+:class:`ParseError` is the one exception a file reader raises for a malformed file: it
+names the file, the line (1-based, when there is one) and what the reader expected, so
+the message alone tells the user where to look::
+
+    walk.bvh:190: expected 96 values (one per channel), found 95
+"""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["ParseError"]
+
+
+class ParseError(ValueError):
+    """A file could not be read: ``path:line: what was expected, what was found``.
+
+    Subclasses ``ValueError`` so callers that already catch bad values keep working.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file being read.
+    line : int or None
+        1-based line number of the offending text, ``None`` when the problem is not tied
+        to one line (e.g. a file that ends too early is reported at its last line).
+    message : str
+        What was expected and what came instead.
+
+    Attributes
+    ----------
+    path : str
+    line : int or None
+    message : str
+    """
+
+    def __init__(self, path: str | os.PathLike[str], line: int | None, message: str) -> None:
+        self.path = os.fspath(path)
+        self.line = line
+        self.message = message
+        where = f"{self.path}:{line}" if line is not None else self.path
+        super().__init__(f"{where}: {message}")
+
+    def __reduce__(self):  # keep pickling (multiprocessing) working with the custom __init__
+        return (type(self), (self.path, self.line, self.message))

@@ -1,0 +1,815 @@
+"""BVH (Biovision Hierarchy) reader and writer.
+
+What the reader accepts
+-----------------------
+* Any per-joint channel set: 0 to 6 channels in any order, position channels on any joint
+  (the Bandai files have six on every joint), any Euler order per joint; ``End Site``
+  blocks (also several under one joint).
+* Free whitespace: tabs, blank lines, several tokens per line or one per line, ``{`` on
+  the name's line or its own; CRLF, CR or LF line ends; numbers like ``.0083333``, ``1.``,
+  ``-5e-3``.
+* Channel semantics: rotation channels are intrinsic Euler angles in **degrees**, applied
+  in channel order (``Zrotation Xrotation Yrotation``: ``R = Rz @ Rx @ Ry``). Position
+  channels give the joint's translation from its parent and *replace* its ``OFFSET``
+  (axes without a channel keep the offset value). See :mod:`.skeleton`.
+* Frame rate: ``fps = 1 / Frame Time``, snapped to the nearest integer when within 0.01 %
+  (files store ``0.0083333`` for 120 Hz, ``0.0333333`` for 30 Hz).
+
+What it rejects, with a :class:`~elastic_motion.errors.ParseError` naming file, line and
+expectation: a truncated file, a frame with the wrong number of values, a non-numeric or
+non-finite value, a frame count different from ``Frames:``, zero frames, a repeated joint
+name, an unknown channel.
+
+Lengths are in the file's unit, which BVH does not record: pass ``units=`` to the reader
+or let it guess from the rest-pose size of the skeleton (:func:`guess_units`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from elastic_motion.errors import ParseError
+from elastic_motion.motion._io import atomic_write_text, read_text
+from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler, valid_euler_order
+from elastic_motion.motion.skeleton import (
+    POSITION_CHANNELS,
+    ROTATION_CHANNELS,
+    UNITS,
+    Motion,
+    Skeleton,
+)
+
+__all__ = ["guess_units", "read_bvh", "snap_fps", "write_bvh"]
+
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_MAX_CHANNELS = 6
+_TYPICAL_HEIGHT_M = 1.7
+
+
+def snap_fps(frame_time: float) -> float:
+    """``1 / frame_time``, rounded to an integer when within 0.01 % of one.
+
+    Parameters
+    ----------
+    frame_time : float
+        Seconds per frame (> 0).
+
+    Returns
+    -------
+    float
+        Frames per second: ``120.0`` for ``0.0083333``, ``29.97...`` stays as it is.
+    """
+    fps = 1.0 / frame_time
+    if not math.isfinite(fps):
+        return fps
+    r = round(fps)
+    if r > 0 and abs(r - fps) <= 1e-4 * fps:
+        return float(r)
+    return fps
+
+
+def guess_units(skeleton: Skeleton) -> float | None:
+    """Guess the size of the file's length unit from the skeleton's rest pose.
+
+    The rest pose (all rotations identity, offsets as translations, end sites included)
+    of a human skeleton spans about 1.7 m along its largest axis (height, or arm span in
+    a T-pose). The unit among ``m, cm, mm, inch, cmu`` (:data:`.skeleton.UNITS`) that
+    brings the span closest to 1.7 m on a log scale wins, e.g. a span of 30 gives
+    ``"cmu"`` (1.69 m), 170 gives ``"cm"``, 67 gives ``"inch"``.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+
+    Returns
+    -------
+    float or None
+        Metres per unit, ``None`` for a degenerate skeleton (zero span).
+    """
+    n = skeleton.n_joints
+    pos = np.zeros((n, 3))
+    for j in range(1, n):
+        pos[j] = pos[skeleton.parents[j]] + skeleton.offsets[j]
+    pts = [pos]
+    if skeleton.end_site_parents.size:
+        pts.append(pos[skeleton.end_site_parents] + skeleton.end_site_offsets)
+    pts = np.concatenate(pts)
+    span = float((pts.max(axis=0) - pts.min(axis=0)).max())
+    if not (span > 0 and math.isfinite(span)):
+        return None
+    best = min(UNITS.values(), key=lambda s: abs(math.log(span * s / _TYPICAL_HEIGHT_M)))
+    return best
+
+
+def _resolve_units(units: str | float | None, skeleton: Skeleton) -> float | None:
+    if units is None:
+        return guess_units(skeleton)
+    if isinstance(units, str):
+        if units not in UNITS:
+            raise ValueError(f"units: expected one of {sorted(UNITS)} or metres per unit; got {units!r}")
+        return UNITS[units]
+    value = float(units)
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"units: expected a positive number of metres per unit; got {units!r}")
+    return value
+
+
+# ------------------------------------------------------------------------------------------
+# Reading
+# ------------------------------------------------------------------------------------------
+class _Tokens:
+    """Whitespace tokens of lines ``[0, stop)`` with their 1-based line numbers."""
+
+    def __init__(self, path: str, lines: list[str], stop: int) -> None:
+        self.path = path
+        self.items: list[tuple[str, int]] = []
+        for i in range(stop):
+            for tok in lines[i].split():
+                self.items.append((tok, i + 1))
+        self.pos = 0
+        self.last_line = stop if stop > 0 else 1
+
+    def error(self, line: int | None, message: str) -> ParseError:
+        return ParseError(self.path, line, message)
+
+    def peek(self) -> tuple[str, int] | None:
+        return self.items[self.pos] if self.pos < len(self.items) else None
+
+    def next(self, expected: str) -> tuple[str, int]:
+        if self.pos >= len(self.items):
+            raise self.error(self.last_line, f"expected {expected}, found the end of the file")
+        item = self.items[self.pos]
+        self.pos += 1
+        return item
+
+    def keyword(self, word: str) -> int:
+        tok, line = self.next(word)
+        if tok.upper() != word.upper():
+            raise self.error(line, f"expected {word}, found {tok!r}")
+        return line
+
+    def number(self, what: str) -> float:
+        tok, line = self.next(what)
+        if not _NUMBER.fullmatch(tok):
+            raise self.error(line, f"expected {what} (a number), found {tok!r}")
+        value = float(tok)
+        if not math.isfinite(value):
+            raise self.error(line, f"expected {what} (a finite number), found {tok!r}")
+        return value
+
+    def rest_of_line(self, line: int) -> list[str]:
+        out = []
+        while self.pos < len(self.items) and self.items[self.pos][1] == line:
+            tok = self.items[self.pos][0]
+            if tok == "{":
+                break
+            out.append(tok)
+            self.pos += 1
+        return out
+
+
+def _parse_hierarchy(tokens: _Tokens) -> tuple[Skeleton, int]:
+    """Parse ``HIERARCHY ... ROOT ... }``; return the skeleton and the line after it."""
+    tokens.keyword("HIERARCHY")
+    names: list[str] = []
+    parents: list[int] = []
+    offsets: list[list[float] | None] = []
+    channels: list[tuple[str, ...] | None] = []
+    es_parents: list[int] = []
+    es_offsets: list[list[float]] = []
+    name_lines: dict[str, int] = {}
+
+    tok, line = tokens.next("ROOT")
+    if tok.upper() != "ROOT":
+        raise tokens.error(line, f"expected ROOT, found {tok!r}")
+
+    def open_joint(kind_line: int, parent: int) -> int:
+        name_toks = tokens.rest_of_line(kind_line)
+        if not name_toks:
+            raise tokens.error(kind_line, "expected a joint name after ROOT/JOINT")
+        name = " ".join(name_toks)
+        if name in name_lines:
+            raise tokens.error(
+                kind_line, f"joint name {name!r} is used twice (first on line {name_lines[name]})"
+            )
+        name_lines[name] = kind_line
+        b, bline = tokens.next("'{'")
+        if b != "{":
+            raise tokens.error(bline, f"expected '{{' to open joint {name!r}, found {b!r}")
+        names.append(name)
+        parents.append(parent)
+        offsets.append(None)
+        channels.append(None)
+        return len(names) - 1
+
+    # Iterative descent (no recursion: a deeply nested file cannot overflow the stack).
+    stack: list[int] = [open_joint(line, -1)]
+    while stack:
+        j = stack[-1]
+        tok, line = tokens.next(f"OFFSET, CHANNELS, JOINT, End Site or '}}' in joint {names[j]!r}")
+        word = tok.upper()
+        if word == "OFFSET":
+            if offsets[j] is not None:
+                raise tokens.error(line, f"joint {names[j]!r} has a second OFFSET")
+            offsets[j] = [tokens.number("an OFFSET value") for _ in range(3)]
+        elif word == "CHANNELS":
+            if channels[j] is not None:
+                raise tokens.error(line, f"joint {names[j]!r} has a second CHANNELS line")
+            ntok, nline = tokens.next("the number of channels")
+            if not (ntok.isascii() and ntok.isdigit()) or int(ntok) > _MAX_CHANNELS:
+                raise tokens.error(
+                    nline, f"expected the number of channels (0 to {_MAX_CHANNELS}), found {ntok!r}"
+                )
+            chans = []
+            for _ in range(int(ntok)):
+                c, cline = tokens.next("a channel name")
+                if c not in POSITION_CHANNELS and c not in ROTATION_CHANNELS:
+                    raise tokens.error(
+                        cline,
+                        f"expected a channel name (Xposition ... Zrotation), found {c!r}",
+                    )
+                if c in chans:
+                    raise tokens.error(cline, f"channel {c!r} repeated in joint {names[j]!r}")
+                chans.append(c)
+            channels[j] = tuple(chans)
+        elif word == "JOINT":
+            stack.append(open_joint(line, j))
+        elif word == "END":
+            site, sline = tokens.next("Site")
+            if site.upper() != "SITE":
+                raise tokens.error(sline, f"expected 'Site' after 'End', found {site!r}")
+            tokens.rest_of_line(sline)  # some exporters name their end sites
+            b, bline = tokens.next("'{'")
+            if b != "{":
+                raise tokens.error(bline, f"expected '{{' to open the End Site, found {b!r}")
+            tokens.keyword("OFFSET")
+            es_offsets.append([tokens.number("an End Site OFFSET value") for _ in range(3)])
+            es_parents.append(j)
+            b, bline = tokens.next("'}'")
+            if b != "}":
+                raise tokens.error(bline, f"expected '}}' to close the End Site, found {b!r}")
+        elif tok == "}":
+            if offsets[j] is None:
+                raise tokens.error(line, f"joint {names[j]!r} has no OFFSET")
+            if channels[j] is None:
+                channels[j] = ()
+            stack.pop()
+        else:
+            raise tokens.error(
+                line,
+                f"expected OFFSET, CHANNELS, JOINT, End Site or '}}' in joint {names[j]!r}, found {tok!r}",
+            )
+    motion_line = tokens.keyword("MOTION")
+    if tokens.peek() is not None:
+        tok, line = tokens.peek()
+        raise tokens.error(line, f"expected 'Frames:' on the line after MOTION, found {tok!r}")
+    skeleton = Skeleton(
+        names=names,
+        parents=parents,
+        offsets=offsets,
+        channels=channels,
+        end_site_parents=es_parents,
+        end_site_offsets=np.array(es_offsets).reshape(-1, 3),
+    )
+    return skeleton, motion_line
+
+
+_FRAMES = re.compile(r"\s*Frames\s*:\s*(\S*)\s*", re.IGNORECASE)
+_FRAME_TIME = re.compile(r"\s*Frame\s+Time\s*:\s*(\S*)\s*", re.IGNORECASE)
+
+
+def _header_value(path: str, lines: list[str], i: int, pattern: re.Pattern, what: str) -> tuple[str, int]:
+    """Find the next non-blank line from ``i``; it must match ``pattern``."""
+    while i < len(lines) and not lines[i].strip():
+        i += 1
+    if i >= len(lines):
+        raise ParseError(path, len(lines), f"expected '{what} ...', found the end of the file")
+    m = pattern.fullmatch(lines[i])
+    if m is None:
+        raise ParseError(path, i + 1, f"expected '{what} <value>', found {lines[i].strip()[:60]!r}")
+    return m.group(1), i
+
+
+# Exact powers of ten: m / 10^k with m < 2^53 and k <= 22 is one correctly rounded
+# operation on exact operands, i.e. the same double as Python's float() of the text.
+_POW10 = np.array([10.0**k for k in range(23)])
+
+
+@njit(cache=True)
+def _parse_frames_fast(buf: np.ndarray, n_ch: int, n_frames: int, pow10: np.ndarray, out: np.ndarray) -> int:
+    """Parse the ASCII frame block ``buf`` (uint8, LF line ends) into ``out`` (F * C).
+
+    Returns 0 when every non-blank line holds exactly ``n_ch`` plain decimal numbers
+    (``[+-]digits[.digits][e[+-]digits]``, at most 15 significant digits, decimal exponent
+    within +-22) and there are ``n_frames`` such lines; 1 otherwise, and the caller falls
+    back to the general path, which also words the error. Whitespace: space, tab, CR, VT, FF.
+    """  # pragma: no cover - numba
+    n = buf.size
+    i = 0
+    row = 0
+    col = 0
+    while i < n:
+        c = buf[i]
+        if c == 10:
+            if col != 0:
+                if col != n_ch:
+                    return 1
+                row += 1
+                col = 0
+            i += 1
+            continue
+        if c == 32 or c == 9 or c == 13 or c == 11 or c == 12:
+            i += 1
+            continue
+        if row >= n_frames or col >= n_ch:
+            return 1
+        neg = False
+        if c == 45:
+            neg = True
+            i += 1
+        elif c == 43:
+            i += 1
+        m = 0
+        digits = 0  # significant digits in m
+        frac = 0
+        seen = False
+        while i < n and 48 <= buf[i] <= 57:
+            d = buf[i] - 48
+            if m > 0 or d > 0:
+                digits += 1
+            m = m * 10 + d
+            seen = True
+            i += 1
+            if digits > 15:
+                return 1
+        if i < n and buf[i] == 46:
+            i += 1
+            while i < n and 48 <= buf[i] <= 57:
+                d = buf[i] - 48
+                if m > 0 or d > 0:
+                    digits += 1
+                m = m * 10 + d
+                frac += 1
+                seen = True
+                i += 1
+                if digits > 15:
+                    return 1
+        if not seen:
+            return 1
+        exp = 0
+        if i < n and (buf[i] == 101 or buf[i] == 69):
+            i += 1
+            eneg = False
+            if i < n and (buf[i] == 45 or buf[i] == 43):
+                eneg = buf[i] == 45
+                i += 1
+            if not (i < n and 48 <= buf[i] <= 57):
+                return 1
+            while i < n and 48 <= buf[i] <= 57:
+                exp = exp * 10 + (buf[i] - 48)
+                i += 1
+                if exp > 400:
+                    return 1
+            if eneg:
+                exp = -exp
+        if i < n:
+            c = buf[i]
+            if not (c == 32 or c == 9 or c == 13 or c == 11 or c == 12 or c == 10):
+                return 1
+        p = exp - frac
+        if p < -22 or p > 22:
+            return 1
+        v = float(m)
+        if p < 0:
+            v = v / pow10[-p]
+        else:
+            v = v * pow10[p]
+        out[row * n_ch + col] = -v if neg else v
+        col += 1
+    if col != 0:
+        if col != n_ch:
+            return 1
+        row += 1
+    return 0 if row == n_frames else 1
+
+
+def _scan_values(path: str, lines: list[str], first: int, rows: list[int], n_ch: int) -> np.ndarray:
+    """Slow path: parse frame lines one by one, reporting the first bad token."""
+    out = np.empty((len(rows), n_ch))
+    for r, i in enumerate(rows):
+        toks = lines[i].split()
+        for k, tok in enumerate(toks):
+            if not _NUMBER.fullmatch(tok):
+                raise ParseError(
+                    path, i + 1, f"expected a number (value {k + 1} of {n_ch} in frame {r}), found {tok!r}"
+                )
+        out[r] = [float(t) for t in toks]
+    return out
+
+
+def _parse_frames(path: str, text: str, lines: list[str], first: int, n_frames: int, n_ch: int) -> np.ndarray:
+    """Values of the frame lines ``lines[first:]``, shape ``(n_frames, n_ch)``."""
+    offset = sum(len(line) + 1 for line in lines[:first])
+    if n_ch > 0:
+        # Fast path (numba, one pass): plain ASCII decimals with the right counts.
+        block = text[offset:]
+        if block.isascii():
+            out = np.empty(n_frames * n_ch)
+            buf = np.frombuffer(block.encode("ascii"), dtype=np.uint8)
+            if _parse_frames_fast(buf, n_ch, n_frames, _POW10, out) == 0:
+                return out.reshape(n_frames, n_ch)
+    # General path: count tokens per line (and word the errors), then parse.
+    rows = []
+    for i in range(first, len(lines)):
+        count = len(lines[i].split())
+        if count == 0:
+            continue
+        if count != n_ch:
+            raise ParseError(
+                path,
+                i + 1,
+                f"expected {n_ch} values (one per channel) in frame {len(rows)}, found {count}",
+            )
+        rows.append(i)
+    if n_ch == 0:  # nothing to read: frame lines are blank
+        if rows:
+            raise ParseError(
+                path, rows[0] + 1, f"expected 0 values per frame, found {len(lines[rows[0]].split())}"
+            )
+        return np.zeros((n_frames, 0))
+    if len(rows) != n_frames:
+        where = rows[-1] + 1 if rows else len(lines)
+        hint = " (truncated file?)" if len(rows) < n_frames else ""
+        raise ParseError(
+            path, where, f"expected {n_frames} frames (the Frames: header), found {len(rows)}{hint}"
+        )
+    # numpy parses the whole block; the per-line counts above already hold.
+    values = None
+    try:
+        with warnings.catch_warnings():  # numpy < 2 warns (instead of raising) on bad text
+            warnings.simplefilter("ignore", DeprecationWarning)
+            flat = np.fromstring(text[offset:], sep=" ")
+        if flat.size == n_frames * n_ch:
+            values = flat.reshape(n_frames, n_ch)
+    except ValueError:
+        pass
+    if values is None:
+        values = _scan_values(path, lines, first, rows, n_ch)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        r, k = (int(v) for v in np.argwhere(bad)[0])
+        raise ParseError(
+            path, rows[r] + 1, f"expected a finite number (value {k + 1} in frame {r}), found {values[r, k]}"
+        )
+    return values
+
+
+def read_bvh(
+    path: str | os.PathLike[str],
+    *,
+    units: str | float | None = None,
+    up_axis: str = "y",
+) -> Motion:
+    """Read a BVH file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    units : str or float, optional
+        Length unit of the file: a name from :data:`.skeleton.UNITS` (``"m"``, ``"cm"``,
+        ``"cmu"``, ...) or metres per unit. Default: guessed by :func:`guess_units`.
+    up_axis : {"x", "y", "z"}, default "y"
+        BVH is Y-up by convention; every file in the project's test data is.
+
+    Returns
+    -------
+    Motion
+        ``rotations (F, J, 3, 3)``, ``root_translation (F, 3)``, ``joint_translations
+        (F, J, 3)`` when a non-root joint has position channels, ``fps`` from
+        ``Frame Time`` (see :func:`snap_fps`).
+
+    Raises
+    ------
+    ParseError
+        For any malformed content; the message names the file, the line and what was
+        expected.
+    """
+    path_s = os.fspath(path)
+    text = read_text(path)
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    lines = text.split("\n")
+    motion_at = None
+    for i, line in enumerate(lines):
+        if line.strip().upper() == "MOTION" or line.lstrip().upper().startswith("MOTION "):
+            motion_at = i
+            break
+    tokens = _Tokens(path_s, lines, motion_at + 1 if motion_at is not None else len(lines))
+    try:
+        skeleton, motion_line = _parse_hierarchy(tokens)
+    except ValueError as exc:
+        if isinstance(exc, ParseError):
+            raise
+        raise ParseError(path_s, None, str(exc)) from exc
+    frames_tok, i = _header_value(path_s, lines, motion_line, _FRAMES, "Frames:")
+    if not (frames_tok.isascii() and frames_tok.isdigit()):
+        raise ParseError(path_s, i + 1, f"expected the number of frames (an integer), found {frames_tok!r}")
+    n_frames = int(frames_tok)
+    if n_frames == 0:
+        raise ParseError(path_s, i + 1, "expected at least one frame, found 'Frames: 0'")
+    ft_tok, i = _header_value(path_s, lines, i + 1, _FRAME_TIME, "Frame Time:")
+    if not _NUMBER.fullmatch(ft_tok) or not (0 < float(ft_tok) < math.inf):
+        raise ParseError(path_s, i + 1, f"expected a positive frame time in seconds, found {ft_tok!r}")
+    fps = snap_fps(float(ft_tok))
+    if not math.isfinite(fps):
+        raise ParseError(path_s, i + 1, f"expected a frame time of at least 1e-300 s, found {ft_tok!r}")
+    values = _parse_frames(path_s, text, lines, i + 1, n_frames, skeleton.n_channels)
+    return _motion_from_values(skeleton, values, fps, units, up_axis, path_s)
+
+
+def _motion_from_values(
+    skeleton: Skeleton,
+    values: np.ndarray,
+    fps: float,
+    units: str | float | None,
+    up_axis: str,
+    path: str,
+) -> Motion:
+    f = values.shape[0]
+    j = skeleton.n_joints
+    orders = skeleton.euler_orders
+    # Column of each (joint, angle slot) and (joint, axis) in the frame; -1 when absent.
+    rot_cols = np.full((j, 3), -1)
+    pos_cols = np.full((j, 3), -1)
+    col = 0
+    for jj, chans in enumerate(skeleton.channels):
+        slot = 0
+        for c in chans:
+            if c in POSITION_CHANNELS:
+                pos_cols[jj, POSITION_CHANNELS[c]] = col
+            else:
+                rot_cols[jj, slot] = col
+                slot += 1
+            col += 1
+    padded = np.concatenate([values, np.zeros((f, 1))], axis=1)  # column -1 reads zeros
+    angles = np.deg2rad(padded[:, rot_cols])  # (F, J, 3)
+    rotations = np.empty((f, j, 3, 3))
+    for order in sorted(set(orders)):
+        idx = [k for k in range(j) if orders[k] == order]
+        rotations[:, idx] = euler_to_matrix(angles[:, idx], order)
+    translations = np.where(pos_cols >= 0, padded[:, pos_cols], skeleton.offsets)  # (F, J, 3)
+    has_pos = (pos_cols >= 0).any(axis=1)
+    joint_translations = translations if has_pos[1:].any() else None
+    return Motion(
+        skeleton=skeleton,
+        fps=fps,
+        root_translation=translations[:, 0].copy(),
+        rotations=rotations,
+        joint_translations=joint_translations,
+        metres_per_unit=_resolve_units(units, skeleton),
+        up_axis=up_axis,
+        source=(path,),
+        name=Path(path).stem,
+    )
+
+
+# ------------------------------------------------------------------------------------------
+# Writing
+# ------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _format_fixed_kernel(data: np.ndarray, decimals: int, buf: np.ndarray) -> int:
+    """Write ``data`` (F, C) as text rows into ``buf``: each value rounded to ``decimals``
+    digits after the point, trailing zeros (and a bare point) dropped, no ``-0``;
+    values separated by one space, rows ended by a newline. Returns the byte count, or
+    -1 if a value is too large for exact fixed point, ``|v| 10^decimals >= 2^53`` (the
+    caller then formats in Python). The last digit may differ from ``%.{decimals}f`` by
+    one where ``|v| 10^decimals`` rounds in floating point; the value stays within one
+    unit of that digit.
+    """  # pragma: no cover - numba
+    scale = 1
+    for _ in range(decimals):
+        scale *= 10
+    limit = 9007199254740992.0 / scale  # 2^53: q = round(|v| 10^d) stays exact
+    digits = np.empty(24, dtype=np.uint8)
+    pos = 0
+    f, c = data.shape
+    for r in range(f):
+        for k in range(c):
+            v = data[r, k]
+            if not (abs(v) < limit):
+                return -1
+            q = np.int64(np.round(abs(v) * scale))
+            if q != 0 and v < 0:
+                buf[pos] = 45  # '-'
+                pos += 1
+            ip = q // scale
+            fp = q % scale
+            nd = 0
+            while True:  # integer part, at least one digit
+                digits[nd] = 48 + ip % 10
+                nd += 1
+                ip //= 10
+                if ip == 0:
+                    break
+            for t in range(nd - 1, -1, -1):
+                buf[pos] = digits[t]
+                pos += 1
+            if fp != 0:
+                width = decimals
+                while fp % 10 == 0:  # drop trailing zeros
+                    fp //= 10
+                    width -= 1
+                buf[pos] = 46  # '.'
+                pos += 1
+                for t in range(width - 1, -1, -1):
+                    digits[t] = 48 + fp % 10
+                    fp //= 10
+                for t in range(width):
+                    buf[pos] = digits[t]
+                    pos += 1
+            buf[pos] = 10 if k == c - 1 else 32
+            pos += 1
+    return pos
+
+
+def _format_rows(data: np.ndarray, decimals: int) -> str:
+    """Frame lines of ``data`` (F, C), ``decimals`` digits at most after the point."""
+    f, c = data.shape
+    if c == 0:
+        return "\n" * f
+    data = np.ascontiguousarray(data, dtype=np.float64)
+    buf = np.empty(f * c * (22 + decimals), dtype=np.uint8)
+    n = _format_fixed_kernel(data, decimals, buf)
+    if n >= 0:
+        return buf[:n].tobytes().decode("ascii")
+    data = np.where(data == 0, 0.0, data)  # no "-0.000"
+    row = " ".join([f"%.{decimals}f"] * c) + "\n"
+    return (row * f) % tuple(data.ravel())
+
+
+def _fmt(x: float) -> str:
+    r = repr(float(x))
+    return "0" if r in ("0.0", "-0.0") else r
+
+
+def _output_channels(
+    skeleton: Skeleton, euler_orders: str | Sequence[str] | None, translations: np.ndarray
+) -> list[tuple[str, ...]]:
+    j = skeleton.n_joints
+    if euler_orders is None:
+        orders: list[str | None] = [None] * j
+    elif isinstance(euler_orders, str):
+        orders = [euler_orders] * j
+    else:
+        orders = list(euler_orders)
+        if len(orders) != j:
+            raise ValueError(f"euler_orders: expected {j} orders (one per joint); got {len(orders)}")
+    out = []
+    for jj, chans in enumerate(skeleton.channels):
+        chans = list(chans)
+        if jj == 0 and not any(c in POSITION_CHANNELS for c in chans):
+            # A root without position channels can only hold a constant translation.
+            if np.abs(translations[:, 0] - skeleton.offsets[0]).max(initial=0.0) > 0:
+                chans = ["Xposition", "Yposition", "Zposition", *chans]
+        order = orders[jj]
+        if order is not None:
+            order = order.upper()
+            if not valid_euler_order(order):
+                raise ValueError(
+                    f"euler_orders[{jj}]: expected three distinct axes from 'XYZ'; got {orders[jj]!r}"
+                )
+            chans = [c for c in chans if c in POSITION_CHANNELS] + [f"{a}rotation" for a in order]
+        out.append(tuple(chans))
+    return out
+
+
+def write_bvh(
+    motion: Motion,
+    path: str | os.PathLike[str],
+    *,
+    euler_orders: str | Sequence[str] | None = None,
+    decimals: int = 8,
+) -> Path:
+    """Write a motion as a BVH file, atomically.
+
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+        Destination; refused (``ValueError``) if it is one of ``motion.source``.
+    euler_orders : str or sequence of str, optional
+        Rotation channel order to write, for all joints (``"ZYX"``) or per joint.
+        Default: each joint's channels as in ``motion.skeleton`` (a lossless round trip
+        for a motion read from a BVH file).
+    decimals : int, default 8
+        Digits after the decimal point of the frame values (degrees and length units),
+        trailing zeros dropped (``5.23``, not ``5.23000000``). With 8, re-read rotations
+        equal the written ones to about 1e-8 degrees.
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+
+    Notes
+    -----
+    BVH lists joints depth-first and a frame's values in that order. A skeleton whose
+    joints are numbered otherwise (parents still first) is written depth-first, so
+    reading the file back gives the same joints in depth-first order. End sites are
+    written inside their joints' blocks, so they too come back in depth-first order.
+
+    Raises
+    ------
+    ValueError
+        If a joint with fewer than three rotation channels holds a rotation those
+        channels cannot express (pass ``euler_orders`` to write three channels), or if
+        ``path`` is an input file of the motion.
+    """
+    if not (isinstance(decimals, int) and 0 <= decimals <= 15):
+        raise ValueError(f"decimals: expected an integer in [0, 15]; got {decimals!r}")
+    sk = motion.skeleton
+    translations = motion.local_translations()
+    channels = _output_channels(sk, euler_orders, translations)
+    f, j = motion.n_frames, motion.n_joints
+    # Per-joint Euler orders of the output (completed to three axes).
+    out_sk = Skeleton(sk.names, sk.parents, sk.offsets, channels, sk.end_site_parents, sk.end_site_offsets)
+    orders = out_sk.euler_orders
+    angles = np.empty((f, j, 3))
+    for order in sorted(set(orders)):
+        idx = [k for k in range(j) if orders[k] == order]
+        angles[:, idx] = np.rad2deg(matrix_to_euler(motion.rotations[:, idx], order))
+    children: list[list[int]] = [[] for _ in range(j)]
+    for k in range(1, j):
+        children[int(sk.parents[k])].append(k)
+    # BVH stores a frame's values in the order joints are declared, depth-first.
+    dfs: list[int] = []
+    todo = [0]
+    while todo:
+        k = todo.pop()
+        dfs.append(k)
+        todo.extend(reversed(children[k]))
+    columns = []
+    for jj in dfs:
+        chans = channels[jj]
+        n_rot = sum(c in ROTATION_CHANNELS for c in chans)
+        if n_rot < 3:
+            dropped = np.abs(angles[:, jj, n_rot:]).max(initial=0.0)
+            if dropped > 1e-7:
+                raise ValueError(
+                    f"motion: joint {sk.names[jj]!r} has {n_rot} rotation channel(s) "
+                    f"{[c for c in chans if c in ROTATION_CHANNELS]} but rotates about other axes "
+                    f"too (up to {dropped:.3g} degrees); pass euler_orders='ZYX' (or another "
+                    "order) to write three rotation channels"
+                )
+        slot = 0
+        for c in chans:
+            if c in POSITION_CHANNELS:
+                columns.append(translations[:, jj, POSITION_CHANNELS[c]])
+            else:
+                columns.append(angles[:, jj, slot])
+                slot += 1
+        missing = [a for a in range(3) if not any(POSITION_CHANNELS.get(c) == a for c in chans)]
+        if 0 < len(missing) < 3:  # some position channels: the other axes must stay put
+            dev = np.abs(translations[:, jj, missing] - sk.offsets[jj, missing]).max(initial=0.0)
+            if dev > 0:
+                raise ValueError(
+                    f"motion: joint {sk.names[jj]!r} moves along axes without a position channel "
+                    f"(up to {dev:.3g} units from its offset)"
+                )
+    data = np.stack(columns, axis=1) if columns else np.zeros((f, 0))
+
+    parts = ["HIERARCHY\n"]
+    sites: list[list[int]] = [[] for _ in range(j)]
+    for e, p in enumerate(sk.end_site_parents):
+        sites[int(p)].append(e)
+
+    # Depth-first over the tree with an explicit stack: ("open", k, depth) writes the
+    # joint's header and schedules its children, end sites and closing brace.
+    stack: list[tuple[str, int, int]] = [("open", 0, 0)]
+    while stack:
+        action, k, depth = stack.pop()
+        ind = "\t" * depth
+        if action == "close":
+            for e in sites[k]:
+                off = " ".join(_fmt(v) for v in sk.end_site_offsets[e])
+                parts.append(f"{ind}\tEnd Site\n{ind}\t{{\n{ind}\t\tOFFSET {off}\n{ind}\t}}\n")
+            parts.append(f"{ind}}}\n")
+            continue
+        kind = "ROOT" if k == 0 else "JOINT"
+        parts.append(f"{ind}{kind} {sk.names[k]}\n{ind}{{\n")
+        parts.append(f"{ind}\tOFFSET {' '.join(_fmt(v) for v in sk.offsets[k])}\n")
+        parts.append(f"{ind}\tCHANNELS {len(channels[k])}{''.join(' ' + c for c in channels[k])}\n")
+        stack.append(("close", k, depth))
+        for c in reversed(children[k]):
+            stack.append(("open", c, depth + 1))
+    parts.append(f"MOTION\nFrames: {f}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
+    parts.append(_format_rows(data, decimals))
+    return atomic_write_text(path, "".join(parts), protected=motion.source)

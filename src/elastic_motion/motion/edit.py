@@ -1,0 +1,476 @@
+"""Editing a motion: frames, joints, time, units and placement. Every function returns a
+new :class:`~.skeleton.Motion` and leaves its input untouched.
+
+* Frames and time: :func:`drop_tpose` (the CMU conversions start with a T-pose frame),
+  :func:`trim` (by time in seconds), :func:`resample` (to a frame rate, geodesic
+  interpolation of rotations), :func:`resample_at_times`.
+* Joints: :func:`select_joints`, :func:`drop_joints`, :func:`finger_joints` (CMU hand
+  joints flip by 180 degrees between frames: drop them before comparing motions),
+  :func:`merge_root` (fold a static reference root, like the Bandai files' ``joint_Root``,
+  into its only child, so that the moving hips become the root).
+* Placement: :func:`align_heading` (remove the yaw and the floor-plane translation at a
+  reference frame, as registration curves do), :func:`place_on_floor`,
+  :func:`set_up_axis`, :func:`to_metres`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from elastic_motion.groups import SO3
+from elastic_motion.motion.kinematics import forward_kinematics
+from elastic_motion.motion.rotations import axis_rotation
+from elastic_motion.motion.skeleton import Motion, Skeleton
+
+__all__ = [
+    "align_heading",
+    "drop_joints",
+    "drop_tpose",
+    "finger_joints",
+    "has_tpose_first_frame",
+    "merge_root",
+    "place_on_floor",
+    "resample",
+    "resample_at_times",
+    "select_frames",
+    "select_joints",
+    "set_up_axis",
+    "to_metres",
+    "trim",
+]
+
+_SO3 = SO3()
+_AXES = "xyz"
+_FINGER = re.compile(r"finger|thumb|index", re.IGNORECASE)
+
+
+# ------------------------------------------------------------------------------------------
+# Frames and time
+# ------------------------------------------------------------------------------------------
+def select_frames(motion: Motion, frames: slice | Sequence[int] | np.ndarray) -> Motion:
+    """Keep the given frames (a slice, indices or a boolean mask); fps unchanged.
+
+    Raises
+    ------
+    ValueError
+        If no frame is left.
+    """
+    idx = np.arange(motion.n_frames)[frames]
+    if idx.size == 0:
+        raise ValueError(
+            f"frames: expected a selection of at least one of {motion.n_frames} frames; got none"
+        )
+    jt = motion.joint_translations
+    return motion.replace(
+        rotations=motion.rotations[idx],
+        root_translation=motion.root_translation[idx],
+        joint_translations=None if jt is None else jt[idx],
+    )
+
+
+def _frame_jumps(motion: Motion, joints: Sequence[int]) -> np.ndarray:
+    """Largest rotation (degrees) between consecutive frames over ``joints``, ``(F-1,)``."""
+    r = motion.rotations[:, joints]
+    rel = np.swapaxes(r[:-1], -1, -2) @ r[1:]
+    ang = np.linalg.norm(_SO3.log(rel), axis=-1)
+    return np.degrees(ang.max(axis=1))
+
+
+def has_tpose_first_frame(motion: Motion, *, min_jump_deg: float = 45.0) -> bool:
+    """True if frame 0 does not belong to the motion that follows (a T-pose/rest frame).
+
+    Frame 0 is judged foreign when the largest joint rotation between frames 0 and 1
+    (finger and thumb joints excluded, they flip anyway) exceeds both ``min_jump_deg``
+    and 1.5 times the largest such jump anywhere else in the clip. On the CMU files the
+    T-pose jump is 79-176 degrees against at most 54 elsewhere; clips without a T-pose
+    frame start with a 1-8 degree step.
+
+    Parameters
+    ----------
+    motion : Motion
+        At least 3 frames (fewer: ``False``).
+    min_jump_deg : float, default 45
+    """
+    if motion.n_frames < 3:
+        return False
+    fingers = set(finger_joints(motion.skeleton))
+    body = [k for k, n in enumerate(motion.skeleton.names) if n not in fingers]
+    jumps = _frame_jumps(motion, body)
+    return bool(jumps[0] > min_jump_deg and jumps[0] > 1.5 * jumps[1:].max())
+
+
+def drop_tpose(motion: Motion, *, force: bool = False) -> Motion:
+    """Drop frame 0 when it is a T-pose (:func:`has_tpose_first_frame`), or always with
+    ``force=True``. Returns the motion unchanged otherwise."""
+    if force or has_tpose_first_frame(motion):
+        if motion.n_frames < 2:
+            raise ValueError("motion: cannot drop the first frame of a one-frame motion")
+        return select_frames(motion, slice(1, None))
+    return motion
+
+
+def trim(motion: Motion, start: float | None = None, stop: float | None = None) -> Motion:
+    """Keep the frames with time ``start <= t <= stop`` (seconds from frame 0).
+
+    Parameters
+    ----------
+    motion : Motion
+    start, stop : float, optional
+        Bounds in seconds (default: the clip's ends). A frame within 1e-9 s of a bound
+        counts as inside.
+
+    Raises
+    ------
+    ValueError
+        If no frame lies in the interval.
+    """
+    t = motion.times
+    lo = -math.inf if start is None else float(start) - 1e-9
+    hi = math.inf if stop is None else float(stop) + 1e-9
+    keep = (t >= lo) & (t <= hi)
+    if not keep.any():
+        raise ValueError(
+            f"start, stop: expected an interval holding at least one frame of [0, {motion.duration:g}] s; "
+            f"got [{start}, {stop}]"
+        )
+    return select_frames(motion, keep)
+
+
+def resample_at_times(
+    motion: Motion, source_times: np.ndarray, target_times: np.ndarray, *, fps: float
+) -> Motion:
+    """Sample a motion whose frames sit at ``source_times`` at ``target_times``.
+
+    Rotations are interpolated along the geodesic of SO(3) between the two neighbouring
+    frames, ``R = R_k exp(s log(R_k^T R_k+1))``, ``s`` the fraction of the interval
+    (slerp; the shorter arc); translations linearly.
+
+    Parameters
+    ----------
+    motion : Motion
+    source_times : array_like, shape (F,)
+        Strictly increasing times of the motion's frames, seconds.
+    target_times : array_like, shape (N,)
+        Times to sample, within ``[source_times[0], source_times[-1]]``.
+    fps : float
+        Frame rate recorded on the result.
+
+    Returns
+    -------
+    Motion
+        ``N`` frames.
+    """
+    src = np.asarray(source_times, dtype=np.float64)
+    dst = np.asarray(target_times, dtype=np.float64)
+    if src.shape != (motion.n_frames,):
+        raise ValueError(f"source_times: expected shape ({motion.n_frames},); got {src.shape}")
+    if motion.n_frames > 1 and not (np.diff(src) > 0).all():
+        raise ValueError("source_times: expected strictly increasing times")
+    if dst.ndim != 1 or dst.size == 0:
+        raise ValueError(f"target_times: expected a non-empty 1-D array; got shape {dst.shape}")
+    tol = 1e-9 * max(1.0, abs(src[-1]))
+    if dst.min() < src[0] - tol or dst.max() > src[-1] + tol:
+        raise ValueError(
+            f"target_times: expected times within [{src[0]:g}, {src[-1]:g}] s; "
+            f"got [{dst.min():g}, {dst.max():g}]"
+        )
+    if motion.n_frames == 1:
+        k = np.zeros(dst.size, dtype=int)
+        s = np.zeros(dst.size)
+        k1 = k
+    else:
+        k = np.clip(np.searchsorted(src, dst, side="right") - 1, 0, motion.n_frames - 2)
+        s = np.clip((dst - src[k]) / (src[k + 1] - src[k]), 0.0, 1.0)
+        k1 = k + 1
+    r0 = motion.rotations[k]
+    r1 = motion.rotations[k1]
+    step = _SO3.log(np.swapaxes(r0, -1, -2) @ r1)  # (N, J, 3)
+    rot = r0 @ _SO3.exp(s[:, None, None] * step)
+    # Exact copies at the nodes (s = 0 or 1) keep a resample at the same rate lossless.
+    at0 = s == 0.0
+    at1 = s == 1.0
+    rot[at0] = r0[at0]
+    rot[at1] = r1[at1]
+
+    def lerp(a: np.ndarray) -> np.ndarray:
+        w = s.reshape((-1,) + (1,) * (a.ndim - 1))
+        return (1.0 - w) * a[k] + w * a[k1]
+
+    jt = motion.joint_translations
+    return motion.replace(
+        fps=fps,
+        rotations=rot,
+        root_translation=lerp(motion.root_translation),
+        joint_translations=None if jt is None else lerp(jt),
+    )
+
+
+def resample(motion: Motion, fps: float) -> Motion:
+    """Resample to a new frame rate over the same time span.
+
+    Parameters
+    ----------
+    motion : Motion
+    fps : float
+        New frame rate (> 0).
+
+    Returns
+    -------
+    Motion
+        ``floor(duration * fps) + 1`` frames at times ``i / fps`` (the last source frame is
+        kept when the duration is a multiple of the new frame time). Rotations by geodesic
+        interpolation (:func:`resample_at_times`).
+    """
+    fps = float(fps)
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
+    n = math.floor(motion.duration * fps + 1e-6) + 1
+    return resample_at_times(motion, motion.times, np.arange(n) / fps, fps=fps)
+
+
+# ------------------------------------------------------------------------------------------
+# Joints
+# ------------------------------------------------------------------------------------------
+def finger_joints(skeleton: Skeleton) -> list[str]:
+    """Names of finger, thumb and hand-index joints (``/finger|thumb|index/i``) and their
+    descendants: CMU's ``LFingers``, ``LThumb``, ``LeftFingerBase``, ``LeftHandIndex1``,
+    ``lfingers``, ``lthumb``... These flip by 180 degrees between frames in the CMU data.
+    """
+    out: set[int] = set()
+    for k, name in enumerate(skeleton.names):
+        if _FINGER.search(name) and k != 0:
+            out.update(skeleton.subtree(k))
+    return [skeleton.names[k] for k in sorted(out)]
+
+
+def select_joints(motion: Motion, names: Iterable[str]) -> Motion:
+    """Keep only the named joints (the root must be among them, and every kept joint's
+    parent too).
+
+    A dropped joint whose parent is kept becomes an End Site of that parent (at the
+    dropped joint's offset), so the kept bones keep their geometry.
+
+    Raises
+    ------
+    KeyError
+        For an unknown joint name.
+    ValueError
+        If the root is not kept, or a kept joint's parent is not.
+    """
+    sk = motion.skeleton
+    keep = np.zeros(sk.n_joints, dtype=bool)
+    for n in names:
+        keep[sk.index(n)] = True
+    if not keep[0]:
+        raise ValueError(f"names: expected the root {sk.names[0]!r} among the joints to keep")
+    orphan = [sk.names[k] for k in range(1, sk.n_joints) if keep[k] and not keep[sk.parents[k]]]
+    if orphan:
+        raise ValueError(
+            f"names: joint {orphan[0]!r} is kept but its parent "
+            f"{sk.names[sk.parents[sk.index(orphan[0])]]!r} is not; keep whole chains from the root"
+        )
+    idx = np.flatnonzero(keep)
+    new_index = -np.ones(sk.n_joints, dtype=int)
+    new_index[idx] = np.arange(idx.size)
+    parents = [-1] + [int(new_index[sk.parents[k]]) for k in idx[1:]]
+    es_parents = [int(new_index[p]) for p in sk.end_site_parents if keep[p]]
+    es_offsets = [o for p, o in zip(sk.end_site_parents, sk.end_site_offsets, strict=True) if keep[p]]
+    for k in range(1, sk.n_joints):  # dropped children of kept joints become end sites
+        if not keep[k] and keep[sk.parents[k]]:
+            es_parents.append(int(new_index[sk.parents[k]]))
+            es_offsets.append(sk.offsets[k])
+    new_sk = Skeleton(
+        names=[sk.names[k] for k in idx],
+        parents=parents,
+        offsets=sk.offsets[idx],
+        channels=[sk.channels[k] for k in idx],
+        end_site_parents=es_parents,
+        end_site_offsets=np.array(es_offsets).reshape(-1, 3),
+    )
+    jt = motion.joint_translations
+    if jt is not None and not new_sk.has_position_channels[1:].any():
+        jt = None
+    return motion.replace(
+        skeleton=new_sk,
+        rotations=motion.rotations[:, idx],
+        joint_translations=None if jt is None else jt[:, idx],
+    )
+
+
+def drop_joints(motion: Motion, names: Iterable[str]) -> Motion:
+    """Remove the named joints together with their descendants (see :func:`select_joints`).
+
+    ``drop_joints(m, finger_joints(m.skeleton))`` removes CMU's flipping hand joints.
+    """
+    sk = motion.skeleton
+    gone: set[int] = set()
+    for n in names:
+        k = sk.index(n)
+        if k == 0:
+            raise ValueError(f"names: cannot drop the root joint {n!r}")
+        gone.update(sk.subtree(k))
+    return select_joints(motion, [n for k, n in enumerate(sk.names) if k not in gone])
+
+
+def merge_root(motion: Motion) -> Motion:
+    """Fold the root into its only child, which becomes the new root.
+
+    The new root's translation is the child's world position ``t_root + R_root t_child``
+    and its rotation ``R_root R_child``; all other joints keep their local data, so
+    forward kinematics is unchanged. Use it on skeletons whose root is a fixed reference
+    frame (the Bandai files' ``joint_Root``, always zero) while the hips move through
+    position channels: the Lie and Euler curves carry only the root's translation.
+
+    Raises
+    ------
+    ValueError
+        If the root does not have exactly one child joint, or has end sites.
+    """
+    sk = motion.skeleton
+    kids = sk.children(0)
+    if len(kids) != 1 or sk.n_joints < 2:
+        raise ValueError(
+            f"motion: expected a root with exactly one child joint; {sk.names[0]!r} has {len(kids)}"
+        )
+    if (sk.end_site_parents == 0).any():
+        raise ValueError(f"motion: the root {sk.names[0]!r} has end sites; cannot merge it into its child")
+    c = kids[0]  # == 1 in topological order
+    local_t = motion.local_translations()
+    r_root = motion.rotations[:, 0]
+    new_root_t = motion.root_translation + np.einsum("fij,fj->fi", r_root, local_t[:, c])
+    rotations = motion.rotations[:, 1:].copy()
+    rotations[:, 0] = r_root @ motion.rotations[:, c]
+    chans = sk.channels[c]
+    if not any(ch.endswith("position") for ch in chans):
+        chans = ("Xposition", "Yposition", "Zposition", *chans)
+    new_sk = Skeleton(
+        names=sk.names[1:],
+        parents=[-1] + [int(p) - 1 for p in sk.parents[2:]],
+        offsets=sk.offsets[1:],
+        channels=(chans, *sk.channels[2:]),
+        end_site_parents=sk.end_site_parents - 1,
+        end_site_offsets=sk.end_site_offsets,
+    )
+    jt = motion.joint_translations
+    if jt is not None:
+        jt = jt[:, 1:] if new_sk.has_position_channels[1:].any() else None
+    return motion.replace(
+        skeleton=new_sk,
+        root_translation=new_root_t,
+        rotations=rotations,
+        joint_translations=jt,
+    )
+
+
+# ------------------------------------------------------------------------------------------
+# Units and placement
+# ------------------------------------------------------------------------------------------
+def to_metres(motion: Motion) -> Motion:
+    """Scale all lengths (offsets, end sites, translations) to metres.
+
+    Raises
+    ------
+    ValueError
+        If ``motion.metres_per_unit`` is unknown (``None``).
+    """
+    s = motion.metres_per_unit
+    if s is None:
+        raise ValueError(
+            "motion: metres_per_unit is unknown; read the file with units=... or set it with "
+            "motion.replace(metres_per_unit=...)"
+        )
+    sk = motion.skeleton
+    new_sk = Skeleton(
+        sk.names, sk.parents, sk.offsets * s, sk.channels, sk.end_site_parents, sk.end_site_offsets * s
+    )
+    jt = motion.joint_translations
+    return motion.replace(
+        skeleton=new_sk,
+        root_translation=motion.root_translation * s,
+        joint_translations=None if jt is None else jt * s,
+        metres_per_unit=1.0,
+    )
+
+
+def _apply_world_transform(motion: Motion, rot: np.ndarray, shift: np.ndarray) -> Motion:
+    """Left-multiply the whole motion by the rigid map ``x -> rot @ x + shift``.
+
+    ``rot`` (3, 3) or (F, 3, 3); ``shift`` (3,) or (F, 3).
+    """
+    rotations = motion.rotations.copy()
+    rotations[:, 0] = rot @ motion.rotations[:, 0]
+    root = np.einsum("...ij,...j->...i", rot, motion.root_translation) + shift
+    return motion.replace(rotations=rotations, root_translation=root)
+
+
+def set_up_axis(motion: Motion, up_axis: str) -> Motion:
+    """Rotate the whole motion so that its up axis becomes ``up_axis``.
+
+    The rotation is the quarter turn taking the current up axis to the new one
+    (``y -> z``: +90 degrees about x; ``z -> y``: -90 degrees about x; ``x <-> y``: about z;
+    ``x <-> z``: about y). Joint-local data is unchanged; only the root moves.
+    """
+    if up_axis not in _AXES:
+        raise ValueError(f"up_axis: expected 'x', 'y' or 'z'; got {up_axis!r}")
+    a, b = _AXES.index(motion.up_axis), _AXES.index(up_axis)
+    if a == b:
+        return motion
+    # Rotation about the third axis c taking e_a to e_b: +90 degrees if (a, b, c) is cyclic.
+    c = 3 - a - b
+    angle = math.pi / 2 if (b - a) % 3 == 1 else -math.pi / 2
+    rot = np.round(axis_rotation(angle, "XYZ"[c]))
+    moved = _apply_world_transform(motion, rot, np.zeros(3))
+    return moved.replace(up_axis=up_axis)
+
+
+def _heading(rotation: np.ndarray, up: int) -> np.ndarray:
+    """Yaw about axis ``up`` of rotations ``(..., 3, 3)``.
+
+    The forward axis is ``e_p`` with ``p`` the cyclic successor of ``up`` (+z for y-up,
+    +x for z-up, +y for x-up); the yaw is the angle of ``R e_p`` in the floor plane,
+    measured from ``e_p`` towards ``e_q`` (``q`` the next axis), i.e. in the sense of a
+    right-handed rotation about ``up``.
+    """
+    p, q = (up + 1) % 3, (up + 2) % 3
+    fwd = rotation[..., :, p]
+    return np.arctan2(fwd[..., q], fwd[..., p])
+
+
+def align_heading(motion: Motion, *, frame: int = 0) -> Motion:
+    """Remove the yaw and the floor-plane translation of the root at ``frame``.
+
+    After alignment the root at ``frame`` stands above the origin (its height is kept)
+    and faces forward: for Y-up, the root's rotated ``+z`` axis projected on the floor
+    points along ``+z`` (z-up: ``+x``; see ``_heading``). The whole clip moves rigidly (a rotation
+    about the up axis and a floor translation), as registration curves align motions
+    before comparing them.
+
+    Parameters
+    ----------
+    motion : Motion
+    frame : int, default 0
+        Reference frame (negative counts from the end).
+    """
+    if not -motion.n_frames <= frame < motion.n_frames:
+        raise ValueError(f"frame: expected an index in [-{motion.n_frames}, {motion.n_frames}); got {frame}")
+    up = _AXES.index(motion.up_axis)
+    yaw = float(_heading(motion.rotations[frame, 0], up))
+    rot = axis_rotation(-yaw, "XYZ"[up])
+    origin = rot @ motion.root_translation[frame]
+    shift = -origin
+    shift[up] = 0.0
+    return _apply_world_transform(motion, rot, shift)
+
+
+def place_on_floor(motion: Motion, *, floor: float = 0.0) -> Motion:
+    """Translate along the up axis so that the lowest point of the clip (joints and end
+    sites over all frames, by forward kinematics) is at height ``floor``."""
+    up = _AXES.index(motion.up_axis)
+    lowest = float(forward_kinematics(motion, end_sites=True)[..., up].min())
+    shift = np.zeros(3)
+    shift[up] = floor - lowest
+    return _apply_world_transform(motion, np.eye(3), shift)
