@@ -1,0 +1,263 @@
+"""Tests of motion looping (paper 000, sec. 5.4): real clips close, the loop convention holds,
+C1 matches velocities, the Euler baseline degrades on flips, bad input gives clear errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from elastic_motion.apps.loop import (
+    cycle_transform,
+    foot_joints,
+    loop_motion,
+    repeat_motion,
+    seam_metrics,
+)
+from elastic_motion.closing import close_curve
+from elastic_motion.curves import curve_distance
+from elastic_motion.groups import SO3
+from elastic_motion.motion import (
+    Motion,
+    Skeleton,
+    drop_tpose,
+    finger_joints,
+    forward_kinematics,
+    from_lie_curve,
+    read_motion,
+    to_lie_curve,
+)
+
+SO3G = SO3()
+
+CASES = {
+    "dm_run": "deepmimic/humanoid3d_run.txt",
+    "dm_cartwheel": "deepmimic/humanoid3d_cartwheel.txt",
+    "dm_backflip": "deepmimic/humanoid3d_backflip.txt",
+    "cmu_backflip": "cmu/asfamc/backflip.amc",
+}
+
+
+def load(mocap_dir, key):
+    return drop_tpose(read_motion(mocap_dir / CASES.get(key, key)))
+
+
+def closed_set(motion):
+    fingers = set(finger_joints(motion.skeleton))
+    return [n for n in motion.skeleton.names if n not in fingers]
+
+
+# ------------------------------------------------------------------------------ real data
+
+
+@pytest.mark.mocap
+@pytest.mark.parametrize("key", list(CASES))
+def test_loop_closes_real_clips_and_keeps_travel(mocap_dir, key):
+    m = load(mocap_dir, key)
+    before = seam_metrics(m, joints=closed_set(m))
+    res = loop_motion(m)
+    assert res.closing.converged, res.closing.message
+    after = seam_metrics(res.motion, original=m, joints=res.closed_joints)
+    assert before["seam_angle_max_deg"] > 5.0
+    assert after["seam_angle_max_deg"] < 1e-3
+    assert after["seam_position_max_m"] < 1e-4
+    assert after["seam_position_max_m"] < 1e-3 * before["seam_position_max_m"]
+    out = res.motion
+    # first frame untouched; floor-plane root trajectory kept sample by sample
+    np.testing.assert_allclose(out.rotations[0], m.rotations[0], atol=1e-12)
+    np.testing.assert_allclose(out.root_translation[:, [0, 2]], m.root_translation[:, [0, 2]], atol=0)
+    assert abs(out.root_translation[-1, 1] - out.root_translation[0, 1]) < 1e-6  # height closed
+    # repeated three times, the seams are as continuous as the closing residual
+    rep = repeat_motion(out, 3)
+    pos = forward_kinematics(rep) * (m.metres_per_unit or 1.0)
+    f = m.n_frames
+    last = forward_kinematics(out)[-1] * (m.metres_per_unit or 1.0)
+    np.testing.assert_allclose(pos[f - 1], last, atol=1e-4)  # next cycle starts at the last frame
+    joints = [m.skeleton.index(n) for n in res.closed_joints[1:]]
+    for k in (1, 2):
+        np.testing.assert_allclose(rep.rotations[k * (f - 1), joints], out.rotations[-1, joints], atol=1e-5)
+    jump = np.linalg.norm(np.diff(pos, axis=0), axis=-1).max(axis=1)
+    assert jump[f - 2] <= 1.5 * jump.max()  # the seam step is an ordinary step
+
+
+@pytest.mark.mocap
+def test_cmu_cartwheels_49_08_long_clip(mocap_dir):
+    m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
+    res = loop_motion(m)
+    assert res.closing.converged and res.closing.iterations <= 6
+    assert set(res.free_joints) == set(finger_joints(m.skeleton))
+    after = seam_metrics(res.motion, original=m, joints=res.closed_joints)
+    assert after["seam_angle_max_deg"] < 1e-3
+    # free finger joints keep their samples (they flip by 180 degrees in this file)
+    fingers = [m.skeleton.index(n) for n in res.free_joints]
+    np.testing.assert_array_equal(res.motion.rotations[:, fingers], m.rotations[:, fingers])
+    # the heading change of one cycle is left free in "travel" (not forced to 0)
+    assert abs(res.heading_change) > np.radians(5)
+    assert np.linalg.norm(res.displacement) > 10.0  # CMU units: the character travels on
+
+
+@pytest.mark.mocap
+def test_inplace_closes_position_and_heading(mocap_dir):
+    m = load(mocap_dir, "dm_run")
+    res = loop_motion(m, root="inplace")
+    out = res.motion
+    np.testing.assert_allclose(out.root_translation[-1], out.root_translation[0], atol=1e-6)
+    np.testing.assert_allclose(out.rotations[-1], out.rotations[0], atol=1e-6)
+    assert res.heading_change == 0.0
+    rot, shift = cycle_transform(out, "inplace")
+    np.testing.assert_array_equal(rot, np.eye(3))
+    np.testing.assert_array_equal(shift, 0.0)
+
+
+@pytest.mark.mocap
+@pytest.mark.parametrize("key", ["dm_run", "dm_cartwheel"])
+@pytest.mark.parametrize("root", ["travel", "inplace"])
+def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
+    m = load(mocap_dir, key)
+    c0 = loop_motion(m, root=root)
+    c1 = loop_motion(m, root=root, c1=True)
+    assert c1.closing.converged
+    s0 = seam_metrics(c0.motion, original=m, root=root, joints=c0.closed_joints)
+    s1 = seam_metrics(c1.motion, original=m, root=root, joints=c1.closed_joints)
+    assert s0["seam_angle_max_deg"] < 1e-3 and s1["seam_angle_max_deg"] < 1e-3
+    assert s0["seam_angular_velocity_max_deg_s"] > 100.0
+    assert s1["seam_angular_velocity_max_deg_s"] < 1e-2
+    if root == "inplace":
+        # everything closed, so the FK velocities match too (up to second order in the step)
+        assert s1["seam_velocity_max_m_s"] < 0.15 * s0["seam_velocity_max_m_s"]
+
+
+@pytest.mark.mocap
+@pytest.mark.parametrize("key", ["dm_backflip", "dm_cartwheel"])
+def test_euler_baseline_degrades_on_flips(mocap_dir, key):
+    # a flip turns the root by 2 pi: the unwrapped Euler angles end 2 pi away from where they
+    # started, and closing them undoes the flip (paper 000, sec. 5.4: the character floats)
+    m = load(mocap_dir, key)
+    lie = loop_motion(m)
+    eul = loop_motion(m, representation="euler")
+    assert lie.closing.converged and eul.closing.converged
+    dl = seam_metrics(lie.motion, original=m)
+    de = seam_metrics(eul.motion, original=m)
+    assert de["seam_angle_max_deg"] < 1e-3  # the Euler curve is closed too ...
+    assert de["deviation_mean_m"] > 10 * dl["deviation_mean_m"]  # ... by undoing the motion
+    assert de["deviation_max_m"] > 1.0
+    root_turn_lie = np.linalg.norm(
+        SO3G.log(lie.motion.rotations[1:, 0] @ np.swapaxes(lie.motion.rotations[:-1, 0], -1, -2)), axis=-1
+    ).sum()
+    root_turn_eul = np.linalg.norm(
+        SO3G.log(eul.motion.rotations[1:, 0] @ np.swapaxes(eul.motion.rotations[:-1, 0], -1, -2)), axis=-1
+    ).sum()
+    assert root_turn_lie > 5.0 and root_turn_eul < 0.7 * root_turn_lie  # the flip is gone
+
+
+def naive_closed(motion, closed):
+    """Spread each closed joint's seam rotation linearly over time (root position kept)."""
+    t = np.linspace(0, 1, motion.n_frames)
+    ell = SO3G.difference(motion.rotations[0], motion.rotations[-1])
+    ell[~closed] = 0.0
+    return motion.replace(rotations=SO3G.compose(SO3G.exp(-t[:, None, None] * ell[None]), motion.rotations))
+
+
+@pytest.mark.mocap
+@pytest.mark.parametrize("key", ["dm_cartwheel", "dm_backflip", "cmu_backflip"])
+def test_joint_closing_moves_less_than_naive_fix(mocap_dir, key):
+    m = load(mocap_dir, key)
+    closed = np.array([n in closed_set(m) for n in m.skeleton.names])
+    closed[0] = False  # joints only: root orientation and position free
+    curve = to_lie_curve(m)
+    res = close_curve(curve, factors=np.concatenate([np.zeros(3, bool), np.repeat(closed, 3)]), tol=1e-9)
+    lie = from_lie_curve(res.curve, m)
+    naive = naive_closed(m, closed)
+    names = list(m.skeleton.names)
+    for out in (lie, naive):
+        assert (
+            seam_metrics(out, root="inplace", joints=[n for n, c in zip(names, closed, strict=True) if c])[
+                "seam_angle_max_deg"
+            ]
+            < 1e-6
+        )
+    assert curve_distance(curve, res.curve) < curve_distance(curve, to_lie_curve(naive))
+    dl = seam_metrics(lie, original=m, root="inplace")["deviation_mean_m"]
+    dn = seam_metrics(naive, original=m, root="inplace")["deviation_mean_m"]
+    assert dl < dn
+
+
+# ------------------------------------------------------------------------- synthetic clips
+
+
+def chain_skeleton():
+    return Skeleton(
+        names=("root", "hip", "knee", "foot"),
+        parents=[-1, 0, 1, 2],
+        offsets=[[0, 0, 0], [0.1, -0.1, 0], [0, -0.4, 0], [0, -0.4, 0]],
+        channels=(
+            ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+        ),
+        end_site_parents=[3],
+        end_site_offsets=[[0, 0, 0.15]],
+    )
+
+
+def synthetic(f=40, closed=False, seam_pi=False):
+    t = np.linspace(0, 1, f)
+    ph = 2 * np.pi * t if closed else 1.7 * np.pi * t
+    rv = np.zeros((f, 4, 3))
+    rv[:, 0] = np.outer(np.sin(ph), [0.1, 0.3, 0.05]) + np.outer(t if not closed else 0 * t, [0, 0.5, 0])
+    rv[:, 1] = np.outer(np.sin(ph), [0.8, 0, 0.1])
+    rv[:, 2] = np.outer(1 - np.cos(ph), [0.6, 0, 0])
+    rv[:, 3] = np.outer(np.sin(2 * ph), [0.2, 0.1, 0])
+    if seam_pi:
+        rv[:, 3] = np.outer(t, [0, 0, np.pi])
+    root = np.stack([2.0 * t, 0.9 + 0.05 * np.sin(ph), 0.3 * t], 1)
+    return Motion(chain_skeleton(), 30.0, root, SO3G.exp(rv), metres_per_unit=1.0, name="synthetic")
+
+
+def test_looping_clip_is_a_fixed_point_and_metrics_vanish():
+    m = synthetic(closed=True)
+    s = seam_metrics(m, original=m)
+    assert s["seam_angle_max_deg"] < 1e-9 and s["seam_position_max_m"] < 1e-12
+    assert s["deviation_max_m"] == 0.0
+    res = loop_motion(m, tol=1e-8)
+    assert res.closing.iterations == 0
+    np.testing.assert_allclose(res.motion.rotations, m.rotations, atol=1e-12)
+
+
+def test_synthetic_travel_loop_and_repeat():
+    m = synthetic()
+    res = loop_motion(m, tol=1e-10)
+    out = res.motion
+    s = seam_metrics(out, original=m)
+    assert s["seam_angle_max_deg"] < 1e-6 and s["seam_position_max_m"] < 1e-8
+    assert np.degrees(abs(res.heading_change)) > 10  # the root turns about y by 0.5 rad per cycle
+    rep = repeat_motion(out, 3)
+    assert rep.n_frames == 3 * (m.n_frames - 1) + 1
+    rot, _ = cycle_transform(out)
+    np.testing.assert_allclose(rot @ [0, 1, 0], [0, 1, 0], atol=1e-12)  # about the up axis
+    np.testing.assert_allclose(rep.root_translation[m.n_frames - 1], out.root_translation[-1], atol=1e-9)
+    np.testing.assert_allclose(rep.rotations[m.n_frames - 1, 0], out.rotations[-1, 0], atol=1e-9)
+    assert foot_joints(m) == [3]
+
+
+def test_bad_input_gives_clear_errors():
+    m = synthetic()
+    with pytest.raises(ValueError, match=r"motion: expected at least 3 frames.*got 2"):
+        loop_motion(m.replace(rotations=m.rotations[:2], root_translation=m.root_translation[:2]))
+    rot = m.rotations.copy()
+    rot[7, 2, 0, 0] = np.nan
+    with pytest.raises(ValueError, match=r"motion.rotations: expected finite values"):
+        loop_motion(m.replace(rotations=rot))
+    with pytest.raises(ValueError, match=r"foot.*cut locus"):
+        loop_motion(synthetic(seam_pi=True), root="inplace")
+    # leaving the joint free is the documented way out; its samples are kept
+    res = loop_motion(synthetic(seam_pi=True), root="inplace", exclude_joints=["foot"])
+    assert res.free_joints == ("foot",) and np.isfinite(res.motion.rotations).all()
+    with pytest.raises(ValueError, match="root"):
+        loop_motion(m, root="floating")
+    with pytest.raises(ValueError, match="representation"):
+        loop_motion(m, representation="quaternion")
+    with pytest.raises(ValueError, match="exclude_joints"):
+        loop_motion(m, exclude_joints=["nose"])
+    with pytest.raises(ValueError, match="original"):
+        seam_metrics(m, original=synthetic(f=30))
