@@ -24,9 +24,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    from elastic_motion.cli_commands import info as _info
+    from elastic_motion.cli_commands import (
+        align,
+        blend,
+        database,
+        demo,
+        distance,
+        info,
+        landmarks,
+        loop,
+        render,
+    )
 
-    _info.register(subparsers)
+    # The README's first command first; then the motion commands; then the database ones.
+    for module in (demo, info, blend, landmarks, loop, align, distance, render, database):
+        module.register(subparsers)
     return parser
 
 

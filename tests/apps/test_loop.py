@@ -8,11 +8,11 @@ import pytest
 
 from elastic_motion.apps.loop import (
     cycle_transform,
-    foot_joints,
     loop_motion,
     repeat_motion,
     seam_metrics,
 )
+from elastic_motion.apps.metrics import foot_joints
 from elastic_motion.closing import close_curve
 from elastic_motion.curves import curve_distance
 from elastic_motion.groups import SO3

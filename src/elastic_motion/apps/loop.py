@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion._validation import check_finite
+from elastic_motion.apps.metrics import foot_sliding
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
 from elastic_motion.curves import DiscreteCurve
 from elastic_motion.groups import SO3, Euclidean
@@ -63,7 +64,6 @@ from elastic_motion.motion import (
 __all__ = [
     "LoopResult",
     "cycle_transform",
-    "foot_joints",
     "loop_motion",
     "repeat_motion",
     "seam_metrics",
@@ -223,15 +223,6 @@ def repeat_motion(motion: Motion, cycles: int = 3, root: str = "travel") -> Moti
         joint_translations=np.concatenate(jts) if jts else None,
         source=(),
     )
-
-
-def foot_joints(motion: Motion) -> list[int]:
-    """Indices of the joints whose name says foot, toe or ankle (case-insensitive)."""
-    return [
-        j
-        for j, nm in enumerate(motion.skeleton.names)
-        if any(k in nm.lower() for k in ("foot", "toe", "ankle"))
-    ]
 
 
 def _excluded(motion: Motion, exclude: str | Sequence[str] | None) -> list[str]:
@@ -410,7 +401,8 @@ def seam_metrics(
         - ``seam_position_max_m``, ``seam_position_mean_m``: FK positions of the joints and
           their end sites, last frame vs ``T``(first frame).
         - ``seam_velocity_max_m_s``: largest jump of an FK point's velocity at the seam.
-        - ``foot_sliding_m_s``: mean horizontal speed of foot joints (:func:`foot_joints`)
+        - ``foot_sliding_m_s``: mean horizontal speed of foot joints
+          (:func:`elastic_motion.apps.metrics.foot_joints`)
           over frame steps where they touch the floor, measured over two cycles played
           in a row (so the seam counts); ``foot_sliding_seam_m_s``: the largest such speed at
           the seam step (0 if no foot touches).
@@ -475,21 +467,11 @@ def seam_metrics(
 
 
 def _foot_sliding(motion: Motion, root: str, contact_height: float) -> dict:
-    feet = foot_joints(motion)
-    if not feet:
-        return {"foot_sliding_m_s": 0.0, "foot_sliding_seam_m_s": 0.0}
-    scale = _metres(motion)
-    up = _AXES.index(motion.up_axis)
-    two = repeat_motion(motion, 2, root)
-    p = forward_kinematics(two)[:, feet] * scale  # (2F-1, k, 3)
-    height = p[..., up]
-    contact = height < height.min(axis=0) + contact_height
-    both = contact[:-1] & contact[1:]
-    step = np.diff(p, axis=0)
-    step[..., up] = 0.0
-    speed = np.linalg.norm(step, axis=-1) * motion.fps
+    # measured on two cycles so that the step across the seam counts too
+    fs = foot_sliding(repeat_motion(motion, 2, root), contact_height=contact_height)
     seam_step = motion.n_frames - 2  # frames F-2 -> F-1 (= T(frame 0))
+    seam = fs.speed[seam_step][fs.contact[seam_step]] if fs.joints else np.zeros(0)
     return {
-        "foot_sliding_m_s": float(speed[both].mean()) if both.any() else 0.0,
-        "foot_sliding_seam_m_s": float(speed[seam_step][both[seam_step]].max(initial=0.0)),
+        "foot_sliding_m_s": fs.mean_speed,
+        "foot_sliding_seam_m_s": float(seam.max(initial=0.0)),
     }

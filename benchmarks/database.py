@@ -1,0 +1,581 @@
+"""Benchmark of motion-database distances: throughput, scaling, extrapolation, classification.
+
+Sections (all in one run, on this machine):
+
+1. **Throughput**: all-pairs elastic distances (``compute_matrix``, Lie + Euler, DP) of a
+   database of 1-second windows cut from the CMU clips, serial against a Dask
+   ``LocalCluster`` with 2 single-threaded workers; also ``--warp none``. Pairs per second.
+2. **Scaling**: seconds per pair (one ``optimal_warp``) against the frames ``N`` (at the Lie
+   dimension of the CMU skeleton) and against the dimension ``D`` (at fixed ``N``), on real
+   SRV arrays; exponents fitted in log-log.
+3. **Extrapolation**: the whole CMU database (2,500 trials, 3.1 million pairs per
+   representation) on ``k`` workers, and the issue's target (1000 motions x 200 frames
+   all-pairs in 10 minutes on 2 cores), from the measured per-pair costs and the measured
+   2-worker efficiency. The target run with ``--warp none`` is also *run* end to end
+   (1000 generated window files, ``--engine local``).
+4. **Classification**: leave-one-out 1-NN accuracy on windows of the Bandai-Namco clips
+   (content and style labels from the file names) and of the CMU clips (walk / run / jump /
+   cartwheel / dance), for Lie and Euler, with and without warp, against DTW
+   (``dtaidistance``) on the Euler-angle frames and on the Lie SRV arrays. The Bandai files
+   are CC BY-NC: used here for the benchmark only, never shipped.
+
+Prints markdown tables and writes JSON (default ``benchmarks/results/database.json``) and
+the CMU dendrogram ``docs/images/database_dendrogram.png``.
+
+Usage: ``python benchmarks/database.py [--mocap ../shared/mocap] [--quick] [--no-target-run]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from elastic_motion.apps.database import (
+    DatabaseSettings,
+    PairSpec,
+    build_srv_cache,
+    compute_matrix,
+    distance_matrix,
+    pair_distance,
+    prepare_motion,
+    single_threaded_blas,
+)
+from elastic_motion.apps.statistics import bandai_labels, cluster, cmu_label, dtw_matrix, knn_evaluate
+from elastic_motion.motion import drop_tpose, read_motion, select_frames, to_euler_curve, write_bvh
+
+REPO = Path(__file__).resolve().parents[1]
+#: CMU clips of one skeleton (the IsaacGymEnvs / una-dinosauria conversions share joint names;
+#: the bvh11 conversions 131_* name their joints differently and form another group).
+CMU_CLIPS = ["01_01", "07_01", "08_02", "09_11", "107_02_30hz", "108_01_30hz", "49_08", "55_01"]
+CMU_TRIALS = 2500
+
+
+def windows(motion, seconds: float, max_windows: int) -> list:
+    """Non-overlapping windows of ``seconds`` (evenly spread), or the whole clip if shorter."""
+    w = round(seconds * motion.fps) + 1
+    f = motion.n_frames
+    if f <= w:
+        return [motion]
+    n = min(max_windows, (f - 1) // (w - 1))
+    starts = np.linspace(0, f - w, n).round().astype(int)
+    return [select_frames(motion, slice(s, s + w)) for s in starts]
+
+
+def cut_windows(paths: list[Path], seconds: float, max_windows: int) -> tuple[list[str], list, list[str]]:
+    """Names, window motions and source clip of each window."""
+    names, motions, clips = [], [], []
+    for p in paths:
+        m = drop_tpose(read_motion(p))
+        for k, w in enumerate(windows(m, seconds, max_windows)):
+            names.append(f"{p.stem}#{k}")
+            motions.append(w)
+            clips.append(p.stem)
+    return names, motions, clips
+
+
+def fit_exponent(x: list[float], y: list[float]) -> float:
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+def per_pair_seconds(q: list[np.ndarray], spec: PairSpec, pairs: int, repeat: int = 3) -> float:
+    """Median over ``pairs`` pairs of consecutive arrays of ``q`` of the best of ``repeat`` runs."""
+    pair_distance(q[0], q[1], spec)  # warm-up (numba)
+    with single_threaded_blas():  # as in the tiles (see elastic_motion.apps.database)
+        return _per_pair(q, spec, pairs, repeat)
+
+
+def _per_pair(q: list[np.ndarray], spec: PairSpec, pairs: int, repeat: int) -> float:
+    times = []
+    for k in range(pairs):
+        a, b = q[k % len(q)], q[(k + 1) % len(q)]
+        best = math.inf
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            pair_distance(a, b, spec)
+            best = min(best, time.perf_counter() - t0)
+        times.append(best)
+    return float(np.median(times))
+
+
+# --------------------------------------------------------------------------------------------
+# 1. Throughput
+# --------------------------------------------------------------------------------------------
+
+
+def throughput(cmu: Path, tmp: Path, n_samples: int, max_windows: int, seconds: float) -> dict:
+    """serial (numba's default threads), serial on one thread, local Dask with 2 workers."""
+    import numba
+
+    names, motions, _ = cut_windows([cmu / f"{c}.bvh" for c in CMU_CLIPS], seconds, max_windows)
+    src = tmp / "windows"
+    src.mkdir()
+    for n, m in zip(names, motions, strict=True):
+        write_bvh(m, src / f"{n.replace('#', '_w')}.bvh")
+    out = {"motions": len(names), "n_samples": n_samples, "window_seconds": seconds, "rows": []}
+    default_threads = numba.get_num_threads()
+    for warp in ("dp", "none"):
+        s = DatabaseSettings(n_samples=n_samples, tile_size=8, pair=PairSpec(warp=warp, neighbourhood=6))
+        ref = None
+        for engine, threads in (("serial", default_threads), ("serial", 1), ("local", 1)):
+            dest = tmp / f"out_{warp}_{engine}_{threads}"
+            numba.set_num_threads(threads)
+            t0 = time.perf_counter()
+            res = compute_matrix([src], dest, s, engine=engine, n_workers=2)
+            wall = time.perf_counter() - t0
+            numba.set_num_threads(default_threads)
+            t = res.report["timings"]
+            arrays = {r: np.load(dest / f"distances_{r}.npy") for r in ("lie", "euler")}
+            if ref is None:
+                ref = arrays
+            same = all(arrays[r].tobytes() == ref[r].tobytes() for r in arrays)
+            out["rows"].append(
+                {
+                    "warp": warp,
+                    "engine": engine,
+                    "workers": res.report["workers"],
+                    "numba_threads": threads,
+                    "pairs": t["pairs_computed"],
+                    "tiles_seconds": t["tiles_seconds"],
+                    "pairs_per_second": t["pairs_per_second"],
+                    "wall_seconds_incl_startup": round(wall, 2),
+                    "identical_to_serial": same,
+                }
+            )
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# 2. Scaling
+# --------------------------------------------------------------------------------------------
+
+
+def scaling(cmu: Path, pairs: int, ns: list[int], joints: list[int], d_n: int) -> dict:
+    """Cost against N (whole clips, Lie, D = 78) and against D (the first J joints of the
+    skeleton, D = 3 + 3 J; the largest D concatenates the Lie and Euler SRV arrays)."""
+    paths = [cmu / f"{c}.bvh" for c in ("07_01", "08_02", "09_11", "107_02_30hz", "108_01_30hz", "49_08")]
+    spec = PairSpec(warp="dp", neighbourhood=6)
+    rows_n = []
+    for n in ns:
+        c = build_srv_cache(paths, DatabaseSettings(n_samples=n, representations=("lie",)))
+        rows_n.append(
+            {"N": n, "D": int(c.q["lie"][0].shape[1]), "seconds": per_pair_seconds(c.q["lie"], spec, pairs)}
+        )
+    names = read_motion(paths[0]).skeleton.names
+    rows_d = []
+    for j in joints:
+        s = DatabaseSettings(
+            n_samples=d_n, representations=("lie", "euler"), joints=tuple(names[:j]), drop_fingers=False
+        )
+        c = build_srv_cache(paths, s)
+        rows_d.append(
+            {"N": d_n, "D": int(c.q["lie"][0].shape[1]), "seconds": per_pair_seconds(c.q["lie"], spec, pairs)}
+        )
+    both = [np.concatenate([a, b], axis=1) for a, b in zip(c.q["lie"], c.q["euler"], strict=True)]
+    rows_d.append({"N": d_n, "D": int(both[0].shape[1]), "seconds": per_pair_seconds(both, spec, pairs)})
+    half = len(rows_n) // 2
+    return {
+        "neighbourhood": 6,
+        "vs_N": rows_n,
+        "vs_D": rows_d,
+        "exponent_N": fit_exponent([r["N"] for r in rows_n], [r["seconds"] for r in rows_n]),
+        "exponent_N_upper_half": fit_exponent(
+            [r["N"] for r in rows_n[half:]], [r["seconds"] for r in rows_n[half:]]
+        ),
+        "exponent_D": fit_exponent([r["D"] for r in rows_d], [r["seconds"] for r in rows_d]),
+    }
+
+
+def variants_at(cmu: Path, n: int, pairs: int) -> dict:
+    """Seconds per pair at N frames for the exact DP and the faster options."""
+    paths = [cmu / f"{c}.bvh" for c in ("07_01", "08_02", "09_11", "107_02_30hz", "108_01_30hz", "49_08")]
+    c = build_srv_cache(paths, DatabaseSettings(n_samples=n, representations=("lie",)))
+    q = c.q["lie"]
+    out = {}
+    for label, spec in [
+        ("dp, neighbourhood 6", PairSpec("dp", 6)),
+        ("dp, neighbourhood 10", PairSpec("dp", 10)),
+        ("dp coarse-to-fine, neighbourhood 4", PairSpec("dp", 4, coarse_to_fine=True)),
+        ("none (no warp)", PairSpec("none")),
+    ]:
+        out[label] = per_pair_seconds(q, spec, pairs if spec.warp == "dp" else 200)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# 3. Extrapolation and the target run
+# --------------------------------------------------------------------------------------------
+
+
+def extrapolate(per_pair: dict[int, float], workers: list[int]) -> list[dict]:
+    """Hours for the whole CMU database: pairs x single-core seconds per pair / k workers
+    (linear scaling: each worker its own core, tiles independent, no shared state)."""
+    pairs = CMU_TRIALS * (CMU_TRIALS - 1) // 2
+    rows = []
+    for n, sec in sorted(per_pair.items()):
+        for k in workers:
+            rows.append(
+                {"N": n, "workers": k, "pairs": pairs, "hours_per_representation": pairs * sec / k / 3600}
+            )
+    return rows
+
+
+def target_run(
+    cmu: Path, tmp: Path, m: int, n_samples: int, warp: str = "none", reps: tuple[str, ...] = ("lie", "euler")
+) -> dict:
+    """Generate ``m`` files of exactly 200 frames (windows of the 120 Hz CMU clips at random
+    starts) and run the whole pipeline (read, SRV, all pairs) with ``engine="local"`` (2 workers)."""
+    rng = np.random.default_rng(0)
+    clips = [drop_tpose(read_motion(cmu / f"{c}.bvh")) for c in CMU_CLIPS]
+    clips = [c for c in clips if c.fps == 120 and c.n_frames >= 200]
+    src = tmp / f"target_{warp}_{n_samples}"
+    src.mkdir()
+    t0 = time.perf_counter()
+    for k in range(m):
+        clip = clips[k % len(clips)]
+        s = int(rng.integers(0, clip.n_frames - 200 + 1))
+        write_bvh(select_frames(clip, slice(s, s + 200)), src / f"w{k:04d}.bvh")
+    t_write = time.perf_counter() - t0
+    s = DatabaseSettings(n_samples=n_samples, tile_size=64, representations=reps, pair=PairSpec(warp=warp))
+    t0 = time.perf_counter()
+    res = compute_matrix([src], tmp / f"target_out_{warp}_{n_samples}", s, engine="local", n_workers=2)
+    wall = time.perf_counter() - t0
+    t = res.report["timings"]
+    return {
+        "motions": m,
+        "frames_per_input": 200,
+        "n_samples": n_samples,
+        "warp": warp,
+        "representations": list(reps),
+        "engine": "local (2 workers)",
+        "complete": res.complete,
+        "seconds_writing_inputs": round(t_write, 1),
+        "seconds_read_and_srv": t["read_seconds"],
+        "seconds_tiles": t["tiles_seconds"],
+        "seconds_total": round(wall, 1),
+        "pairs": t["pairs_computed"],
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# 4. Classification
+# --------------------------------------------------------------------------------------------
+
+
+def features(names: list[str], motions: list, n_samples: int) -> tuple[dict, list[np.ndarray]]:
+    cache = build_srv_cache(names, DatabaseSettings(n_samples=n_samples), motions=motions)
+    if len(cache) != len(names) or len(set(cache.groups.tolist())) != 1:
+        raise RuntimeError(f"windows must be readable and share one skeleton; skipped: {cache.skipped}")
+    order = [cache.paths.index(n) for n in names]
+    q = {r: [cache.q[r][k] for k in order] for r in ("lie", "euler")}
+    euler_frames = [
+        to_euler_curve(prepare_motion(n, n_samples, motion=m).motion).values
+        for n, m in zip(names, motions, strict=True)
+    ]
+    return q, euler_frames
+
+
+def matrices(q: dict, euler_frames: list[np.ndarray], neighbourhood: int) -> tuple[dict, dict]:
+    mats, secs = {}, {}
+    for r in ("lie", "euler"):
+        for warp in ("dp", "none"):
+            t0 = time.perf_counter()
+            mats[f"{r} {warp}"] = distance_matrix(q[r], PairSpec(warp, neighbourhood))
+            secs[f"{r} {warp}"] = time.perf_counter() - t0
+    for label, feats in (("dtw euler frames", euler_frames), ("dtw lie srv", q["lie"])):
+        t0 = time.perf_counter()
+        mats[label] = dtw_matrix(feats, parallel=False)
+        secs[label] = time.perf_counter() - t0
+    return mats, secs
+
+
+def evaluate(mats: dict, labels: list, blocks: list | None = None, only: set | None = None) -> dict:
+    out = {}
+    for label, d in mats.items():
+        ev = knn_evaluate(d, labels, 1, blocks=blocks)
+        if only is not None:
+            sel = [i for i, lab in enumerate(labels) if lab in only and ev.predictions[i] is not None]
+            acc = float(np.mean([ev.predictions[i] == labels[i] for i in sel])) if sel else float("nan")
+            out[label] = {"accuracy": acc, "evaluated": len(sel)}
+        else:
+            out[label] = {"accuracy": ev.accuracy, "evaluated": ev.n_evaluated, "per_class": ev.per_class}
+    return out
+
+
+def classification(mocap: Path, n_samples: int, max_windows: int, neighbourhood: int) -> dict:
+    res: dict = {"n_samples": n_samples, "window_seconds": 1.0, "neighbourhood": neighbourhood}
+    # Bandai: content and style
+    bandai = sorted((mocap / "bandai").glob("*.bvh"))
+    names, motions, clips = cut_windows(bandai, 1.0, max_windows)
+    q, ef = features(names, motions, n_samples)
+    mats, secs = matrices(q, ef, neighbourhood)
+    content = [bandai_labels(c)[0] for c in clips]
+    style = [bandai_labels(c)[1] if bandai_labels(c)[0] == "walk" else None for c in clips]
+    res["bandai"] = {
+        "windows": len(names),
+        "clips": len(bandai),
+        "seconds": secs,
+        "content_loo": evaluate(mats, content),
+        "content_chance": max(content.count(c) for c in set(content)) / len(content),
+        "style_loo_walks": evaluate(mats, style),
+        "style_chance": max(style.count(c) for c in set(style) if c) / sum(1 for s in style if s),
+    }
+    # CMU: categories
+    cmu = [mocap / "cmu" / "bvh" / f"{c}.bvh" for c in CMU_CLIPS]
+    names, motions, clips = cut_windows(cmu, 1.0, max_windows)
+    q, ef = features(names, motions, n_samples)
+    mats, secs = matrices(q, ef, neighbourhood)
+    cat = [cmu_label(c) for c in clips]
+    res["cmu"] = {
+        "windows": len(names),
+        "clips": len(cmu),
+        "seconds": secs,
+        "loo": evaluate(mats, cat),
+        "chance": max(cat.count(c) for c in set(cat)) / len(cat),
+        "walk_leave_one_clip_out": evaluate(mats, cat, blocks=clips, only={"walk"}),
+        "labels": dict(zip(names, cat, strict=True)),
+    }
+    res["_cmu_for_plot"] = (mats["lie dp"], names, cat)
+    return res
+
+
+# --------------------------------------------------------------------------------------------
+# Output
+# --------------------------------------------------------------------------------------------
+
+
+def markdown(r: dict) -> str:
+    lines = []
+    th = r["throughput"]
+    lines += [
+        f"### Throughput: {th['motions']} CMU windows of {th['window_seconds']:g} s, N = {th['n_samples']}, "
+        "Lie + Euler",
+        "",
+        "| warp | engine | workers x numba threads | pairs | tile seconds | pairs/s "
+        "| wall s (incl. start-up) | = serial |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for row in th["rows"]:
+        wt = f"{row['workers']} x {row['numba_threads']}"
+        cells = [row["warp"], row["engine"], wt, row["pairs"], f"{row['tiles_seconds']:.2f}"]
+        cells += [
+            f"{row['pairs_per_second']:.1f}",
+            f"{row['wall_seconds_incl_startup']:.1f}",
+            row["identical_to_serial"],
+        ]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    sc = r["scaling"]
+    lines += [
+        "",
+        "### Seconds per pair (one optimal warp, neighbourhood 6)",
+        "",
+        "| N | D | ms/pair |",
+        "|---|---|---|",
+    ]
+    for row in sc["vs_N"] + sc["vs_D"]:
+        lines.append(f"| {row['N']} | {row['D']} | {1e3 * row['seconds']:.2f} |")
+    lines.append(
+        f"\nFitted exponents: time ~ N^{sc['exponent_N']:.2f} "
+        f"(upper half of N: N^{sc['exponent_N_upper_half']:.2f}), time ~ D^{sc['exponent_D']:.2f}."
+    )
+    lines += [
+        "",
+        f"### Per-pair cost at N = {r['target']['N']} (Lie, D = 78)",
+        "",
+        "| method | ms/pair |",
+        "|---|---|",
+    ]
+    for k, v in r["target"]["per_pair"].items():
+        lines.append(f"| {k} | {1e3 * v:.3f} |")
+    lines += [
+        "",
+        f"### Target: 1000 motions x {r['target']['N']} frames all-pairs (499,500 pairs, one representation) "
+        f"on 2 workers (measured speed-up {r['speedup_2_workers']:.2f})",
+        "",
+        "| method | minutes at the measured speed-up | minutes at 2x (linear) | under 10 min |",
+        "|---|---|---|---|",
+    ]
+    for k, v in r["target"]["estimate_minutes"].items():
+        lin = r["target"]["estimate_minutes_linear"][k]
+        verdict = "yes" if v < 10 else ("only at 2x" if lin < 10 else "no")
+        lines.append(f"| {k} | {v:.1f} | {lin:.1f} | {verdict} |")
+    for key in ("target_run", "target_run_dp"):
+        if r.get(key):
+            tr = r[key]
+            reps = "+".join(tr["representations"])
+            lines.append(
+                f"\nMeasured end to end ({tr['motions']} files of {tr.get('frames_per_input', '?')} frames, "
+                f"N = {tr['n_samples']}, --warp {tr['warp']}, "
+                f"{reps}, {tr['engine']}): read + SRV {tr['seconds_read_and_srv']:.0f} s, "
+                f"tiles {tr['seconds_tiles']:.0f} s, total {tr['seconds_total']:.0f} s "
+                f"for {tr['pairs']} pairs."
+            )
+    lines += [
+        "",
+        f"### Whole CMU database ({CMU_TRIALS} trials, {CMU_TRIALS * (CMU_TRIALS - 1) // 2:,} pairs per "
+        "representation), exact DP (neighbourhood 6, one core per worker), minutes, linear in the workers",
+        "",
+        "| N | " + " | ".join(f"{k} workers" for k in r["extrapolation_workers"]) + " |",
+        "|---|" + "---|" * len(r["extrapolation_workers"]),
+    ]
+    by_n: dict[int, list] = {}
+    for row in r["extrapolation"]:
+        by_n.setdefault(row["N"], []).append(60 * row["hours_per_representation"])
+    for n, ms in by_n.items():
+        lines.append(f"| {n} | " + " | ".join(f"{x:.1f}" for x in ms) + " |")
+    cl = r["classification"]
+    methods = list(cl["cmu"]["loo"])
+    lines += [
+        "",
+        f"### 1-NN accuracy (windows of {cl['window_seconds']:g} s, N = {cl['n_samples']})",
+        "",
+        "| method | Bandai content (LOO) | Bandai style, walks (LOO) | CMU category (LOO) "
+        "| CMU walk, leave one clip out |",
+        "|---|---|---|---|---|",
+    ]
+    b, c = cl["bandai"], cl["cmu"]
+    for m in methods:
+        lines.append(
+            f"| {m} | {b['content_loo'][m]['accuracy']:.3f} | {b['style_loo_walks'][m]['accuracy']:.3f} | "
+            f"{c['loo'][m]['accuracy']:.3f} | {c['walk_leave_one_clip_out'][m]['accuracy']:.3f} |"
+        )
+    lines.append(
+        f"| (majority class) | {b['content_chance']:.3f} | {b['style_chance']:.3f} | {c['chance']:.3f} | - |"
+    )
+    lines.append(
+        f"\nBandai: {b['windows']} windows of {b['clips']} clips; CMU: {c['windows']} windows of "
+        f"{c['clips']} clips; evaluated: {c['walk_leave_one_clip_out'][methods[0]]['evaluated']} CMU walk "
+        "windows leave-one-clip-out."
+    )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument(
+        "--mocap",
+        type=Path,
+        default=Path(os.environ.get("ELASTIC_MOTION_MOCAP", REPO.parent / "shared" / "mocap")),
+    )
+    parser.add_argument("--quick", action="store_true", help="smaller sizes (a smoke test of the script)")
+    parser.add_argument("--markdown", action="store_true", help="only print the tables of the existing JSON")
+    parser.add_argument("--no-target-run", action="store_true", help="skip the 1000-file --warp none run")
+    parser.add_argument(
+        "--target-dp-run",
+        action="store_true",
+        help="only run the 1000-file DP run (Lie, N = 64, local) and add it to the existing JSON (~10 min)",
+    )
+    parser.add_argument("--out", type=Path, default=REPO / "benchmarks" / "results" / "database.json")
+    parser.add_argument("--plot", type=Path, default=REPO / "docs" / "images" / "database_dendrogram.png")
+    args = parser.parse_args()
+    cmu = args.mocap / "cmu" / "bvh"
+    q = args.quick
+    result: dict = {
+        "machine": {
+            "cpus": os.cpu_count(),
+            "platform": platform.platform(),
+            "python": platform.python_version(),
+        },
+        "quick": q,
+    }
+    if args.markdown:
+        print(markdown(json.loads(args.out.read_text())))
+        return
+    tmp = Path(tempfile.mkdtemp(prefix="em-db-bench-"))
+    if args.target_dp_run:
+        try:
+            result = json.loads(args.out.read_text())
+            result["target_run_dp"] = target_run(cmu, tmp, m=1000, n_samples=64, warp="dp", reps=("lie",))
+            result["target_run_dp"]["load_average_after"] = os.getloadavg()
+            result["target_run_dp"]["date"] = time.strftime("%Y-%m-%d %H:%M")
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        args.out.write_text(json.dumps(result, indent=1, default=float) + "\n")
+        print(markdown(result))
+        return
+    try:
+        t0 = time.perf_counter()
+        result["throughput"] = throughput(
+            cmu, tmp, n_samples=32 if q else 200, max_windows=2 if q else 16, seconds=1.0
+        )
+        rows = {(r["warp"], r["engine"], r["numba_threads"]): r for r in result["throughput"]["rows"]}
+        speedup = rows[("dp", "local", 1)]["pairs_per_second"] / rows[("dp", "serial", 1)]["pairs_per_second"]
+        result["speedup_2_workers"] = speedup
+        result["efficiency_2_workers"] = min(1.0, speedup / 2)
+        import numba
+
+        numba.set_num_threads(1)  # per-pair costs below: one core
+        result["scaling"] = scaling(
+            cmu,
+            pairs=3 if q else 10,
+            ns=[16, 32, 64] if q else [16, 32, 64, 128, 256, 512],
+            joints=[1, 4, 25] if q else [1, 2, 4, 10, 25],
+            d_n=32 if q else 128,
+        )
+        target_n = 64 if q else 200
+        per_pair = variants_at(cmu, target_n, pairs=2 if q else 6)
+        pairs_1000 = 1000 * 999 // 2
+        result["target"] = {
+            "N": target_n,
+            "per_pair": per_pair,
+            # two workers at the measured speed-up over one single-threaded process
+            "estimate_minutes": {k: pairs_1000 * v / max(speedup, 1e-9) / 60 for k, v in per_pair.items()},
+            "estimate_minutes_linear": {k: pairs_1000 * v / 2 / 60 for k, v in per_pair.items()},
+        }
+        n64 = next(row["seconds"] for row in result["scaling"]["vs_N"] if row["N"] == 64)
+        result["target"]["per_pair"]["dp, neighbourhood 6, resampled to N = 64"] = n64
+        result["target"]["estimate_minutes"]["dp, neighbourhood 6, resampled to N = 64"] = (
+            pairs_1000 * n64 / max(speedup, 1e-9) / 60
+        )
+        result["target"]["estimate_minutes_linear"]["dp, neighbourhood 6, resampled to N = 64"] = (
+            pairs_1000 * n64 / 2 / 60
+        )
+        if not args.no_target_run:
+            result["target_run"] = target_run(cmu, tmp, m=100 if q else 1000, n_samples=target_n)
+        per_n = {row["N"]: row["seconds"] for row in result["scaling"]["vs_N"] if row["N"] in (64, 128)}
+        per_n[target_n] = per_pair["dp, neighbourhood 6"]
+        result["extrapolation_workers"] = [1, 2, 8, 32, 128]
+        result["extrapolation"] = extrapolate(per_n, result["extrapolation_workers"])
+        result["classification"] = classification(
+            args.mocap, n_samples=24 if q else 32, max_windows=2 if q else 6, neighbourhood=6
+        )
+        d, names, cat = result["classification"].pop("_cmu_for_plot")
+        if not q:
+            from elastic_motion.apps.plots_database import plot_dendrogram
+
+            args.plot.parent.mkdir(parents=True, exist_ok=True)
+            plot_dendrogram(
+                cluster(d, names),
+                args.plot,
+                colors=cat,
+                title="CMU 1-s windows, Lie elastic distance (DP), average linkage",
+            )
+            result["dendrogram"] = (
+                os.fspath(args.plot.relative_to(REPO))
+                if args.plot.is_relative_to(REPO)
+                else os.fspath(args.plot)
+            )
+        result["seconds_total"] = round(time.perf_counter() - t0, 1)
+        result["load_average_at_end"] = os.getloadavg()
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    if args.out.exists() and not q:  # keep the (slow, separately run) DP target run
+        old = json.loads(args.out.read_text())
+        if "target_run_dp" in old:
+            result["target_run_dp"] = old["target_run_dp"]
+    print(markdown(result))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=1, default=float) + "\n")
+    print(f"\nwritten {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,311 @@
+"""Benchmark of the optimal-warp solver against fdasrsf (same run, same scoring).
+
+Cases
+-----
+- ``synth3``, ``synth93``: smooth random curves in R^3 and R^93 (a sum of Fourier modes) and
+  a known smooth warp ``gamma``: ``c0 = c1 o gamma``, both sampled on N+1 uniform points,
+  SRV by finite differences (``q_i = v_i / sqrt|v_i|``).  The truth is ``phi = gamma``.
+- ``cmu07-08``, ``cmu131``: real pairs, CMU 07_01 vs 08_02 and 131_01 vs 131_02, read with
+  :mod:`elastic_motion.motion` (T-pose dropped, lengths in metres), resampled to N+1 frames
+  over their duration (geodesic interpolation), as SO(3)^31 x R^3 curves
+  (:func:`elastic_motion.motion.to_lie_curve`, default joint weights) and SRV arrays of
+  shape (N, 96) (:func:`elastic_motion.curves.srv_transform`).  No known truth.
+
+Methods
+-------
+- ``ours-dp``: :func:`elastic_motion.warp.optimal_warp` (exact DP on the N x N grid, 63 slopes).
+- ``ours-dp+refine``: the same, then gradient refinement off the grid.
+- ``ours-c2f``: coarse-to-fine banded DP (not exact; its energy loss against ``ours-dp``).
+- ``fdasrsf-DP``, ``fdasrsf-RBFGS``: ``fdasrsf.curve_functions.optimum_reparam_curve`` with
+  method ``"DP"`` and ``"RBFGS"`` (fdasrsf 2.7.3, the benchmark extra).
+
+How the inputs are mapped (keep the comparison honest): fdasrsf takes SRVF *samples* of shape
+``(D, T)`` on ``T`` uniform points.  Our ``q`` is cell-valued on ``t = linspace(0, 1, N+1)``;
+fdasrsf gets ``T = N + 1`` samples ``q_fd[:, i] = q[i]`` (``q[N-1]`` repeated at the last
+node), i.e. the same node grid as our DP and its left-endpoint rule for our cell values.
+Its gamma (samples on the same ``t``) is normalised to ``gamma[0] = 0``, ``gamma[-1] = 1``
+(RBFGS ends a hair below 1), made non-decreasing (``maximum.accumulate``: RBFGS can wiggle
+by rounding), and read as the piecewise linear warp with vertices ``(t_i, gamma_i)``.
+Every warp of every method is scored by the same exact function
+:func:`elastic_motion.warp.warp_energy`.  Times are wall clock: ours the minimum of
+``--repeat`` runs after a warm-up (numba compilation excluded and reported apart), fdasrsf
+one run (it is slow) unless ``--fd-repeat``.
+
+Usage::
+
+    python benchmarks/warp.py                      # full: N = 100 ... 1600, all cases
+    python benchmarks/warp.py --n 100 200 --cases synth3 cmu131 --fd-max-n 200   # quick
+
+Writes ``benchmarks/results/warp.json`` and prints a markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from elastic_motion.warp import optimal_warp, warp_energy
+
+ROOT = Path(__file__).resolve().parents[1]
+MOCAP = ROOT.parent / "shared" / "mocap"
+CASES = ("synth3", "synth93", "cmu07-08", "cmu131")
+REAL = {
+    "cmu07-08": ("cmu/bvh/07_01.bvh", "cmu/bvh/08_02.bvh"),
+    "cmu131": ("cmu/bvh/131_01.bvh", "cmu/bvh/131_02.bvh"),
+}
+
+
+# ----------------------------------------------------------------------------- inputs
+
+
+def synthetic(n: int, d: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smooth curve pair in R^d with a known warp: returns ``(q0, q1, gamma on t)``."""
+    rng = np.random.default_rng(seed)
+    modes = 5
+    phases = rng.uniform(0, 2 * np.pi, (modes, d))
+    amp = rng.normal(size=(modes, d)) / np.arange(1, modes + 1)[:, None]
+
+    def curve(x: np.ndarray) -> np.ndarray:
+        k = np.arange(1, modes + 1)[None, :, None]
+        return np.sum(amp[None] * np.sin(np.pi * k * x[:, None, None] + phases[None]), axis=1)
+
+    t = np.linspace(0.0, 1.0, n + 1)
+    gamma = t + 0.35 * np.sin(np.pi * t) ** 2 * (t - 0.3)  # smooth, increasing, fixes 0 and 1
+    return srv(curve(gamma), t), srv(curve(t), t), gamma
+
+
+def srv(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    v = np.diff(c, axis=0) / np.diff(t)[:, None]
+    speed = np.linalg.norm(v, axis=1)
+    return v / np.sqrt(np.where(speed > 0, speed, 1.0))[:, None]
+
+
+def real_pair(case: str, n: int) -> tuple[np.ndarray, np.ndarray, None]:
+    """Two CMU walks as SO(3)^31 x R^3 SRV arrays of shape (n, 96)."""
+    from elastic_motion import motion
+    from elastic_motion.curves import srv_transform
+
+    out = []
+    for rel in REAL[case]:
+        mo = motion.drop_tpose(motion.read_motion(MOCAP / rel))
+        mo = motion.to_metres(mo)
+        times = np.asarray(mo.times)
+        target = np.linspace(times[0], times[-1], n + 1)
+        mo = motion.resample_at_times(mo, times, target, fps=mo.fps)
+        out.append(srv_transform(motion.to_lie_curve(mo)).q)
+    return out[0], out[1], None
+
+
+# ----------------------------------------------------------------------------- runners
+
+
+def run_ours(q0, q1, repeat: int, **kw) -> tuple[float, np.ndarray, dict]:
+    best, res = np.inf, None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        res = optimal_warp(q0, q1, **kw)
+        best = min(best, time.perf_counter() - t)
+    d = res.diagnostics
+    info = {
+        "nodes_evaluated": d.nodes_evaluated,
+        "levels": d.levels,
+        "iterations": d.iterations,
+        "time_dp": d.time_dp,
+        "time_refine": d.time_refine,
+    }
+    return best, res.vertices, info
+
+
+def run_fdasrsf(q0, q1, method: str, repeat: int) -> tuple[float, np.ndarray]:
+    import fdasrsf.curve_functions as cf
+
+    n = q0.shape[0]
+    t = np.linspace(0.0, 1.0, n + 1)
+    f0 = np.ascontiguousarray(np.vstack([q0, q0[-1:]]).T)
+    f1 = np.ascontiguousarray(np.vstack([q1, q1[-1:]]).T)
+    best, gam = np.inf, None
+    for _ in range(repeat):
+        a, b = f0.copy(), f1.copy()  # fdasrsf may modify its inputs
+        tt = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            gam = cf.optimum_reparam_curve(a, b, 0.0, method)
+        best = min(best, time.perf_counter() - tt)
+    g = np.asarray(gam, dtype=float).ravel()
+    g = (g - g[0]) / (g[-1] - g[0])
+    g = np.maximum.accumulate(np.clip(g, 0.0, 1.0))
+    g[0], g[-1] = 0.0, 1.0
+    return best, np.column_stack([t, g])
+
+
+def warp_error(vertices: np.ndarray, gamma: np.ndarray | None) -> tuple[float | None, float | None]:
+    if gamma is None:
+        return None, None
+    t = np.linspace(0.0, 1.0, len(gamma))
+    diff = np.interp(t, vertices[:, 0], vertices[:, 1]) - gamma
+    return float(np.abs(diff).max()), float(np.sqrt(np.mean(diff**2)))
+
+
+# ----------------------------------------------------------------------------- main
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[100, 200, 400, 800, 1600])
+    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
+    ap.add_argument(
+        "--fd-max-n",
+        type=int,
+        default=1600,
+        help="skip fdasrsf DP above this N (it is O(N^2) edges of O(N D) each)",
+    )
+    ap.add_argument("--rbfgs-max-n", type=int, default=1600, help="skip fdasrsf RBFGS above this N")
+    ap.add_argument("--no-fdasrsf", action="store_true")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of our solver (minimum time)")
+    ap.add_argument("--fd-repeat", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "warp.json")
+    args = ap.parse_args(argv)
+
+    have_fd = False
+    if not args.no_fdasrsf:
+        try:
+            import fdasrsf
+
+            have_fd = True
+        except ImportError:
+            print("fdasrsf not installed (pip install -e '.[benchmark]'): comparing nothing", file=sys.stderr)
+
+    # warm-up: numba compilation (cached on disk after the first run)
+    t = time.perf_counter()
+    q0, q1, _ = synthetic(64, 3)
+    for method in ("dp", "dp+refine"):
+        optimal_warp(q0, q1, method=method)
+    optimal_warp(q0, q1, coarse_to_fine=True)
+    compile_s = time.perf_counter() - t
+
+    rows = []
+    for case in args.cases:
+        for n in args.n:
+            if case.startswith("synth"):
+                q0, q1, gamma = synthetic(n, int(case[5:]))
+            else:
+                if not MOCAP.is_dir():
+                    print(f"skip {case}: {MOCAP} not found", file=sys.stderr)
+                    continue
+                q0, q1, gamma = real_pair(case, n)
+            d = q0.shape[1]
+            res: dict[str, dict] = {}
+            for name, kw in (
+                ("ours-dp", {}),
+                ("ours-dp+refine", {"method": "dp+refine"}),
+                ("ours-c2f", {"coarse_to_fine": True}),
+            ):
+                sec, verts, info = run_ours(q0, q1, args.repeat, **kw)
+                res[name] = {"time": sec, "vertices": verts, **info}
+            if have_fd and n <= args.fd_max_n:
+                sec, verts = run_fdasrsf(q0, q1, "DP", args.fd_repeat)
+                res["fdasrsf-DP"] = {"time": sec, "vertices": verts}
+            if have_fd and n <= args.rbfgs_max_n:
+                sec, verts = run_fdasrsf(q0, q1, "RBFGS", args.fd_repeat)
+                res["fdasrsf-RBFGS"] = {"time": sec, "vertices": verts}
+            for r in res.values():
+                verts = r.pop("vertices")
+                r["energy"] = warp_energy(q0, q1, verts)
+                r["err_max"], r["err_rms"] = warp_error(verts, gamma)
+                r["n_vertices"] = len(verts)
+            row = {
+                "case": case,
+                "N": n,
+                "D": d,
+                "identity_energy": warp_energy(q0, q1, [[0, 0], [1, 1]]),
+                "methods": res,
+            }
+            rows.append(row)
+            print(format_row(row), file=sys.stderr, flush=True)
+
+    meta = {
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "processor": platform.processor(),
+        "cpu_count": __import__("os").cpu_count(),
+        "numba_compile_warmup_s": compile_s,
+        "repeat": args.repeat,
+        "fd_max_n": args.fd_max_n,
+        "rbfgs_max_n": args.rbfgs_max_n,
+    }
+    try:
+        import fdasrsf
+
+        meta["fdasrsf"] = fdasrsf.__version__
+    except (ImportError, AttributeError):
+        pass
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
+    print(markdown(rows))
+    print(f"\nnumba warm-up (compile or cache load): {compile_s:.1f} s; JSON: {args.out}")
+    return 0
+
+
+def format_row(row: dict) -> str:
+    parts = [f"{row['case']} N={row['N']} D={row['D']}"]
+    for name, r in row["methods"].items():
+        parts.append(f"{name}: {r['time']:.3f}s E={r['energy']:.5g}")
+    return " | ".join(parts)
+
+
+def _fmt(x: float | None, spec: str = ".4g") -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def markdown(rows: list[dict]) -> str:
+    head = (
+        "| case | N | D | ours DP s | ours E | fd DP s | fd DP E | speed-up | E ours/fd | "
+        "ours DP+ref s | DP+ref E | RBFGS s | RBFGS E | E ref/RBFGS | c2f s | c2f loss | "
+        "err DP | err DP+ref | err fd DP | err RBFGS |"
+    )
+    sep = "|" + "---|" * (head.count("|") - 1)
+    lines = [head, sep]
+    for row in rows:
+        m = row["methods"]
+        dp, ref, c2f = m["ours-dp"], m["ours-dp+refine"], m["ours-c2f"]
+        fd, rb = m.get("fdasrsf-DP"), m.get("fdasrsf-RBFGS")
+        lines.append(
+            "| "
+            + " | ".join(
+                [
+                    row["case"],
+                    str(row["N"]),
+                    str(row["D"]),
+                    _fmt(dp["time"], ".3f"),
+                    _fmt(dp["energy"]),
+                    _fmt(fd and fd["time"], ".2f"),
+                    _fmt(fd and fd["energy"]),
+                    _fmt(fd and fd["time"] / dp["time"], ".0f") + ("x" if fd else ""),
+                    _fmt(fd and dp["energy"] / fd["energy"], ".3f"),
+                    _fmt(ref["time"], ".3f"),
+                    _fmt(ref["energy"]),
+                    _fmt(rb and rb["time"], ".2f"),
+                    _fmt(rb and rb["energy"]),
+                    _fmt(rb and ref["energy"] / rb["energy"], ".3f"),
+                    _fmt(c2f["time"], ".3f"),
+                    _fmt(100 * (c2f["energy"] / dp["energy"] - 1), ".2f") + "%",
+                    _fmt(dp["err_max"], ".2e"),
+                    _fmt(ref["err_max"], ".2e"),
+                    _fmt(fd and fd["err_max"], ".2e"),
+                    _fmt(rb and rb["err_max"], ".2e"),
+                ]
+            )
+            + " |"
+        )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,490 @@
+"""Blend motions: the four methods of paper 001 Fig. 5, the Lie group method of paper 000,
+and weighted means of several motions.
+
+Methods (``method``, ``warp``, ``landmarks``)
+----------------------------------------------
+=================  ============  ===========  ==============================================
+method             warp          landmarks    what it is
+=================  ============  ===========  ==============================================
+``euler-linear``   ``none``      --           paper 001 Fig. 5 (a): frame-by-frame linear
+                                              interpolation of Euler angles and root position
+``euler-elastic``  ``none``      --           (b): SRV geodesic in ``R^d`` without warp
+``euler-elastic``  ``dp``        --           (c): SRV geodesic in ``R^d`` with the optimal warp
+``euler-elastic``  ``dp``        ``auto``     (d): with warp and feature points (the left
+                                              knee passing the right knee, paired in order)
+``lie``            ``none``      --           paper 000 Fig. 4, bottom left: SRV geodesic in
+                                              ``R^3 x SO(3)^J`` without warp
+``lie``            ``dp``        optional     paper 000 Fig. 4, bottom right: with the warp
+=================  ============  ===========  ==============================================
+
+``warp="dp+refine"`` refines the DP warp off the grid by gradient descent. Any warp works
+with any method (``euler-linear`` with a warp interpolates the time-aligned frames).
+
+What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s) A + s B``)
+------------------------------------------------------------------------------------------
+1. :func:`elastic_motion.apps.align.prepare_motions`: metres, common joints (``joints``),
+   B resampled to A's frame rate, B placed like A (a rotation about the up axis and a
+   floor translation fitted to A's root path: registration-curve style). Recorded in
+   ``BlendResult.notes``.
+2. The warp ``phi`` of B onto A (``warp != "none"``), on the curves of the method at most
+   ``warp_fps`` frames per second, with the landmarks (seconds, or ``"auto"``).
+3. The blend, on curves of all non-finger joints at the full frame rate:
+   ``R^{-1}((1 - s) qA + s (qB * phi))`` started at the blended start point (paper 000,
+   eq. 20; :func:`elastic_motion.curves.weighted_blend`), or for ``euler-linear``
+   ``(1 - s) cA(u) + s cB(phi(u))``.
+4. **Timing.** The result is a curve on ``[0, 1]``; its parameter ``u`` is played at time
+   ``T(u) = (1 - s) d_A u + s d_B phi(u)``, the blended clock of the two inputs (``d``:
+   durations), and sampled at A's frame rate. So ``s = 0`` gives A and ``s = 1`` gives B,
+   each at its own timing, and the result's duration is ``(1 - s) d_A + s d_B``. (If
+   extrapolation makes ``T`` decrease somewhere, the result is played uniformly over the
+   blended duration instead; a note says so.)
+5. Finger joints (not on the curves, see :mod:`.align`) get the geodesic blend of A's and
+   B's local rotations at the matched times; per-frame translations of non-root joints
+   (position channels), linear blends.
+6. The skeleton: ``skeleton="blend"`` (default) gives each bone the weighted mean of the
+   inputs' offsets, so that leg length and root height blend together; ``"first"`` keeps A's.
+
+**Root translation.** The root position is a coordinate of the curve in both
+representations (``R^3`` factor of ``R^3 x SO(3)^J``; the first three coordinates of the
+Euler curve): after step 1 the SRV blend mixes the root *velocities* of A and B (the time-
+aligned ones, with a warp) and integrates them from the blended start position. The
+blended path therefore goes in the direction both inputs go after placement and covers a
+distance between theirs; it is not the average of the two paths point by point (that is
+``euler-linear``).
+
+Several motions (``len(motions) >= 3``, weights ``w_k`` summing to 1): the weighted mean in
+SRV space after aligning all to a common template, the weighted Karcher mean
+(:func:`elastic_motion.apps.statistics.karcher_mean`: align every motion to the current
+mean, average, repeat). Its warps ``phi_k`` map the template's parameter to each motion's,
+and the timing is ``T(u) = sum_k w_k d_k phi_k(u)``. Landmarks are for two motions only.
+
+Metrics (``BlendResult.metrics``, computed unless ``metrics=False``): foot sliding of the
+result and of each input (:func:`elastic_motion.apps.metrics.foot_sliding`), bone-length
+error of the result against its own skeleton and each input's
+(:func:`elastic_motion.apps.metrics.bone_length_error`), and Lie elastic distances
+between the inputs and from the result to each input
+(:func:`elastic_motion.apps.distance.distance_table`, the same metric whatever the blend
+method; on the SRV geodesic with the warp, ``d(R, A) + d(R, B) = d(A, B)`` up to the
+discretisation, a useful check).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.apps.align import (
+    DEFAULT_LAMBDA,
+    DEFAULT_WARP_FPS,
+    PreparedMotions,
+    _check_method,
+    _check_warp,
+    landmark_parameters,
+    motion_curves,
+    prepare_motions,
+    resolve_landmarks,
+    solve_warp,
+)
+from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.curves import DiscreteCurve, srv_transform, weighted_blend
+from elastic_motion.groups import SO3, PowerGroup
+from elastic_motion.motion import Motion, Skeleton, from_euler_curve, from_lie_curve
+from elastic_motion.warp import DEFAULT_MAX_STEP
+
+__all__ = ["BlendResult", "blend_motions"]
+
+_SO3 = SO3()
+_IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class BlendResult:
+    """The outcome of :func:`blend_motions`.
+
+    Attributes
+    ----------
+    motion : Motion
+        The blend: A's joints (or the common ones), A's frame rate, metres when known.
+    method, warp : str
+    weights : ndarray, shape (K,)
+        Weight of each input (sum 1).
+    warps : tuple of ndarray
+        Vertices ``(V, 2)`` of ``phi_k``: the result's curve parameter -> input ``k``'s
+        (identity for A in a two-motion blend, and for every input without warp).
+    landmarks : tuple of (float, float)
+        Landmark pairs used, seconds in A and B.
+    timing : ndarray, shape (F_out,)
+        Curve parameter ``u`` of each output frame (see step 4 of the module docstring).
+    prepared : PreparedMotions
+        The inputs after preparation (units, joints, frame rate, placement).
+    metrics : dict
+        Quality metrics (module docstring); empty with ``metrics=False``.
+    notes : tuple of str
+        What was done, in words (preparation, warps, timing).
+    """
+
+    motion: Motion
+    method: str
+    warp: str
+    weights: np.ndarray
+    warps: tuple[np.ndarray, ...]
+    landmarks: tuple[tuple[float, float], ...]
+    timing: np.ndarray
+    prepared: PreparedMotions
+    metrics: dict[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready fields of a report (``docs/cli.md``)."""
+        m = self.motion
+        return {
+            "method": self.method,
+            "warp": self.warp,
+            "weights": self.weights.tolist(),
+            "landmarks_s": [list(p) for p in self.landmarks],
+            "frames": m.n_frames,
+            "fps": m.fps,
+            "duration_s": m.duration,
+            "joints": m.n_joints,
+            "warp_vertices": [w.tolist() for w in self.warps],
+            "metrics": self.metrics,
+            "notes": list(self.notes),
+        }
+
+
+def _check_weights(weights: Any, k: int, extrapolate: bool) -> np.ndarray:
+    if weights is None:
+        w = np.full(k, 1.0 / k)
+    elif np.ndim(weights) == 0:
+        if k != 2:
+            raise ValueError(
+                f"weights: a single weight s means (1 - s, s) for two motions; got {k} motions, "
+                f"give {k} weights"
+            )
+        s = float(weights)
+        w = np.array([1.0 - s, s])
+    else:
+        w = np.asarray(weights, dtype=np.float64).reshape(-1)
+        if w.shape != (k,):
+            raise ValueError(f"weights: expected {k} weights (one per motion); got {w.shape[0]}")
+    if not np.isfinite(w).all():
+        raise ValueError(f"weights: expected finite weights; got {w.tolist()}")
+    if abs(w.sum() - 1.0) > 1e-9:
+        raise ValueError(f"weights: expected weights summing to 1; got {w.tolist()} (sum {w.sum():g})")
+    if (w < 0).any() or (w > 1).any():
+        if k != 2:
+            raise ValueError(f"weights: expected weights in [0, 1] for {k} motions; got {w.tolist()}")
+        if not extrapolate:
+            raise ValueError(
+                f"weights: s = {w[1]:g} is outside [0, 1]: that extrapolates beyond the inputs; "
+                "pass extrapolate=True (CLI: --extrapolate) to allow it"
+            )
+    return w
+
+
+def _sample_rotations(m: Motion, joints: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Local rotations of ``joints`` at ``times`` (s) by geodesic interpolation, ``(N, k, 3, 3)``."""
+    f = np.clip(times * m.fps, 0.0, m.n_frames - 1)
+    i = np.clip(np.floor(f).astype(int), 0, m.n_frames - 2)
+    u = f - i
+    r0 = m.rotations[i][:, joints]
+    r1 = m.rotations[i + 1][:, joints]
+    return r0 @ _SO3.exp(u[:, None, None] * _SO3.log(np.swapaxes(r0, -1, -2) @ r1))
+
+
+def _sample_linear(arr: np.ndarray, fps: float, times: np.ndarray) -> np.ndarray:
+    """Linear interpolation of per-frame data ``(F, ...)`` at ``times`` (s)."""
+    n = arr.shape[0]
+    f = np.clip(times * fps, 0.0, n - 1)
+    i = np.clip(np.floor(f).astype(int), 0, max(n - 2, 0))
+    u = (f - i).reshape((-1,) + (1,) * (arr.ndim - 1))
+    j = np.minimum(i + 1, n - 1)
+    return (1.0 - u) * arr[i] + u * arr[j]
+
+
+def _blend_rotations(rots: list[np.ndarray], w: np.ndarray) -> np.ndarray:
+    """Weighted geodesic blend of rotation stacks ``(N, k, 3, 3)`` (two: geodesic point,
+    extrapolation allowed; more: weighted Karcher mean, batched)."""
+    if len(rots) == 2:
+        return rots[0] @ _SO3.exp(w[1] * _SO3.log(np.swapaxes(rots[0], -1, -2) @ rots[1]))
+    shape = rots[0].shape
+    n = int(np.prod(shape[:-2]))
+    g = PowerGroup(SO3(), n)
+    pts = np.stack([r.reshape(n, 3, 3) for r in rots])
+    return g.weighted_mean(pts, w).reshape(shape)
+
+
+def _timing(
+    warps: Sequence[np.ndarray], w: np.ndarray, durations: np.ndarray, fps: float
+) -> tuple[np.ndarray, str]:
+    """Curve parameters of the output frames (step 4) and a note (empty if regular)."""
+    x = np.unique(np.concatenate([v[:, 0] for v in warps] + [np.linspace(0.0, 1.0, 257)]))
+    total = np.zeros_like(x)
+    for v, wk, dk in zip(warps, w, durations, strict=True):
+        total += wk * dk * np.interp(x, v[:, 0], v[:, 1])
+    duration = float(np.dot(w, durations))
+    note = ""
+    if not (np.diff(total) > 0).all() or total[-1] <= 0:
+        if duration <= 0:
+            raise ValueError(
+                f"weights: the blended duration sum_k w_k d_k = {duration:g} s is not positive; "
+                "extrapolate less"
+            )
+        x = np.array([0.0, 1.0])
+        total = np.array([0.0, duration])
+        note = "timing: the blended clock is not increasing (extrapolation); played uniformly instead"
+    duration = float(total[-1])
+    n = math.floor(duration * fps + 1e-6) + 1
+    times = np.arange(n) / fps
+    u = np.interp(times, total, x)
+    u[0] = 0.0
+    if abs(times[-1] - duration) < 1e-6:
+        u[-1] = 1.0
+    return u, note
+
+
+def _blend_skeleton(ms: Sequence[Motion], w: np.ndarray, mode: str) -> Skeleton:
+    sk = ms[0].skeleton
+    if mode == "first" or len(ms) == 1:
+        return sk
+    offsets = np.einsum("k,kjd->jd", w, np.stack([m.skeleton.offsets for m in ms]))
+    es = sk.end_site_offsets
+    same_es = all(
+        m.skeleton.end_site_offsets.shape == es.shape
+        and np.array_equal(m.skeleton.end_site_parents, sk.end_site_parents)
+        for m in ms
+    )
+    if same_es and es.size:
+        es = np.einsum("k,kjd->jd", w, np.stack([m.skeleton.end_site_offsets for m in ms]))
+    return Skeleton(sk.names, sk.parents, offsets, sk.channels, sk.end_site_parents, es)
+
+
+def blend_motions(
+    motions: Sequence[Motion],
+    weights: float | Sequence[float] | None = None,
+    *,
+    method: str = "lie",
+    warp: str = "dp",
+    landmarks: Any = None,
+    lam: float = DEFAULT_LAMBDA,
+    joints: str | Sequence[str] = "all",
+    extrapolate: bool = False,
+    align: bool = True,
+    skeleton: str = "blend",
+    warp_fps: float = DEFAULT_WARP_FPS,
+    neighbourhood: int = DEFAULT_MAX_STEP,
+    landmark_kinds: Sequence[str] | None = None,
+    max_pairs: int | None = None,
+    metrics: bool = True,
+    progress: Progress | None = None,
+) -> BlendResult:
+    """Blend two or more motions.
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+        ``K >= 2`` motions (the first, A, sets the frame rate, joint order and placement).
+    weights : float or array_like of shape (K,), optional
+        Two motions: ``s`` (the result is ``(1 - s) A + s B``) or ``(1 - s, s)``. More: one
+        weight each, summing to 1. Default: equal weights.
+    method : {"lie", "euler-elastic", "euler-linear"}
+    warp : {"dp", "dp+refine", "none"}
+    landmarks : None, "auto" or array_like of shape (M, 2)
+        Two motions only: pairs ``(time in A, time in B)`` in seconds (after preparation,
+        i.e. from each motion's first frame), or ``"auto"``
+        (:func:`elastic_motion.apps.landmarks.auto_landmarks`).
+    lam : float
+        Relative landmark weight (:mod:`elastic_motion.apps.align`).
+    joints : "all", "common" or sequence of str
+        :func:`elastic_motion.apps.align.prepare_motions`.
+    extrapolate : bool
+        Allow ``s`` outside ``[0, 1]`` (two motions only).
+    align : bool
+        Place the inputs like A first (heading and floor position).
+    skeleton : {"blend", "first"}
+        Bone offsets of the result: weighted mean of the inputs', or A's.
+    warp_fps : float
+        Frame rate (at most) of the curves the warp is computed on.
+    neighbourhood : int
+        DP slopes.
+    landmark_kinds, max_pairs
+        For ``landmarks="auto"`` (default kind ``"left_knee_passes"``, all pairs).
+    metrics : bool
+        Compute :attr:`BlendResult.metrics` (three or more DP solves).
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+
+    Returns
+    -------
+    BlendResult
+
+    Raises
+    ------
+    ValueError
+        Fewer than 2 motions, weights outside ``[0, 1]`` without ``extrapolate``, weights not
+        summing to 1, different skeletons without ``joints="common"``, landmarks outside the
+        clips or out of order, landmarks with more than two motions or without a warp.
+    """
+    report = progress or null_progress
+    motions = list(motions)
+    k = len(motions)
+    if k < 2:
+        raise ValueError(f"motions: expected at least 2 motions to blend; got {k}")
+    _check_method(method)
+    _check_warp(warp)
+    if skeleton not in ("blend", "first"):
+        raise ValueError(f"skeleton: expected 'blend' or 'first'; got {skeleton!r}")
+    w = _check_weights(weights, k, extrapolate)
+    has_landmarks = landmarks is not None and not (isinstance(landmarks, str) and landmarks == "none")
+    if has_landmarks and k != 2:
+        raise ValueError(f"landmarks: supported for two motions only; got {k} motions")
+    if has_landmarks and warp == "none":
+        raise ValueError("landmarks: need a time warp (warp='dp' or 'dp+refine'), not warp='none'")
+
+    stages = 4 if metrics else 3
+    report("prepare", 0, stages)
+    prep = prepare_motions(motions, joints=joints, align=align)
+    ms = prep.motions
+    notes = list(prep.notes)
+    durations = np.array([m.duration for m in ms])
+    report("warp", 1, stages)
+
+    # 2. warps, on curves of the method at warp_fps
+    pairs: list[tuple[float, float]] = []
+    warps: list[np.ndarray] = [_IDENTITY] * k
+    if warp != "none":
+        coarse = motion_curves(prep, method, fps=warp_fps)
+        if k == 2:
+            pairs = resolve_landmarks(landmarks, ms[0], ms[1], kinds=landmark_kinds, max_pairs=max_pairs)
+            if has_landmarks and not pairs:
+                notes.append("landmarks auto: no events to pair; warp without landmarks")
+            theta = landmark_parameters(pairs, durations[0], durations[1], prep.labels[:2]) if pairs else None
+            res = solve_warp(
+                srv_transform(coarse[0]),
+                srv_transform(coarse[1]),
+                warp,
+                landmarks=theta,
+                lam=lam,
+                neighbourhood=neighbourhood,
+            )
+            warps = [_IDENTITY, np.asarray(res.vertices)]
+            notes.append(
+                f"warp ({warp}) of {prep.labels[1]} onto {prep.labels[0]}: distance {res.distance:.4g}"
+                + (f", {len(pairs)} landmark pairs" if pairs else "")
+            )
+        else:
+            from elastic_motion.apps.statistics import karcher_mean
+
+            n = max(c.n_points for c in coarse) - 1
+            km = karcher_mean(coarse, weights=w, n_samples=n, warp="dp", neighbourhood=neighbourhood)
+            warps = [np.asarray(v) for v in km.warps]
+            notes.append(
+                f"weighted Karcher mean template: {km.iterations} iterations, "
+                f"{'converged' if km.converged else 'not converged'}"
+            )
+    report("blend", 2, stages)
+
+    # 3-4. blend on the full-rate curves, sample on the blended clock
+    full = motion_curves(prep, method)
+    u, tnote = _timing(warps, w, durations, prep.fps)
+    if tnote:
+        notes.append(tnote)
+    local_u = [np.clip(np.interp(u, v[:, 0], v[:, 1]), 0.0, 1.0) for v in warps]
+    if method == "euler-linear":
+        values = sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, full, local_u, strict=True))
+        curve = DiscreteCurve(values, full[0].group)
+    else:
+        blended = weighted_blend(full, w, [None if v is _IDENTITY else v for v in warps])
+        curve = DiscreteCurve(blended.evaluate(u), blended.group)
+    like = prep.curve_motion(0)
+    conv = from_lie_curve if method == "lie" else from_euler_curve
+    body = conv(curve, like, fps=prep.fps)
+
+    # 5. assemble the full skeleton: curve joints from the curve, the others blended per frame
+    out_sk = _blend_skeleton(ms, w, skeleton)
+    names = out_sk.names
+    f_out = u.shape[0]
+    rotations = np.empty((f_out, len(names), 3, 3))
+    cj = [names.index(n) for n in prep.curve_joints]
+    rotations[:, cj] = body.rotations
+    extra = np.array([names.index(n) for n in prep.extra_joints], dtype=int)
+    times = [lu * d for lu, d in zip(local_u, durations, strict=True)]
+    if extra.size:
+        rots = [_sample_rotations(m, extra, t) for m, t in zip(ms, times, strict=True)]
+        rotations[:, extra] = _blend_rotations(rots, w)
+    jt = None
+    if all(m.joint_translations is not None for m in ms):
+        jt = sum(
+            wk * _sample_linear(m.joint_translations, m.fps, t) for wk, m, t in zip(w, ms, times, strict=True)
+        )
+    elif ms[0].joint_translations is not None:
+        jt = _sample_linear(ms[0].joint_translations, ms[0].fps, times[0])
+    label = " + ".join(f"{wk:.3g} {lab}" for wk, lab in zip(w, prep.labels, strict=True))
+    result = ms[0].replace(
+        skeleton=out_sk,
+        fps=prep.fps,
+        root_translation=body.root_translation,
+        rotations=rotations,
+        joint_translations=jt,
+        source=(),
+        name=f"blend ({method}, warp {warp}): {label}",
+    )
+
+    out_metrics: dict[str, Any] = {}
+    if metrics:
+        report("metrics", 3, stages)
+        out_metrics = blend_metrics(result, prep, w)
+    report("done", stages, stages)
+    return BlendResult(
+        motion=result,
+        method=method,
+        warp=warp,
+        weights=w,
+        warps=tuple(warps),
+        landmarks=tuple(pairs),
+        timing=u,
+        prepared=prep,
+        metrics=out_metrics,
+        notes=tuple(notes),
+    )
+
+
+def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray) -> dict[str, Any]:
+    """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
+
+    Returns
+    -------
+    dict
+        ``{"foot_sliding": {"result": {...}, "inputs": [{...}, ...]},
+        "bone_length_error": {"result": {...}, "vs_inputs": [{...}, ...]},
+        "distances": {"labels": [...], "between_inputs": [[...]], "result_to_inputs": [...],
+        "geodesic_expected": [...] (two motions: s d(A,B) and (1-s) d(A,B))}}``.
+    """
+    from elastic_motion.apps.distance import distance_table
+    from elastic_motion.apps.metrics import bone_length_error, foot_sliding
+
+    ms = prepared.motions
+    fs = {
+        "result": foot_sliding(result).summary(),
+        "inputs": [foot_sliding(m).summary() for m in ms],
+    }
+    ble = {
+        "result": bone_length_error(result).summary(),
+        "vs_inputs": [bone_length_error(result, m).summary() for m in ms],
+    }
+    table = distance_table([*ms, result], labels=[*prepared.labels, "result"], joints="common")
+    d = table.matrix
+    k = len(ms)
+    dist: dict[str, Any] = {
+        "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
+        "labels": list(prepared.labels),
+        "between_inputs": d[:k, :k].tolist(),
+        "result_to_inputs": d[k, :k].tolist(),
+    }
+    if k == 2:
+        dist["geodesic_expected"] = [float(weights[1] * d[0, 1]), float(weights[0] * d[0, 1])]
+    return {"foot_sliding": fs, "bone_length_error": ble, "distances": dist}

@@ -1,0 +1,535 @@
+"""The demo: blends, loops, distances, figures and videos from data found on the machine.
+
+:func:`run_demo` reads the DeepMimic motion clips shipped in the PyPI package ``pybullet``
+(``pybullet_data.getDataPath()/data/motions``; importing ``pybullet_data`` does not load
+the physics engine; install with ``pip install "elastic-motion[demo]"``) and writes a folder::
+
+    index.html            the results side by side, with short explanations
+    report.json           what was computed, the metrics, timings
+    blends/*.bvh          walk x run blends by every method (paper 001 Fig. 5, paper 000)
+    loops/*.bvh           the cartwheel and the backflip made seamless, and 3-cycle previews
+    distances.csv/.png    elastic distances between the clips
+    figures/*.png         foot trajectories, the warp, seams, SO(3) curves on the sphere
+    videos/*.gif (.mp4)   skeleton animations (MP4 when imageio-ffmpeg is installed)
+
+The walk (2 cycles, 2.5 s, 4 steps) and the run (3 cycles, 2.4 s, 6 steps) have different
+rhythms and numbers of steps: the case of paper 001 Fig. 5. Clips are short and videos
+small so that the whole demo runs in well under a minute once numba has compiled its
+kernels (the first run on a fresh machine also compiles them).
+"""
+
+from __future__ import annotations
+
+import csv
+import html
+import io
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.apps.progress import Progress, null_progress
+
+__all__ = ["DemoDataError", "DemoResult", "demo_data_dir", "run_demo"]
+
+_MARKER = ".elastic-motion-demo"
+
+#: (key, file in the motions folder, label, cycles to play for the blends)
+_BLEND_INPUTS = (
+    ("walk", "humanoid3d_walk.txt", "walk (2 cycles)", 2),
+    ("run", "humanoid3d_run.txt", "run (3 cycles)", 3),
+)
+_LOOP_INPUTS = (
+    ("cartwheel", "humanoid3d_cartwheel.txt", "cartwheel"),
+    ("backflip", "humanoid3d_backflip.txt", "backflip"),
+)
+_DISTANCE_INPUTS = (
+    ("walk", "humanoid3d_walk.txt"),
+    ("run", "humanoid3d_run.txt"),
+    ("jump", "humanoid3d_jump.txt"),
+    ("cartwheel", "humanoid3d_cartwheel.txt"),
+    ("backflip", "humanoid3d_backflip.txt"),
+    ("spinkick", "humanoid3d_spinkick.txt"),
+    ("kick", "humanoid3d_kick.txt"),
+    ("punch", "humanoid3d_punch.txt"),
+    ("walk turning left", "walker/turn_left0.txt"),
+)
+#: (file stem, method, warp, landmarks, label) -- paper 001 Fig. 5 (a)-(d), paper 000 Fig. 4
+_METHODS = (
+    ("euler_linear", "euler-linear", "none", None, "Euler, linear"),
+    ("euler_elastic", "euler-elastic", "none", None, "Euler, elastic"),
+    ("euler_elastic_warp", "euler-elastic", "dp", None, "Euler, elastic + warp"),
+    ("euler_elastic_landmarks", "euler-elastic", "dp", "auto", "Euler, elastic + warp + landmarks"),
+    ("lie", "lie", "none", None, "Lie group"),
+    ("lie_warp", "lie", "dp", None, "Lie group + warp"),
+)
+
+
+class DemoDataError(RuntimeError):
+    """The demo's motion clips were not found (pybullet is not installed)."""
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """What :func:`run_demo` wrote.
+
+    Attributes
+    ----------
+    out_dir : pathlib.Path
+    index : pathlib.Path
+        The ``index.html`` to open.
+    files : tuple of pathlib.Path
+        Every file written.
+    report : dict
+        The content of ``report.json``.
+    seconds : float
+        Wall-clock time.
+    """
+
+    out_dir: Path
+    index: Path
+    files: tuple[Path, ...]
+    report: dict[str, Any] = field(repr=False)
+    seconds: float = 0.0
+
+
+def demo_data_dir() -> Path:
+    """The DeepMimic motions folder of the installed ``pybullet`` package.
+
+    Raises
+    ------
+    DemoDataError
+        ``pybullet`` is not installed, or its data folder lacks the clips.
+    """
+    try:
+        import pybullet_data
+    except ImportError as exc:
+        raise DemoDataError(
+            "the demo reads the DeepMimic motion clips shipped with the PyPI package pybullet, which is "
+            'not installed: python -m pip install "elastic-motion[demo]" (or pip install pybullet)'
+        ) from exc
+    folder = Path(pybullet_data.getDataPath()) / "data" / "motions"
+    if not (folder / "humanoid3d_walk.txt").is_file():
+        raise DemoDataError(f"the DeepMimic clips were not found in {folder} (a pybullet without its data?)")
+    return folder
+
+
+def _prepare_out(out_dir: Path, force: bool) -> None:
+    if out_dir.exists():
+        if not out_dir.is_dir():
+            raise ValueError(f"out_dir: {str(out_dir)!r} exists and is not a folder")
+        if any(out_dir.iterdir()) and not (out_dir / _MARKER).exists() and not force:
+            raise ValueError(
+                f"out_dir: {str(out_dir)!r} is not empty and was not written by the demo; choose another "
+                "folder (or force=True / --force to write into it)"
+            )
+    for sub in ("blends", "loops", "figures", "videos"):
+        (out_dir / sub).mkdir(parents=True, exist_ok=True)
+    (out_dir / _MARKER).write_text("written by elastic-motion demo\n", encoding="utf-8")
+
+
+def _mp4_available() -> bool:
+    try:
+        import imageio_ffmpeg  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def run_demo(
+    out_dir: str | os.PathLike[str] = "elastic-motion-demo",
+    *,
+    data_dir: str | os.PathLike[str] | None = None,
+    video: bool = True,
+    mp4: bool | None = None,
+    force: bool = False,
+    progress: Progress | None = None,
+) -> DemoResult:
+    """Run the demo pipeline and write its folder (module docstring).
+
+    Parameters
+    ----------
+    out_dir : path
+        Output folder (created; a non-empty folder not written by the demo is refused).
+    data_dir : path, optional
+        Folder with the DeepMimic clips (default :func:`demo_data_dir`).
+    video : bool
+        Render the animations (the slowest part).
+    mp4 : bool, optional
+        Also write MP4 files; default: when imageio-ffmpeg is installed.
+    force : bool
+        Write into a non-empty folder anyway.
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+
+    Returns
+    -------
+    DemoResult
+    """
+    from elastic_motion.apps.blend import blend_motions
+    from elastic_motion.apps.distance import distance_table
+    from elastic_motion.apps.loop import loop_motion, repeat_motion, seam_metrics
+    from elastic_motion.apps.plots_database import plot_distance_matrix
+    from elastic_motion.apps.render import (
+        joint_rotation_curve,
+        plot_foot_trajectories,
+        plot_seam,
+        plot_so3_curves,
+        plot_warp,
+        render_animation,
+    )
+    from elastic_motion.apps.report import report_header, write_report
+    from elastic_motion.motion import read_motion, write_bvh
+
+    t_start = time.perf_counter()
+    report_cb = progress or null_progress
+    data = Path(data_dir) if data_dir is not None else demo_data_dir()
+    out = Path(out_dir)
+    _prepare_out(out, force)
+    mp4 = _mp4_available() if mp4 is None else bool(mp4)
+    files: list[Path] = []
+    timings: dict[str, float] = {}
+    rel = lambda p: p.relative_to(out).as_posix()  # noqa: E731
+
+    def read(name: str):
+        p = data / name
+        if not p.is_file():
+            raise DemoDataError(f"demo clip {name} not found in {data}")
+        return read_motion(p).replace(name=Path(name).stem.replace("humanoid3d_", ""))
+
+    # ---- blends -----------------------------------------------------------------------------
+    t0 = time.perf_counter()
+    inputs = {}
+    for key, fname, label, cycles in _BLEND_INPUTS:
+        inputs[key] = repeat_motion(read(fname), cycles).replace(name=label)
+    a, b = inputs["walk"], inputs["run"]
+    blends = []
+    for n, (stem, method, warp, lm, label) in enumerate(_METHODS):
+        report_cb("blends", n, len(_METHODS))
+        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm)
+        path = out / "blends" / f"walk_run_{stem}.bvh"
+        write_bvh(res.motion, path)
+        files.append(path)
+        blends.append((stem, label, res, path))
+    report_cb("blends", len(_METHODS), len(_METHODS))
+    for key in ("walk", "run"):
+        path = out / "blends" / f"input_{key}.bvh"
+        write_bvh(blends[0][2].prepared.motions[0 if key == "walk" else 1], path)
+        files.append(path)
+    timings["blends_s"] = time.perf_counter() - t0
+
+    # ---- loops ------------------------------------------------------------------------------
+    t0 = time.perf_counter()
+    loops = []
+    for n, (key, fname, label) in enumerate(_LOOP_INPUTS):
+        report_cb("loops", n, len(_LOOP_INPUTS))
+        m = read(fname)
+        res = loop_motion(m)
+        before = seam_metrics(m, joints=list(res.closed_joints))
+        after = seam_metrics(res.motion, original=m, joints=list(res.closed_joints))
+        p1 = out / "loops" / f"{key}_loop.bvh"
+        p3 = out / "loops" / f"{key}_loop.repeat3.bvh"
+        p0 = out / "loops" / f"{key}_original.repeat3.bvh"
+        write_bvh(res.motion, p1)
+        write_bvh(repeat_motion(res.motion, 3), p3)
+        write_bvh(repeat_motion(m, 3), p0)
+        files += [p1, p3, p0]
+        loops.append((key, label, m, res, before, after))
+    report_cb("loops", len(_LOOP_INPUTS), len(_LOOP_INPUTS))
+    timings["loops_s"] = time.perf_counter() - t0
+
+    # ---- distances --------------------------------------------------------------------------
+    t0 = time.perf_counter()
+    clips = [read(f).replace(name=k) for k, f in _DISTANCE_INPUTS]
+    table = distance_table(clips, labels=[k for k, _ in _DISTANCE_INPUTS], progress=report_cb)
+    csv_path = out / "distances.csv"
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["", *table.labels])
+    for lab, row in zip(table.labels, table.matrix, strict=True):
+        w.writerow([lab, *(f"{x:.4f}" for x in row)])
+    from elastic_motion.motion._io import atomic_write_text
+
+    atomic_write_text(csv_path, buf.getvalue())
+    png = plot_distance_matrix(
+        table.matrix, list(table.labels), out / "distances.png", title="Lie elastic distances"
+    )
+    files += [csv_path, Path(png)]
+    timings["distances_s"] = time.perf_counter() - t0
+
+    # ---- figures ----------------------------------------------------------------------------
+    t0 = time.perf_counter()
+    report_cb("figures", 0, 5)
+    pa, pb = blends[0][2].prepared.motions
+    figs = {}
+    figs["feet"] = out / "figures" / "blend_feet.png"
+    plot_foot_trajectories(
+        [pa, pb] + [r.motion for _, _, r, _ in blends],
+        figs["feet"],
+        labels=["A: walk", "B: run"] + [lab for _, lab, _, _ in blends],
+        ncols=4,
+        title="Feet (left blue, right orange) of the inputs and of the 50 % blends",
+    )
+    from elastic_motion.apps.align import align_motions
+
+    al = align_motions(a, b, landmarks="auto")
+    figs["warp"] = out / "figures" / "blend_warp.png"
+    plot_warp(al, figs["warp"])
+    lie = next(r for s, _, r, _ in blends if s == "lie_warp")
+    figs["sphere"] = out / "figures" / "blend_sphere.png"
+    joint = "right_hip"
+    plot_so3_curves(
+        [joint_rotation_curve(m, joint) for m in (pa, pb, lie.motion)],
+        figs["sphere"],
+        labels=["walk", "run", "Lie blend + warp"],
+        vectors=((0.0, -1.0, 0.0),),
+        title="right hip rotation: the thigh direction on the sphere",
+    )
+    report_cb("figures", 3, 5)
+    for key, label, m, res, _, _ in loops:
+        figs[f"seam_{key}"] = out / "figures" / f"loop_{key}_seam.png"
+        plot_seam(
+            m, res.motion, figs[f"seam_{key}"], title=f"DeepMimic {label}: 3 cycles before / after closing"
+        )
+    files += list(figs.values())
+    report_cb("figures", 5, 5)
+    timings["figures_s"] = time.perf_counter() - t0
+
+    # ---- videos -----------------------------------------------------------------------------
+    t0 = time.perf_counter()
+    videos: dict[str, list[Path]] = {}
+    if video:
+        jobs = [
+            (
+                "blend_inputs",
+                [pa, pb, lie.motion, blends[0][2].motion],
+                ["A: walk", "B: run", "Lie + warp (50 %)", "Euler linear (50 %)"],
+                dict(panel_size=(240, 240)),
+            ),
+            (
+                "blend_methods",
+                [r.motion for _, _, r, _ in blends],
+                [lab for _, lab, _, _ in blends],
+                dict(panel_size=(200, 220)),
+            ),
+        ]
+        for key, label, m, res, _, _ in loops:
+            jobs.append(
+                (
+                    f"loop_{key}",
+                    [repeat_motion(m, 3), repeat_motion(res.motion, 3)],
+                    [f"{label} x3, original", f"{label} x3, looped"],
+                    dict(panel_size=(240, 240), fps=20.0),
+                )
+            )
+        for n, (key, motions, labels, kw) in enumerate(jobs):
+            report_cb("videos", n, len(jobs))
+            paths = [out / "videos" / f"{key}.gif"]
+            if mp4:
+                paths.append(out / "videos" / f"{key}.mp4")
+            render_animation(motions, paths[0], also=paths[1:], labels=labels, **kw)
+            files += paths
+            videos[key] = paths
+        report_cb("videos", len(jobs), len(jobs))
+    timings["videos_s"] = time.perf_counter() - t0
+
+    # ---- report and index -------------------------------------------------------------------
+    rep = report_header("demo", [str(data)], [rel(p) for p in files])
+    rep["data"] = str(data)
+    rep["blends"] = [{"file": rel(p), "label": lab, **r.summary()} for _, lab, r, p in blends]
+    rep["loops"] = [
+        {
+            "clip": key,
+            "closed_joints": list(res.closed_joints),
+            "heading_change_rad": res.heading_change,
+            "seam_before": {k: v for k, v in before.items() if np.ndim(v) == 0},
+            "seam_after": {k: v for k, v in after.items() if np.ndim(v) == 0},
+            "closing_iterations": res.closing.iterations,
+        }
+        for key, _, _, res, before, after in loops
+    ]
+    rep["distances"] = table.summary()
+    rep["alignment"] = al.summary()
+    timings["total_s"] = time.perf_counter() - t_start
+    rep["timings"] = timings
+    index = out / "index.html"
+    from elastic_motion.motion._io import atomic_write_text
+
+    atomic_write_text(index, _html(out, blends, loops, table, al, figs, videos, timings))
+    write_report(out / "report.json", rep)
+    files += [index, out / "report.json"]
+    return DemoResult(out, index, tuple(files), rep, time.perf_counter() - t_start)
+
+
+# ------------------------------------------------------------------------------------------
+# index.html
+# ------------------------------------------------------------------------------------------
+
+_CSS = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1250px;
+       color: #222; line-height: 1.45; }
+h1 { font-size: 1.6em; } h2 { font-size: 1.25em; margin-top: 2em; border-bottom: 1px solid #ddd; }
+img { max-width: 100%; border: 1px solid #eee; }
+table { border-collapse: collapse; font-size: 0.9em; margin: 0.8em 0; }
+td, th { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: right; }
+th { background: #f5f5f5; } td:first-child, th:first-child { text-align: left; }
+.row { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }
+.row > figure { margin: 0; flex: 1 1 380px; } figcaption { font-size: 0.85em; color: #555; }
+code { background: #f3f3f3; padding: 0 0.2em; } .note { color: #666; font-size: 0.9em; }
+"""
+
+
+def _img(out: Path, p: Path, caption: str) -> str:
+    return (
+        f'<figure><img src="{html.escape(p.relative_to(out).as_posix())}" alt="{html.escape(caption)}">'
+        f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+    )
+
+
+def _video(out: Path, paths: Sequence[Path], caption: str) -> str:
+    gif = next((p for p in paths if p.suffix == ".gif"), None)
+    mp4 = next((p for p in paths if p.suffix == ".mp4"), None)
+    body = _img(out, gif, caption) if gif is not None else ""
+    if mp4 is not None:
+        body = body.replace(
+            "</figcaption>",
+            f' (<a href="{html.escape(mp4.relative_to(out).as_posix())}">MP4</a>)</figcaption>',
+        )
+    return body
+
+
+def _f(x: Any, d: int = 3) -> str:
+    try:
+        return f"{float(x):.{d}g}"
+    except (TypeError, ValueError):
+        return html.escape(str(x))
+
+
+def _html(out, blends, loops, table, al, figs, videos, timings) -> str:
+    e = html.escape
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'><title>elastic-motion demo</title>",
+        f"<style>{_CSS}</style></head><body>",
+        "<h1>elastic-motion demo</h1>",
+        "<p>Everything on this page was computed on this machine from the DeepMimic motion clips that "
+        "ship with the <code>pybullet</code> package (MIT licence). Motions are curves in "
+        "R<sup>3</sup> &times; SO(3)<sup>J</sup> (root position and one rotation per joint); the square "
+        "root velocity transform (SRVT) turns them into functions in a vector space where blends are "
+        "straight lines and distances are L2 distances, after the optimal time warp. The BVH files beside "
+        "this page open in Blender and three.js.</p>",
+        "<h2>1. Blending a walk and a run</h2>",
+        "<p>A walk (2 cycles, 2.5 s, 4 steps) and a run (3 cycles, 2.4 s, 6 steps) have different rhythms "
+        "and numbers of steps, the hard case of paper 001 Fig. 5. Each blend is 50 % of each, computed by "
+        "the four methods of paper 001 (Euler angles: linear; elastic; elastic with the optimal time warp; "
+        "with the warp and landmarks: the left knee passing the right knee, paired in order) and by the Lie "
+        "group method of paper 000 without and with the warp. The run is first turned and moved to run "
+        "where the walk goes. Read the table with the pictures: without a warp the elastic blends mix "
+        "steps out of phase and their feet slide most; the linear Euler blend slides little here but is "
+        "the farthest from the walk (it looks mostly like the run); with the warp the blends sit near the "
+        "middle between walk and run. Four steps cannot be matched to six one by one, so the warp "
+        "compresses part of the run (the steep section of the warp plot) and the feet slide there.</p>",
+    ]
+    if "blend_inputs" in videos:
+        parts.append(
+            "<div class='row'>"
+            + _video(
+                out, videos["blend_inputs"], "the inputs, the Lie blend with warp and the linear Euler blend"
+            )
+            + "</div><div class='row'>"
+            + _video(out, videos["blend_methods"], "all six blends side by side")
+            + "</div>"
+        )
+    parts.append("<div class='row'>" + _img(out, figs["feet"], "foot trajectories (side view)") + "</div>")
+    parts.append(
+        "<table><tr><th>method</th><th>file</th><th>frames</th><th>foot sliding (m/s)</th>"
+        "<th>distance to walk</th><th>distance to run</th></tr>"
+    )
+    slide_in = blends[0][2].metrics["foot_sliding"]["inputs"]
+    parts.append(
+        f"<tr><td>inputs</td><td></td><td></td><td>walk {_f(slide_in[0]['mean_speed_m_s'])}, run "
+        f"{_f(slide_in[1]['mean_speed_m_s'])}</td><td colspan=2>walk to run: "
+        f"{_f(blends[0][2].metrics['distances']['between_inputs'][0][1])}</td></tr>"
+    )
+    for _, label, r, p in blends:
+        met = r.metrics
+        d = met["distances"]["result_to_inputs"]
+        parts.append(
+            f"<tr><td>{e(label)}</td><td><a href='{e(p.relative_to(out).as_posix())}'>{e(p.name)}</a></td>"
+            f"<td>{r.motion.n_frames}</td><td>{_f(met['foot_sliding']['result']['mean_speed_m_s'])}</td>"
+            f"<td>{_f(d[0])}</td><td>{_f(d[1])}</td></tr>"
+        )
+    parts.append(
+        "</table><p class='note'>Foot sliding: mean horizontal speed of the foot joints while they are "
+        "within 5 cm of their lowest height (compare with the inputs' own values: the measure is coarse). "
+        "Distances: "
+        "Lie elastic distance of the result to each input; a blend on the SRV geodesic with the warp sits at "
+        "half the walk-run distance from each.</p>"
+    )
+    parts.append(
+        "<div class='row'>"
+        + _img(out, figs["warp"], "the optimal time warp (Lie, with landmarks), seconds of the walk -> run")
+        + _img(
+            out,
+            figs["sphere"],
+            "SO(3) curves on the sphere (paper 000 Fig. 2): the right hip of walk, run, blend",
+        )
+        + "</div>"
+    )
+    parts.append(
+        "<h2>2. Seamless loops</h2><p>Played three times in a row, the original cartwheel and backflip "
+        "jump at each seam: their last frame is not their first. Closing the curve in R<sup>3</sup> &times; "
+        "SO(3)<sup>J</sup> (paper 000, sec. 4, Gauss-Newton) moves the whole clip a little so that it ends "
+        "where it starts, keeping the displacement and turn of one cycle (the character travels on).</p>"
+    )
+    for key, label, _, _, _, _ in loops:
+        if f"loop_{key}" in videos:
+            parts.append(
+                "<div class='row'>"
+                + _video(out, videos[f"loop_{key}"], f"{label}: original and looped, 3 cycles")
+                + "</div>"
+            )
+        parts.append(
+            "<div class='row'>"
+            + _img(out, figs[f"seam_{key}"], f"{label}: the seam before and after")
+            + "</div>"
+        )
+    parts.append(
+        "<table><tr><th>clip</th><th>largest joint angle at the seam (deg)</th><th>largest position jump (m)"
+        "</th><th>largest change of the clip (m)</th><th>iterations</th></tr>"
+    )
+    for key, _, _, res, before, after in loops:
+        parts.append(
+            f"<tr><td>{e(key)}</td>"
+            f"<td>{_f(before['seam_angle_max_deg'])} &rarr; {_f(after['seam_angle_max_deg'])}</td>"
+            f"<td>{_f(before['seam_position_max_m'])} &rarr; {_f(after['seam_position_max_m'])}</td>"
+            f"<td>{_f(after.get('deviation_max_m', 0))}</td><td>{res.closing.iterations}</td></tr>"
+        )
+    parts.append("</table>")
+    parts.append(
+        "<h2>3. Distances between motions</h2><p>Elastic distances of the clips' SRV functions after the "
+        "optimal time warp (each clip's duration normalised): similar motions are close (walks, runs), "
+        "acrobatics far from everything. This is the basis of search and classification "
+        "(<code>elastic-motion matrix</code> scales it to databases).</p>"
+    )
+    parts.append(
+        "<div class='row'>"
+        + _img(out, figs.get("distances", out / "distances.png"), "distance matrix")
+        + "</div>"
+    )
+    parts.append("<table><tr><th></th>" + "".join(f"<th>{e(x)}</th>" for x in table.labels) + "</tr>")
+    for lab, row in zip(table.labels, table.matrix, strict=True):
+        parts.append(f"<tr><td>{e(lab)}</td>" + "".join(f"<td>{x:.2f}</td>" for x in row) + "</tr>")
+    parts.append("</table>")
+    parts.append(
+        "<h2>Reproduce</h2><p><code>elastic-motion blend A.bvh B.bvh -o out.bvh --method lie --warp dp "
+        "--json report.json</code>, <code>elastic-motion loop clip.bvh -o loop.bvh --repeat 3</code>, "
+        "<code>elastic-motion distance A B C</code>, <code>elastic-motion render A B -o cmp.gif</code>; "
+        "see <code>docs/cli.md</code>. Timings of this run: "
+        + ", ".join(f"{k.replace('_s', '')} {v:.1f} s" for k, v in timings.items())
+        + ".</p></body></html>\n"
+    )
+    return "\n".join(parts)

@@ -1,0 +1,160 @@
+"""Elastic distances between a few motions, computed serially.
+
+For many motions (caching, tiles, parallel engines, resume) use
+:mod:`elastic_motion.apps.database`; this module is the small, direct version behind
+``elastic-motion distance A B [C ...]`` and the blend report.
+
+Conventions
+-----------
+* The motions are prepared together (:func:`elastic_motion.apps.align.prepare_motions`:
+  metres, common joints, one frame rate, each placed like the first), their curves are
+  built over the non-finger joints with weights shared by all (``"lie"``) or unweighted
+  (``"euler-*"``), at most ``warp_fps`` frames per second, each on ``[0, 1]`` (a clip's
+  duration is normalised away: the distance compares shapes, not lengths).
+* ``warp="dp"``: the elastic distance ``min_phi ||q_i - q_j * phi||`` by dynamic
+  programming (:func:`elastic_motion.warp.optimal_warp`), always with the lower index as
+  the curve warped onto (``q_i``, ``i < j``); ``warp="none"``: ``||q_i - q_j||``, the
+  distance of the parametrised curves (paper 000, eq. 4). The matrix is symmetric with a
+  zero diagonal.
+* The database module uses the same definitions but samples every clip at a fixed number
+  of frames (``n_samples + 1``) instead of a frame rate, so its numbers differ slightly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastic_motion.apps.align import (
+    DEFAULT_WARP_FPS,
+    _check_method,
+    _check_warp,
+    motion_curves,
+    prepare_motions,
+)
+from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.curves import srv_transform
+from elastic_motion.motion import Motion
+from elastic_motion.warp import DEFAULT_MAX_STEP, optimal_warp, warp_energy
+
+__all__ = ["DistanceTable", "distance_table", "format_table", "motion_distance"]
+
+_IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class DistanceTable:
+    """Pairwise distances of a few motions (:func:`distance_table`).
+
+    Attributes
+    ----------
+    labels : tuple of str
+    matrix : ndarray, shape (K, K)
+        Symmetric, zero diagonal: elastic distances (``warp != "none"``) or distances of the
+        parametrised curves.
+    unwarped : ndarray, shape (K, K)
+        ``||q_i - q_j||`` without warp (equal to ``matrix`` for ``warp="none"``).
+    method, warp : str
+    notes : tuple of str
+        From the preparation.
+    """
+
+    labels: tuple[str, ...]
+    matrix: np.ndarray
+    unwarped: np.ndarray
+    method: str
+    warp: str
+    notes: tuple[str, ...] = ()
+
+    def summary(self) -> dict:
+        """JSON-ready fields."""
+        return {
+            "labels": list(self.labels),
+            "method": self.method,
+            "warp": self.warp,
+            "distances": self.matrix.tolist(),
+            "distances_unwarped": self.unwarped.tolist(),
+            "notes": list(self.notes),
+        }
+
+
+def distance_table(
+    motions: Sequence[Motion],
+    *,
+    labels: Sequence[str] | None = None,
+    method: str = "lie",
+    warp: str = "dp",
+    joints: str | Sequence[str] = "all",
+    align: bool = True,
+    warp_fps: float = DEFAULT_WARP_FPS,
+    neighbourhood: int = DEFAULT_MAX_STEP,
+    progress: Progress | None = None,
+) -> DistanceTable:
+    """All pairwise distances of ``K >= 2`` motions, serially (``K (K - 1) / 2`` DP solves).
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+    labels : sequence of str, optional
+    method : {"lie", "euler-elastic", "euler-linear"}
+        Representation (both Euler methods mean the Euler curve here).
+    warp : {"dp", "dp+refine", "none"}
+    joints : "all", "common" or sequence of str
+        See :func:`elastic_motion.apps.align.prepare_motions`.
+    align : bool
+        Place the motions like the first (heading and floor position).
+    warp_fps : float
+        Frame rate (at most) of the curves.
+    neighbourhood : int
+        DP slopes.
+    progress : callable, optional
+        ``progress("distances", done, total)``.
+
+    Returns
+    -------
+    DistanceTable
+    """
+    _check_method(method)
+    _check_warp(warp)
+    report = progress or null_progress
+    motions = list(motions)
+    if len(motions) < 2:
+        raise ValueError(f"motions: expected at least 2 motions; got {len(motions)}")
+    prep = prepare_motions(motions, joints=joints, align=align, labels=labels)
+    srvs = [srv_transform(c) for c in motion_curves(prep, method, fps=warp_fps)]
+    k = len(srvs)
+    d = np.zeros((k, k))
+    du = np.zeros((k, k))
+    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
+    report("distances", 0, len(pairs))
+    for n, (i, j) in enumerate(pairs):
+        a, b = srvs[i], srvs[j]
+        du[i, j] = du[j, i] = math.sqrt(max(warp_energy(a.q, b.q, _IDENTITY, a.t, b.t), 0.0))
+        if warp == "none":
+            d[i, j] = d[j, i] = du[i, j]
+        else:
+            r = optimal_warp(a.q, b.q, t0=a.t, t1=b.t, method=warp, neighbourhood=neighbourhood)
+            d[i, j] = d[j, i] = r.distance
+        report("distances", n + 1, len(pairs))
+    return DistanceTable(prep.labels, d, du, method, warp, prep.notes)
+
+
+def motion_distance(a: Motion, b: Motion, **kw) -> float:
+    """Elastic distance of two motions: ``distance_table([a, b], **kw).matrix[0, 1]``."""
+    return float(distance_table([a, b], **kw).matrix[0, 1])
+
+
+def format_table(table: DistanceTable, digits: int = 3) -> str:
+    """The matrix as aligned text: one row per motion (``[i] label``), columns by index."""
+    labels = [f"[{i}] {lab}" for i, lab in enumerate(table.labels)]
+    w = max(len(x) for x in labels)
+    cw = max(digits + 5, 6)
+    rows = [" " * w + "  " + "  ".join(f"{f'[{j}]':>{cw}}" for j in range(len(labels)))]
+    for i, lab in enumerate(labels):
+        rows.append(
+            f"{lab:<{w}}  " + "  ".join(f"{table.matrix[i, j]:>{cw}.{digits}f}" for j in range(len(labels)))
+        )
+    return "\n".join(rows)

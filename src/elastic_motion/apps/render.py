@@ -1,0 +1,995 @@
+"""Pictures and videos of motions: skeleton animations side by side, foot trajectories (the
+papers' figures), the time warp, the loop seam, and curves in SO(3) on the sphere.
+
+Everything draws with matplotlib's object API on an Agg canvas (no pyplot state, no
+window); files are written atomically (temporary file + ``os.replace``).
+
+Conventions
+-----------
+* **Camera** (:class:`View`): orthographic, looking at the motions from the side. The
+  screen's horizontal axis is the main floor direction of travel of the first motion (the
+  principal direction of its floor-plane root path, oriented from start to end; the root's
+  facing direction when it stays on the spot), turned by ``azimuth`` degrees about the up
+  axis; the screen's vertical axis is the up axis, tilted by ``elevation`` degrees (points
+  farther from the camera appear higher). One view is shared by all panels of a figure so
+  that directions compare.
+* **Colours**: left limbs blue, right limbs orange (as in paper 001 Fig. 5-6: blue and
+  orange foot trajectories), the rest grey. The side of a joint comes from its name
+  (``Left``/``L``/``l`` prefix or ``_L`` suffix, and likewise for right).
+* **Feet**: the ankle joints of :func:`elastic_motion.apps.landmarks.find_leg_joints`
+  (the joint located at the ankle: CMU ``LeftFoot``, DeepMimic ``left_ankle``); where
+  none is found, the lowest joint of each side.
+* **Units**: metres when the motion's unit is known.
+* **Video formats**: ``.gif`` through Pillow (a matplotlib dependency), ``.mp4`` (H.264)
+  through the optional ``imageio-ffmpeg`` package (``pip install "elastic-motion[video]"``),
+  ``.png`` a still (see :func:`render`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.motion import Motion, forward_kinematics, global_rotations, select_frames
+
+__all__ = [
+    "VIDEO_FORMATS",
+    "View",
+    "joint_rotation_curve",
+    "plot_foot_trajectories",
+    "plot_seam",
+    "plot_so3_curves",
+    "plot_warp",
+    "render",
+    "render_animation",
+    "save_figure",
+    "side_view",
+]
+
+#: File extensions :func:`render_animation` writes.
+VIDEO_FORMATS = (".gif", ".mp4")
+
+_AXES = "xyz"
+_LEFT = "#1f77b4"  # matplotlib blue
+_RIGHT = "#ff7f0e"  # matplotlib orange
+_CENTRE = "#555555"
+_GHOST = "#b0b0b0"
+
+
+# ------------------------------------------------------------------------------------------
+# Figures and files
+# ------------------------------------------------------------------------------------------
+
+
+def _figure(width: float, height: float, dpi: float = 100):
+    """A matplotlib Figure on an Agg canvas (inches)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _atomic_target(path: Path) -> tuple[Path, Callable[[], None], Callable[[], None]]:
+    """A temporary path beside ``path`` with the same suffix, and commit / abort functions."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp_p = Path(tmp)
+
+    def commit() -> None:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp_p, 0o666 & ~umask)  # mkstemp makes 0600; give the mode open() would
+        os.replace(tmp_p, path)
+
+    def abort() -> None:
+        try:
+            tmp_p.unlink()
+        except OSError:
+            pass
+
+    return tmp_p, commit, abort
+
+
+def _check_output(path: str | os.PathLike[str], protected: Sequence[str | os.PathLike[str]]) -> Path:
+    from elastic_motion.motion._io import same_file
+
+    out = Path(path)
+    for p in protected:
+        if same_file(out, p):
+            raise ValueError(f"output: refusing to overwrite the input file {os.fspath(p)!r}")
+    return out
+
+
+def save_figure(
+    fig: Any, path: str | os.PathLike[str], *, dpi: float | None = None, protected: Sequence[str] = ()
+) -> Path:
+    """Save a figure atomically (format from the extension: png, svg, pdf)."""
+    out = _check_output(path, protected)
+    tmp, commit, abort = _atomic_target(out)
+    try:
+        fig.savefig(tmp, dpi=dpi or fig.dpi)
+        commit()
+    except BaseException:
+        abort()
+        raise
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# Camera, sides, feet
+# ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class View:
+    """An orthographic side camera (module docstring).
+
+    Attributes
+    ----------
+    right : ndarray, shape (3,)
+        World direction shown to the right (horizontal).
+    up : ndarray, shape (3,)
+        The up axis.
+    depth : ndarray, shape (3,)
+        Horizontal direction away from the camera.
+    elevation : float
+        Radians.
+    """
+
+    right: np.ndarray
+    up: np.ndarray
+    depth: np.ndarray
+    elevation: float = 0.0
+
+    def project(self, p: np.ndarray) -> np.ndarray:
+        """Screen coordinates ``(..., 2)`` of world points ``(..., 3)``."""
+        x = p @ self.right
+        y = (p @ self.up) * math.cos(self.elevation) + (p @ self.depth) * math.sin(self.elevation)
+        return np.stack([x, y], axis=-1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v)
+    return v / n if n > 0 else v
+
+
+def side_view(motion: Motion, *, azimuth: float = 0.0, elevation: float = 0.0) -> View:
+    """The side camera for ``motion`` (module docstring); angles in degrees."""
+    up_i = _AXES.index(motion.up_axis)
+    up = np.zeros(3)
+    up[up_i] = 1.0
+    r = motion.root_translation * (motion.metres_per_unit or 1.0)
+    flat = r - np.outer(r @ up, up)
+    centred = flat - flat.mean(axis=0)
+    direction = np.zeros(3)
+    if np.abs(centred).max() > 0.05:
+        direction = np.linalg.svd(centred, full_matrices=False)[2][0]
+        if direction @ (flat[-1] - flat[0]) < 0:
+            direction = -direction
+    if np.linalg.norm(direction) < 1e-9:
+        p = (up_i + 1) % 3
+        fwd = motion.rotations[0, 0][:, p]
+        direction = fwd - (fwd @ up) * up
+        if np.linalg.norm(direction) < 1e-9:
+            direction = np.roll(up, 1)
+    direction = _unit(direction)
+    a = math.radians(azimuth)
+    side = np.cross(up, direction)
+    right = _unit(math.cos(a) * direction + math.sin(a) * side)
+    depth = np.cross(up, right)
+    return View(right, up, depth, math.radians(elevation))
+
+
+_SIDE_RE = (
+    (re.compile(r"^(left|l(?=[A-Z_.]))|(_l|\.l|left)$"), "L"),
+    (re.compile(r"^(right|r(?=[A-Z_.]))|(_r|\.r|right)$"), "R"),
+)
+_ASF_PARTS = ("hipjoint femur tibia foot toes clavicle humerus radius wrist hand fingers thumb").split()
+
+
+def _side(name: str) -> str:
+    """``"L"``, ``"R"`` or ``""`` from a joint name."""
+    raw = name.rsplit(":", 1)[-1]
+    low = raw.lower()
+    if low.startswith("left") or low.endswith(("_l", ".l", "left")) or re.match(r"^L[A-Z_]", raw):
+        return "L"
+    if low.startswith("right") or low.endswith(("_r", ".r", "right")) or re.match(r"^R[A-Z_]", raw):
+        return "R"
+    if low[:1] in ("l", "r") and low[1:] in _ASF_PARTS:
+        return low[0].upper()
+    return ""
+
+
+def _bone_colours(motion: Motion) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Segments as index pairs into the FK point array (joints then end sites) and colours."""
+    sk = motion.skeleton
+    a, b, colours = [], [], []
+    for j in range(1, sk.n_joints):
+        a.append(int(sk.parents[j]))
+        b.append(j)
+        colours.append(_colour(_side(sk.names[j])))
+    for e, p in enumerate(sk.end_site_parents):
+        a.append(int(p))
+        b.append(sk.n_joints + e)
+        colours.append(_colour(_side(sk.names[int(p)])))
+    return np.array(a, dtype=int), np.array(b, dtype=int), colours
+
+
+def _colour(side: str) -> str:
+    return _LEFT if side == "L" else _RIGHT if side == "R" else _CENTRE
+
+
+def _feet(motion: Motion) -> tuple[int | None, int | None]:
+    """Indices of the left and right ankle joints (or the lowest joint of each side)."""
+    from elastic_motion.apps.landmarks import find_leg_joints
+
+    sk = motion.skeleton
+    legs = find_leg_joints(sk)
+    out: list[int | None] = []
+    for side, name in (("L", legs.left_ankle), ("R", legs.right_ankle)):
+        if name is not None:
+            out.append(sk.index(name))
+            continue
+        cand = [j for j, n in enumerate(sk.names) if _side(n) == side]
+        if not cand:
+            out.append(None)
+            continue
+        rest = forward_kinematics(select_frames(motion, slice(0, 1)))[0]
+        up = _AXES.index(motion.up_axis)
+        out.append(int(min(cand, key=lambda j: rest[j, up])))
+    return out[0], out[1]
+
+
+def _points(motion: Motion) -> np.ndarray:
+    """FK positions of joints and end sites, metres, ``(F, J + E, 3)``."""
+    return forward_kinematics(motion, end_sites=True) * (motion.metres_per_unit or 1.0)
+
+
+# ------------------------------------------------------------------------------------------
+# Animation
+# ------------------------------------------------------------------------------------------
+
+
+class _VideoSink:
+    """Frames in, one video file out (atomically): ``send(rgb)``, then ``commit()`` or ``abort()``."""
+
+    def __init__(self, path: Path, fps: float) -> None:
+        self.path = path
+        self.fps = fps
+        self.ext = path.suffix.lower()
+        if self.ext not in VIDEO_FORMATS:
+            raise ValueError(f"output: expected a .gif or .mp4 file for an animation; got {path.name!r}")
+        self._ffmpeg = None
+        if self.ext == ".mp4":
+            try:
+                import imageio_ffmpeg
+            except ImportError as exc:
+                raise ValueError(
+                    f"output: writing {path.name!r} (MP4) needs the optional package imageio-ffmpeg: "
+                    'pip install "elastic-motion[video]"; or write a .gif'
+                ) from exc
+            self._ffmpeg = imageio_ffmpeg
+        self._frames: list[Any] = []
+        self._writer = None
+        self.tmp, self._commit, self._abort = _atomic_target(path)
+
+    def send(self, rgb: np.ndarray) -> None:
+        if self.ext == ".gif":
+            from PIL import Image
+
+            img = Image.fromarray(rgb)
+            if not self._frames:  # one palette for the whole clip: stable colours, fast
+                self._frames.append(img.quantize(colors=96, method=Image.Quantize.MEDIANCUT))
+            else:
+                self._frames.append(img.quantize(palette=self._frames[0], dither=Image.Dither.NONE))
+            return
+        if self._writer is None:
+            self._writer = self._ffmpeg.write_frames(
+                str(self.tmp),
+                (rgb.shape[1], rgb.shape[0]),
+                fps=self.fps,
+                codec="libx264",
+                pix_fmt_out="yuv420p",
+                quality=6,
+                macro_block_size=2,
+                ffmpeg_log_level="error",
+            )
+            self._writer.send(None)
+        self._writer.send(np.ascontiguousarray(rgb))
+
+    def commit(self) -> None:
+        if self.ext == ".gif":
+            self._frames[0].save(
+                self.tmp,
+                format="GIF",
+                save_all=True,
+                append_images=self._frames[1:],
+                duration=max(20, round(1000.0 / self.fps)),
+                loop=0,
+                disposal=1,
+            )
+            self._frames = []
+        elif self._writer is not None:
+            self._writer.close()
+        self._commit()
+
+    def abort(self) -> None:
+        if self._writer is not None:
+            try:
+                self._writer.close()
+            except Exception:
+                pass
+        self._abort()
+
+
+def render_animation(
+    motions: Sequence[Motion],
+    path: str | os.PathLike[str],
+    *,
+    labels: Sequence[str] | None = None,
+    fps: float | None = None,
+    panel_size: tuple[int, int] = (320, 320),
+    seconds: float | None = None,
+    trail: float = 1.0,
+    azimuth: float = 25.0,
+    elevation: float = 12.0,
+    also: Sequence[str | os.PathLike[str]] = (),
+    protected: Sequence[str] = (),
+    progress: Progress | None = None,
+) -> Path:
+    """Skeleton animations side by side, written as a GIF or an MP4.
+
+    Each panel follows its motion's root along the floor (the camera moves with it; the
+    ticks on the floor, every 0.5 m, show the travel) and draws the trails of both feet
+    over the last ``trail`` seconds. All motions play at the same clock; a shorter one
+    holds its last frame.
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+    path : str or os.PathLike
+        ``.gif`` or ``.mp4`` (module docstring).
+    labels : sequence of str, optional
+        Panel titles (default the motions' names).
+    fps : float, optional
+        Video frame rate (default: the highest of the motions', at most 30).
+    panel_size : (int, int)
+        Pixels per panel (width, height).
+    seconds : float, optional
+        Length of the video (default: the longest motion).
+    trail : float
+        Seconds of foot trail.
+    azimuth, elevation : float
+        Camera angles in degrees (:func:`side_view`).
+    also : sequence of paths
+        More files (``.gif``/``.mp4``) to write the same frames to, e.g. an MP4 beside the
+        GIF (the frames are drawn once).
+    protected : sequence of paths
+        Input files that must not be overwritten.
+    progress : callable, optional
+        ``progress("render", frame, frames)``.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    motions = list(motions)
+    if not motions:
+        raise ValueError("motions: expected at least one motion to render")
+    out = _check_output(path, protected)
+    extra = [_check_output(p, protected) for p in also]
+    for target in [out, *extra]:
+        if target.suffix.lower() not in VIDEO_FORMATS:
+            raise ValueError(
+                f"output: expected one of {list(VIDEO_FORMATS)} for an animation; got {target.name!r}"
+            )
+    report = progress or null_progress
+    labels = [m.name for m in motions] if labels is None else list(labels)
+    fps = float(fps) if fps else min(30.0, max(m.fps for m in motions))
+    duration = max(m.duration for m in motions) if seconds is None else float(seconds)
+    n_frames = max(1, math.floor(duration * fps + 1e-6) + 1)
+    view = side_view(motions[0], azimuth=azimuth, elevation=elevation)
+    flat_view = side_view(motions[0], azimuth=azimuth, elevation=0.0)
+
+    w_px, h_px = int(panel_size[0]) // 2 * 2, int(panel_size[1]) // 2 * 2
+    k = len(motions)
+    dpi = 100.0
+    fig = _figure(k * w_px / dpi, h_px / dpi, dpi)
+    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.0, top=1.0, wspace=0.0)
+    from matplotlib.collections import LineCollection
+
+    panels = []
+    for i, m in enumerate(motions):
+        pts = _points(m)
+        scr = view.project(pts)
+        up_i = _AXES.index(m.up_axis)
+        floor_h = float(pts[..., up_i].min())
+        height = float(np.ptp(pts[..., up_i], axis=1).max())
+        size = max(height, 1.0) * 1.35
+        root_x = flat_view.project(pts[:, 0])[:, 0]
+        win = max(1, round(0.5 * m.fps))
+        kernel = np.ones(win) / win
+        padded = np.concatenate([np.full(win, root_x[0]), root_x, np.full(win, root_x[-1])])
+        smooth = np.convolve(padded, kernel, mode="same")[win:-win]
+        ax = fig.add_subplot(1, k, i + 1)
+        ax.set_axis_off()
+        ax.set_aspect("equal")
+        a_idx, b_idx, colours = _bone_colours(m)
+        bones = LineCollection([], colors=colours, linewidths=2.2, capstyle="round")
+        ax.add_collection(bones)
+        lf, rf = _feet(m)
+        trails = [
+            ax.plot([], [], "-", color=c, lw=1.0, alpha=0.8)[0] if j is not None else None
+            for j, c in ((lf, _LEFT), (rf, _RIGHT))
+        ]
+        floor_y = floor_h * math.cos(view.elevation)
+        (floor_line,) = ax.plot([], [], "-", color="#888888", lw=1.0)
+        ticks = LineCollection([], colors="#aaaaaa", linewidths=1.0)
+        ax.add_collection(ticks)
+        ax.text(0.5, 0.97, labels[i], transform=ax.transAxes, ha="center", va="top", fontsize=8, clip_on=True)
+        clock = ax.text(
+            0.03, 0.03, "", transform=ax.transAxes, ha="left", va="bottom", fontsize=7, color="#666666"
+        )
+        panels.append(
+            dict(
+                m=m,
+                scr=scr,
+                a=a_idx,
+                b=b_idx,
+                bones=bones,
+                feet=(lf, rf),
+                trails=trails,
+                floor=floor_line,
+                ticks=ticks,
+                floor_y=floor_y,
+                size=size,
+                smooth=smooth,
+                ax=ax,
+                clock=clock,
+                pts=pts,
+            )
+        )
+
+    sinks: list[_VideoSink] = []
+    try:
+        for target in [out, *extra]:
+            sinks.append(_VideoSink(target, fps))
+        for f in range(n_frames):
+            t = f / fps
+            for p in panels:
+                m = p["m"]
+                fi = int(min(round(t * m.fps), m.n_frames - 1))
+                s = p["scr"][fi]
+                p["bones"].set_segments(np.stack([s[p["a"]], s[p["b"]]], axis=1))
+                lo = int(max(0, fi - round(trail * m.fps)))
+                for j, line in zip(p["feet"], p["trails"], strict=True):
+                    if line is not None:
+                        tr = p["scr"][lo : fi + 1, j]
+                        line.set_data(tr[:, 0], tr[:, 1])
+                cx = p["smooth"][fi]
+                half = 0.5 * p["size"] * (w_px / h_px)
+                x0, x1 = cx - half, cx + half
+                y0 = p["floor_y"] - 0.12 * p["size"]
+                p["ax"].set_xlim(x0, x1)
+                p["ax"].set_ylim(y0, y0 + p["size"])
+                p["floor"].set_data([x0, x1], [p["floor_y"], p["floor_y"]])
+                tick_x = np.arange(math.floor(x0 / 0.5), math.ceil(x1 / 0.5) + 1) * 0.5
+                p["ticks"].set_segments(
+                    [[(x, p["floor_y"]), (x, p["floor_y"] - 0.04 * p["size"])] for x in tick_x]
+                )
+                p["clock"].set_text(f"{min(t, m.duration):.2f} s")
+            fig.canvas.draw()
+            rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+            for sink in sinks:
+                sink.send(rgb)
+            report("render", f + 1, n_frames)
+        for sink in sinks:
+            sink.commit()
+    except BaseException:
+        for sink in sinks:
+            sink.abort()
+        raise
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# Foot trajectories (paper 000 Fig. 4, paper 001 Fig. 5-6)
+# ------------------------------------------------------------------------------------------
+
+
+def plot_foot_trajectories(
+    motions: Sequence[Motion],
+    path: str | os.PathLike[str] | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    ncols: int | None = None,
+    ghosts: int = 5,
+    azimuth: float = 0.0,
+    elevation: float = 10.0,
+    title: str | None = None,
+    panel_size: tuple[float, float] = (3.4, 1.9),
+    dpi: float = 100,
+    protected: Sequence[str] = (),
+) -> Any:
+    """Trajectories of both feet, one panel per motion, as in the papers' figures.
+
+    Left foot blue, right foot orange, a few poses in light grey, all seen by one side
+    camera (:func:`side_view` of the first motion) with shared axes.
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+    path : str or os.PathLike, optional
+        Write the figure there (PNG); otherwise only return it.
+    labels : sequence of str, optional
+    ncols : int, optional
+        Panels per row (default: all in one row up to 4, else 2 rows...).
+    ghosts : int
+        Number of grey poses per panel.
+    azimuth, elevation : float
+        Degrees.
+    title : str, optional
+    panel_size : (float, float)
+        Inches per panel: the width, and a height the data's aspect ratio may stretch up
+        to three times.
+    dpi : float
+    protected : sequence of paths
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    motions = list(motions)
+    if not motions:
+        raise ValueError("motions: expected at least one motion")
+    labels = [m.name for m in motions] if labels is None else list(labels)
+    k = len(motions)
+    ncols = ncols or (k if k <= 4 else math.ceil(k / 2))
+    nrows = math.ceil(k / ncols)
+    view = side_view(motions[0], azimuth=azimuth, elevation=elevation)
+    screens = [view.project(_points(m)) for m in motions]
+    lo = np.min([sc.reshape(-1, 2).min(axis=0) for sc in screens], axis=0)
+    hi = np.max([sc.reshape(-1, 2).max(axis=0) for sc in screens], axis=0)
+    pad = 0.04 * (hi - lo).max()
+    lo, hi = lo - pad, hi + pad
+    ratio = float((hi[1] - lo[1]) / max(hi[0] - lo[0], 1e-9))
+    width = panel_size[0]
+    height = min(max(width * ratio, 0.6), 3.0 * panel_size[1]) + 0.55
+    fig = _figure(width * ncols, height * nrows + (0.35 if title else 0.0), dpi)
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    from matplotlib.collections import LineCollection
+
+    for i, m in enumerate(motions):
+        ax = axes[i // ncols][i % ncols]
+        scr = screens[i]
+        a_idx, b_idx, _ = _bone_colours(m)
+        if ghosts > 0:
+            frames = np.linspace(0, m.n_frames - 1, ghosts).round().astype(int)
+            segs = np.concatenate([np.stack([scr[f, a_idx], scr[f, b_idx]], axis=1) for f in frames])
+            ax.add_collection(LineCollection(segs, colors=_GHOST, linewidths=0.8, zorder=1))
+        lf, rf = _feet(m)
+        for j, c, name in ((lf, _LEFT, "left foot"), (rf, _RIGHT, "right foot")):
+            if j is not None:
+                ax.plot(scr[:, j, 0], scr[:, j, 1], "-", color=c, lw=1.3, label=name, zorder=2)
+        ax.set_title(labels[i], fontsize=8)
+        ax.tick_params(labelsize=6)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal", adjustable="box")
+        ax.grid(True, lw=0.3, alpha=0.5)
+    for i in range(k, nrows * ncols):
+        axes[i // ncols][i % ncols].set_axis_off()
+    axes[0][0].legend(fontsize=6, loc="upper left", frameon=False)
+    for r in range(nrows):
+        axes[r][0].set_ylabel("height (m)", fontsize=7)
+    for c in range(ncols):
+        axes[nrows - 1][c].set_xlabel("along the walk (m)", fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, protected=protected)
+    return fig
+
+
+# ------------------------------------------------------------------------------------------
+# Warp
+# ------------------------------------------------------------------------------------------
+
+
+def plot_warp(
+    result: Any = None,
+    path: str | os.PathLike[str] | None = None,
+    *,
+    vertices: np.ndarray | None = None,
+    durations: tuple[float, float] | None = None,
+    landmarks: Sequence[tuple[float, float]] = (),
+    labels: tuple[str, str] = ("A", "B"),
+    title: str | None = None,
+    dpi: float = 100,
+    protected: Sequence[str] = (),
+) -> Any:
+    """The time warp as a curve: time in A (horizontal) against the matched time in B.
+
+    Parameters
+    ----------
+    result : AlignResult, optional
+        From :func:`elastic_motion.apps.align.align_motions`; or give ``vertices`` and
+        ``durations``.
+    path : str or os.PathLike, optional
+    vertices : ndarray, shape (K, 2), optional
+        Warp in curve parameters.
+    durations : (float, float), optional
+        Seconds of A and B.
+    landmarks : sequence of (float, float)
+        Landmark pairs in seconds; drawn as crosses (where they ask the warp to go).
+    labels : (str, str)
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if result is not None:
+        vertices = result.vertices
+        durations = (result.duration_a, result.duration_b)
+        landmarks = result.landmarks
+        labels = result.prepared.labels[:2]
+        if title is None:
+            title = (
+                f"{result.method}, warp {result.warp}: distance {result.distance:.3g} "
+                f"(no warp {result.distance_unwarped:.3g})"
+            )
+    if vertices is None or durations is None:
+        raise ValueError("plot_warp: give an AlignResult or vertices and durations")
+    v = np.asarray(vertices, dtype=np.float64)
+    da, db = durations
+    fig = _figure(4.2, 4.0, dpi)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.plot([0, da], [0, db], "--", color="#999999", lw=1, label="uniform (no warp)")
+    ax.plot(v[:, 0] * da, v[:, 1] * db, "-", color="#d62728", lw=1.6, label="optimal warp")
+    if len(landmarks):
+        lm = np.asarray(landmarks, dtype=np.float64)
+        ax.plot(lm[:, 0], lm[:, 1], "x", color="k", ms=7, mew=1.5, label="landmarks")
+        for ta, tb in lm:
+            ax.axvline(ta, color="#cccccc", lw=0.6, zorder=0)
+            ax.axhline(tb, color="#cccccc", lw=0.6, zorder=0)
+    ax.set_xlim(0, da)
+    ax.set_ylim(0, db)
+    ax.set_xlabel(f"time in {labels[0]} (s)", fontsize=8)
+    ax.set_ylabel(f"time in {labels[1]} (s)", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.legend(fontsize=7, loc="upper left", frameon=False)
+    if title:
+        ax.set_title(title, fontsize=8)
+    ax.grid(True, lw=0.3, alpha=0.5)
+    fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, protected=protected)
+    return fig
+
+
+# ------------------------------------------------------------------------------------------
+# Loop seam (paper 000 Fig. 5-7)
+# ------------------------------------------------------------------------------------------
+
+
+def _trace_joints(motion: Motion, joints: Sequence[str] | None) -> list[tuple[str, int]]:
+    sk = motion.skeleton
+    if joints:
+        return [(n, sk.index(n)) for n in joints]
+    _lf, rf = _feet(motion)
+    out = []
+    if rf is not None:
+        out.append((sk.names[rf], rf))
+    hands = [
+        j
+        for j, n in enumerate(sk.names)
+        if _side(n) == "L" and re.search(r"hand|wrist|elbow|radius", n, re.I)
+    ]
+    if hands:
+        out.append((sk.names[hands[0]], hands[0]))
+    return out or [(sk.names[0], 0)]
+
+
+def plot_seam(
+    original: Motion,
+    looped: Motion | None = None,
+    path: str | os.PathLike[str] | None = None,
+    *,
+    repeat: int = 3,
+    root: str = "travel",
+    joints: Sequence[str] | None = None,
+    labels: tuple[str, str] = ("original", "looped"),
+    title: str | None = None,
+    dpi: float = 100,
+    protected: Sequence[str] = (),
+) -> Any:
+    """The jump at the loop seam, before and after closing (paper 000 Fig. 5-6).
+
+    One row per motion (``original``, then ``looped`` if given). Left: the side-view path
+    of a few joints (default: the right ankle and the left hand or wrist) while the clip
+    plays ``repeat`` times, each cycle moved by the cycle transform ``T``
+    (:func:`elastic_motion.apps.loop.repeat_motion`: a cycle's last frame is replaced by
+    the next cycle's first). At each seam a circle marks where the cycle's own last frame
+    puts the joint and a cross where the next cycle starts: they coincide for a seamless
+    loop; the distance between them is the jump. Right: the skeleton in the last three
+    frames of the clip (blue) and the first three of the next cycle, ``T`` applied (orange).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.collections import LineCollection
+
+    from elastic_motion.apps.loop import cycle_transform, repeat_motion
+
+    rows = [(labels[0], original)] + ([(labels[1], looped)] if looped is not None else [])
+    view = side_view(repeat_motion(original, repeat, root))
+    trace = _trace_joints(original, joints)
+    fig = _figure(9.0, 2.3 * len(rows) + (0.3 if title else 0.0), dpi)
+    axes = fig.subplots(len(rows), 2, squeeze=False, gridspec_kw={"width_ratios": [3.2, 1.0]})
+    colours = ["#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
+    for r, (lab, m) in enumerate(rows):
+        scale = m.metres_per_unit or 1.0
+        rot, shift = cycle_transform(m, root)
+        shift = shift * scale
+        one = _points(m)  # (F, P, 3) metres
+        rep = repeat_motion(m, repeat, root)
+        scr = view.project(_points(rep))
+        f = m.n_frames
+        ax = axes[r][0]
+        for c, (name, j) in enumerate(trace):
+            ax.plot(scr[:, j, 0], scr[:, j, 1], "-", color=colours[c % 4], lw=1.1, label=name)
+            last = one[-1, j]
+            for k in range(1, repeat):
+                last_k = last  # T^(k-1) applied to the clip's last frame
+                for _ in range(k - 1):
+                    last_k = rot @ last_k + shift
+                ax.plot(*view.project(last_k), "o", mfc="none", mec="k", ms=5)
+                ax.plot(*scr[k * (f - 1), j], "x", color="r", ms=5)
+        ax.set_title(f"{lab}: {repeat} cycles", fontsize=8)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.tick_params(labelsize=6)
+        ax.grid(True, lw=0.3, alpha=0.5)
+        if r == 0:
+            ax.legend(fontsize=6, loc="upper left", frameon=False)
+        # close-up of the seam: the clip's last frames, the next cycle's first frames
+        axc = axes[r][1]
+        a_idx, b_idx, _ = _bone_colours(m)
+        nxt = one[:3] @ rot.T + shift
+        poses = [(one[fr], _LEFT) for fr in range(max(0, f - 3), f)] + [(p, _RIGHT) for p in nxt]
+        for pose, col in poses:
+            sp = view.project(pose)
+            axc.add_collection(
+                LineCollection(
+                    np.stack([sp[a_idx], sp[b_idx]], axis=1), colors=col, linewidths=0.9, alpha=0.8
+                )
+            )
+        axc.autoscale()
+        axc.set_aspect("equal", adjustable="datalim")
+        axc.set_title("seam: end (blue), next start (orange)", fontsize=7)
+        axc.tick_params(labelsize=6)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, protected=protected)
+    return fig
+
+
+# ------------------------------------------------------------------------------------------
+# SO(3) curves on the sphere (paper 000 Fig. 2-3)
+# ------------------------------------------------------------------------------------------
+
+
+def joint_rotation_curve(motion: Motion, joint: str | int, *, frame: str = "local") -> np.ndarray:
+    """Rotations of one joint over the clip, ``(F, 3, 3)``: its local rotation (relative to
+    its parent, ``frame="local"``) or its global orientation (``"global"``)."""
+    j = motion.skeleton.index(joint) if isinstance(joint, str) else int(joint)
+    if frame == "local":
+        return np.asarray(motion.rotations[:, j])
+    if frame == "global":
+        return global_rotations(motion)[:, j]
+    raise ValueError(f"frame: expected 'local' or 'global'; got {frame!r}")
+
+
+def plot_so3_curves(
+    curves: Sequence[np.ndarray],
+    path: str | os.PathLike[str] | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    vectors: Sequence[Sequence[float]] = ((1.0, 0.0, 0.0),),
+    title: str | None = None,
+    elev: float | None = None,
+    azim: float | None = None,
+    protected: Sequence[str] = (),
+) -> Any:
+    """Curves in SO(3) drawn on the unit sphere, as in paper 000 Fig. 2-3: for each rotation
+    curve ``R(t)`` and vector ``v``, the path ``R(t) v`` (a start marker at ``t = 0``).
+
+    Parameters
+    ----------
+    curves : sequence of ndarray, shape (N_k, 3, 3)
+    labels : sequence of str, optional
+    vectors : sequence of 3-vectors
+        Unit vectors to transport (normalised here); each gets a line style.
+    elev, azim : float, optional
+        Camera angles in degrees (matplotlib's); default: looking at the mean point of the
+        curves, so that they face the viewer.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = _figure(4.6, 4.4)
+    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    u = np.linspace(0, 2 * np.pi, 37)
+    w = np.linspace(0, np.pi, 19)
+    xs = np.outer(np.cos(u), np.sin(w))
+    ys = np.outer(np.sin(u), np.sin(w))
+    zs = np.outer(np.ones_like(u), np.cos(w))
+    ax.plot_wireframe(xs, ys, zs, color="#dddddd", lw=0.4)
+    palette = ["#1f77b4", "#ff7f0e", "#d62728", "#2ca02c", "#9467bd", "#8c564b"]
+    styles = ["-", "--", ":", "-."]
+    labels = [f"curve {k}" for k in range(len(curves))] if labels is None else list(labels)
+    if elev is None or azim is None:
+        pts = np.concatenate(
+            [
+                np.asarray(r, dtype=np.float64) @ _unit(np.asarray(v, dtype=np.float64))
+                for r in curves
+                for v in vectors
+            ]
+        )
+        c = pts.mean(axis=0)
+        if np.linalg.norm(c) > 1e-6:
+            c = c / np.linalg.norm(c)
+            elev = math.degrees(math.asin(float(np.clip(c[2], -1, 1)))) if elev is None else elev
+            azim = math.degrees(math.atan2(c[1], c[0])) if azim is None else azim
+        elev = 20.0 if elev is None else elev
+        azim = 35.0 if azim is None else azim
+    for k, rot in enumerate(curves):
+        rot = np.asarray(rot, dtype=np.float64)
+        for i, v in enumerate(vectors):
+            v = _unit(np.asarray(v, dtype=np.float64))
+            p = rot @ v
+            ax.plot(
+                p[:, 0],
+                p[:, 1],
+                p[:, 2],
+                styles[i % 4],
+                color=palette[k % 6],
+                lw=max(2.4 - 0.6 * k, 0.8),
+                label=labels[k] if i == 0 else None,
+            )
+            ax.scatter([p[0, 0]], [p[0, 1]], [p[0, 2]], color=palette[k % 6], s=12)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlim(-1, 1)
+    ax.set_ylim(-1, 1)
+    ax.set_zlim(-1, 1)
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_axis_off()
+    ax.legend(fontsize=7, loc="upper left", frameon=False)
+    if title:
+        ax.set_title(title, fontsize=8)
+    fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, protected=protected)
+    return fig
+
+
+# ------------------------------------------------------------------------------------------
+# One entry point for the CLI
+# ------------------------------------------------------------------------------------------
+
+#: What :func:`render` draws.
+KINDS = ("auto", "animation", "feet", "warp", "seam", "sphere")
+
+
+def render(
+    motions: Sequence[Motion],
+    path: str | os.PathLike[str],
+    *,
+    kind: str = "auto",
+    labels: Sequence[str] | None = None,
+    protected: Sequence[str] = (),
+    progress: Progress | None = None,
+    **kw: Any,
+) -> Path:
+    """Draw motions into a file; ``kind`` chooses the picture.
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+    path : str or os.PathLike
+        ``.gif``/``.mp4`` (animation) or ``.png``/``.svg``/``.pdf`` (a still).
+    kind : {"auto", "animation", "feet", "warp", "seam", "sphere"}
+        ``"auto"``: an animation for ``.gif``/``.mp4``, the foot trajectories for a still.
+        ``"warp"``: two motions, aligned by :func:`elastic_motion.apps.align.align_motions`
+        (``kw``: ``method``, ``warp``, ``landmarks``, ``joints``). ``"seam"``: each motion
+        as a loop, repeated (``kw``: ``repeat``, ``root``, ``joints``; two motions: the
+        original and the looped one). ``"sphere"``: the rotation curve of one joint per
+        motion on the sphere (``kw``: ``joint``, default the root; ``frame``).
+    labels : sequence of str, optional
+    protected : sequence of paths
+        Input files (never overwritten).
+    progress : callable, optional
+    **kw
+        Passed on (see ``kind``).
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    if kind not in KINDS:
+        raise ValueError(f"kind: expected one of {list(KINDS)}; got {kind!r}")
+    out = Path(path)
+    ext = out.suffix.lower()
+    motions = list(motions)
+    if kind == "auto":
+        kind = "animation" if ext in VIDEO_FORMATS else "feet"
+    if kind == "animation":
+        allowed = {"fps", "panel_size", "seconds", "trail", "azimuth", "elevation"}
+        return render_animation(
+            motions,
+            out,
+            labels=labels,
+            protected=protected,
+            progress=progress,
+            **{k: v for k, v in kw.items() if k in allowed},
+        )
+    if ext in VIDEO_FORMATS:
+        raise ValueError(
+            f"output: a {kind!r} picture is a still; write a .png, .svg or .pdf (got {out.name!r})"
+        )
+    if kind == "feet":
+        plot_foot_trajectories(motions, out, labels=labels, protected=protected)
+    elif kind == "warp":
+        if len(motions) != 2:
+            raise ValueError(f"kind 'warp': expected two motions; got {len(motions)}")
+        from elastic_motion.apps.align import align_motions
+
+        allowed = {"method", "warp", "landmarks", "joints", "lam"}
+        res = align_motions(motions[0], motions[1], **{k: v for k, v in kw.items() if k in allowed})
+        plot_warp(res, out, protected=protected)
+    elif kind == "seam":
+        looped = motions[1] if len(motions) == 2 else None
+        if len(motions) > 2:
+            raise ValueError(
+                f"kind 'seam': expected one motion (or the original and its loop); got {len(motions)}"
+            )
+        plot_seam(
+            motions[0],
+            looped,
+            out,
+            repeat=int(kw.get("repeat", 3)),
+            root=kw.get("root", "travel"),
+            joints=kw.get("trace_joints"),
+            protected=protected,
+        )
+    else:  # sphere
+        joint = kw.get("joint")
+        frame = kw.get("frame", "local")
+        curves = [joint_rotation_curve(m, joint if joint is not None else 0, frame=frame) for m in motions]
+        name = joint if joint is not None else motions[0].skeleton.names[0]
+        plot_so3_curves(
+            curves,
+            out,
+            labels=labels or [m.name for m in motions],
+            title=f"{name} ({frame} rotation)",
+            protected=protected,
+        )
+    return out

@@ -1,0 +1,340 @@
+"""Helpers shared by the motion sub-commands (blend, landmarks, loop, align, distance, render).
+
+Reading inputs (T-pose removal, trimming), refusing outputs that are inputs, parsing
+landmark arguments, the ``--json`` option and error reporting. No numerical work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from elastic_motion.errors import ParseError
+
+#: Exit code for bad input (unreadable file, bad argument value).
+EXIT_BAD_INPUT = 2
+
+
+class CommandError(Exception):
+    """A user error: printed as ``elastic-motion CMD: error: MESSAGE``, exit code 2."""
+
+
+def fail(command: str, message: str) -> int:
+    """Print an error for ``command`` on stderr and return the bad-input exit code."""
+    print(f"elastic-motion {command}: error: {message}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def run_guarded(command: str, fn, args: argparse.Namespace) -> int:
+    """Call ``fn(args)``; turn user errors (bad files, bad values) into exit code 2."""
+    try:
+        return int(fn(args))
+    except (CommandError, ParseError, ValueError, KeyError, FileNotFoundError, IsADirectoryError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        return fail(command, str(msg))
+
+
+# ------------------------------------------------------------------------------------------
+# Options
+# ------------------------------------------------------------------------------------------
+
+
+def add_json_option(p: argparse.ArgumentParser) -> None:
+    """``--json [PATH]``: write the report to PATH, or print it on stdout when no PATH."""
+    p.add_argument(
+        "--json",
+        nargs="?",
+        const="-",
+        default=None,
+        metavar="PATH",
+        help="write a JSON report of what was done, with the quality metrics, to PATH "
+        "(without PATH: print it on stdout instead of the summary)",
+    )
+
+
+def add_quiet_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar on stderr")
+
+
+def add_input_options(p: argparse.ArgumentParser, *, several: bool = True) -> None:
+    """``--trim``, ``--keep-first-frame``, ``--units``."""
+    p.add_argument(
+        "--trim",
+        nargs="+",
+        default=None,
+        metavar="START:STOP",
+        help="keep only this time range of each input, seconds from its first frame"
+        + (" (one range per input, in order; ':' keeps a whole file)" if several else "")
+        + "; e.g. 1.0:3.4",
+    )
+    p.add_argument(
+        "--keep-first-frame",
+        action="store_true",
+        help="keep frame 0 even when it looks like a T-pose (by default such a frame is dropped)",
+    )
+    p.add_argument(
+        "--units",
+        default=None,
+        help="length unit of BVH inputs (m, cm, mm, inch, cmu); default: guessed from the skeleton",
+    )
+
+
+def add_joint_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--joints",
+        default="all",
+        help="'all' (the inputs must have the same joints), 'common' (keep the shared joints) "
+        "or a comma-separated list of joint names",
+    )
+    p.add_argument(
+        "--no-align",
+        action="store_true",
+        help="do not place the inputs like the first one (heading and floor position)",
+    )
+
+
+def joints_arg(value: str) -> str | list[str]:
+    if value in ("all", "common"):
+        return value
+    names = [v.strip() for v in value.split(",") if v.strip()]
+    if not names:
+        raise CommandError(f"--joints: expected 'all', 'common' or joint names; got {value!r}")
+    return names
+
+
+# ------------------------------------------------------------------------------------------
+# Inputs and outputs
+# ------------------------------------------------------------------------------------------
+
+
+def _parse_range(text: str, label: str) -> tuple[float | None, float | None]:
+    if ":" not in text:
+        raise CommandError(f"--trim: expected START:STOP in seconds for {label}; got {text!r}")
+    a, b = text.split(":", 1)
+    try:
+        start = float(a) if a.strip() else None
+        stop = float(b) if b.strip() else None
+    except ValueError:
+        raise CommandError(f"--trim: expected numbers in START:STOP for {label}; got {text!r}") from None
+    return start, stop
+
+
+def load_inputs(
+    paths: Sequence[str],
+    *,
+    trims: Sequence[str] | None = None,
+    keep_first_frame: bool = False,
+    units: str | None = None,
+) -> tuple[list[Any], list[str]]:
+    """Read motion files; drop a T-pose frame 0 and trim as asked.
+
+    Returns
+    -------
+    motions : list of Motion
+    notes : list of str
+        One line per change (``"107_02_30hz.bvh: dropped T-pose frame 0"``).
+    """
+    from elastic_motion.motion import drop_tpose, has_tpose_first_frame, read_motion, trim
+
+    if trims is not None and len(trims) not in (1, len(paths)):
+        raise CommandError(f"--trim: expected one range per input ({len(paths)}); got {len(trims)}")
+    motions, notes = [], []
+    for k, path in enumerate(paths):
+        if not os.path.exists(path):
+            raise CommandError(f"{path}: no such file")
+        kw = {}
+        if units is not None and path.lower().endswith(".bvh"):
+            kw["units"] = units
+        m = read_motion(path, **kw)
+        name = Path(path).name
+        if not keep_first_frame and has_tpose_first_frame(m):
+            m = drop_tpose(m)
+            notes.append(f"{name}: dropped frame 0 (a T-pose; --keep-first-frame keeps it)")
+        if trims is not None:
+            rng = trims[k] if len(trims) == len(paths) else trims[0]
+            if rng.strip() != ":":
+                start, stop = _parse_range(rng, name)
+                m = trim(m, start, stop)
+                notes.append(
+                    f"{name}: kept {start if start is not None else 0:g}-"
+                    f"{stop if stop is not None else m.duration:g} s ({m.n_frames} frames)"
+                )
+        motions.append(m.replace(name=Path(path).stem))
+    return motions, notes
+
+
+def check_output(
+    path: str, inputs: Sequence[str], *, suffixes: Sequence[str] | None = None, what: str = "-o"
+) -> Path:
+    """Refuse an output path that is one of the inputs or has the wrong extension."""
+    from elastic_motion.motion._io import same_file
+
+    out = Path(path)
+    for p in inputs:
+        if same_file(out, p):
+            raise CommandError(f"{what}: {path!r} is the input file {p!r}; refusing to overwrite an input")
+    if suffixes is not None and out.suffix.lower() not in suffixes:
+        raise CommandError(f"{what}: expected a {' or '.join(suffixes)} file; got {path!r}")
+    if out.parent and not out.parent.exists():
+        raise CommandError(f"{what}: the folder {str(out.parent)!r} does not exist")
+    return out
+
+
+def emit_report(
+    args: argparse.Namespace, report: dict[str, Any], inputs: Sequence[str], summary: str
+) -> None:
+    """Print the human summary (or the JSON on stdout) and write ``--json PATH``."""
+    from elastic_motion.apps.report import report_json, write_report
+
+    target = getattr(args, "json", None)
+    if target == "-":
+        sys.stdout.write(report_json(report))
+        return
+    if summary:
+        print(summary)
+    if target:
+        check_output(target, inputs, what="--json")
+        write_report(target, report, protected=inputs)
+        print(f"report: {target}")
+
+
+def progress_for(command: str, args: argparse.Namespace):
+    from elastic_motion.apps.progress import ProgressBar
+
+    return ProgressBar(command, enabled=False if getattr(args, "quiet", False) else None)
+
+
+# ------------------------------------------------------------------------------------------
+# Landmarks
+# ------------------------------------------------------------------------------------------
+
+
+def _time(value: str, unit: str, fps: float, what: str) -> float:
+    v = value.strip().lower()
+    if v.endswith("s"):
+        unit, v = "seconds", v[:-1]
+    elif v.endswith("f"):
+        unit, v = "frames", v[:-1]
+    try:
+        x = float(v)
+    except ValueError:
+        raise CommandError(
+            f"--landmarks: expected a time (seconds, or frames with 'f'); got {value!r} in {what}"
+        ) from None
+    if not math.isfinite(x):
+        raise CommandError(f"--landmarks: expected a finite time; got {value!r}")
+    return x / fps if unit == "frames" else x
+
+
+def parse_landmarks(value: str | None, unit: str, fps_a: float, fps_b: float) -> Any:
+    """``--landmarks`` -> ``None``, ``"auto"`` or a list of ``(tA, tB)`` in seconds.
+
+    Accepted: ``auto``, ``none``, a file, or inline pairs ``"a0:b0,a1:b1"``. Times are in
+    ``unit`` (``seconds`` or ``frames``) unless suffixed with ``s`` or ``f``; frames count
+    from the first frame kept (after ``--trim``), at each file's own frame rate.
+
+    Files: JSON ``{"units": "seconds"|"frames", "pairs": [[a, b], ...]}`` or the report of
+    ``elastic-motion landmarks A B --json`` (its ``pairs_s``); or text, one pair per line
+    (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
+    """
+    if value is None or value == "none":
+        return None
+    if value == "auto":
+        return "auto"
+    if os.path.exists(value):
+        text = Path(value).read_text(encoding="utf-8")
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError:
+            data = None
+        if isinstance(data, dict):
+            if "pairs_s" in data:
+                return [(float(a), float(b)) for a, b in data["pairs_s"]]
+            if "pairs" in data:
+                u = str(data.get("units", unit))
+                if u not in ("seconds", "frames"):
+                    raise CommandError(f"{value}: 'units' must be 'seconds' or 'frames'; got {u!r}")
+                return [
+                    (_time(str(a), u, fps_a, value), _time(str(b), u, fps_b, value)) for a, b in data["pairs"]
+                ]
+            raise CommandError(f"{value}: expected a JSON object with 'pairs' (and 'units') or 'pairs_s'")
+        pairs = []
+        for n, line in enumerate(text.splitlines(), 1):
+            line = line.split("#", 1)[0].strip()
+            if not line:
+                continue
+            parts = line.replace(",", " ").replace(":", " ").split()
+            if len(parts) != 2:
+                raise CommandError(f"{value}:{n}: expected two times (A B); found {line!r}")
+            pairs.append((_time(parts[0], unit, fps_a, value), _time(parts[1], unit, fps_b, value)))
+        return pairs
+    if ":" not in value:
+        raise CommandError(
+            f"--landmarks: expected 'auto', 'none', a file, or pairs like '0.5:0.7,1.4:1.9'; got {value!r} "
+            "(no such file)"
+        )
+    pairs = []
+    for item in value.split(","):
+        if not item.strip():
+            continue
+        if item.count(":") != 1:
+            raise CommandError(f"--landmarks: expected 'tA:tB' pairs separated by commas; got {item!r}")
+        a, b = item.split(":")
+        pairs.append((_time(a, unit, fps_a, item), _time(b, unit, fps_b, item)))
+    return pairs
+
+
+def add_landmark_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--landmarks",
+        default=None,
+        help="'auto' (pair the events of A and B in order: the left knee passing the right knee), "
+        "'none', a file, or pairs 'tA:tB,...' (times in --landmark-units, or suffixed s/f)",
+    )
+    p.add_argument(
+        "--landmark-units",
+        choices=("seconds", "frames"),
+        default="seconds",
+        help="unit of landmark times without suffix (default seconds; frames count from the first "
+        "frame kept, at each file's frame rate)",
+    )
+    p.add_argument(
+        "--landmark-kinds",
+        default="left_knee_passes",
+        help="events paired by --landmarks auto, comma-separated: left_knee_passes, right_knee_passes, "
+        "left_foot_contact, right_foot_contact (default left_knee_passes, the papers' choice)",
+    )
+    p.add_argument(
+        "--max-pairs", type=int, default=None, help="--landmarks auto: at most this many pairs per kind"
+    )
+    p.add_argument(
+        "--lambda",
+        dest="lam",
+        type=float,
+        default=None,
+        help="relative weight of the landmark term (default 100: missing a landmark by 5%% of the "
+        "clip costs a quarter of the curves' squared norms)",
+    )
+
+
+def landmark_kinds(value: str) -> list[str]:
+    from elastic_motion.apps.landmarks import EVENT_KINDS
+
+    kinds = [k.strip() for k in value.split(",") if k.strip()]
+    bad = [k for k in kinds if k not in EVENT_KINDS]
+    if bad or not kinds:
+        raise CommandError(f"--landmark-kinds: expected some of {', '.join(EVENT_KINDS)}; got {value!r}")
+    return kinds
+
+
+def fmt_float(x: Any, digits: int = 3) -> str:
+    try:
+        return f"{float(x):.{digits}g}"
+    except (TypeError, ValueError):
+        return str(x)

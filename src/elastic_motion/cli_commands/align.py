@@ -1,0 +1,98 @@
+"""``elastic-motion align A B``: the time warp, the distance and a plot (:mod:`elastic_motion.apps.align`)."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from elastic_motion.cli_commands._common import (
+    add_input_options,
+    add_joint_options,
+    add_json_option,
+    add_landmark_options,
+    check_output,
+    emit_report,
+    fmt_float,
+    joints_arg,
+    landmark_kinds,
+    load_inputs,
+    parse_landmarks,
+    run_guarded,
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``align`` sub-command."""
+    p = subparsers.add_parser(
+        "align",
+        help="optimal time warp of B onto A, elastic distance, plot of the warp",
+        description=(
+            "Find the time warp that best aligns B to A (dynamic programming on the SRV functions, "
+            "optionally guided by landmarks) and report the elastic distance with and without it."
+        ),
+    )
+    p.add_argument("a", metavar="A", help="reference motion")
+    p.add_argument("b", metavar="B", help="motion warped onto A")
+    p.add_argument("--method", choices=("lie", "euler-elastic"), default="lie", help="curve representation")
+    p.add_argument("--warp", choices=("dp", "dp+refine", "none"), default="dp")
+    add_landmark_options(p)
+    add_joint_options(p)
+    p.add_argument("--plot", default=None, metavar="PNG", help="write a plot of the warp with the landmarks")
+    p.add_argument("--warp-fps", type=float, default=30.0, help="frame rate of the curves")
+    add_input_options(p)
+    add_json_option(p)
+    p.set_defaults(func=lambda a: run_guarded("align", run, a))
+
+
+def run(args: argparse.Namespace) -> int:
+    from elastic_motion.apps.align import DEFAULT_LAMBDA, align_motions
+    from elastic_motion.apps.render import plot_warp
+    from elastic_motion.apps.report import report_header
+
+    inputs = [args.a, args.b]
+    plot = (
+        check_output(args.plot, inputs, suffixes=(".png", ".svg", ".pdf"), what="--plot")
+        if args.plot
+        else None
+    )
+    (a, b), notes = load_inputs(
+        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
+    )
+    res = align_motions(
+        a,
+        b,
+        method=args.method,
+        warp=args.warp,
+        landmarks=parse_landmarks(args.landmarks, args.landmark_units, a.fps, b.fps),
+        lam=DEFAULT_LAMBDA if args.lam is None else args.lam,
+        joints=joints_arg(args.joints),
+        align=not args.no_align,
+        warp_fps=args.warp_fps,
+        landmark_kinds=landmark_kinds(args.landmark_kinds),
+        max_pairs=args.max_pairs,
+    )
+    outputs = []
+    if plot is not None:
+        plot_warp(res, plot, protected=inputs)
+        outputs.append(str(plot))
+    all_notes = notes + list(res.prepared.notes)
+    report = report_header("align", inputs, outputs, all_notes)
+    report.update(res.summary())
+    report["notes"] = all_notes
+    ta = np.linspace(0.0, res.duration_a, 6)
+    lines = [
+        f"{res.method}, warp {res.warp}: distance {fmt_float(res.distance, 4)} "
+        f"(without warp {fmt_float(res.distance_unwarped, 4)})",
+        "matched times A -> B (s): " + ", ".join(f"{x:.2f}->{float(res.time_in_b(x)):.2f}" for x in ta),
+    ]
+    if res.landmarks:
+        lines.append(
+            "landmarks A:B (s) -> where the warp maps them: "
+            + ", ".join(f"{x:.2f}:{y:.2f}->{float(res.time_in_b(x)):.2f}" for x, y in res.landmarks)
+        )
+    if plot is not None:
+        lines.append(f"wrote {plot}")
+    lines += [f"note: {n}" for n in all_notes]
+    emit_report(args, report, inputs, "\n".join(lines))
+    return 0

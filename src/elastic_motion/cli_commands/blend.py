@@ -1,0 +1,171 @@
+"""``elastic-motion blend A B [C ...] -o OUT.bvh``: blend motions (:mod:`elastic_motion.apps.blend`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from elastic_motion.cli_commands._common import (
+    CommandError,
+    add_input_options,
+    add_joint_options,
+    add_json_option,
+    add_landmark_options,
+    add_quiet_option,
+    check_output,
+    emit_report,
+    fmt_float,
+    joints_arg,
+    landmark_kinds,
+    load_inputs,
+    parse_landmarks,
+    progress_for,
+    run_guarded,
+)
+
+_METHOD_HELP = (
+    "euler-linear: frame-by-frame linear interpolation of Euler angles (paper 001 Fig. 5a); "
+    "euler-elastic: SRV geodesic of the Euler-angle curves (Fig. 5b-d); "
+    "lie: SRV geodesic in R^3 x SO(3)^J (paper 000, the default)"
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``blend`` sub-command."""
+    p = subparsers.add_parser(
+        "blend",
+        help="blend two or more motions (Euler or Lie group SRV, with an optimal time warp)",
+        description=(
+            "Blend motions: (1-s) A + s B for two, a weighted mean after aligning all to a common "
+            "template for more. B is placed like A first (heading and floor position fitted to A's "
+            "root path). The root translation is a coordinate of the curve: its velocities are "
+            "blended (time-aligned with a warp) and integrated from the blended start. The result "
+            "plays on the blended clock (1-s) tA + s tB of the matched times, at A's frame rate."
+        ),
+    )
+    p.add_argument(
+        "inputs", nargs="+", metavar="FILE", help="motion files (.bvh, .amc, DeepMimic .txt); A first"
+    )
+    p.add_argument("-o", "--output", required=True, help="output .bvh file (never one of the inputs)")
+    p.add_argument(
+        "--weight", type=float, default=None, help="s for two motions: the result is (1-s) A + s B"
+    )
+    p.add_argument(
+        "--weights", type=float, nargs="+", default=None, help="one weight per input, summing to 1"
+    )
+    p.add_argument(
+        "--method", choices=("lie", "euler-elastic", "euler-linear"), default="lie", help=_METHOD_HELP
+    )
+    p.add_argument(
+        "--warp",
+        choices=("dp", "dp+refine", "none"),
+        default="dp",
+        help="time warp of B onto A: dynamic programming (default), DP then gradient refinement, or none",
+    )
+    add_landmark_options(p)
+    add_joint_options(p)
+    p.add_argument(
+        "--extrapolate", action="store_true", help="allow a weight outside [0, 1] (two motions only)"
+    )
+    p.add_argument(
+        "--skeleton",
+        choices=("blend", "first"),
+        default="blend",
+        help="bone offsets of the result: weighted mean of the inputs' (default) or A's",
+    )
+    p.add_argument(
+        "--warp-fps", type=float, default=30.0, help="frame rate of the curves the warp is computed on"
+    )
+    p.add_argument(
+        "--no-metrics", action="store_true", help="skip the quality metrics (saves three DP solves)"
+    )
+    add_input_options(p)
+    add_json_option(p)
+    add_quiet_option(p)
+    p.set_defaults(func=lambda a: run_guarded("blend", run, a))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Blend ``args.inputs`` into ``args.output``; exit code 0, or 2 for bad input."""
+    from elastic_motion.apps.align import DEFAULT_LAMBDA
+    from elastic_motion.apps.blend import blend_motions
+    from elastic_motion.apps.report import report_header
+    from elastic_motion.motion import write_bvh
+
+    inputs = list(args.inputs)
+    if len(inputs) < 2:
+        raise CommandError("expected at least two input motions")
+    out = check_output(args.output, inputs, suffixes=(".bvh",))
+    if args.weight is not None and args.weights is not None:
+        raise CommandError("give --weight (two motions) or --weights, not both")
+    weights = args.weight if args.weight is not None else args.weights
+    if args.weight is not None and len(inputs) != 2:
+        raise CommandError(
+            f"--weight s is for two motions; got {len(inputs)}: use --weights w1 ... w{len(inputs)}"
+        )
+    if weights is None and len(inputs) == 2:
+        weights = 0.5
+    motions, notes = load_inputs(
+        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
+    )
+    landmarks = parse_landmarks(args.landmarks, args.landmark_units, motions[0].fps, motions[1].fps)
+    bar = progress_for("blend", args)
+    try:
+        res = blend_motions(
+            motions,
+            weights,
+            method=args.method,
+            warp=args.warp,
+            landmarks=landmarks,
+            lam=DEFAULT_LAMBDA if args.lam is None else args.lam,
+            joints=joints_arg(args.joints),
+            extrapolate=args.extrapolate,
+            align=not args.no_align,
+            skeleton=args.skeleton,
+            warp_fps=args.warp_fps,
+            landmark_kinds=landmark_kinds(args.landmark_kinds),
+            max_pairs=args.max_pairs,
+            metrics=not args.no_metrics,
+            progress=bar,
+        )
+    finally:
+        bar.close()
+    write_bvh(res.motion, out)
+    all_notes = notes + list(res.notes)
+    report = report_header("blend", inputs, [str(out)], all_notes)
+    report.update(res.summary())
+    report["notes"] = all_notes
+    emit_report(args, report, inputs, _summary(res, out, all_notes))
+    return 0
+
+
+def _summary(res, out, notes) -> str:
+    m = res.motion
+    lines = [
+        f"wrote {out}: {m.n_frames} frames at {m.fps:g} fps ({m.duration:.2f} s), {m.n_joints} joints",
+        f"method {res.method}, warp {res.warp}, weights "
+        + ", ".join(f"{lab} {w:.3g}" for lab, w in zip(res.prepared.labels, res.weights, strict=True)),
+    ]
+    if res.landmarks:
+        lines.append("landmarks (s): " + ", ".join(f"{a:.2f}:{b:.2f}" for a, b in res.landmarks))
+    met = res.metrics
+    if met:
+        fs = met["foot_sliding"]
+        lines.append(
+            "foot sliding (m/s): result "
+            + fmt_float(fs["result"]["mean_speed_m_s"])
+            + ", inputs "
+            + ", ".join(fmt_float(x["mean_speed_m_s"]) for x in fs["inputs"])
+        )
+        d = met["distances"]
+        lines.append(
+            "elastic distance (Lie): result to inputs "
+            + ", ".join(fmt_float(x) for x in d["result_to_inputs"])
+            + (f"; between A and B {fmt_float(d['between_inputs'][0][1])}" if len(d["labels"]) == 2 else "")
+        )
+        lines.append(
+            "bone-length error: max "
+            + fmt_float(met["bone_length_error"]["result"]["max_relative"])
+            + " (relative, result against its own skeleton)"
+        )
+    lines += [f"note: {n}" for n in notes]
+    return "\n".join(lines)

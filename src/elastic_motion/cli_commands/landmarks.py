@@ -1,0 +1,82 @@
+"""``elastic-motion landmarks FILE [FILE2]``: automatic events; with two files, their pairs."""
+
+from __future__ import annotations
+
+import argparse
+
+from elastic_motion.cli_commands._common import (
+    add_input_options,
+    add_json_option,
+    emit_report,
+    landmark_kinds,
+    load_inputs,
+    run_guarded,
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``landmarks`` sub-command."""
+    p = subparsers.add_parser(
+        "landmarks",
+        help="detect events (knee crossings, foot contacts); pair those of two motions",
+        description=(
+            "Detect the times when the left (right) knee passes the other one moving forward and when "
+            "a foot touches down. With two files, pair the events in order as `blend --landmarks auto` "
+            "does; `--json PAIRS.json` writes a file that `--landmarks PAIRS.json` reads."
+        ),
+    )
+    p.add_argument("inputs", nargs="+", metavar="FILE", help="one motion file, or two to pair")
+    p.add_argument(
+        "--kinds",
+        default="left_knee_passes,right_knee_passes,left_foot_contact,right_foot_contact",
+        help="event kinds to detect (comma-separated)",
+    )
+    p.add_argument(
+        "--pair-kinds",
+        default="left_knee_passes",
+        help="kinds to pair for two files (default left_knee_passes)",
+    )
+    p.add_argument("--max-pairs", type=int, default=None, help="at most this many pairs per kind")
+    add_input_options(p)
+    add_json_option(p)
+    p.set_defaults(func=lambda a: run_guarded("landmarks", run, a))
+
+
+def run(args: argparse.Namespace) -> int:
+    from elastic_motion.apps.align import prepare_motions
+    from elastic_motion.apps.landmarks import detect_events, pair_events
+    from elastic_motion.apps.report import report_header
+
+    inputs = list(args.inputs)
+    if len(inputs) not in (1, 2):
+        raise ValueError(f"expected one or two motion files; got {len(inputs)}")
+    motions, notes = load_inputs(
+        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
+    )
+    kinds = landmark_kinds(args.kinds)
+    events = [detect_events(m, kinds) for m in motions]
+    report = report_header("landmarks", inputs, [], notes)
+    report["events"] = [
+        {"file": f, "duration_s": m.duration, "fps": m.fps, "events": [e.__dict__ for e in ev]}
+        for f, m, ev in zip(inputs, motions, events, strict=True)
+    ]
+    lines = []
+    for f, m, ev in zip(inputs, motions, events, strict=True):
+        lines.append(f"{f}: {len(ev)} events in {m.duration:.2f} s")
+        lines += [f"  {e.time:7.3f} s  frame {e.frame:5d}  {e.kind}" for e in ev]
+    if len(inputs) == 2:
+        pk = landmark_kinds(args.pair_kinds)
+        # pair on the motions as blend/align see them (same time origin; placement does not move times)
+        prep = prepare_motions(motions, joints="common")
+        ev_a, ev_b = (detect_events(m, pk) for m in prep.motions)
+        pairs = pair_events(ev_a, ev_b, pk, max_pairs=args.max_pairs)
+        report["pairs_s"] = [[a.time, b.time] for a, b in pairs]
+        report["pairs"] = [{"kind": a.kind, "time_a_s": a.time, "time_b_s": b.time} for a, b in pairs]
+        report["units"] = "seconds"
+        lines.append(
+            f"pairs ({', '.join(pk)}), seconds A:B: "
+            + (", ".join(f"{a.time:.3f}:{b.time:.3f}" for a, b in pairs) or "none")
+        )
+    lines += [f"note: {n}" for n in notes]
+    emit_report(args, report, inputs, "\n".join(lines))
+    return 0

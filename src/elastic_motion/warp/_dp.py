@@ -1,0 +1,514 @@
+"""Numba kernels of the dynamic-programming warp solver (paper 001, sec. 3.2).
+
+Conventions (see :mod:`elastic_motion.warp`):
+
+- ``q0`` has ``n0`` cells on the break points ``t0`` (shape ``(n0+1,)``), ``q1`` has ``n1``
+  cells on ``t1``; both piecewise constant, cell ``c`` holding on ``[t[c], t[c+1])``.
+- The DP grid is a set of domain nodes ``u`` (shape ``(nu+1,)``) and range nodes ``v``
+  (shape ``(nv+1,)``), both from 0 to 1.  A DP edge joins node ``(k, l)`` to ``(i, j)``
+  with ``(i - k, j - l)`` one of the neighbourhood ``steps``; on it ``phi`` is the linear
+  piece ``phi(x) = v[l] + s (x - u[k])``, ``s = (v[j] - v[l]) / (u[i] - u[k])``.
+- Cost of an edge, exact for piecewise constant q's (DESIGN.md sec. 3, paper 001 eq. 28):
+
+      E(k,l;i,j) = int_{u_k}^{u_i} |q0|^2 + int_{v_l}^{v_j} |q1|^2
+                   - 2 sqrt(s) int_{u_k}^{u_i} <q0(x), q1(phi(x))> dx
+
+  The first two terms are differences of prefix integrals ``P0``, ``P1`` (change of
+  variables ``y = phi(x)`` in the second).  The cross term is a sum over the merged
+  break points of ``G[a, b] * length`` with the Gram matrix ``G = q0 @ q1.T``, so one edge
+  costs O(cells it crosses), independent of the dimension D.
+- Landmark term of an edge (paper 001 eq. 27-28 with the erratum of DESIGN.md sec. 3): a
+  feature pair ``(theta0_m, theta1_m)`` is charged on the edge whose *domain* ``(u_k, u_i]``
+  holds ``theta0_m``, at ``phi(theta0_m)`` of the linear piece; in the symmetric form
+  (sec. 2.4, Remark 16) also on the edge whose *range* ``(v_l, v_j]`` holds ``theta1_m``,
+  at ``phi^{-1}(theta1_m)`` of the same piece.
+
+Penalty kinds (``pen_kind``): 0 = squared ``lam * r^2``, 1 = absolute ``lam * |r|``,
+2 = none (only hard windows), 3 = tabulated (a user callable sampled on a uniform table of
+``x`` in [0, 1], linear interpolation).  A hard window ``|r| > d_m`` gives ``+inf``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# ----------------------------------------------------------------------------- edge cost
+
+
+@njit(cache=True, inline="always")
+def _cross_walk(u, v, t0, t1, c0, c1, G, k, l, i, j):  # pragma: no cover - numba
+    """``int_{u_k}^{u_i} <q0(x), q1(phi(x))> dx`` for the linear piece (k,l)->(i,j).
+
+    Walks the merged break points: the q0 breaks ``t0`` inside the domain and the
+    pre-images ``u_k + (t1[b] - v_l) / s`` of the q1 breaks inside the range.
+    """
+    x = u[k]
+    xe = u[i]
+    ye = v[j]
+    a = c0[k]
+    b = c1[l]
+    inv_s = (xe - x) / (ye - v[l])
+    acc = 0.0
+    while True:
+        n0 = t0[a + 1]
+        if n0 >= xe or a == t0.shape[0] - 2:
+            n0 = xe
+        yb = t1[b + 1]
+        if yb >= ye or b == t1.shape[0] - 2:
+            n1 = xe
+        else:
+            n1 = u[k] + (yb - v[l]) * inv_s
+            if n1 > xe:
+                n1 = xe
+        nx = n0 if n0 < n1 else n1
+        acc += G[a, b] * (nx - x)
+        if nx >= xe:
+            break
+        x = nx
+        if n0 <= nx:
+            a += 1
+        if n1 <= nx:
+            b += 1
+    return acc
+
+
+@njit(cache=True, inline="always")
+def _pen(r, lam, kind):  # pragma: no cover - numba
+    if kind == 0:
+        return lam * r * r
+    if kind == 1:
+        return lam * abs(r)
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def _table(tab, m, x):  # pragma: no cover - numba
+    """Linear interpolation of row ``m`` of a penalty table sampled on [0, 1]."""
+    nt = tab.shape[1] - 1
+    p = x * nt
+    if p <= 0.0:
+        return tab[m, 0]
+    if p >= nt:
+        return tab[m, nt]
+    c = int(p)
+    f = p - c
+    return (1.0 - f) * tab[m, c] + f * tab[m, c + 1]
+
+
+@njit(cache=True, inline="always")
+def _landmark_edge(u, v, k, l, i, j, lmk):  # pragma: no cover - numba
+    """Landmark cost charged on the edge (k,l)->(i,j) (erratum of paper 001, eq. 27-28).
+
+    ``lmk = (lam, kind, fx, fy, fd, cnt0, tab0, sx, sy, sd, cnt1, tab1, symmetric)``, see
+    :func:`dp_solve`.
+    """
+    lam, kind, fx, fy, fd, cnt0, tab0, sx, sy, sd, cnt1, tab1, symmetric = lmk
+    cost = 0.0
+    m0 = cnt0[k]
+    m1 = cnt0[i]
+    if m1 > m0:
+        s = (v[j] - v[l]) / (u[i] - u[k])
+        for m in range(m0, m1):
+            y = v[l] + s * (fx[m] - u[k])  # phi(theta0_m) on the linear piece
+            r = y - fy[m]
+            if abs(r) > fd[m]:
+                return np.inf
+            if kind == 3:
+                cost += lam * _table(tab0, m, y)
+            else:
+                cost += _pen(r, lam, kind)
+    if symmetric:
+        m0 = cnt1[l]
+        m1 = cnt1[j]
+        if m1 > m0:
+            inv_s = (u[i] - u[k]) / (v[j] - v[l])
+            for m in range(m0, m1):
+                x = u[k] + inv_s * (sy[m] - v[l])  # phi^{-1}(theta1_m) on the piece
+                r = x - sx[m]
+                if abs(r) > sd[m]:
+                    return np.inf
+                if kind == 3:
+                    cost += lam * _table(tab1, m, x)
+                else:
+                    cost += _pen(r, lam, kind)
+    return cost
+
+
+# ----------------------------------------------------------------------------- the DP
+
+
+@njit(cache=True)
+def _dp_node(
+    i, j, u, v, t0, t1, c0, c1, G, P0, P1, steps, taps, lo, hi, H, arg, lmk, has_lm
+):  # pragma: no cover - numba
+    """Best predecessor of node (i, j): recursion (29) of paper 001 over the neighbourhood.
+
+    Candidates are pruned with the Cauchy-Schwarz lower bound of the edge cost,
+    ``E >= (sqrt(A) - sqrt(B))^2`` (A, B the two prefix-sum terms), before the cross
+    term is walked; the pruning is exact (it never discards the minimiser).
+    """
+    best = np.inf
+    bestnb = -1
+    K = steps.shape[0]
+    tap_ptr, tap_dp, tap_dr, tap_w, sqrt_s = taps
+    uniform = tap_ptr.shape[0] > 0
+    # try first the step that was best at the diagonal neighbour (paths are coherent):
+    # a good first bound lets the pruning discard most of the others
+    first = -1
+    if i > 0 and j > 0 and lo[i - 1] <= j - 1 <= hi[i - 1]:
+        first = arg[i - 1, j - 1 - lo[i - 1]]
+    for it in range(-1, K):
+        if it < 0:
+            if first < 0:
+                continue
+            nb = first
+        else:
+            nb = it
+            if nb == first:
+                continue
+        k = i - steps[nb, 0]
+        l = j - steps[nb, 1]
+        if k < 0 or l < 0:
+            continue
+        if l < lo[k] or l > hi[k]:
+            continue
+        hkl = H[k, l - lo[k]]
+        if hkl >= best:
+            continue
+        A = P0[i] - P0[k]
+        B = P1[j] - P1[l]
+        lm = 0.0
+        if has_lm:
+            lm = _landmark_edge(u, v, k, l, i, j, lmk)
+        base = hkl + lm
+        d = np.sqrt(A) - np.sqrt(B)
+        if base + d * d >= best:
+            continue
+        if uniform:
+            # uniform grids: the merged cells of a slope are a fixed pattern of taps
+            cross = 0.0
+            for m in range(tap_ptr[nb], tap_ptr[nb + 1]):
+                cross += tap_w[m] * G[k + tap_dp[m], l + tap_dr[m]]
+            rs = sqrt_s[nb]
+        else:
+            cross = _cross_walk(u, v, t0, t1, c0, c1, G, k, l, i, j)
+            rs = np.sqrt((v[j] - v[l]) / (u[i] - u[k]))
+        e = A + B - 2.0 * rs * cross
+        if e < 0.0:  # rounding only: the exact edge cost is an integral of a square
+            e = 0.0
+        cand = base + e
+        if cand < best:
+            best = cand
+            bestnb = nb
+    return best, bestnb
+
+
+@njit(cache=True)
+def _dp_row(
+    i, j_from, j_to, u, v, t0, t1, c0, c1, G, P0, P1, steps, taps, lo, hi, H, arg, lmk, has_lm
+):  # pragma: no cover - numba
+    """Fill ``H[i, j]`` for ``j_from <= j < j_to`` (row i depends on rows < i only)."""
+    for j in range(j_from, j_to):
+        if j == 0:
+            continue
+        best, a = _dp_node(i, j, u, v, t0, t1, c0, c1, G, P0, P1, steps, taps, lo, hi, H, arg, lmk, has_lm)
+        H[i, j - lo[i]] = best
+        arg[i, j - lo[i]] = a
+
+
+@njit(cache=True)
+def _dp_alloc(lo, hi):  # pragma: no cover - numba
+    nu = lo.shape[0] - 1
+    W = 1
+    for i in range(nu + 1):
+        w = hi[i] - lo[i] + 1
+        if w > W:
+            W = w
+    H = np.full((nu + 1, W), np.inf)
+    arg = np.full((nu + 1, W), -1, dtype=np.int16)
+    if lo[0] == 0:
+        H[0, 0] = 0.0
+    return H, arg
+
+
+@njit(cache=True)
+def dp_solve_rows(u, v, P0, P1, G, steps, taps, lo, hi, lmk):  # pragma: no cover - numba
+    """Row-vectorised DP for uniform grids (the DP grid is the break points of q0 and q1).
+
+    Same recursion and edge cost as :func:`dp_solve`, reorganised for speed: for a row i
+    and a slope (a, b) the predecessors of all nodes (i, j) lie on row k = i - a, and the
+    cross terms of all these edges are the same taps applied to shifted slices of rows of
+    the Gram matrix: ``acc[j] += w * G[k + dp, j - b + dr]``, a contiguous loop that the
+    compiler vectorises (no pruning, no branches).  The landmark term is added per edge
+    only on the few (row, slope) pairs whose domain ``(u_k, u_i]`` holds a theta0 (or,
+    symmetric form, per node where the range holds a theta1).
+
+    Returns dense tables ``H``, ``arg`` of shape ``(nu+1, nv+1)`` (``+inf`` / -1 off the band).
+    """
+    tap_ptr, tap_dp, tap_dr, tap_w, sqrt_s = taps
+    fx, sx, cnt0, symmetric = lmk[2], lmk[7], lmk[5], lmk[12]
+    nu = lo.shape[0] - 1
+    nv = P1.shape[0] - 1
+    H = np.full((nu + 1, nv + 1), np.inf)
+    arg = np.full((nu + 1, nv + 1), -1, dtype=np.int16)
+    H[0, 0] = 0.0
+    acc = np.zeros(nv + 1)
+    best = np.empty(nv + 1)
+    barg = np.empty(nv + 1, dtype=np.int16)
+    has_lm = fx.shape[0] > 0 or (symmetric and sx.shape[0] > 0)
+    for i in range(1, nu + 1):
+        jl = max(lo[i], 1)
+        jh = hi[i]
+        if jh < jl:
+            continue
+        for j in range(jl, jh + 1):
+            best[j] = np.inf
+            barg[j] = -1
+        for nb in range(steps.shape[0]):
+            a = steps[nb, 0]
+            b = steps[nb, 1]
+            k = i - a
+            if k < 0:
+                continue
+            j0 = max(jl, lo[k] + b)
+            j1 = min(jh, hi[k] + b)
+            if j1 < j0:
+                continue
+            width = j1 - j0 + 1
+            # slices indexed from 0: no negative-index checks, so the loops vectorise
+            ac = acc[:width]
+            for jj in range(width):
+                ac[jj] = 0.0
+            for m in range(tap_ptr[nb], tap_ptr[nb + 1]):
+                w = tap_w[m]
+                c0 = j0 - b + tap_dr[m]
+                g = G[k + tap_dp[m], c0 : c0 + width]
+                for jj in range(width):
+                    ac[jj] += w * g[jj]
+            Ak = P0[i] - P0[k]
+            rs2 = 2.0 * sqrt_s[nb]
+            hk = H[k, j0 - b : j1 + 1 - b]
+            p1j = P1[j0 : j1 + 1]
+            p1l = P1[j0 - b : j1 + 1 - b]
+            bj = best[j0 : j1 + 1]
+            aj = barg[j0 : j1 + 1]
+            if has_lm and (cnt0[i] > cnt0[k] or symmetric):
+                for jj in range(width):
+                    # max(., 0): rounding only, the exact edge cost is an integral of a square
+                    c = hk[jj] + max(Ak + (p1j[jj] - p1l[jj]) - rs2 * ac[jj], 0.0)
+                    c += _landmark_edge(u, v, k, j0 + jj - b, i, j0 + jj, lmk)
+                    if c < bj[jj]:
+                        bj[jj] = c
+                        aj[jj] = nb
+            else:
+                for jj in range(width):
+                    c = hk[jj] + max(Ak + (p1j[jj] - p1l[jj]) - rs2 * ac[jj], 0.0)
+                    if c < bj[jj]:
+                        bj[jj] = c
+                        aj[jj] = nb
+        for j in range(jl, jh + 1):
+            H[i, j] = best[j]
+            arg[i, j] = barg[j]
+    return H, arg
+
+
+@njit(cache=True)
+def dp_solve(u, v, t0, t1, c0, c1, G, P0, P1, steps, taps, lo, hi, lmk):  # pragma: no cover - numba
+    """Fill the value table ``H`` on a band of the grid and return it with the arg-min table.
+
+    Parameters
+    ----------
+    u, v : (nu+1,), (nv+1,) float64
+        Domain and range nodes of the DP grid.
+    t0, t1 : (n0+1,), (n1+1,) float64
+        Break points of q0 and q1.
+    c0, c1 : (nu+1,), (nv+1,) int64
+        Cell of q0 (q1) that starts at node ``u[k]`` (``v[l]``).
+    G : (n0, n1) float64
+        Gram matrix ``q0 @ q1.T``.
+    P0, P1 : (nu+1,), (nv+1,) float64
+        Prefix integrals of ``|q0|^2`` at the domain nodes and of ``|q1|^2`` at the range nodes.
+    steps : (K, 2) int64
+        Neighbourhood: allowed ``(i - k, j - l)``.
+    taps : tuple (tap_ptr (K+1,), tap_dp (T,), tap_dr (T,) int64, tap_w (T,), sqrt_s (K,))
+        Uniform grids (``u = t0``, ``v = t1``, both uniform): the cells ``(k + dp, l + dr)``
+        crossed by an edge of slope ``nb`` and their lengths ``w`` are the same for every
+        edge, entries ``tap_ptr[nb]:tap_ptr[nb+1]``; ``sqrt_s[nb]`` its ``sqrt(slope)``.
+        Empty ``tap_ptr``: walk the break points instead (any grids).
+    lo, hi : (nu+1,) int64
+        Band: row ``i`` holds the range nodes ``lo[i] <= j <= hi[i]`` (full DP: 0 and nv).
+    lmk : tuple (lam, kind, fx, fy, fd, cnt0, tab0, sx, sy, sd, cnt1, tab1, symmetric)
+        Landmark data: weight, penalty kind; ``fx, fy, fd`` the pairs ``(theta0, theta1)`` and
+        windows sorted by theta0, ``cnt0[k]`` the number with ``theta0 <= u[k]``, ``tab0``
+        the penalty table (kind 3); ``sx, sy, sd, cnt1, tab1`` the same sorted by theta1
+        against the range nodes ``v`` (symmetric form).
+
+    Returns
+    -------
+    H : (nu+1, W) float64
+        ``H[i, j - lo[i]]`` = minimal energy of a path from (0, 0) to (i, j).
+    arg : (nu+1, W) int16
+        Index into ``steps`` of the best last edge (-1: unreachable).
+    """
+    H, arg = _dp_alloc(lo, hi)
+    has_lm = lmk[2].shape[0] > 0 or (lmk[12] and lmk[7].shape[0] > 0)
+    nu = u.shape[0] - 1
+    for i in range(1, nu + 1):
+        _dp_row(
+            i, lo[i], hi[i] + 1, u, v, t0, t1, c0, c1, G, P0, P1, steps, taps, lo, hi, H, arg, lmk, has_lm
+        )
+    return H, arg
+
+
+@njit(cache=True)
+def dp_backtrack(arg, lo, steps, nu, nv):  # pragma: no cover - numba
+    """Node indices ``(K, 2)`` of the optimal path from (0, 0) to (nu, nv) (eq. 30)."""
+    out = np.empty((nu + nv + 2, 2), dtype=np.int64)
+    n = 0
+    i = nu
+    j = nv
+    out[0, 0] = i
+    out[0, 1] = j
+    n = 1
+    while i > 0 or j > 0:
+        a = arg[i, j - lo[i]]
+        if a < 0:
+            return out[:0]
+        i -= steps[a, 0]
+        j -= steps[a, 1]
+        out[n, 0] = i
+        out[n, 1] = j
+        n += 1
+    return out[:n][::-1].copy()
+
+
+# ----------------------------------------------------------------------------- energies
+
+
+@njit(cache=True)
+def energy_direct(q0, t0, q1, t1, x, y):  # pragma: no cover - numba
+    """Exact ``int_0^1 |q0 - sqrt(phi') q1(phi)|^2`` for piecewise linear ``phi``.
+
+    Walks the merged break points (the q0 breaks, the phi vertices ``x``, and the
+    pre-images of the q1 breaks) and sums ``|q0[a] - sqrt(s) q1[b]|^2 * length`` over the
+    pieces, D-dimensional and term by term non-negative (no cancellation).  On pieces of
+    slope 0 (``phi`` flat) the q1 term vanishes.
+    """
+    n0 = q0.shape[0]
+    n1 = q1.shape[0]
+    D = q0.shape[1]
+    K = x.shape[0] - 1
+    total = 0.0
+    a = 0
+    b = 0
+    for p in range(K):
+        xs = x[p]
+        xe = x[p + 1]
+        if xe <= xs:
+            continue
+        ys = y[p]
+        ye = y[p + 1]
+        s = (ye - ys) / (xe - xs)
+        rs = np.sqrt(s) if s > 0.0 else 0.0
+        # cells that hold the start of the piece
+        while a < n0 - 1 and t0[a + 1] <= xs:
+            a += 1
+        while b < n1 - 1 and t1[b + 1] <= ys:
+            b += 1
+        xc = xs
+        while True:
+            # the last cell has no further break (guards rounding of end values past 1)
+            na = t0[a + 1] if (t0[a + 1] < xe and a < n0 - 1) else xe
+            if s > 0.0 and t1[b + 1] < ye and b < n1 - 1:
+                nb = xs + (t1[b + 1] - ys) / s
+                if nb > xe:
+                    nb = xe
+            else:
+                nb = xe
+            nx = na if na < nb else nb
+            if nx > xc:
+                e = 0.0
+                for d in range(D):
+                    r = q0[a, d] - rs * q1[b, d]
+                    e += r * r
+                total += e * (nx - xc)
+            if nx >= xe:
+                break
+            xc = nx
+            if na <= nx and a < n0 - 1:
+                a += 1
+            if nb <= nx and b < n1 - 1:
+                b += 1
+    return total
+
+
+@njit(cache=True)
+def energy_and_grad(t0, t1, G, dG, A_tot, B_tot, x, y):  # pragma: no cover - numba
+    """Exact elastic energy of a piecewise linear ``phi`` and its gradient in the vertex values.
+
+    ``E = A_tot + B_tot - 2 sum_p sqrt(s_p) C_p`` with ``C_p`` the cross integral of piece p
+    (Gram form).  Differentiating ``F_p = sqrt(s) int_0^L <q0(x_p + t), q1(y_p + s t)> dt``
+    in the end values (``L`` the piece length, ``s = (y_{p+1} - y_p) / L``):
+
+        dF/dy_{p+1} =  C/(2 sqrt(s) L) + sum_b <q0(x_b), J_b> (t_b / L) / sqrt(s)
+        dF/dy_p     = -C/(2 sqrt(s) L) + sum_b <q0(x_b), J_b> (1 - t_b / L) / sqrt(s)
+
+    where ``J_b = q1[b] - q1[b-1]`` is the jump of q1 at the break ``t1[b]`` inside the
+    range and ``t_b`` its pre-image offset (q1' is a sum of Dirac masses: this is the
+    discrete form of the ``q1' * phi`` term in Lemma 12 / 14 of paper 001).
+    ``<q0[a], J_b> = dG[a, b] = G[a, b] - G[a, b-1]``.
+
+    Returns ``(E, grad)`` with ``grad`` of shape ``(K+1,)`` (d E / d y_p).
+    """
+    n0 = t0.shape[0] - 1
+    n1 = t1.shape[0] - 1
+    K = x.shape[0] - 1
+    grad = np.zeros(K + 1)
+    total = 0.0
+    a = 0
+    b = 0
+    for p in range(K):
+        xs = x[p]
+        xe = x[p + 1]
+        ys = y[p]
+        ye = y[p + 1]
+        L = xe - xs
+        s = (ye - ys) / L
+        while a < n0 - 1 and t0[a + 1] <= xs:
+            a += 1
+        while b < n1 - 1 and t1[b + 1] <= ys:
+            b += 1
+        if s <= 0.0:
+            continue  # flat piece: no cross term (its gradient is infinite; psi-form avoids it)
+        rs = np.sqrt(s)
+        C = 0.0
+        J = 0.0  # sum_b <q0, J_b> t_b / L
+        Jc = 0.0  # sum_b <q0, J_b> (1 - t_b / L)
+        xc = xs
+        while True:
+            na = t0[a + 1] if (t0[a + 1] < xe and a < n0 - 1) else xe
+            if t1[b + 1] < ye and b < n1 - 1:
+                nb = xs + (t1[b + 1] - ys) / s
+                if nb > xe:
+                    nb = xe
+            else:
+                nb = xe
+            nx = na if na < nb else nb
+            C += G[a, b] * (nx - xc)
+            if nx >= xe:
+                break
+            xc = nx
+            if na <= nx and a < n0 - 1:
+                a += 1
+            if nb <= nx and b < n1 - 1:
+                b += 1
+                w = (nx - xs) / L
+                g = dG[a, b]
+                J += g * w
+                Jc += g * (1.0 - w)
+        total += rs * C
+        c2 = C / (2.0 * rs * L)
+        grad[p + 1] += -2.0 * (c2 + J / rs)
+        grad[p] += -2.0 * (-c2 + Jc / rs)
+    return A_tot + B_tot - 2.0 * total, grad

@@ -1,0 +1,238 @@
+"""Blends: the end points of the geodesic, timing, placement, bad input, metrics, real data."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from blend_testlib import walker
+
+from elastic_motion.apps.align import align_motions, prepare_motions
+from elastic_motion.apps.blend import blend_motions
+from elastic_motion.apps.distance import distance_table
+from elastic_motion.apps.metrics import bone_length_error, foot_joints, foot_sliding
+from elastic_motion.groups import SO3
+from elastic_motion.motion import (
+    drop_joints,
+    drop_tpose,
+    forward_kinematics,
+    read_bvh,
+    read_motion,
+    resample,
+    trim,
+    write_bvh,
+)
+
+SO3G = SO3()
+METHODS = [
+    ("euler-linear", "none"),
+    ("euler-elastic", "none"),
+    ("euler-elastic", "dp"),
+    ("lie", "none"),
+    ("lie", "dp"),
+]
+
+
+def _angle(r0, r1):
+    return np.linalg.norm(SO3G.log(np.swapaxes(r0, -1, -2) @ r1), axis=-1)
+
+
+@pytest.fixture(scope="module")
+def pair():
+    a = walker(duration=2.0, freq=1.0, amp=0.5, speed=1.0, name="A")
+    b = walker(duration=2.6, freq=1.3, amp=0.7, speed=1.4, phase=0.4, yaw=0.7, scale=1.1, name="B")
+    return a, b
+
+
+@pytest.mark.parametrize(("method", "warp"), METHODS)
+def test_weight_zero_gives_a(pair, method, warp):
+    a, b = pair
+    res = blend_motions([a, b], 0.0, method=method, warp=warp, metrics=False)
+    m = res.motion
+    assert m.n_frames == a.n_frames and m.fps == a.fps
+    assert _angle(m.rotations, a.rotations).max() < 1e-6
+    np.testing.assert_allclose(m.root_translation, a.root_translation, atol=1e-6)
+    np.testing.assert_allclose(m.skeleton.offsets, a.skeleton.offsets, atol=1e-12)
+
+
+@pytest.mark.parametrize(("method", "warp"), METHODS)
+def test_weight_one_gives_b_at_its_own_timing(pair, method, warp):
+    a, b = pair
+    res = blend_motions([a, b], 1.0, method=method, warp=warp, metrics=False)
+    pb = res.prepared.motions[1]  # B placed like A
+    m = res.motion
+    assert m.n_frames == pb.n_frames
+    assert abs(m.duration - b.duration) < 1e-9
+    tol = 1e-6 if warp == "none" else 2e-3
+    assert _angle(m.rotations, pb.rotations).max() < tol
+    np.testing.assert_allclose(m.root_translation, pb.root_translation, atol=tol)
+    np.testing.assert_allclose(m.skeleton.offsets, b.skeleton.offsets, atol=1e-12)  # skeleton="blend"
+
+
+def test_halfway_blend_duration_skeleton_and_fingers(pair):
+    a, b = pair
+    res = blend_motions([a, b], 0.5, method="lie", warp="dp")
+    m = res.motion
+    assert abs(m.duration - 0.5 * (a.duration + b.duration)) <= 1.0 / a.fps
+    assert m.skeleton.names == a.skeleton.names
+    np.testing.assert_allclose(m.skeleton.offsets, 0.5 * (a.skeleton.offsets + b.skeleton.offsets))
+    assert "LeftHandIndex1" in res.prepared.extra_joints  # finger joint: blended frame by frame
+    assert np.isfinite(m.rotations).all()
+    assert res.timing[0] == 0.0 and res.timing[-1] == 1.0 and (np.diff(res.timing) > 0).all()
+    met = res.metrics
+    assert set(met) == {"foot_sliding", "bone_length_error", "distances"}
+    assert met["bone_length_error"]["result"]["max_relative"] < 1e-9
+    d = met["distances"]
+    assert d["labels"] == ["A", "B"]
+    d_ab = d["between_inputs"][0][1]
+    d_ra, d_rb = d["result_to_inputs"]
+    # on the SRV geodesic with the warp, the result sits about halfway
+    assert d_ra < 0.8 * d_ab and d_rb < 0.8 * d_ab
+    assert d_ra + d_rb < 1.25 * d_ab
+
+
+def test_blend_is_placed_like_a(pair):
+    a, b = pair  # B walks 0.7 rad off A's direction
+    res = blend_motions([a, b], 0.5, metrics=False)
+    pb = res.prepared.motions[1]
+    np.testing.assert_allclose(pb.root_translation[0, [0, 2]], a.root_translation[0, [0, 2]], atol=1e-9)
+    travel = pb.root_translation[-1] - pb.root_translation[0]
+    assert abs(travel[0]) < 1e-6 * np.linalg.norm(travel)  # now walks along +z like A
+    assert pb.root_translation[0, 1] == pytest.approx(b.root_translation[0, 1])  # height kept
+    path = res.motion.root_translation
+    assert abs(path[-1, 0] - path[0, 0]) < 0.02 and path[-1, 2] > path[0, 2] + 1.0
+    unplaced = blend_motions([a, b], 0.5, align=False, metrics=False).motion.root_translation
+    assert abs(unplaced[-1, 0] - unplaced[0, 0]) > 0.3
+
+
+def test_extrapolation_needs_the_flag(pair):
+    a, b = pair
+    with pytest.raises(ValueError, match=r"s = 1.3 is outside \[0, 1\].*extrapolate=True"):
+        blend_motions([a, b], 1.3, metrics=False)
+    res = blend_motions([a, b], 1.3, extrapolate=True, metrics=False)
+    assert np.isfinite(res.motion.rotations).all() and res.motion.n_frames > 2
+    with pytest.raises(ValueError, match="summing to 1"):
+        blend_motions([a, b], [0.5, 0.6], metrics=False)
+
+
+def test_three_way_weighted_mean(pair):
+    a, b = pair
+    c = walker(duration=2.3, freq=1.15, amp=0.6, speed=1.2, name="C")
+    res = blend_motions([a, b, c], [0.5, 0.3, 0.2], metrics=False)
+    assert len(res.warps) == 3
+    m = res.motion
+    expected = 0.5 * a.duration + 0.3 * b.duration + 0.2 * c.duration
+    assert abs(m.duration - expected) < 0.15  # the template's warps are not recentred
+    only_a = blend_motions([a, b, c], [1.0, 0.0, 0.0], warp="none", metrics=False)
+    assert _angle(only_a.motion.rotations, a.rotations).max() < 1e-6
+    with pytest.raises(ValueError, match="two motions only"):
+        blend_motions([a, b, c], [0.4, 0.3, 0.3], landmarks="auto")
+    with pytest.raises(ValueError, match=r"in \[0, 1\] for 3 motions"):
+        blend_motions([a, b, c], [1.2, -0.1, -0.1], extrapolate=True)
+
+
+def test_different_skeletons_name_the_joints(pair):
+    a, b = pair
+    b2 = drop_joints(b, ["LeftHand"])
+    with pytest.raises(ValueError, match=r"only in A: \['LeftHand', 'LeftHandIndex1'\].*joints='common'"):
+        blend_motions([a, b2], 0.5, metrics=False)
+    res = blend_motions([a, b2], 0.5, joints="common", metrics=False)
+    assert "LeftHand" not in res.motion.skeleton.names
+    assert any("dropped joints not shared" in n for n in res.notes)
+
+
+def test_different_frame_rates_are_resampled(pair):
+    a, b = pair
+    b60 = resample(b, 60.0)
+    res = blend_motions([a, b60], 0.5, metrics=False)
+    assert res.motion.fps == a.fps
+    assert any("resampled from 60 to 30 fps" in n for n in res.notes)
+
+
+def test_landmarks_pull_the_warp(pair):
+    a, b = pair
+    lm = [(0.6, 1.5), (1.4, 2.1)]
+    res = align_motions(a, b, landmarks=lm, lam=1000.0)
+    np.testing.assert_allclose(res.time_in_b([0.6, 1.4]), [1.5, 2.1], atol=0.05)
+    free = align_motions(a, b)
+    assert free.distance <= res.distance + 1e-9
+    auto = align_motions(a, b, landmarks="auto")
+    assert len(auto.landmarks) >= 1
+    with pytest.raises(ValueError, match=r"pair 0 has time 9 s in B, outside its duration"):
+        align_motions(a, b, landmarks=[(0.5, 9.0)])
+    with pytest.raises(ValueError, match="not in increasing order"):
+        align_motions(a, b, landmarks=[(0.5, 1.5), (1.0, 1.0)])
+    with pytest.raises(ValueError, match="need a time warp"):
+        blend_motions([a, b], 0.5, warp="none", landmarks=[(0.5, 0.5)])
+
+
+def test_bad_arguments(pair):
+    a, b = pair
+    with pytest.raises(ValueError, match="at least 2 motions"):
+        blend_motions([a], 0.5)
+    with pytest.raises(ValueError, match="method: expected one of"):
+        blend_motions([a, b], 0.5, method="quaternion")
+    with pytest.raises(ValueError, match="warp: expected one of"):
+        blend_motions([a, b], 0.5, warp="dtw")
+
+
+def test_metrics_on_a_clean_motion(pair):
+    a, _ = pair
+    assert [a.skeleton.names[j] for j in foot_joints(a)] == ["LeftFoot", "RightFoot"]
+    fs = foot_sliding(a)
+    assert fs.speed.shape == (a.n_frames - 1, 2) and fs.units == "m"
+    assert bone_length_error(a).max_relative < 1e-12
+    longer = a.replace(
+        skeleton=a.skeleton.__class__(
+            a.skeleton.names,
+            a.skeleton.parents,
+            a.skeleton.offsets * 1.1,
+            a.skeleton.channels,
+            a.skeleton.end_site_parents,
+            a.skeleton.end_site_offsets,
+        )
+    )
+    assert bone_length_error(longer, a).max_relative == pytest.approx(0.1, rel=1e-9)
+
+
+def test_distance_table_is_symmetric(pair):
+    a, b = pair
+    t = distance_table([a, b, a], labels=["a", "b", "a2"])
+    np.testing.assert_allclose(t.matrix, t.matrix.T)
+    assert t.matrix[0, 2] < 1e-9 and t.matrix[0, 1] > 0.1
+    assert (t.matrix <= t.unwarped + 1e-9).all()
+
+
+def test_written_blend_reads_back(pair, tmp_path):
+    a, b = pair
+    res = blend_motions([a, b], 0.5, metrics=False)
+    path = write_bvh(res.motion, tmp_path / "blend.bvh")
+    back = read_bvh(path, units="m")
+    assert back.skeleton.names == res.motion.skeleton.names and back.n_frames == res.motion.n_frames
+    np.testing.assert_allclose(forward_kinematics(back), forward_kinematics(res.motion), atol=1e-6)
+
+
+@pytest.mark.mocap
+def test_cmu_obstacle_walks_by_every_method(mocap_dir):
+    """Paper 000 Fig. 4 / paper 001 Fig. 6: the warp matters; the Lie blend with warp slides
+    less than the linear Euler blend and sits near the middle of the geodesic."""
+    a = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/107_02_30hz.bvh")), 1.0, 3.4)
+    b = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/108_01_30hz.bvh")), 1.3, 4.8)
+    prep = prepare_motions([a, b])
+    assert prep.motions[1].metres_per_unit == 1.0
+    out = {}
+    for method, warp, lm in [
+        ("euler-linear", "none", None),
+        ("lie", "none", None),
+        ("lie", "dp", None),
+        ("euler-elastic", "dp", "auto"),
+    ]:
+        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm)
+        assert res.motion.n_joints == 31 and np.isfinite(res.motion.rotations).all()
+        out[(method, warp)] = res.metrics
+    lie_dp = out[("lie", "dp")]
+    d = lie_dp["distances"]
+    d_ab = d["between_inputs"][0][1]
+    assert max(d["result_to_inputs"]) < 0.62 * d_ab
+    assert max(out[("lie", "none")]["distances"]["result_to_inputs"]) > max(d["result_to_inputs"])
+    slide = {k: v["foot_sliding"]["result"]["mean_speed_m_s"] for k, v in out.items()}
+    assert slide[("lie", "dp")] < slide[("euler-linear", "none")]

@@ -1,0 +1,295 @@
+"""The motion sub-commands end to end: outputs, JSON reports, and bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from blend_testlib import walker
+
+from elastic_motion.cli import main
+from elastic_motion.motion import drop_joints, read_bvh, resample, write_bvh
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    a = walker(duration=2.0, freq=1.0, name="a")
+    b = walker(duration=2.4, freq=1.25, amp=0.65, speed=1.3, phase=0.3, yaw=0.5, name="b")
+    c = walker(duration=1.8, freq=1.1, amp=0.55, name="c")
+    paths = {
+        "a": write_bvh(a, d / "a.bvh"),
+        "b": write_bvh(b, d / "b.bvh"),
+        "c": write_bvh(c, d / "c.bvh"),
+        "b60": write_bvh(resample(b, 60.0), d / "b60.bvh"),
+        "nohand": write_bvh(drop_joints(b, ["LeftHand"]), d / "nohand.bvh"),
+    }
+    bad = d / "bad.bvh"
+    text = paths["a"].read_text().splitlines()
+    text[-1] = " ".join(text[-1].split()[:-1])  # one value short on the last frame
+    bad.write_text("\n".join(text) + "\n")
+    paths["bad"] = bad
+    paths["dir"] = d
+    return {k: str(v) for k, v in paths.items()}
+
+
+def run(capsys, *argv):
+    code = main([str(x) for x in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_blend_writes_bvh_and_report(files, capsys, tmp_path):
+    out, rep = tmp_path / "ab.bvh", tmp_path / "ab.json"
+    code, stdout, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", out, "--weight", "0.3", "--json", rep, "-q"
+    )
+    assert code == 0, err
+    assert "wrote" in stdout and "foot sliding" in stdout
+    m = read_bvh(out, units="m")
+    assert m.n_joints == 11
+    r = json.loads(rep.read_text())
+    assert r["command"] == "blend" and r["inputs"] == [files["a"], files["b"]] and r["outputs"] == [str(out)]
+    assert r["method"] == "lie" and r["warp"] == "dp" and r["weights"] == pytest.approx([0.7, 0.3])
+    assert r["frames"] == m.n_frames and r["fps"] == 30.0
+    met = r["metrics"]
+    assert {"foot_sliding", "bone_length_error", "distances"} <= set(met)
+    assert len(met["distances"]["result_to_inputs"]) == 2
+    assert "mean_speed_m_s" in met["foot_sliding"]["result"]
+    assert any("placed like a" in n for n in r["notes"])
+
+
+def test_blend_json_on_stdout(files, capsys, tmp_path):
+    code, stdout, _ = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["b"],
+        "-o",
+        tmp_path / "x.bvh",
+        "--method",
+        "euler-linear",
+        "--warp",
+        "none",
+        "--no-metrics",
+        "--json",
+    )
+    assert code == 0
+    r = json.loads(stdout)
+    assert r["method"] == "euler-linear" and r["metrics"] == {}
+
+
+def test_blend_refuses_to_overwrite_an_input(files, capsys):
+    before = open(files["a"]).read()
+    code, _, err = run(capsys, "blend", files["a"], files["b"], "-o", files["a"])
+    assert code == 2
+    assert "refusing to overwrite an input" in err and files["a"] in err
+    assert open(files["a"]).read() == before
+
+
+def test_blend_weight_outside_needs_extrapolate(files, capsys, tmp_path):
+    code, _, err = run(capsys, "blend", files["a"], files["b"], "-o", tmp_path / "x.bvh", "--weight", "1.4")
+    assert code == 2 and "--extrapolate" in err
+    code, _, err = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["b"],
+        "-o",
+        tmp_path / "x.bvh",
+        "--weight",
+        "1.4",
+        "--extrapolate",
+        "--no-metrics",
+    )
+    assert code == 0, err
+
+
+def test_blend_different_skeletons(files, capsys, tmp_path):
+    code, _, err = run(capsys, "blend", files["a"], files["nohand"], "-o", tmp_path / "x.bvh")
+    assert code == 2
+    assert "only in a: ['LeftHand', 'LeftHandIndex1']" in err and "--joints common" in err
+    code, stdout, err = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["nohand"],
+        "-o",
+        tmp_path / "x.bvh",
+        "--joints",
+        "common",
+        "--no-metrics",
+    )
+    assert code == 0, err
+    assert "dropped joints not shared" in stdout
+    assert "LeftHand" not in read_bvh(tmp_path / "x.bvh").skeleton.names
+
+
+def test_blend_different_fps_says_so(files, capsys, tmp_path):
+    code, stdout, err = run(
+        capsys, "blend", files["a"], files["b60"], "-o", tmp_path / "x.bvh", "--no-metrics"
+    )
+    assert code == 0, err
+    assert "resampled from 60 to 30 fps" in stdout
+
+
+def test_blend_landmarks_in_all_forms(files, capsys, tmp_path):
+    out = tmp_path / "x.bvh"
+    base = ["blend", files["a"], files["b"], "-o", out, "--no-metrics", "--json"]
+    code, stdout, err = run(capsys, *base, "--landmarks", "0.5:0.6,1.5:1.7")
+    assert code == 0, err
+    assert json.loads(stdout)["landmarks_s"] == [[0.5, 0.6], [1.5, 1.7]]
+    code, stdout, _ = run(capsys, *base, "--landmarks", "15:18", "--landmark-units", "frames")
+    assert json.loads(stdout)["landmarks_s"] == [[0.5, 0.6]]
+    code, stdout, _ = run(capsys, *base, "--landmarks", "0.5s:18f")
+    assert json.loads(stdout)["landmarks_s"] == [[0.5, 0.6]]
+    lm = tmp_path / "lm.txt"
+    lm.write_text("# tA tB\n0.5 0.6\n1.5,1.7\n")
+    code, stdout, _ = run(capsys, *base, "--landmarks", lm)
+    assert json.loads(stdout)["landmarks_s"] == [[0.5, 0.6], [1.5, 1.7]]
+    code, stdout, _ = run(capsys, *base, "--landmarks", "auto")
+    assert code == 0 and len(json.loads(stdout)["landmarks_s"]) >= 1
+    code, _, err = run(capsys, *base, "--landmarks", "0.5:9.0")
+    assert code == 2 and "outside its duration" in err
+    code, _, err = run(capsys, *base, "--landmarks", "banana")
+    assert code == 2 and "expected 'auto'" in err
+
+
+def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
+    code, stdout, _ = run(capsys, "landmarks", files["a"])
+    assert code == 0 and "left_knee_passes" in stdout
+    pairs = tmp_path / "pairs.json"
+    code, stdout, _ = run(capsys, "landmarks", files["a"], files["b"], "--json", pairs)
+    assert code == 0 and "pairs" in stdout
+    r = json.loads(pairs.read_text())
+    assert r["units"] == "seconds" and len(r["pairs_s"]) >= 1
+    assert len(r["events"]) == 2
+    code, stdout, err = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["b"],
+        "-o",
+        tmp_path / "x.bvh",
+        "--landmarks",
+        pairs,
+        "--no-metrics",
+        "--json",
+    )
+    assert code == 0, err
+    np.testing.assert_allclose(json.loads(stdout)["landmarks_s"], r["pairs_s"])
+
+
+def test_multiway_blend(files, capsys, tmp_path):
+    code, stdout, err = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["b"],
+        files["c"],
+        "-o",
+        tmp_path / "abc.bvh",
+        "--weights",
+        "0.5",
+        "0.3",
+        "0.2",
+        "--no-metrics",
+        "--json",
+    )
+    assert code == 0, err
+    assert json.loads(stdout)["weights"] == pytest.approx([0.5, 0.3, 0.2])
+    code, _, err = run(
+        capsys, "blend", files["a"], files["b"], files["c"], "-o", tmp_path / "abc.bvh", "--weight", "0.5"
+    )
+    assert code == 2 and "--weights" in err
+
+
+def test_loop_with_preview(files, capsys, tmp_path):
+    out = tmp_path / "loop.bvh"
+    code, stdout, err = run(
+        capsys, "loop", files["a"], "-o", out, "--repeat", "3", "--json", tmp_path / "l.json"
+    )
+    assert code == 0, err
+    preview = tmp_path / "loop.repeat3.bvh"
+    a = read_bvh(files["a"])
+    assert read_bvh(out).n_frames == a.n_frames
+    assert read_bvh(preview).n_frames == 3 * (a.n_frames - 1) + 1
+    r = json.loads((tmp_path / "l.json").read_text())
+    assert r["outputs"] == [str(out), str(preview)]
+    assert r["seam_after"]["seam_angle_max_deg"] <= r["seam_before"]["seam_angle_max_deg"] + 1e-9
+    assert "seam:" in stdout
+    code, _, err = run(capsys, "loop", files["a"], "-o", files["a"])
+    assert code == 2 and "refusing" in err
+
+
+def test_align_distance_render(files, capsys, tmp_path):
+    code, stdout, err = run(capsys, "align", files["a"], files["b"], "--plot", tmp_path / "w.png", "--json")
+    assert code == 0, err
+    r = json.loads(stdout)
+    assert r["distance"] <= r["distance_unwarped"] + 1e-9
+    assert r["warp_vertices_s"][0] == [0.0, 0.0]
+    assert (tmp_path / "w.png").stat().st_size > 5000
+    code, stdout, _ = run(capsys, "distance", files["a"], files["b"], files["c"], "--json")
+    d = np.array(json.loads(stdout)["distances"])
+    assert d.shape == (3, 3) and np.allclose(d, d.T) and (np.diag(d) == 0).all()
+    code, stdout, _ = run(capsys, "distance", files["a"], files["b"])
+    assert code == 0 and "elastic distances" in stdout
+    code, _, err = run(
+        capsys, "render", files["a"], files["b"], "-o", tmp_path / "ab.gif", "--size", "64x64", "--fps", "5"
+    )
+    assert code == 0, err
+    code, _, _ = run(capsys, "render", files["a"], "-o", tmp_path / "ab.png")
+    assert code == 0 and (tmp_path / "ab.png").exists()
+    code, _, err = run(capsys, "render", files["a"], "-o", files["a"])
+    assert code == 2 and "refusing" in err
+
+
+def test_bad_files(files, capsys, tmp_path):
+    code, _, err = run(capsys, "blend", files["a"], str(tmp_path / "missing.bvh"), "-o", tmp_path / "x.bvh")
+    assert code == 2 and "no such file" in err
+    code, _, err = run(capsys, "blend", files["a"], files["bad"], "-o", tmp_path / "x.bvh")
+    assert code == 2 and "bad.bvh:" in err and "expected" in err
+    code, _, err = run(capsys, "blend", files["a"], files["b"], "-o", tmp_path / "x.txt")
+    assert code == 2 and ".bvh" in err
+    code, _, err = run(capsys, "blend", files["a"], files["b"], "-o", tmp_path / "nodir" / "x.bvh")
+    assert code == 2 and "does not exist" in err
+
+
+def test_trim(files, capsys, tmp_path):
+    code, stdout, err = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["b"],
+        "-o",
+        tmp_path / "x.bvh",
+        "--trim",
+        "0.5:1.5",
+        ":",
+        "--no-metrics",
+    )
+    assert code == 0, err
+    assert "a.bvh: kept 0.5-1.5 s (31 frames)" in stdout
+    code, _, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", tmp_path / "x.bvh", "--trim", "0.5", ":"
+    )
+    assert code == 2 and "START:STOP" in err
+
+
+def test_progress_bar_draws_after_its_delay():
+    import io
+
+    from elastic_motion.apps.progress import ProgressBar
+
+    buf = io.StringIO()
+    bar = ProgressBar("blend", stream=buf, delay=0.0, enabled=True)
+    for i in range(4):
+        bar("warp", i + 1, 4)
+    bar.close()
+    assert "blend: warp" in buf.getvalue() and "[########################] 4/4" in buf.getvalue()
+    quiet = io.StringIO()
+    bar = ProgressBar("blend", stream=quiet, delay=10.0, enabled=True)
+    bar("warp", 1, 4)
+    bar.close()
+    assert quiet.getvalue() == ""  # work under the delay shows nothing

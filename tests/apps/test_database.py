@@ -1,0 +1,420 @@
+"""Distance matrices over motion databases: tiles, storage, resume, engines, bad input.
+
+Synthetic BVH files (a 4-joint skeleton, 20-40 frames) keep every run small; the Dask tests
+start a 2-worker ``LocalCluster``. Real data only in the ``mocap_dir`` tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elastic_motion.apps.database import (
+    ClusterUnavailableError,
+    DatabaseSettings,
+    PairSpec,
+    compute_matrix,
+    compute_tile,
+    find_motion_files,
+    load_matrix,
+    pair_distance,
+    query_distances,
+    tile_blocks,
+)
+from elastic_motion.motion import Motion, Skeleton, write_bvh
+from elastic_motion.motion.rotations import euler_to_matrix
+
+SRC = Path(__file__).resolve().parents[2] / "src"
+
+try:
+    import distributed  # noqa: F401
+
+    HAVE_DASK = True
+except ImportError:  # the `cluster` extra is not installed
+    HAVE_DASK = False
+needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="needs dask[distributed] (extra 'cluster')")
+
+
+# --------------------------------------------------------------------------------------------
+# Synthetic database
+# --------------------------------------------------------------------------------------------
+
+
+def synthetic_motion(kind: int, variant: int, *, frames: int = 30, extra_joint: bool = False) -> Motion:
+    """A 4-joint (5 with ``extra_joint``) clip: ``kind`` sets frequency/amplitude, ``variant``
+    a time warp and a small phase change."""
+    names = ["Hips", "Spine", "LeftLeg", "RightLeg"] + (["Head"] if extra_joint else [])
+    parents = [-1, 0, 0, 0] + ([1] if extra_joint else [])
+    offsets = [[0, 0, 0], [0, 0.3, 0], [0.1, -0.1, 0], [-0.1, -0.1, 0]] + (
+        [[0, 0.3, 0]] if extra_joint else []
+    )
+    rot = ("Zrotation", "Yrotation", "Xrotation")
+    channels = [("Xposition", "Yposition", "Zposition", *rot)] + [rot] * (len(names) - 1)
+    sk = Skeleton(
+        names, parents, offsets, channels, end_site_parents=[2, 3], end_site_offsets=[[0, -0.5, 0]] * 2
+    )
+    s = np.linspace(0.0, 1.0, frames)
+    s = s + 0.08 * variant * np.sin(np.pi * s) / (1 + variant)  # time warp
+    freq, amp = [(1.0, 0.6), (2.0, 0.25), (1.5, 0.4)][kind]
+    ph = 0.05 * variant
+    j = len(names)
+    ang = np.zeros((frames, j, 3))
+    for k in range(j):
+        ang[:, k, 2] = amp * np.sin(2 * np.pi * freq * s + ph + k)
+        ang[:, k, 1] = 0.3 * amp * np.cos(2 * np.pi * freq * s + k)
+    root = np.stack([0.02 * np.sin(4 * np.pi * s), 0.9 + 0.02 * s, (1.0 + 0.3 * kind) * s], axis=1)
+    return Motion(sk, 30.0, root, euler_to_matrix(ang, "ZYX"), metres_per_unit=1.0)
+
+
+@pytest.fixture(scope="module")
+def db_dir(tmp_path_factory) -> Path:
+    """7 readable clips (2 kinds x 3 + 1 with another skeleton) and 2 bad files."""
+    d = tmp_path_factory.mktemp("db")
+    for kind in (0, 1):
+        for v in range(3):
+            write_bvh(synthetic_motion(kind, v, frames=24 + 4 * v), d / f"k{kind}_v{v}.bvh")
+    write_bvh(synthetic_motion(0, 1, extra_joint=True), d / "other_skeleton.bvh")
+    (d / "broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n")
+    (d / "empty.bvh").write_bytes(b"")
+    (d / "notes.txt").write_text("not a motion\n")
+    return d
+
+
+SETTINGS = DatabaseSettings(n_samples=12, tile_size=2, pair=PairSpec(warp="dp", neighbourhood=4))
+
+
+def _arrays(out: Path) -> dict[str, bytes]:
+    return {r: np.load(out / f"distances_{r}.npy").tobytes() for r in ("lie", "euler")}
+
+
+# --------------------------------------------------------------------------------------------
+# Pieces
+# --------------------------------------------------------------------------------------------
+
+
+def test_tile_blocks_cover_each_pair_once() -> None:
+    m, ts = 7, 3
+    seen: dict[tuple[int, int], int] = {}
+    for bi, bj in tile_blocks(m, ts):
+        for i in range(bi * ts, min((bi + 1) * ts, m)):
+            for j in range(bj * ts, min((bj + 1) * ts, m)):
+                if i <= j:
+                    seen[(i, j)] = seen.get((i, j), 0) + 1
+    assert seen == {(i, j): 1 for i in range(m) for j in range(i, m)}
+
+
+def test_pair_distance_dp_below_none_and_symmetric() -> None:
+    rng = np.random.default_rng(1)
+    t = np.linspace(0, 1, 21)
+    base = np.stack([np.sin(2 * np.pi * t[:-1] * (k + 1)) for k in range(5)], axis=1)
+    q0 = base + 0.05 * rng.normal(size=base.shape)
+    q1 = np.roll(base, 2, axis=0)
+    none = pair_distance(q0, q1, PairSpec(warp="none"))
+    assert none == pytest.approx(np.sqrt(np.mean(np.sum((q0 - q1) ** 2, axis=1))), rel=1e-14)
+    dp = pair_distance(q0, q1, PairSpec(warp="dp"))
+    assert dp <= none + 1e-12
+    assert pair_distance(q1, q0, PairSpec(warp="dp")) == pytest.approx(dp, rel=1e-12)
+
+
+def test_compute_tile_layout() -> None:
+    q = [np.full((4, 2), float(k)) for k in range(4)]
+    tile = compute_tile(
+        np.array([0, 1]),
+        np.array([1, 2, 3]),
+        q[:2],
+        q[1:],
+        np.array([0, 0]),
+        np.array([0, 0, 1]),
+        PairSpec(warp="none"),
+    )
+    assert tile[0, 0] == pytest.approx(np.sqrt(2.0))  # d(0, 1): |0 - 1| in 2 dims
+    assert tile[1, 0] == 0.0  # diagonal
+    assert tile[0, 2] == np.inf and tile[1, 2] == np.inf  # other group
+    assert np.isnan(
+        compute_tile(np.array([2]), np.array([1]), q[2:3], q[1:2], [0], [0], PairSpec("none"))
+    ).all()
+
+
+def test_find_motion_files_ignores_text_and_keeps_bad_files(db_dir: Path) -> None:
+    files, ignored = find_motion_files([db_dir, db_dir / "missing.bvh"])
+    names = [f.name for f in files]
+    assert "broken.bvh" in names and "empty.bvh" in names and "missing.bvh" in names
+    assert [i.name for i in ignored] == ["notes.txt"]
+
+
+# --------------------------------------------------------------------------------------------
+# Serial run: files, report, groups, bad input
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def serial_run(db_dir: Path, tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial") / "out"
+    return compute_matrix([db_dir], out, SETTINGS)
+
+
+def test_serial_run_outputs(serial_run, db_dir: Path) -> None:
+    out = serial_run.out_dir
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["complete"] is True and serial_run.complete
+    assert rep["n_motions"] == 7
+    skipped = {Path(s["path"]).name: s["reason"] for s in rep["skipped"]}
+    assert set(skipped) == {"broken.bvh", "empty.bvh"}
+    assert all("ParseError" in r for r in skipped.values())
+    assert [Path(p).name for p in rep["ignored"]] == ["notes.txt"]
+    assert len(rep["groups"]) == 2 and rep["groups"][1]["motions"] == ["other_skeleton"]
+    assert "+inf" in rep["comparison"]
+    names = (out / "names.csv").read_text().splitlines()
+    assert names[0] == "index,name,path,group,frames,fps,duration,joints" and len(names) == 8
+    for r in ("lie", "euler"):
+        d = np.load(out / f"distances_{r}.npy")
+        assert d.shape == (7, 7) and not np.isnan(d).any()
+        assert np.array_equal(d, d.T) and (np.diag(d) == 0).all()
+        assert np.isinf(d[6, :6]).all()  # other skeleton: not comparable
+        assert (d[:6, :6][~np.eye(6, dtype=bool)] > 0).all()
+    man = json.loads((out / "manifest.json").read_text())
+    assert len(man["tiles"]) == 2 * len(tile_blocks(7, 2))
+    assert not list((out / "tiles").glob("*.tmp"))
+    # the elastic distance separates the two kinds: nearest neighbour has the same kind
+    d = np.load(out / "distances_lie.npy")[:6, :6] + np.diag([np.inf] * 6)
+    kinds = [0, 0, 0, 1, 1, 1]
+    assert all(kinds[int(np.argmin(d[i]))] == kinds[i] for i in range(6))
+    # inputs untouched, nothing written beside them
+    assert sorted(p.name for p in db_dir.iterdir()) == sorted(
+        ["broken.bvh", "empty.bvh", "notes.txt", "other_skeleton.bvh"]
+        + [f"k{k}_v{v}.bvh" for k in (0, 1) for v in range(3)]
+    )
+
+
+def test_warp_none_is_an_upper_bound(serial_run, db_dir: Path, tmp_path: Path) -> None:
+    s = DatabaseSettings(n_samples=12, tile_size=2, pair=PairSpec(warp="none"))
+    none = compute_matrix([db_dir], tmp_path / "none", s).distances["lie"]
+    dp = np.load(serial_run.out_dir / "distances_lie.npy")
+    fin = np.isfinite(dp)
+    assert (dp[fin] <= np.asarray(none)[fin] + 1e-12).all()
+    assert (dp[fin] < np.asarray(none)[fin] - 1e-9).sum() > 0
+
+
+def test_rerun_is_a_noop_and_other_settings_are_refused(serial_run, db_dir: Path) -> None:
+    out = serial_run.out_dir
+    before = _arrays(out)
+    again = compute_matrix([db_dir], out, SETTINGS)
+    assert again.report["runs"][-1]["tiles_computed"] == 0 and again.complete
+    assert _arrays(out) == before
+    other = DatabaseSettings(n_samples=10, tile_size=2)
+    with pytest.raises(ValueError, match=r"other settings or inputs.*n_samples"):
+        compute_matrix([db_dir], out, other)
+
+
+def test_overwrite_replaces_a_different_run(db_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    compute_matrix(
+        [db_dir / "k0_v0.bvh", db_dir / "k1_v0.bvh"],
+        out,
+        DatabaseSettings(n_samples=8, representations=("lie",)),
+    )
+    res = compute_matrix(
+        [db_dir / "k0_v0.bvh", db_dir / "k0_v1.bvh", db_dir / "k1_v1.bvh"],
+        out,
+        DatabaseSettings(n_samples=8, representations=("euler",)),
+        overwrite=True,
+    )
+    assert res.names == ["k0_v0", "k0_v1", "k1_v1"]
+    assert not (out / "distances_lie.npy").exists()
+
+
+def test_common_joints_makes_one_group(db_dir: Path, tmp_path: Path) -> None:
+    s = DatabaseSettings(n_samples=8, joints="common", representations=("lie",))
+    res = compute_matrix([db_dir], tmp_path / "c", s)
+    assert len(res.report["groups"]) == 1 and res.report["groups"][0]["n_joints"] == 4
+    assert "4 joints they share" in res.report["comparison"]
+    assert np.isfinite(np.asarray(res.distances["lie"])).all()
+
+
+def test_no_readable_motion_is_an_error(db_dir: Path, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="no readable motion"):
+        compute_matrix([db_dir / "broken.bvh"], tmp_path / "x", SETTINGS)
+
+
+@needs_dask
+def test_unreachable_scheduler_leaves_no_output(db_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "never"
+    with pytest.raises(ClusterUnavailableError, match="could not reach the Dask scheduler"):
+        compute_matrix(
+            [db_dir], out, SETTINGS, engine="dask", scheduler="tcp://127.0.0.1:9", connect_timeout=1.0
+        )
+    assert not out.exists()
+
+
+def test_search_matches_the_matrix_row(serial_run, db_dir: Path) -> None:
+    m = load_matrix(serial_run.out_dir, "lie")
+    names, _, d, info = query_distances(db_dir / "k1_v2.bvh", serial_run.out_dir, "lie")
+    k = names.index("k1_v2")
+    assert d[k] == 0.0
+    np.testing.assert_allclose(d, m.distances[k], rtol=1e-10)
+    assert info["group"] == 0
+
+
+# --------------------------------------------------------------------------------------------
+# Dask engines and interruption
+# --------------------------------------------------------------------------------------------
+
+
+@needs_dask
+def test_local_cluster_equals_serial_bit_for_bit(serial_run, db_dir: Path, tmp_path: Path) -> None:
+    res = compute_matrix([db_dir], tmp_path / "local", SETTINGS, engine="local", n_workers=2)
+    assert res.complete and res.report["engine"] == "local" and res.report["workers"] == 2
+    assert _arrays(res.out_dir) == _arrays(serial_run.out_dir)
+
+
+_KILLER = textwrap.dedent(
+    """
+    import os, sys
+    sys.path.insert(0, {src!r})
+    from elastic_motion.apps.database import DatabaseSettings, PairSpec, compute_matrix
+
+    def progress(stage, done, total, seen=[0]):
+        if stage == "tiles":
+            seen[0] += 1
+            if seen[0] > {after}:  # the first call reports tiles already done
+                os._exit(17)  # hard exit, as SIGKILL: no cleanup, no final manifest
+
+    if __name__ == "__main__":
+        s = DatabaseSettings(n_samples=12, tile_size=2, pair=PairSpec(warp="dp", neighbourhood=4))
+        compute_matrix([{db!r}], {out!r}, s, engine={engine!r}, n_workers=2, progress=progress)
+    """
+)
+
+
+def _run_killed(db_dir: Path, out: Path, engine: str, after: int) -> None:
+    code = _KILLER.format(src=str(SRC), after=after, db=str(db_dir), out=str(out), engine=engine)
+    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
+    try:
+        assert proc.wait(timeout=90) == 17
+    finally:
+        # the local cluster's worker processes lost their driver: end them (our process group)
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+@pytest.mark.parametrize("engine", ["serial", pytest.param("local", marks=needs_dask)])
+def test_interrupted_run_resumes_without_loss_or_duplicates(
+    engine: str, serial_run, db_dir: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "killed"
+    _run_killed(db_dir, out, engine, after=5)
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["complete"] is False
+    tiles_before = {p.name: (p.stat().st_ino, p.stat().st_mtime_ns) for p in (out / "tiles").glob("*.npy")}
+    assert 5 <= len(tiles_before) < 2 * len(tile_blocks(7, 2))
+    res = compute_matrix([db_dir], out, SETTINGS)  # resume, serially
+    assert res.complete
+    run = res.report["runs"][-1]
+    total = 2 * len(tile_blocks(7, 2))
+    assert run["tiles_before"] == len(tiles_before)
+    assert run["tiles_computed"] == total - len(tiles_before)  # nothing computed twice
+    for p in (out / "tiles").glob("*.npy"):
+        if p.name in tiles_before:  # finished tiles were kept, not rewritten
+            assert (p.stat().st_ino, p.stat().st_mtime_ns) == tiles_before[p.name]
+    assert _arrays(out) == _arrays(serial_run.out_dir)
+
+
+def test_tile_on_disk_but_not_in_manifest_is_adopted(serial_run, db_dir: Path, tmp_path: Path) -> None:
+    import shutil
+
+    out = tmp_path / "copy"
+    shutil.copytree(serial_run.out_dir, out)
+    man = json.loads((out / "manifest.json").read_text())
+    keys = sorted(man["tiles"])
+    del man["tiles"][keys[0]]  # finished, but the crash came before the manifest write
+    (out / "tiles" / f"{keys[1]}.npy").unlink()  # lost: must be recomputed
+    (out / "manifest.json").write_text(json.dumps(man))
+    rep = json.loads((out / "report.json").read_text())
+    rep["complete"] = False
+    (out / "report.json").write_text(json.dumps(rep))
+    res = compute_matrix([db_dir], out, SETTINGS)
+    run = res.report["runs"][-1]
+    assert run["tiles_recovered"] == 1 and run["tiles_computed"] == 1
+    assert _arrays(out) == _arrays(serial_run.out_dir)
+
+
+# --------------------------------------------------------------------------------------------
+# CLI
+# --------------------------------------------------------------------------------------------
+
+
+def _cli(argv: list[str]) -> int:
+    from elastic_motion.cli_commands import database
+
+    parser = argparse.ArgumentParser(prog="elastic-motion")
+    database.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+def test_cli_matrix_search_classify_cluster(db_dir: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "cli"
+    common = ["--samples", "10", "--neighbourhood", "4", "--tile-size", "3", "--quiet"]
+    assert _cli(["matrix", str(db_dir), "-o", str(out), *common, "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["complete"] and len(rep["skipped"]) == 2
+    assert _cli(["search", str(db_dir / "k0_v0.bvh"), str(out), "-k", "2", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)["results"]
+    assert [r["name"][:2] for r in res] == ["k0", "k0"]  # itself excluded, same kind first
+    labels = tmp_path / "labels.csv"
+    labels.write_text("".join(f"k{k}_v{v},kind{k}\n" for k in (0, 1) for v in range(3)))
+    assert _cli(["classify", str(out), "--labels", str(labels), "--json"]) == 0
+    acc = json.loads(capsys.readouterr().out)
+    assert acc["lie"]["accuracy"] == 1.0 and acc["lie"]["evaluated"] == 6
+    png = tmp_path / "dendro.png"
+    assert (
+        _cli(["cluster", str(out), "--clusters", "3", "--plot", str(png), "--labels", str(labels), "--json"])
+        == 0
+    )
+    cl = json.loads(capsys.readouterr().out)["clusters"]
+    assert cl["k0_v0"] == cl["k0_v1"] == cl["k0_v2"] != cl["k1_v0"]
+    assert png.stat().st_size > 1000
+
+
+@needs_dask
+def test_cli_unreachable_scheduler_exit_code(db_dir: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "never"
+    argv = ["matrix", str(db_dir), "-o", str(out), "--engine", "dask", "--scheduler", "tcp://127.0.0.1:9"]
+    assert _cli([*argv, "--timeout", "1", "--quiet"]) == 3
+    assert "could not reach the Dask scheduler" in capsys.readouterr().err
+    assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------------
+# Real data
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.mocap
+def test_real_folders_groups_and_skips(mocap_dir: Path, tmp_path: Path) -> None:
+    files = [mocap_dir / "cmu" / "bvh" / n for n in ("07_01.bvh", "09_11.bvh", "131_01.bvh")]
+    files += [
+        mocap_dir / "bandai" / n for n in ("dataset-1_walk_normal_001.bvh", "dataset-1_run_normal_001.bvh")
+    ]
+    bad = tmp_path / "truncated.bvh"
+    bad.write_text((mocap_dir / "cmu" / "bvh" / "07_01.bvh").read_text()[:5000])
+    s = DatabaseSettings(n_samples=16, pair=PairSpec(neighbourhood=4))
+    res = compute_matrix([*files, bad], tmp_path / "real", s)
+    rep = res.report
+    assert rep["complete"] and rep["n_motions"] == 5
+    assert [Path(x["path"]).name for x in rep["skipped"]] == ["truncated.bvh"]
+    # CMU (two conversions with different joint names) and Bandai: three skeleton groups
+    assert len(rep["groups"]) == 3
+    d = np.asarray(res.distances["lie"])
+    assert np.isfinite(d[0, 1]) and np.isinf(d[0, 2])

@@ -1,0 +1,119 @@
+"""Events of a motion (knee crossings, foot contacts) and their pairing into landmarks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from blend_testlib import walker
+
+from elastic_motion.apps.landmarks import (
+    Event,
+    auto_landmarks,
+    detect_events,
+    find_leg_joints,
+    pair_events,
+)
+from elastic_motion.motion import Skeleton, drop_tpose, read_motion, trim
+
+
+def _skeleton(names):
+    n = len(names)
+    return Skeleton(names, [-1] + list(range(n - 1)), np.ones((n, 3)), [()] * n)
+
+
+@pytest.mark.parametrize(
+    ("names", "left_knee", "right_ankle"),
+    [
+        (("Hips", "LeftUpLeg", "LeftLeg", "RightUpLeg", "RightLeg", "RightFoot"), "LeftLeg", "RightFoot"),
+        (("root", "lfemur", "ltibia", "rfemur", "rtibia", "rfoot"), "ltibia", "rfoot"),
+        (
+            ("root", "left_hip", "left_knee", "right_hip", "right_knee", "right_ankle"),
+            "left_knee",
+            "right_ankle",
+        ),
+        (("Hips", "UpperLeg_L", "LowerLeg_L", "UpperLeg_R", "LowerLeg_R", "Foot_R"), "LowerLeg_L", "Foot_R"),
+        (("Hips", "LeftHip", "LeftKnee", "RightHip", "RightKnee", "RightAnkle"), "LeftKnee", "RightAnkle"),
+        (
+            ("mixamorig:Hips", "mixamorig:LeftUpLeg", "mixamorig:LeftLeg", "x", "y", "mixamorig:RightFoot"),
+            "mixamorig:LeftLeg",
+            "mixamorig:RightFoot",
+        ),
+    ],
+)
+def test_leg_joints_by_name(names, left_knee, right_ankle):
+    legs = find_leg_joints(_skeleton(names))
+    assert legs.left_knee == left_knee
+    assert legs.right_ankle == right_ankle
+
+
+def test_leg_joints_ignore_lookalikes():
+    legs = find_leg_joints(_skeleton(("Hips", "LHipJoint", "lowerback", "LeftShoulder", "lhand", "Leg")))
+    assert legs.left_hip is None and legs.left_knee is None and legs.right_knee is None
+
+
+def test_knee_crossings_of_a_synthetic_walk():
+    m = walker(duration=3.0, fps=30.0, freq=1.0)
+    ev = detect_events(m, ["left_knee_passes", "right_knee_passes"])
+    left = [e.time for e in ev if e.kind == "left_knee_passes"]
+    right = [e.time for e in ev if e.kind == "right_knee_passes"]
+    np.testing.assert_allclose(left, [1.0, 2.0], atol=0.02)
+    np.testing.assert_allclose(right, [0.5, 1.5, 2.5], atol=0.02)
+    assert all(isinstance(e, Event) and 0 <= e.frame < m.n_frames for e in ev)
+    assert [e.time for e in ev] == sorted(e.time for e in ev)
+
+
+def test_knee_crossings_do_not_depend_on_heading():
+    a = detect_events(walker(duration=3.0, yaw=0.0), ["left_knee_passes"])
+    b = detect_events(walker(duration=3.0, yaw=2.0), ["left_knee_passes"])
+    np.testing.assert_allclose([e.time for e in a], [e.time for e in b], atol=1e-9)
+
+
+def test_unknown_kind_and_missing_joints_are_explained():
+    m = walker()
+    with pytest.raises(ValueError, match="unknown event kind 'elbow'"):
+        detect_events(m, ["elbow"])
+    sk = _skeleton(("root", "a", "b"))
+    from elastic_motion.motion import Motion
+
+    bare = Motion(sk, 30.0, np.zeros((5, 3)), np.tile(np.eye(3), (5, 3, 1, 1)))
+    with pytest.raises(ValueError, match="no joint found for left_hip"):
+        detect_events(bare, ["left_knee_passes"])
+
+
+def test_pairing_in_order_and_dropping_crossings():
+    ea = [Event("left_knee_passes", t, 0) for t in (0.2, 1.2, 2.2)] + [Event("left_foot_contact", 0.5, 0)]
+    eb = [Event("left_knee_passes", t, 0) for t in (0.4, 1.0)] + [Event("left_foot_contact", 1.5, 0)]
+    pairs = pair_events(ea, eb, ["left_knee_passes"])
+    assert [(a.time, b.time) for a, b in pairs] == [(0.2, 0.4), (1.2, 1.0)]
+    assert len(pair_events(ea, eb, ["left_knee_passes"], max_pairs=1)) == 1
+    # merged by time in A: (0.2, 0.4), (0.5, 1.5), (1.2, 1.0); the last would make the warp go
+    # back in B, so it is dropped
+    mixed = pair_events(ea, eb, ["left_knee_passes", "left_foot_contact"])
+    assert [(a.time, b.time) for a, b in mixed] == [(0.2, 0.4), (0.5, 1.5)]
+
+
+def test_auto_landmarks_of_two_walks_with_different_rhythm():
+    a = walker(duration=3.2, freq=1.0)
+    b = walker(duration=3.2, freq=1.25, phase=0.3)
+    pairs = auto_landmarks(a, b)
+    # left knee passes at k / f - phase / (2 pi f)
+    tb = [(k - 0.3 / (2 * np.pi)) / 1.25 for k in (1, 2, 3, 4) if (k - 0.3 / (2 * np.pi)) / 1.25 < 3.2]
+    assert len(pairs) == min(3, len(tb))
+    np.testing.assert_allclose([p[0] for p in pairs], [1.0, 2.0, 3.0][: len(pairs)], atol=0.02)
+    np.testing.assert_allclose([p[1] for p in pairs], tb[: len(pairs)], atol=0.02)
+
+
+@pytest.mark.mocap
+def test_events_on_real_walks(mocap_dir):
+    m = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/107_02_30hz.bvh")), 1.0, 3.4)
+    ev = detect_events(m)
+    kinds = [e.kind for e in ev]
+    # a steady walk: knee crossings and foot contacts alternate sides, about 2 steps per second
+    left = [e.time for e in ev if e.kind == "left_knee_passes"]
+    assert 2 <= len(left) <= 3
+    assert 0.6 < np.diff(left).mean() < 1.2
+    assert kinds.count("left_foot_contact") >= 2 and kinds.count("right_foot_contact") >= 2
+    # DeepMimic walk: its own joint names
+    dm = read_motion(mocap_dir / "deepmimic/humanoid3d_walk.txt")
+    ev = detect_events(dm)
+    assert {"left_knee_passes", "left_foot_contact", "right_knee_passes"} <= {e.kind for e in ev}
