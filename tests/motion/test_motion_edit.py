@@ -12,6 +12,7 @@ from elastic_motion.motion import (
     drop_tpose,
     finger_joints,
     forward_kinematics,
+    has_reference_root,
     has_tpose_first_frame,
     merge_root,
     place_on_floor,
@@ -167,7 +168,9 @@ def test_to_metres_scales_lengths(walk):
 
 def test_merge_root_keeps_fk(mocap_dir):
     m = read_motion(bandai_files(mocap_dir)[-1])
+    assert has_reference_root(m)
     g = merge_root(m)
+    assert not has_reference_root(g)  # the hips are the root now
     assert g.skeleton.names[0] == "Hips" and g.n_joints == m.n_joints - 1
     np.testing.assert_allclose(
         forward_kinematics(g, end_sites=True), forward_kinematics(m, end_sites=True)[:, 1:]

@@ -68,6 +68,7 @@ from elastic_motion.groups import Euclidean
 from elastic_motion.motion import (
     Motion,
     finger_joints,
+    has_reference_root,
     merge_root,
     resample,
     select_frames,
@@ -171,15 +172,6 @@ def _check_motion(m: object, name: str) -> Motion:
     if not (np.isfinite(m.rotations).all() and np.isfinite(m.root_translation).all()):
         raise ValueError(f"{name}: expected finite rotations and root positions ({m.name or 'unnamed'})")
     return m
-
-
-def _root_is_reference_frame(m: Motion) -> bool:
-    """A root whose only child has position channels of its own (Bandai's ``joint_Root``)."""
-    sk = m.skeleton
-    if sk.n_joints < 2 or (sk.end_site_parents == 0).any():
-        return False
-    kids = sk.children(0)
-    return len(kids) == 1 and bool(sk.has_position_channels[kids[0]])
 
 
 def _parent_names(m: Motion) -> dict[str, str | None]:
@@ -352,7 +344,7 @@ def prepare_motions(
             notes.append(f"{labels[k]}: rotated from {ms[k].up_axis}-up to {up}-up")
             ms[k] = set_up_axis(ms[k], up)
     for k, m in enumerate(ms):
-        if _root_is_reference_frame(m):
+        if has_reference_root(m):
             ms[k] = merge_root(m)
             notes.append(f"{labels[k]}: folded the static root {m.skeleton.names[0]!r} into its child")
 

@@ -65,7 +65,6 @@ import math
 import os
 import platform
 import re
-import tempfile
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -75,6 +74,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from elastic_motion._io import atomic_write_bytes
 from elastic_motion.curves import srv_transform
 from elastic_motion.errors import ParseError
 
@@ -464,16 +464,6 @@ def find_motion_files(
     return files, ignored
 
 
-def _root_is_reference_frame(motion: Any) -> bool:
-    """A root that only carries its single child, which has position channels of its own (the
-    Bandai files' ``joint_Root``): the curves carry only the root's translation, so fold it in."""
-    sk = motion.skeleton
-    if sk.n_joints < 2 or (sk.end_site_parents == 0).any():
-        return False
-    kids = sk.children(0)
-    return len(kids) == 1 and bool(sk.has_position_channels[kids[0]])
-
-
 def prepare_motion(
     path: str | os.PathLike[str],
     n_samples: int,
@@ -522,7 +512,7 @@ def prepare_motion(
         notes.append("dropped T-pose frame 0")
     if m.n_frames < 2:
         raise ValueError(f"{os.fspath(path)}: expected at least 2 frames; got {m.n_frames}")
-    if _root_is_reference_frame(m):
+    if mm.has_reference_root(m):
         m = mm.merge_root(m)
         notes.append(f"merged root {m.skeleton.names[0]!r} into its child")
     if m.metres_per_unit is not None:
@@ -622,7 +612,7 @@ class SRVCache:
         }
         buf = io.BytesIO()
         np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
-        _atomic_write_bytes(Path(path), buf.getvalue())
+        atomic_write_bytes(Path(path), buf.getvalue())
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SRVCache:
@@ -805,23 +795,8 @@ def build_srv_cache(
 # --------------------------------------------------------------------------------------------
 
 
-def _atomic_write_bytes(dest: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, dest)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 def _atomic_write_json(dest: Path, obj: Any) -> None:
-    _atomic_write_bytes(
+    atomic_write_bytes(
         dest, (json.dumps(obj, indent=1, allow_nan=False, default=_json_default) + "\n").encode()
     )
 
@@ -839,7 +814,7 @@ def _json_default(o: Any) -> Any:
 def _save_npy_atomic(dest: Path, arr: np.ndarray) -> None:
     buf = io.BytesIO()
     np.save(buf, arr)
-    _atomic_write_bytes(dest, buf.getvalue())
+    atomic_write_bytes(dest, buf.getvalue())
 
 
 _TILE_RE = re.compile(r"^(lie|euler)_(\d+)_(\d+)\.npy$")
@@ -1028,7 +1003,7 @@ def _write_names(out: Path, cache: SRVCache) -> None:
     w.writerow(["index", "name", "path", "group", "frames", "fps", "duration", "joints"])
     for k, (n, p, g, inf) in enumerate(zip(cache.names, cache.paths, cache.groups, cache.info, strict=True)):
         w.writerow([k, n, p, int(g), inf["frames"], inf["fps"], f"{inf['duration']:.6g}", inf["joints"]])
-    _atomic_write_bytes(out / _NAMES, buf.getvalue().encode())
+    atomic_write_bytes(out / _NAMES, buf.getvalue().encode())
 
 
 def _clean_outputs(out: Path) -> None:

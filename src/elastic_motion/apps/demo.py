@@ -252,7 +252,7 @@ def run_demo(
     w.writerow(["", *table.labels])
     for lab, row in zip(table.labels, table.matrix, strict=True):
         w.writerow([lab, *(f"{x:.4f}" for x in row)])
-    from elastic_motion.motion._io import atomic_write_text
+    from elastic_motion._io import atomic_write_text
 
     atomic_write_text(csv_path, buf.getvalue())
     png = plot_distance_matrix(
@@ -357,7 +357,7 @@ def run_demo(
     timings["total_s"] = time.perf_counter() - t_start
     rep["timings"] = timings
     index = out / "index.html"
-    from elastic_motion.motion._io import atomic_write_text
+    from elastic_motion._io import atomic_write_text
 
     atomic_write_text(index, _html(out, blends, loops, table, al, figs, videos, timings))
     write_report(out / "report.json", rep)

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from elastic_motion._io import atomic_path
 from elastic_motion.apps.statistics import ClusterResult
 
 __all__ = ["plot_dendrogram", "plot_distance_matrix", "plot_energies"]
@@ -27,10 +28,11 @@ def _figure(width: float, height: float):
 
 def _save(plt, fig, path: str | os.PathLike[str], dpi: int) -> Path:
     out = Path(path)
-    tmp = out.with_name(f".{out.name}.tmp.png")
-    fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, out)
+    try:
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     return out
 
 

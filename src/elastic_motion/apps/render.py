@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from elastic_motion._io import atomic_path, check_not_input
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.motion import Motion, forward_kinematics, global_rotations, select_frames
 
@@ -103,13 +104,10 @@ def _atomic_target(path: Path) -> tuple[Path, Callable[[], None], Callable[[], N
 
 
 def _check_output(path: str | os.PathLike[str], protected: Sequence[str | os.PathLike[str]]) -> Path:
-    from elastic_motion.motion._io import same_file
-
-    out = Path(path)
-    for p in protected:
-        if same_file(out, p):
-            raise ValueError(f"output: refusing to overwrite the input file {os.fspath(p)!r}")
-    return out
+    try:
+        return check_not_input(path, protected)
+    except ValueError as exc:
+        raise ValueError(f"output: {exc}".replace("path: ", "", 1)) from None
 
 
 def save_figure(
@@ -117,13 +115,9 @@ def save_figure(
 ) -> Path:
     """Save a figure atomically (format from the extension: png, svg, pdf)."""
     out = _check_output(path, protected)
-    tmp, commit, abort = _atomic_target(out)
-    try:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out) as tmp:
         fig.savefig(tmp, dpi=dpi or fig.dpi)
-        commit()
-    except BaseException:
-        abort()
-        raise
     return out
 
 

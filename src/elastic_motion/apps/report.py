@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion import __version__
-from elastic_motion.motion._io import atomic_write_text
+from elastic_motion._io import atomic_write_text
 
 __all__ = ["jsonable", "report_header", "report_json", "write_report"]
 

@@ -173,7 +173,7 @@ def check_output(
     path: str, inputs: Sequence[str], *, suffixes: Sequence[str] | None = None, what: str = "-o"
 ) -> Path:
     """Refuse an output path that is one of the inputs or has the wrong extension."""
-    from elastic_motion.motion._io import same_file
+    from elastic_motion._io import same_file
 
     out = Path(path)
     for p in inputs:

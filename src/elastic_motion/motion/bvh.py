@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from elastic_motion._io import atomic_write_text, read_text
 from elastic_motion.errors import ParseError
-from elastic_motion.motion._io import atomic_write_text, read_text
 from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler, valid_euler_order
 from elastic_motion.motion.skeleton import (
     POSITION_CHANNELS,

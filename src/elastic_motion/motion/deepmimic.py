@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from elastic_motion._io import read_text
 from elastic_motion.errors import ParseError
-from elastic_motion.motion._io import read_text
 from elastic_motion.motion.bvh import snap_fps
 from elastic_motion.motion.rotations import axis_rotation, quaternion_to_matrix
 from elastic_motion.motion.skeleton import Motion, Skeleton

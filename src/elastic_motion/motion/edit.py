@@ -31,6 +31,7 @@ __all__ = [
     "drop_joints",
     "drop_tpose",
     "finger_joints",
+    "has_reference_root",
     "has_tpose_first_frame",
     "merge_root",
     "place_on_floor",
@@ -314,6 +315,20 @@ def drop_joints(motion: Motion, names: Iterable[str]) -> Motion:
             raise ValueError(f"names: cannot drop the root joint {n!r}")
         gone.update(sk.subtree(k))
     return select_joints(motion, [n for k, n in enumerate(sk.names) if k not in gone])
+
+
+def has_reference_root(motion: Motion) -> bool:
+    """True if the root only carries a single child that has position channels of its own.
+
+    That is the shape of the Bandai files' ``joint_Root`` (a fixed reference frame while the
+    hips move through position channels); :func:`merge_root` folds such a root into its child
+    so that the curve representations, which carry only the root's translation, keep the walk.
+    """
+    sk = motion.skeleton
+    if sk.n_joints < 2 or (sk.end_site_parents == 0).any():
+        return False
+    kids = sk.children(0)
+    return len(kids) == 1 and bool(sk.has_position_channels[kids[0]])
 
 
 def merge_root(motion: Motion) -> Motion:
