@@ -26,15 +26,14 @@ Usage: ``python benchmarks/closing.py [--repeat 5] [--out PATH]``
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+from _common import timed_best, write_json
 from elastic_motion.apps.loop import loop_motion, seam_metrics
 from elastic_motion.closing import close_curve, closing_gap
 from elastic_motion.motion import (
@@ -55,16 +54,6 @@ REAL_CASES = {
     "DeepMimic backflip": "deepmimic/humanoid3d_backflip.txt",
     "DeepMimic run": "deepmimic/humanoid3d_run.txt",
 }
-
-
-def best_time(fn, repeat: int):
-    out = fn()  # warm-up (numba cache load)
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 def speed_motions():
@@ -89,7 +78,7 @@ def speed_rows(repeat: int) -> list[dict]:
             ("gradient (paper eq. 17)", dict(method="gradient", gradient="paper", max_iter=5000)),
             ("gauss-newton, C1", dict(method="gauss-newton", c1=True)),
         ]:
-            t, res = best_time(lambda kw=kw, c=curve, tl=tol: close_curve(c, tol=tl, **kw), repeat)
+            t, res = timed_best(lambda kw=kw, c=curve, tl=tol: close_curve(c, tol=tl, **kw), repeat)
             after = closing_gap(res.curve)
             rows.append(
                 {
@@ -216,10 +205,7 @@ def main() -> None:
         "speed": speed,
         "real_cases": real,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=args.out.parent, delete=False, suffix=".tmp") as fh:
-        json.dump(result, fh, indent=2)
-    os.replace(fh.name, args.out)
+    write_json(args.out, result)
     print(f"\nwrote {args.out}")
 
 

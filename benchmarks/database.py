@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _common import write_json
 from elastic_motion.apps.database import (
     DatabaseSettings,
     PairSpec,
@@ -498,7 +499,7 @@ def main() -> None:
             result["target_run_dp"]["date"] = time.strftime("%Y-%m-%d %H:%M")
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-        args.out.write_text(json.dumps(result, indent=1, default=float) + "\n")
+        write_json(args.out, result)
         print(markdown(result))
         return
     try:
@@ -572,8 +573,7 @@ def main() -> None:
         if "target_run_dp" in old:
             result["target_run_dp"] = old["target_run_dp"]
     print(markdown(result))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=1, default=float) + "\n")
+    write_json(args.out, result)
     print(f"\nwritten {args.out}")
 
 

@@ -17,28 +17,16 @@ Usage: ``python benchmarks/groups.py [--n 1000000] [--repeat 7] [--out PATH]``
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from _common import RESULTS, best_time, write_json
 from elastic_motion.curves import DiscreteCurve, inverse_srv_transform, srv_transform
 from elastic_motion.groups import SO3, animation_group
-
-
-def best_time(fn, repeat: int) -> float:
-    fn()  # warm-up (numba compilation, page faults)
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
@@ -47,7 +35,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=1000, help="frames of the SRVT curve")
     parser.add_argument("--joints", type=int, default=31)
     parser.add_argument("--repeat", type=int, default=7)
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "groups.json")
+    parser.add_argument("--out", type=Path, default=RESULTS / "groups.json")
     args = parser.parse_args()
 
     rng = np.random.default_rng(0)
@@ -139,10 +127,7 @@ def main() -> None:
         "repeat": args.repeat,
         "rows": rows,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=args.out.parent, delete=False, suffix=".tmp") as fh:
-        json.dump(result, fh, indent=2)
-    os.replace(fh.name, args.out)
+    write_json(args.out, result)
     print(f"\nwrote {args.out}")
 
 

@@ -16,16 +16,15 @@ and writes ``benchmarks/results/io.json``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
+from _common import RESULTS, best_time, write_json
 from elastic_motion.motion import Motion, Skeleton, forward_kinematics, read_bvh, write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
 
@@ -64,16 +63,6 @@ def source_motions(n_frames: int) -> list[tuple[Motion, str]]:
     # Random rotations: every value written with all 8 decimals (the largest file).
     out.append((synthetic_motion(n_frames), f"random rotations, {n_frames} frames"))
     return out
-
-
-def best_time(fn, repeat: int) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -128,9 +117,7 @@ def main(argv: list[str] | None = None) -> int:
         "machine": platform.machine(),
         "cpus": os.cpu_count(),
     }
-    outdir = HERE / "results"
-    outdir.mkdir(exist_ok=True)
-    (outdir / "io.json").write_text(json.dumps(record, indent=2) + "\n")
+    write_json(RESULTS / "io.json", record)
     return 0
 
 

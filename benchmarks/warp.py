@@ -42,7 +42,6 @@ Writes ``benchmarks/results/warp.json`` and prints a markdown table.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import sys
 import time
@@ -51,6 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _common import write_json
 from elastic_motion.warp import optimal_warp, warp_energy
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -246,8 +246,7 @@ def main(argv: list[str] | None = None) -> int:
         meta["fdasrsf"] = fdasrsf.__version__
     except (ImportError, AttributeError):
         pass
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
+    write_json(args.out, {"meta": meta, "rows": rows})
     print(markdown(rows))
     print(f"\nnumba warm-up (compile or cache load): {compile_s:.1f} s; JSON: {args.out}")
     return 0

@@ -1,0 +1,69 @@
+"""Helpers shared by the benchmark scripts: timing, machine description, JSON output.
+
+Each benchmark script runs on its own (``python benchmarks/NAME.py``), with this folder
+on ``sys.path``, and imports what it needs from here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+
+from elastic_motion._io import atomic_write_text
+
+T = TypeVar("T")
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def timed_best(fn: Callable[[], T], repeat: int) -> tuple[float, T]:
+    """Best wall time of ``repeat`` calls after one warm-up call (numba compilation or cache
+    load, page faults), and the last call's result."""
+    out = fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return min(times), out
+
+
+def best_time(fn: Callable[[], Any], repeat: int) -> float:
+    """Best wall time of ``repeat`` calls after one warm-up call (see :func:`timed_best`)."""
+    return timed_best(fn, repeat)[0]
+
+
+def machine_info() -> dict[str, Any]:
+    """What the numbers were measured on (and how busy the machine was)."""
+    return {
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "machine": platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "load_average": os.getloadavg() if hasattr(os, "getloadavg") else None,
+        "date": time.strftime("%Y-%m-%d %H:%M"),
+    }
+
+
+def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
+    """Write ``obj`` as JSON to ``path`` atomically (numpy scalars and arrays as numbers)."""
+
+    def default(o: Any) -> Any:
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, Path):
+            return str(o)
+        raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return atomic_write_text(out, json.dumps(obj, indent=1, default=default) + "\n")
