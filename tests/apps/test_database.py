@@ -375,7 +375,9 @@ def test_cli_matrix_search_classify_cluster(db_dir: Path, tmp_path: Path, capsys
     labels = tmp_path / "labels.csv"
     labels.write_text("".join(f"k{k}_v{v},kind{k}\n" for k in (0, 1) for v in range(3)))
     assert _cli(["classify", str(out), "--labels", str(labels), "--json"]) == 0
-    acc = json.loads(capsys.readouterr().out)
+    report = json.loads(capsys.readouterr().out)
+    assert report["command"] == "classify" and report["inputs"] == [str(out)]  # the shared header
+    acc = report["results"]
     assert acc["lie"]["accuracy"] == 1.0 and acc["lie"]["evaluated"] == 6
     png = tmp_path / "dendro.png"
     assert (
@@ -385,6 +387,14 @@ def test_cli_matrix_search_classify_cluster(db_dir: Path, tmp_path: Path, capsys
     cl = json.loads(capsys.readouterr().out)["clusters"]
     assert cl["k0_v0"] == cl["k0_v1"] == cl["k0_v2"] != cl["k1_v0"]
     assert png.stat().st_size > 1000
+
+
+def test_cli_mean_refuses_to_overwrite_an_input(db_dir: Path, capsys) -> None:
+    a, b = db_dir / "k0_v0.bvh", db_dir / "k0_v1.bvh"
+    before = a.read_bytes()
+    assert _cli(["mean", str(a), str(b), "-o", str(a), "--quiet"]) == 2
+    assert "refusing to overwrite an input" in capsys.readouterr().err
+    assert a.read_bytes() == before
 
 
 @needs_dask

@@ -1,18 +1,27 @@
 """Database sub-commands: ``matrix``, ``search``, ``classify``, ``mean``, ``cluster``.
 
 Thin wrappers over :mod:`elastic_motion.apps.database` and :mod:`elastic_motion.apps.statistics`;
-progress goes to stderr, results to stdout (``--json`` for machine-readable output).
+progress goes to stderr, results to stdout; ``--json [PATH]`` writes the report to PATH (or
+prints it on stdout), as every command does.
 Exit codes: 0 success, 1 incomplete/interrupted run, 2 bad input, 3 cluster unreachable.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
+from elastic_motion.cli_commands._common import (
+    CommandError,
+    add_json_option,
+    add_quiet_option,
+    check_output,
+    emit_report,
+    fail,
+    progress_for,
+)
 from elastic_motion.errors import ParseError
 
 
@@ -75,20 +84,18 @@ def _settings(args: argparse.Namespace, reps: tuple[str, ...]):
     )
 
 
-def _progress_bar(quiet: bool, label: str = ""):
-    """The shared stderr progress bar (:class:`elastic_motion.apps.progress.ProgressBar`)."""
-    from elastic_motion.apps.progress import ProgressBar
-
-    return ProgressBar(label, enabled=False if quiet else None)
-
-
 def _fail(cmd: str, exc: BaseException, code: int = 2) -> int:
-    print(f"elastic-motion {cmd}: {exc}", file=sys.stderr)
+    """Print the error the way every command does; ``code`` 1 incomplete, 2 bad input, 3 unreachable."""
+    fail(cmd, str(exc))
     return code
 
 
-def _print_json(obj: Any) -> None:
-    print(json.dumps(obj, indent=2, default=str))
+def _emit(args: argparse.Namespace, command: str, body: dict, inputs, outputs, lines: list[str]) -> None:
+    """The shared report: header (command, version, time, inputs, outputs) + ``body``."""
+    from elastic_motion.apps.report import report_header
+
+    report = {**report_header(command, inputs=inputs, outputs=outputs), **body}
+    emit_report(args, report, [str(p) for p in inputs], "\n".join(lines))
 
 
 # --------------------------------------------------------------------------------------------
@@ -120,8 +127,8 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--tile-size", type=int, default=32, help="motions per tile side (default 32)")
     p.add_argument("--recursive", action="store_true", help="search folders recursively")
     p.add_argument("--overwrite", action="store_true", help="replace a different run found in OUT")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    add_quiet_option(p)
+    add_json_option(p)
     _add_preparation(p)
     _add_pair(p)
     p.set_defaults(func=run_matrix)
@@ -130,7 +137,7 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
 def run_matrix(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import ClusterUnavailableError, compute_matrix
 
-    bar = _progress_bar(args.quiet, "matrix")
+    bar = progress_for("matrix", args)
     try:
         settings = _settings(args, tuple(r.strip() for r in args.repr.split(",") if r.strip()))
         res = compute_matrix(
@@ -158,15 +165,14 @@ def run_matrix(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     rep = res.report
-    if args.json:
-        _print_json(rep)
-    else:
-        print(f"{rep['n_motions']} motions -> {res.out_dir} ({'complete' if res.complete else 'INCOMPLETE'})")
-        print(f"engine {rep['engine']} ({rep['workers']} workers); {rep['comparison']}")
-        t = rep.get("timings", {})
-        print(f"pairs computed this run: {t.get('pairs_computed')} in {t.get('tiles_seconds')} s")
-        for s in rep["skipped"]:
-            print(f"skipped {s['path']}: {s['reason']}")
+    t = rep.get("timings", {})
+    lines = [
+        f"{rep['n_motions']} motions -> {res.out_dir} ({'complete' if res.complete else 'INCOMPLETE'})",
+        f"engine {rep['engine']} ({rep['workers']} workers); {rep['comparison']}",
+        f"pairs computed this run: {t.get('pairs_computed')} in {t.get('tiles_seconds')} s",
+        *(f"skipped {sk['path']}: {sk['reason']}" for sk in rep["skipped"]),
+    ]
+    _emit(args, "matrix", rep, args.inputs, [res.out_dir], lines)
     return 0 if res.complete else 1
 
 
@@ -188,8 +194,8 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("database", nargs="+", help="a matrix output folder, or motion files/folders")
     p.add_argument("-k", type=int, default=5, help="number of results (default 5)")
     p.add_argument("--repr", choices=("lie", "euler"), default="lie")
-    p.add_argument("--quiet", action="store_true")
-    p.add_argument("--json", action="store_true")
+    add_quiet_option(p)
+    add_json_option(p)
     _add_preparation(p)
     _add_pair(p)
     p.set_defaults(func=run_search)
@@ -200,7 +206,7 @@ def run_search(args: argparse.Namespace) -> int:
     from elastic_motion.apps.statistics import nearest
 
     db = args.database[0] if len(args.database) == 1 else args.database
-    bar = _progress_bar(args.quiet, "search")
+    bar = progress_for("search", args)
     try:
         names, paths, d, info = query_distances(
             args.query, db, args.repr, _settings(args, (args.repr,)), progress=bar
@@ -216,13 +222,11 @@ def run_search(args: argparse.Namespace) -> int:
         {"rank": r + 1, "name": names[k], "path": paths[k], "distance": float(d[k])}
         for r, k in enumerate(idx)
     ]
-    if args.json:
-        _print_json({"query": args.query, "representation": args.repr, "results": results, **info})
-    else:
-        if not results:
-            print("no comparable motion (different skeletons? try --joints common)")
-        for r in results:
-            print(f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}")
+    lines = [f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}" for r in results] or [
+        "no comparable motion (different skeletons? try --joints common)"
+    ]
+    body = {"query": args.query, "representation": args.repr, "results": results, **info}
+    _emit(args, "search", body, [args.query, *args.database], [], lines)
     return 0
 
 
@@ -246,7 +250,7 @@ def _register_classify(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("-k", type=int, default=1)
     p.add_argument("--repr", default="lie,euler", help="representations to evaluate (default lie,euler)")
-    p.add_argument("--json", action="store_true")
+    add_json_option(p)
     p.set_defaults(func=run_classify)
 
 
@@ -284,13 +288,11 @@ def run_classify(args: argparse.Namespace) -> int:
             }
     except (ValueError, FileNotFoundError, OSError) as exc:
         return _fail("classify", exc)
-    if args.json:
-        _print_json(out)
-    else:
-        for rep, r in out.items():
-            print(f"{rep}: {r['accuracy']:.3f} ({r['evaluated']} evaluated, k={r['k']})")
-            for c, (ok, n) in r["per_class"].items():
-                print(f"    {c:20s} {ok}/{n}")
+    lines = []
+    for rep, r in out.items():
+        lines.append(f"{rep}: {r['accuracy']:.3f} ({r['evaluated']} evaluated, k={r['k']})")
+        lines += [f"    {c:20s} {ok}/{n}" for c, (ok, n) in r["per_class"].items()]
+    _emit(args, "classify", {"results": out}, [args.matrix_dir], [], lines)
     return 0
 
 
@@ -317,8 +319,8 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
         "--fps", type=float, default=None, help="frame rate of the output (default: the first file's)"
     )
     p.add_argument("--plot", default=None, help="also write the energy per iteration as a PNG")
-    p.add_argument("--quiet", action="store_true")
-    p.add_argument("--json", action="store_true")
+    add_quiet_option(p)
+    add_json_option(p)
     _add_preparation(p)
     _add_pair(p)
     p.set_defaults(func=run_mean)
@@ -328,7 +330,11 @@ def run_mean(args: argparse.Namespace) -> int:
     from elastic_motion.apps.statistics import mean_motion
     from elastic_motion.motion import write_bvh
 
-    bar = _progress_bar(args.quiet, "mean")
+    try:
+        check_output(args.out, args.files, suffixes=(".bvh",))
+    except CommandError as exc:
+        return _fail("mean", exc)
+    bar = progress_for("mean", args)
     try:
         motion, res, info = mean_motion(
             args.files,
@@ -344,7 +350,7 @@ def run_mean(args: argparse.Namespace) -> int:
             fps=args.fps,
             progress=bar,
         )
-        path = write_bvh(motion, args.out)
+        path = write_bvh(motion, args.out, protected=args.files)
     except (ValueError, FileNotFoundError, ParseError, KeyError) as exc:
         return _fail("mean", exc)
     finally:
@@ -354,14 +360,11 @@ def run_mean(args: argparse.Namespace) -> int:
         from elastic_motion.apps.plots_database import plot_energies
 
         info["plot"] = str(plot_energies(res.energies, args.plot, title="Karcher mean energy"))
-    if args.json:
-        _print_json(info)
-    else:
-        for i, e in enumerate(info["energies"], 1):
-            print(f"iteration {i:3d}  energy {e:.6g}")
-        state = "converged" if info["converged"] else "not converged (raise --max-iter)"
-        n = len(args.files)
-        print(f"{state}; mean of {n} motions -> {path} ({info['frames']} frames at {info['fps']:g} fps)")
+    state = "converged" if info["converged"] else "not converged (raise --max-iter)"
+    lines = [f"iteration {i:3d}  energy {e:.6g}" for i, e in enumerate(info["energies"], 1)]
+    frames = f"{info['frames']} frames at {info['fps']:g} fps"
+    lines.append(f"{state}; mean of {len(args.files)} motions -> {path} ({frames})")
+    _emit(args, "mean", info, args.files, [path] + ([info["plot"]] if args.plot else []), lines)
     return 0
 
 
@@ -384,7 +387,7 @@ def _register_cluster(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--labels", default=None, help="colour leaves: CSV name,label or bandai-content|bandai-style|cmu"
     )
-    p.add_argument("--json", action="store_true")
+    add_json_option(p)
     p.set_defaults(func=run_cluster)
 
 
@@ -410,14 +413,10 @@ def run_cluster(args: argparse.Namespace) -> int:
         out["plot"] = str(
             plot_dendrogram(res, args.plot, title=f"{args.repr} elastic distance", colors=colors)
         )
-    if args.json:
-        _print_json(out)
-    else:
-        if res.labels is not None:
-            for n, c in out["clusters"].items():
-                print(f"{c:3d}  {n}")
-        if args.plot:
-            print(f"dendrogram -> {out['plot']}")
-        if res.labels is None and not args.plot:
-            print("nothing to show: pass --clusters K and/or --plot FILE.png (or --json for the linkage)")
+    lines = [f"{c:3d}  {n}" for n, c in out.get("clusters", {}).items()]
+    if args.plot:
+        lines.append(f"dendrogram -> {out['plot']}")
+    if res.labels is None and not args.plot:
+        lines.append("nothing to show: pass --clusters K and/or --plot FILE.png (or --json for the linkage)")
+    _emit(args, "cluster", out, [args.matrix_dir], [out["plot"]] if args.plot else [], lines)
     return 0

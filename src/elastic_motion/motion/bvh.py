@@ -697,6 +697,7 @@ def write_bvh(
     *,
     euler_orders: str | Sequence[str] | None = None,
     decimals: int = 8,
+    protected: Sequence[str | os.PathLike[str]] = (),
 ) -> Path:
     """Write a motion as a BVH file, atomically.
 
@@ -713,6 +714,9 @@ def write_bvh(
         Digits after the decimal point of the frame values (degrees and length units),
         trailing zeros dropped (``5.23``, not ``5.23000000``). With 8, re-read rotations
         equal the written ones to about 1e-8 degrees.
+    protected : sequence of paths, optional
+        Further files that must not be overwritten (e.g. the inputs a blend or mean was
+        computed from, which ``motion.source`` does not list).
 
     Returns
     -------
@@ -812,4 +816,4 @@ def write_bvh(
             stack.append(("open", c, depth + 1))
     parts.append(f"MOTION\nFrames: {f}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
     parts.append(_format_rows(data, decimals))
-    return atomic_write_text(path, "".join(parts), protected=motion.source)
+    return atomic_write_text(path, "".join(parts), protected=[*motion.source, *protected])
