@@ -69,6 +69,7 @@ from elastic_motion.motion import (
     Motion,
     finger_joints,
     has_reference_root,
+    heading_angle,
     merge_root,
     resample,
     select_frames,
@@ -233,12 +234,6 @@ def _floor_axes(up: int) -> tuple[int, int]:
     return (up + 1) % 3, (up + 2) % 3
 
 
-def _yaw0(m: Motion, up: int) -> float:
-    p, q = _floor_axes(up)
-    fwd = m.rotations[0, 0][:, p]
-    return math.atan2(fwd[q], fwd[p])
-
-
 def _root_path(m: Motion, up: int, n: int = 64) -> np.ndarray:
     """Floor-plane root positions ``(n, 2)`` at equal fractions of the clip."""
     p, q = _floor_axes(up)
@@ -273,7 +268,9 @@ def place_like(reference: Motion, motion: Motion) -> tuple[Motion, str]:
         angle = math.atan2(cross, dot)
         how = "start matched, root paths fitted"
     else:
-        angle = _yaw0(reference, up) - _yaw0(motion, up)
+        angle = float(
+            heading_angle(reference.rotations[0, 0], up) - heading_angle(motion.rotations[0, 0], up)
+        )
         how = "start and frame-0 facing matched (motion on the spot)"
     c, s = math.cos(angle), math.sin(angle)
     moved0 = np.array([c * pb[0, 0] - s * pb[0, 1], s * pb[0, 0] + c * pb[0, 1]])

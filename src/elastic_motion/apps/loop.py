@@ -60,6 +60,7 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
+from elastic_motion.motion.rotations import axis_rotation
 
 __all__ = [
     "LoopResult",
@@ -116,12 +117,6 @@ class LoopResult:
 # ------------------------------------------------------------------------------------------
 
 
-def _axis_rotation(angle: float, axis: int) -> np.ndarray:
-    v = np.zeros(3)
-    v[axis] = angle
-    return _SO3.exp(v)
-
-
 def _twist_angle(r: np.ndarray, axis: int) -> float:
     """Angle of the twist of rotation ``r`` about coordinate ``axis`` (swing-twist
     decomposition ``r = swing twist``, from the quaternion ``(w, v)``: ``2 atan2(v_a, w)``)."""
@@ -176,7 +171,7 @@ def cycle_transform(motion: Motion, root: str = "travel") -> tuple[np.ndarray, n
         return np.eye(3), np.zeros(3)
     up = _AXES.index(motion.up_axis)
     r_root = motion.rotations[-1, 0] @ motion.rotations[0, 0].T
-    rot = _axis_rotation(_twist_angle(r_root, up), up)
+    rot = axis_rotation(_twist_angle(r_root, up), "XYZ"[up])
     p0 = motion.root_translation[0].copy()
     p1 = motion.root_translation[-1].copy()
     p0[up] = 0.0

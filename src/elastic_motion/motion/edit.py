@@ -33,6 +33,7 @@ __all__ = [
     "finger_joints",
     "has_reference_root",
     "has_tpose_first_frame",
+    "heading_angle",
     "merge_root",
     "place_on_floor",
     "resample",
@@ -442,8 +443,8 @@ def set_up_axis(motion: Motion, up_axis: str) -> Motion:
     return moved.replace(up_axis=up_axis)
 
 
-def _heading(rotation: np.ndarray, up: int) -> np.ndarray:
-    """Yaw about axis ``up`` of rotations ``(..., 3, 3)``.
+def heading_angle(rotation: np.ndarray, up: int) -> np.ndarray:
+    """Yaw (heading, radians) about axis ``up`` (0, 1, 2 for x, y, z) of rotations ``(..., 3, 3)``.
 
     The forward axis is ``e_p`` with ``p`` the cyclic successor of ``up`` (+z for y-up,
     +x for z-up, +y for x-up); the yaw is the angle of ``R e_p`` in the floor plane,
@@ -460,7 +461,7 @@ def align_heading(motion: Motion, *, frame: int = 0) -> Motion:
 
     After alignment the root at ``frame`` stands above the origin (its height is kept)
     and faces forward: for Y-up, the root's rotated ``+z`` axis projected on the floor
-    points along ``+z`` (z-up: ``+x``; see ``_heading``). The whole clip moves rigidly (a rotation
+    points along ``+z`` (z-up: ``+x``; see :func:`heading_angle`). The whole clip moves rigidly (a rotation
     about the up axis and a floor translation), as registration curves align motions
     before comparing them.
 
@@ -473,7 +474,7 @@ def align_heading(motion: Motion, *, frame: int = 0) -> Motion:
     if not -motion.n_frames <= frame < motion.n_frames:
         raise ValueError(f"frame: expected an index in [-{motion.n_frames}, {motion.n_frames}); got {frame}")
     up = _AXES.index(motion.up_axis)
-    yaw = float(_heading(motion.rotations[frame, 0], up))
+    yaw = float(heading_angle(motion.rotations[frame, 0], up))
     rot = axis_rotation(-yaw, "XYZ"[up])
     origin = rot @ motion.root_translation[frame]
     shift = -origin
