@@ -106,3 +106,22 @@ def test_render_dispatch(motions, tmp_path):
     assert render([a, b], tmp_path / "w.png", kind="warp").exists()
     assert render([a], tmp_path / "s.png", kind="sphere", joint="LeftUpLeg").exists()
     assert render([a], tmp_path / "seam.png", kind="seam", repeat=2).exists()
+
+
+def test_video_sink_commits_atomically_and_abort_leaves_nothing(tmp_path):
+    from elastic_motion.apps.render import _VideoSink
+
+    frame = np.zeros((8, 8, 3), dtype=np.uint8)
+    old = tmp_path / "clip.gif"
+    old.write_bytes(b"previous")
+    sink = _VideoSink(old, 10.0)
+    sink.send(frame)
+    sink.abort()
+    assert old.read_bytes() == b"previous"  # an aborted render keeps the old file
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clip.gif"]  # and no temporary
+    sink = _VideoSink(old, 10.0)
+    for k in range(3):
+        sink.send(frame + 40 * k)
+    sink.commit()
+    assert old.read_bytes()[:6] == b"GIF89a"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clip.gif"]

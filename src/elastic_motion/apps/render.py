@@ -27,11 +27,11 @@ Conventions
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
-import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -79,28 +79,6 @@ def _figure(width: float, height: float, dpi: float = 100):
     fig = Figure(figsize=(width, height), dpi=dpi)
     FigureCanvasAgg(fig)
     return fig
-
-
-def _atomic_target(path: Path) -> tuple[Path, Callable[[], None], Callable[[], None]]:
-    """A temporary path beside ``path`` with the same suffix, and commit / abort functions."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    tmp_p = Path(tmp)
-
-    def commit() -> None:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp_p, 0o666 & ~umask)  # mkstemp makes 0600; give the mode open() would
-        os.replace(tmp_p, path)
-
-    def abort() -> None:
-        try:
-            tmp_p.unlink()
-        except OSError:
-            pass
-
-    return tmp_p, commit, abort
 
 
 def _check_output(path: str | os.PathLike[str], protected: Sequence[str | os.PathLike[str]]) -> Path:
@@ -277,7 +255,11 @@ class _VideoSink:
             self._ffmpeg = imageio_ffmpeg
         self._frames: list[Any] = []
         self._writer = None
-        self.tmp, self._commit, self._abort = _atomic_target(path)
+        # the shared atomic writer: frames go to a temporary file beside ``path``, renamed
+        # onto it by commit(), removed by abort()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._stack = contextlib.ExitStack()
+        self.tmp = self._stack.enter_context(atomic_path(path))
 
     def send(self, rgb: np.ndarray) -> None:
         if self.ext == ".gif":
@@ -317,7 +299,7 @@ class _VideoSink:
             self._frames = []
         elif self._writer is not None:
             self._writer.close()
-        self._commit()
+        self._stack.close()
 
     def abort(self) -> None:
         if self._writer is not None:
@@ -325,7 +307,8 @@ class _VideoSink:
                 self._writer.close()
             except Exception:
                 pass
-        self._abort()
+        aborted = RuntimeError(f"rendering {self.path.name} was aborted")
+        self._stack.__exit__(type(aborted), aborted, None)  # removes the temporary file
 
 
 def render_animation(
