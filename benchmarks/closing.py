@@ -35,6 +35,7 @@ import numpy as np
 
 from _common import timed_best, write_json
 from elastic_motion.apps.loop import loop_motion, seam_metrics
+from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.closing import close_curve, closing_gap
 from elastic_motion.motion import (
     drop_tpose,
@@ -100,7 +101,7 @@ def speed_rows(repeat: int) -> list[dict]:
     return rows
 
 
-def metric_subset(m: dict) -> dict:
+def metric_subset(m) -> dict:
     keys = [
         "seam_angle_max_deg",
         "seam_angle_mean_deg",
@@ -112,7 +113,8 @@ def metric_subset(m: dict) -> dict:
         "deviation_max_m",
         "deviation_mean_m",
     ]
-    return {k: float(m[k]) for k in keys if k in m}
+    summary = m.summary()
+    return {k: float(summary[k]) for k in keys if k in summary}
 
 
 def real_rows() -> list[dict]:
@@ -129,16 +131,16 @@ def real_rows() -> list[dict]:
                 **metric_subset(seam_metrics(motion, original=motion, joints=closed)),
             }
         )
-        for rep in ("lie", "euler"):
+        for rep in ("lie", "euler-elastic"):
             for c1 in (False, True):
                 t0 = time.perf_counter()
                 try:
-                    res = loop_motion(motion, representation=rep, c1=c1)
+                    res = loop_motion(motion, method=rep, c1=c1, prepare=PrepareOptions(drop_tpose=False))
                 except ValueError as exc:
                     rows.append({**base, "variant": f"{rep}{' C1' if c1 else ''}", "error": str(exc)})
                     continue
                 t = time.perf_counter() - t0
-                met = seam_metrics(res.motion, original=motion, joints=res.closed_joints)
+                met = res.seam_after  # against the prepared input (metres), closed joints
                 rows.append(
                     {
                         **base,

@@ -42,7 +42,6 @@ import numpy as np
 from _common import write_json
 from elastic_motion.apps.database import (
     DatabaseSettings,
-    PairSpec,
     build_srv_cache,
     compute_matrix,
     distance_matrix,
@@ -52,6 +51,7 @@ from elastic_motion.apps.database import (
 )
 from elastic_motion.apps.statistics import bandai_labels, cluster, cmu_label, dtw_matrix, knn_evaluate
 from elastic_motion.motion import drop_tpose, read_motion, select_frames, to_euler_curve, write_bvh
+from elastic_motion.warp import WarpOptions
 
 REPO = Path(__file__).resolve().parents[1]
 #: CMU clips of one skeleton (the IsaacGymEnvs / una-dinosauria conversions share joint names;
@@ -87,14 +87,14 @@ def fit_exponent(x: list[float], y: list[float]) -> float:
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
-def per_pair_seconds(q: list[np.ndarray], spec: PairSpec, pairs: int, repeat: int = 3) -> float:
+def per_pair_seconds(q: list[np.ndarray], spec: WarpOptions, pairs: int, repeat: int = 3) -> float:
     """Median over ``pairs`` pairs of consecutive arrays of ``q`` of the best of ``repeat`` runs."""
     pair_distance(q[0], q[1], spec)  # warm-up (numba)
     with single_threaded_blas():  # as in the tiles (see elastic_motion.apps.database)
         return _per_pair(q, spec, pairs, repeat)
 
 
-def _per_pair(q: list[np.ndarray], spec: PairSpec, pairs: int, repeat: int) -> float:
+def _per_pair(q: list[np.ndarray], spec: WarpOptions, pairs: int, repeat: int) -> float:
     times = []
     for k in range(pairs):
         a, b = q[k % len(q)], q[(k + 1) % len(q)]
@@ -124,7 +124,7 @@ def throughput(cmu: Path, tmp: Path, n_samples: int, max_windows: int, seconds: 
     out = {"motions": len(names), "n_samples": n_samples, "window_seconds": seconds, "rows": []}
     default_threads = numba.get_num_threads()
     for warp in ("dp", "none"):
-        s = DatabaseSettings(n_samples=n_samples, tile_size=8, pair=PairSpec(warp=warp, neighbourhood=6))
+        s = DatabaseSettings(n_samples=n_samples, tile_size=8, warp=WarpOptions(method=warp, neighbourhood=6))
         ref = None
         for engine, threads in (("serial", default_threads), ("serial", 1), ("local", 1)):
             dest = tmp / f"out_{warp}_{engine}_{threads}"
@@ -163,7 +163,7 @@ def scaling(cmu: Path, pairs: int, ns: list[int], joints: list[int], d_n: int) -
     """Cost against N (whole clips, Lie, D = 78) and against D (the first J joints of the
     skeleton, D = 3 + 3 J; the largest D concatenates the Lie and Euler SRV arrays)."""
     paths = [cmu / f"{c}.bvh" for c in ("07_01", "08_02", "09_11", "107_02_30hz", "108_01_30hz", "49_08")]
-    spec = PairSpec(warp="dp", neighbourhood=6)
+    spec = WarpOptions(method="dp", neighbourhood=6)
     rows_n = []
     for n in ns:
         c = build_srv_cache(paths, DatabaseSettings(n_samples=n, representations=("lie",)))
@@ -202,12 +202,12 @@ def variants_at(cmu: Path, n: int, pairs: int) -> dict:
     q = c.q["lie"]
     out = {}
     for label, spec in [
-        ("dp, neighbourhood 6", PairSpec("dp", 6)),
-        ("dp, neighbourhood 10", PairSpec("dp", 10)),
-        ("dp coarse-to-fine, neighbourhood 4", PairSpec("dp", 4, coarse_to_fine=True)),
-        ("none (no warp)", PairSpec("none")),
+        ("dp, neighbourhood 6", WarpOptions("dp", 6)),
+        ("dp, neighbourhood 10", WarpOptions("dp", 10)),
+        ("dp coarse-to-fine, neighbourhood 4", WarpOptions("dp", 4, coarse_to_fine=True)),
+        ("none (no warp)", WarpOptions("none")),
     ]:
-        out[label] = per_pair_seconds(q, spec, pairs if spec.warp == "dp" else 200)
+        out[label] = per_pair_seconds(q, spec, pairs if spec.method == "dp" else 200)
     return out
 
 
@@ -245,7 +245,12 @@ def target_run(
         s = int(rng.integers(0, clip.n_frames - 200 + 1))
         write_bvh(select_frames(clip, slice(s, s + 200)), src / f"w{k:04d}.bvh")
     t_write = time.perf_counter() - t0
-    s = DatabaseSettings(n_samples=n_samples, tile_size=64, representations=reps, pair=PairSpec(warp=warp))
+    s = DatabaseSettings(
+        n_samples=n_samples,
+        tile_size=64,
+        representations=reps,
+        warp=WarpOptions(method=warp, neighbourhood=6),
+    )
     t0 = time.perf_counter()
     res = compute_matrix([src], tmp / f"target_out_{warp}_{n_samples}", s, engine="local", n_workers=2)
     wall = time.perf_counter() - t0
@@ -289,7 +294,7 @@ def matrices(q: dict, euler_frames: list[np.ndarray], neighbourhood: int) -> tup
     for r in ("lie", "euler"):
         for warp in ("dp", "none"):
             t0 = time.perf_counter()
-            mats[f"{r} {warp}"] = distance_matrix(q[r], PairSpec(warp, neighbourhood))
+            mats[f"{r} {warp}"] = distance_matrix(q[r], WarpOptions(warp, neighbourhood))
             secs[f"{r} {warp}"] = time.perf_counter() - t0
     for label, feats in (("dtw euler frames", euler_frames), ("dtw lie srv", q["lie"])):
         t0 = time.perf_counter()

@@ -85,9 +85,9 @@ def side_view(paths: list[np.ndarray], up: int):
 
 def plot_case(key: str, out: Path) -> dict:
     rel, spec, title = CASES[key]
-    m = drop_tpose(read_motion(MOCAP / rel))
-    lie = loop_motion(m)
-    eul = loop_motion(m, representation="euler")
+    lie = loop_motion(MOCAP / rel)
+    m = lie.original  # prepared: T-pose dropped, metres, Y-up
+    eul = loop_motion(m, method="euler-elastic")
     up = "xyz".index(m.up_axis)
     rows = [
         ("original", m),
@@ -108,22 +108,21 @@ def plot_case(key: str, out: Path) -> dict:
             ax.plot(p[s, 0], p[s, 1], "o", mfc="none", mec="r", ms=10, mew=1.5)
         met = seam_metrics(mm, original=m, joints=lie.closed_joints)
         txt = (
-            f"seam: max joint angle {met['seam_angle_max_deg']:.2g} deg, "
-            f"FK gap {met['seam_position_max_m']:.2g} m"
+            f"seam: max joint angle {met.seam_angle_max_deg:.2g} deg, FK gap {met.seam_position_max_m:.2g} m"
         )
         if mm is not m:
             txt += (
-                f"; deviation from original max {met['deviation_max_m']:.2f} m, "
-                f"mean {met['deviation_mean_m']:.3f} m"
+                f"; deviation from original max {met.deviation_max_m:.2f} m, "
+                f"mean {met.deviation_mean_m:.3f} m"
             )
         ax.set_title(f"{label}: {txt}", fontsize=9)
+        ax.set_xlabel("distance along the main direction of travel (m)")
         ax.set_ylabel("height (m)")
         ax.set_aspect("equal")
         ax.grid(alpha=0.3)
     for ax in axes:
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
-    axes[-1].set_xlabel("distance along the main direction of travel (m)")
     fig.suptitle(
         f"{title}: played 3 times; red = the step across each seam (circles: first frame of the next cycle)"
     )
@@ -143,14 +142,17 @@ def plot_seam_closeup(out: Path) -> None:
     f = m.n_frames
     for ax, (label, mm) in zip(axes, [("original", m), ("closed (Lie group)", lie.motion)], strict=True):
         rep = repeat_motion(mm, 2)
-        pos = forward_kinematics(rep)
-        view = side_view([pos.reshape(-1, 3)], 1)[0].reshape(pos.shape[0], pos.shape[1], 2)
+        pos = forward_kinematics(rep) * (mm.metres_per_unit or 1.0)
+        up = "xyz".index(mm.up_axis)
+        view = side_view([pos.reshape(-1, 3)], up)[0].reshape(pos.shape[0], pos.shape[1], 2)
         for fr, col in [(k, "C0") for k in range(f - 6, f - 1)] + [(k, "C1") for k in range(f - 1, f + 4)]:
             for j in left[1:]:
                 p = sk.parents[j]
                 if p in left:
                     ax.plot(view[fr, [p, j], 0], view[fr, [p, j], 1], color=col, lw=1.3, alpha=0.8)
         ax.set_title(f"{label}: last 5 frames (blue) and first 5 of the next cycle (orange)", fontsize=9)
+        ax.set_xlabel("along the main direction of travel (m)")
+        ax.set_ylabel("height (m)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
     fig.suptitle("DeepMimic cartwheel at the seam, left half of the skeleton (cf. paper 000, Fig. 6)")
@@ -194,7 +196,7 @@ def plot_euler_float(out: Path) -> None:
     for label, mm, style in [
         ("original (under the Lie curve)", m, "0.6"),
         ("Lie group closed", loop_motion(m).motion, "C0--"),
-        ("Euler closed", loop_motion(m, representation="euler").motion, "C3"),
+        ("Euler closed", loop_motion(m, method="euler-elastic").motion, "C3"),
     ]:
         r = mm.rotations[:, 0]
         turn = np.concatenate([[0], np.cumsum(np.linalg.norm(SO3G.difference(r[:-1], r[1:]), axis=-1))])

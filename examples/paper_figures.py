@@ -31,7 +31,7 @@ from pathlib import Path
 
 from elastic_motion.apps.align import align_motions
 from elastic_motion.apps.blend import blend_motions
-from elastic_motion.apps.loop import loop_motion, seam_metrics
+from elastic_motion.apps.loop import loop_motion
 from elastic_motion.apps.render import plot_foot_trajectories, plot_seam, plot_warp
 from elastic_motion.motion import drop_tpose, read_motion, trim
 
@@ -61,8 +61,8 @@ def blend_all(a, b, tag: str, out: Path, title: str) -> dict:
     results, rows = [], {}
     for label, method, warp, lm in METHODS:
         t0 = time.perf_counter()
-        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm, max_pairs=3)
-        met = res.metrics
+        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm, max_pairs=3, metrics=True)
+        met = res.metrics.summary()
         rows[label] = {
             "foot_sliding_m_s": met["foot_sliding"]["result"]["mean_speed_m_s"],
             "distance_to_a": met["distances"]["result_to_inputs"][0],
@@ -75,8 +75,8 @@ def blend_all(a, b, tag: str, out: Path, title: str) -> dict:
     first = results[0][1]
     pa, pb = first.prepared.motions
     rows["inputs"] = {
-        "foot_sliding_m_s": [x["mean_speed_m_s"] for x in first.metrics["foot_sliding"]["inputs"]],
-        "distance_a_b": first.metrics["distances"]["between_inputs"][0][1],
+        "foot_sliding_m_s": [x["mean_speed_m_s"] for x in first.metrics.summary()["foot_sliding"]["inputs"]],
+        "distance_a_b": float(first.metrics.distances_between_inputs[0, 1]),
         "notes": list(first.notes),
     }
     fig = plot_foot_trajectories(
@@ -124,12 +124,10 @@ def loops(out: Path) -> dict:
         ("dm_cartwheel", "deepmimic/humanoid3d_cartwheel.txt", "DeepMimic cartwheel"),
         ("dm_backflip", "deepmimic/humanoid3d_backflip.txt", "DeepMimic backflip"),
     ):
-        m = load(rel)
         t0 = time.perf_counter()
-        res = loop_motion(m)
-        closed = list(res.closed_joints)
-        before = seam_metrics(m, joints=closed)
-        after = seam_metrics(res.motion, original=m, joints=closed)
+        res = loop_motion(load(rel))
+        m = res.original  # prepared: metres, Y-up
+        before, after = res.seam_before, res.seam_after
         plot_seam(
             m,
             res.motion,
@@ -138,10 +136,10 @@ def loops(out: Path) -> dict:
             dpi=75,
         )
         rows[key] = {
-            "seam_position_max_m": [before["seam_position_max_m"], after["seam_position_max_m"]],
-            "seam_angle_max_deg": [before["seam_angle_max_deg"], after["seam_angle_max_deg"]],
-            "deviation_max_m": after["deviation_max_m"],
-            "foot_sliding_m_s": [before["foot_sliding_m_s"], after["foot_sliding_m_s"]],
+            "seam_position_max_m": [before.seam_position_max_m, after.seam_position_max_m],
+            "seam_angle_max_deg": [before.seam_angle_max_deg, after.seam_angle_max_deg],
+            "deviation_max_m": after.deviation_max_m,
+            "foot_sliding_m_s": [before.foot_sliding_m_s, after.foot_sliding_m_s],
             "seconds": time.perf_counter() - t0,
         }
     return rows

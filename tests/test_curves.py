@@ -294,3 +294,32 @@ def test_bad_input_errors_name_the_argument():
         blend(c, c, np.nan)
     with pytest.raises(ValueError, match=r"q: expected shape \(n, 2\)"):
         SRVFunction(np.zeros((3, 3)), np.linspace(0, 1, 4), np.zeros(2), g)
+
+
+def test_merged_grid_has_no_rounding_cells_and_blend_srv_is_exact():
+    """Issue 13: warps' vertices and pre-images agree only up to rounding; merged grids must
+    not keep cells of width 1e-16 (the old 3-curve blend's SRV was off by 0.3 on one)."""
+    from elastic_motion.curves import MERGE_TOL, _common_refinement
+    from elastic_motion.warp import optimal_warp
+
+    g = Euclidean(2)
+    n, rng = 47, np.random.default_rng(2)
+    t = np.linspace(0, 1, n + 1)
+    cs = [
+        DiscreteCurve(np.column_stack([t, 0.3 * np.sin((k + 2 + rng.uniform()) * np.pi * t + k)]), g)
+        for k in range(3)
+    ]
+    qs = [srv_transform(c) for c in cs]
+    warps = [None] + [optimal_warp(qs[0].q, q.q, method="dp").vertices for q in qs[1:]]
+    srvs = [q if w is None else reparametrize_srv(q, w) for q, w in zip(qs, warps, strict=True)]
+    assert all(np.diff(s.t).min() > MERGE_TOL for s in srvs)
+    grid, vals = _common_refinement([(s.q, s.t) for s in srvs])
+    assert np.diff(grid).min() > MERGE_TOL
+    w = np.array([0.3, 0.3, 0.4])
+    out = weighted_blend(cs, w, warps)
+    assert np.diff(out.t).min() > MERGE_TOL
+    np.testing.assert_allclose(srv_transform(out).q, np.einsum("k,kij->ij", w, np.stack(vals)), atol=1e-10)
+    # distances on merged grids stay exact
+    assert srv_distance(srvs[1], srvs[2]) == pytest.approx(
+        np.sqrt(np.sum(np.sum((vals[1] - vals[2]) ** 2, axis=1) * np.diff(grid)))
+    )

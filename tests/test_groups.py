@@ -264,3 +264,20 @@ def test_bad_arguments_name_themselves():
         ProductGroup([])
     with pytest.raises(ValueError, match="values: expected finite"):
         Euclidean(2).check_points([[0.0, np.nan]], "values")
+
+
+def test_so3_dexp_matrix_is_dexp():
+    """One home for dexp's closed form: the matrix applies like dexp itself, across the
+    series threshold and up to 2 pi; and it is the derivative of exp (finite differences)."""
+    rng = np.random.default_rng(7)
+    g = SO3()
+    angles = np.array([0.0, 1e-9, 1e-3, 0.99e-2, 1.01e-2, 0.5, 2.0, np.pi - 1e-6, 5.0])
+    axes = rng.normal(size=(angles.size, 3))
+    u = axes / np.linalg.norm(axes, axis=1, keepdims=True) * angles[:, None]
+    v = rng.normal(size=u.shape)
+    mats = g.dexp_matrix(u)
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", mats, v), g.dexp(u, v), atol=1e-14)
+    k = 6  # d/de exp(u + e v) exp(u)^-1 = hat(dexp_u v)
+    eps = 1e-6
+    d = (g.exp(u[k] + eps * v[k]) - g.exp(u[k] - eps * v[k])) / (2 * eps) @ g.exp(u[k]).T
+    np.testing.assert_allclose(vee(d), mats[k] @ v[k], atol=1e-8)

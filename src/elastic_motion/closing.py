@@ -61,8 +61,10 @@ Methods
 * ``method="gauss-newton"`` (default): the minimal-L2-norm change of ``q`` that solves the
   linearised closing conditions ``J dq = -F`` (``J`` is ``k x (n dim)`` with ``k`` closing
   conditions; ``J J^*`` is ``k x k`` and is assembled from the same adjoint), with the same
-  line search. It is the projection onto closed curves that changes ``q`` the least, to
-  first order, and converges quadratically. In ``R^d`` it is exactly the Newton projection
+  line search. Each step is the least change *of that step* that solves the linearised
+  conditions, so the result is closed but only closest to the original to first order (it
+  is not the minimiser of ``||q - q_orig||``); it converges quadratically. The closed curve
+  nearest the original in SRV L2 is :func:`elastic_motion.closing_kkt.project_closed`. In ``R^d`` it is exactly the Newton projection
   with the basis of paper 001, Thm. 2 (:func:`project_closed_rd`).
 
 Cut locus: ``log`` is two-valued at angle ``pi``. A closed ``SO(3)`` block whose seam
@@ -71,8 +73,8 @@ copy; the line search never accepts a step that takes a block there. A single st
 ``|u_i|`` of a closed copy may grow past ``pi`` (data glitches such as a foot flipping by
 179 degrees in one frame get pushed over): ``exp`` and the objective stay smooth up to
 ``2 pi`` (where ``dexp`` is singular; the line search stops short of it), the returned
-samples are exact, and :attr:`ClosingResult.srv` (the SRVT of the returned curve) reads such
-a step the short way round. Free copies may hold any steps (e.g. the 180-degree finger
+samples are exact, and :attr:`ClosingResult.srv` is the solver's own SRV function (not the
+SRVT of the returned curve, which would read such a step the short way round). Free copies may hold any steps (e.g. the 180-degree finger
 flips of the CMU data): they are integrated as they are and, with ``keep_free``, restored.
 """
 
@@ -121,7 +123,11 @@ class ClosingResult:
     curve : DiscreteCurve
         The closed curve, same grid and first sample as the input.
     srv : SRVFunction
-        Its SRV function (``q`` of shape ``(n, dim)``, orthonormal coordinates).
+        The SRV function the solver computed (``q`` of shape ``(n, dim)``, orthonormal
+        coordinates): every number measured through it equals the solver's. It is not
+        re-read from ``curve``: a step of a closed copy that ends past ``pi`` stays as the
+        solver took it, and with ``keep_free`` the free coordinates of ``curve`` are the
+        original samples while ``srv`` holds the solver's values for them.
     gap, gap_initial : float
         Weighted norm of the closing residual after / before (``sqrt(2 Phi_0)``).
     velocity_gap, velocity_gap_initial : float
@@ -147,6 +153,14 @@ class ClosingResult:
         (0 for free copies; the swing angle for copies closed up to an axis).
     translation_gaps : ndarray, shape (e,)
         Final absolute residual of each Euclidean coordinate (0 for free ones).
+    change : float or None
+        ``||q - q_orig||_L2`` (``sqrt(sum_i h_i |q_i - q_orig_i|^2)``, orthonormal
+        coordinates) between ``srv`` and the input's SRV function.
+    kkt_residual : float or None
+        For the constrained projection (:func:`elastic_motion.closing_kkt.project_closed`):
+        the relative first-order optimality residual at the result, else ``None``.
+    multipliers : ndarray or None
+        Lagrange multipliers of the closing conditions (constrained projection only).
     """
 
     curve: DiscreteCurve
@@ -167,6 +181,9 @@ class ClosingResult:
     gradient: str
     rotation_gaps: np.ndarray
     translation_gaps: np.ndarray
+    change: float | None = None
+    kkt_residual: float | None = None
+    multipliers: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -414,15 +431,14 @@ def _swing(r: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
 
 
 @njit(cache=True)
-def _cell_blocks_kernel(rot, u, h, lmat, exact, out):  # pragma: no cover - numba
+def _cell_blocks_kernel(rot, dmat, h, lmat, out):  # pragma: no cover - numba
     # out[i, b] = h_i L_b Ad_{P_i} dexp_{u_i}, P_i = c_n c_{i+1}^T (paper 000, Thm. 4.5 on the
-    # discrete curve); dexp_u = I + a hat(u) + b hat(u)^2, a = (1 - cos t)/t^2,
-    # b = (t - sin t)/t^3 (eq. 15 in closed form), series below t = 1e-2 as in groups.SO3.
-    n = u.shape[0]
-    m = u.shape[1]
+    # discrete curve); dmat[i, b] is the matrix of dexp_{u_i} (groups.SO3.dexp), or the
+    # identity for the paper's one-sided formula.
+    n = dmat.shape[0]
+    m = dmat.shape[1]
     nr = lmat.shape[1]
     pm = np.empty((3, 3))
-    dm = np.empty((3, 3))
     am = np.empty((3, 3))
     for i in range(n):
         for b in range(m):
@@ -433,36 +449,13 @@ def _cell_blocks_kernel(rot, u, h, lmat, exact, out):  # pragma: no cover - numb
                         + rot[n, b, r, 1] * rot[i + 1, b, c, 1]
                         + rot[n, b, r, 2] * rot[i + 1, b, c, 2]
                     )
-            if exact:
-                x = u[i, b, 0]
-                y = u[i, b, 1]
-                z = u[i, b, 2]
-                t2 = x * x + y * y + z * z
-                t = np.sqrt(t2)
-                if t < 1e-2:
-                    ca = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
-                    cb = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0
-                else:
-                    sh = np.sin(0.5 * t)
-                    ca = 2.0 * sh * sh / t2
-                    cb = (t - np.sin(t)) / (t2 * t)
-                # hat(u)^2 = u u^T - |u|^2 I
-                dm[0, 0] = 1.0 + cb * (x * x - t2)
-                dm[1, 1] = 1.0 + cb * (y * y - t2)
-                dm[2, 2] = 1.0 + cb * (z * z - t2)
-                dm[0, 1] = -ca * z + cb * x * y
-                dm[1, 0] = ca * z + cb * x * y
-                dm[0, 2] = ca * y + cb * x * z
-                dm[2, 0] = -ca * y + cb * x * z
-                dm[1, 2] = -ca * x + cb * y * z
-                dm[2, 1] = ca * x + cb * y * z
-                for r in range(3):
-                    for c in range(3):
-                        am[r, c] = pm[r, 0] * dm[0, c] + pm[r, 1] * dm[1, c] + pm[r, 2] * dm[2, c]
-            else:
-                for r in range(3):
-                    for c in range(3):
-                        am[r, c] = pm[r, c]
+            for r in range(3):
+                for c in range(3):
+                    am[r, c] = (
+                        pm[r, 0] * dmat[i, b, 0, c]
+                        + pm[r, 1] * dmat[i, b, 1, c]
+                        + pm[r, 2] * dmat[i, b, 2, c]
+                    )
             for r in range(nr):
                 for c in range(3):
                     out[i, b, r, c] = h[i] * (
@@ -665,7 +658,9 @@ class _Problem:
             lmat = np.ascontiguousarray(l0)
         bs = np.empty((n, m, lmat.shape[1], 3))
         if m:
-            _cell_blocks_kernel(s.rot, np.ascontiguousarray(s.u_so3), h, lmat, exact_dexp, bs)
+            u = s.u_so3
+            dmat = _SO3.dexp_matrix(u) if exact_dexp else np.broadcast_to(_EYE3, u.shape[:-1] + (3, 3))
+            _cell_blocks_kernel(s.rot, np.ascontiguousarray(dmat), h, lmat, bs)
         be0 = np.broadcast_to(h[:, None], (n, ne))
         if not self.c1:
             return bs, be0[..., None]
@@ -744,6 +739,11 @@ class _Problem:
                     for j in range(3):
                         gmat[base1 + i, base2 + j] += ks[:, 3 * g1 + i, 3 * g2 + j]
         return gmat
+
+
+def _l2(dq: np.ndarray, h: np.ndarray) -> float:
+    """``sqrt(sum_i h_i |dq_i|^2)``: the L2 norm of a cell-valued function."""
+    return float(np.sqrt(np.einsum("i,ij,ij->", h, dq, dq)))
 
 
 def _as_srv(curve: object, name: str = "curve") -> SRVFunction:
@@ -1055,7 +1055,7 @@ def close_curve(
             vals = np.array(out_curve.values).reshape(out_curve.n_points, -1)
             vals[:, free_eu] = np.asarray(original.values).reshape(original.n_points, -1)[:, free_eu]
             out_curve = DiscreteCurve(vals.reshape(out_curve.values.shape), srv.group, srv.t)
-        closed = srv_transform(out_curve)
+        closed = SRVFunction(q_final, srv.t, srv.start, srv.group)
     return ClosingResult(
         curve=out_curve,
         srv=closed,
@@ -1075,6 +1075,7 @@ def close_curve(
         gradient=gradient,
         rotation_gaps=state.rot_gaps,
         translation_gaps=state.eu_gaps,
+        change=_l2(closed.q - srv.q, srv.dt),
     )
 
 
@@ -1191,7 +1192,7 @@ def project_closed_rd(
     phis = 0.5 * np.asarray(gaps) ** 2
     return ClosingResult(
         curve=out,
-        srv=srv if it == 0 else srv_transform(out),
+        srv=srv if it == 0 else SRVFunction(q, srv.t, srv.start, srv.group),
         gap=gaps[-1],
         gap_initial=gaps[0],
         velocity_gap=vg[-1],
@@ -1208,4 +1209,5 @@ def project_closed_rd(
         gradient="exact",
         rotation_gaps=np.zeros(0),
         translation_gaps=eu_gaps,
+        change=_l2(q - srv.q, srv.dt),
     )

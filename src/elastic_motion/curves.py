@@ -13,7 +13,7 @@ Conventions
   Lie algebra (``sqrt(weights) * xi``, see :mod:`elastic_motion.groups`), so the pointwise
   inner product is the dot product and ``||q||^2_L2 = sum_i |q[i]|^2 (t[i+1] - t[i])``.
   Every solver downstream (``warp``, ``closing``) works on these arrays directly.
-* Discrete SRVT (paper 000, sec. 5.1; DESIGN.md sec. 1)::
+* Discrete SRVT (paper 000, sec. 5.1)::
 
       xi_i = log(c[i+1] c[i]^{-1}) / (t[i+1] - t[i]),   q_i = xi_i / sqrt(|xi_i|),
 
@@ -239,9 +239,34 @@ def inverse_srv_transform(srv: SRVFunction) -> DiscreteCurve:
 # ---------------------------------------------------------------------------------------------
 
 
+#: Break points closer than this (parameters in [0, 1]) are one break point of a merged grid:
+#: break points computed two ways (a warp's vertex and the pre-image of a break point) agree
+#: only up to rounding, and a cell of width 1e-16 would carry a meaningless sample.
+MERGE_TOL = 1e-12
+
+
+def _merge_breaks(grid: np.ndarray, tol: float = MERGE_TOL) -> np.ndarray:
+    """Sorted break points without those within ``tol`` of their predecessor.
+
+    ``grid`` is sorted, from 0 to 1; the end points are kept (a point within ``tol`` of the
+    last one gives way to it).  Returns ``grid`` itself when no two points are that close.
+    """
+    if grid.shape[0] <= 2:
+        return grid
+    keep = np.concatenate([[True], np.diff(grid) > tol])
+    if keep.all():
+        return grid
+    out = grid[keep]
+    if not keep[-1]:
+        out[-1] = grid[-1]  # the end point replaces the point it is close to
+    return out
+
+
 def _values_on(q: np.ndarray, t: np.ndarray, grid: np.ndarray) -> np.ndarray:
-    """Values of the piecewise constant ``(q, t)`` on the cells of ``grid`` (which refines t)."""
-    cell = np.clip(np.searchsorted(t, grid[:-1], side="right") - 1, 0, q.shape[0] - 1)
+    """Values of the piecewise constant ``(q, t)`` on the cells of ``grid`` (which refines t,
+    up to break points merged within :data:`MERGE_TOL`): the value at each cell's midpoint."""
+    mid = 0.5 * (grid[:-1] + grid[1:])
+    cell = np.clip(np.searchsorted(t, mid, side="right") - 1, 0, q.shape[0] - 1)
     return q[cell]
 
 
@@ -250,11 +275,16 @@ def _common_refinement(
 ) -> tuple[np.ndarray, list[np.ndarray]]:
     """Merge the break points of piecewise constant functions ``(q_k, t_k)``.
 
+    Break points closer than :data:`MERGE_TOL` are merged (:func:`_merge_breaks`), so the
+    merged grid has no cells of rounding width; each function is read at the midpoints of
+    the merged cells (exact up to the merged slivers, of total width ``< MERGE_TOL`` each).
+
     Returns the merged grid and each function's values on its cells.
     """
     grid = functions[0][1]
     for _, t in functions[1:]:
         grid = np.union1d(grid, t)
+    grid = _merge_breaks(grid)
     return grid, [_values_on(q, t, grid) for q, t in functions]
 
 
@@ -371,7 +401,7 @@ def reparametrize_srv(srv: SRVFunction, phi: object) -> SRVFunction:
     inside = (ph[k] < srv.t) & (srv.t < ph[k + 1])
     kk = k[inside]
     pre = tau[kk] + (srv.t[inside] - ph[kk]) * (tau[kk + 1] - tau[kk]) / (ph[kk + 1] - ph[kk])
-    grid = np.union1d(tau, pre)
+    grid = _merge_breaks(np.union1d(tau, pre))  # no cells of rounding width
     mid = 0.5 * (grid[:-1] + grid[1:])
     k = np.clip(np.searchsorted(tau, mid, side="right") - 1, 0, tau.shape[0] - 2)
     slope = (ph[k + 1] - ph[k]) / (tau[k + 1] - tau[k])
@@ -412,7 +442,7 @@ def weighted_blend(
     DiscreteCurve
         Its start point is the weighted mean of the start points in the group
         (:meth:`LieGroup.weighted_mean`; for two curves the geodesic point
-        ``exp(s log(c1(0) c0(0)^{-1})) c0(0)``, DESIGN.md sec. 2).
+        ``exp(s log(c1(0) c0(0)^{-1})) c0(0)``).
     """
     curves = list(curves)
     if not curves:

@@ -24,7 +24,8 @@ Conventions (used by every layer of the package)
 * **Inner product** on the Lie algebra: diagonal, ``<u, v> = sum_k w_k u_k v_k`` with the
   group's ``weights`` (shape ``(dim,)``). For ``SO(3)`` the unweighted inner product is
   ``<x, y> = x · y = 1/2 tr(hat(x) hat(y)^T)``: one half of the Frobenius product, i.e.
-  ``-1/4`` of the Cartan-Killing form ``tr(ad_x ad_y) = -2 x · y``. It is bi-invariant
+  ``-1/2`` of the Cartan-Killing form ``B(x, y) = tr(ad_x ad_y) = -2 x · y`` (``ad_x = hat(x)``
+  since ``[x, y] = x × y``). It is bi-invariant
   (``ad`` is skew), so paper 000 Cor. 4.8 applies, and with weight 1 the norm of
   ``log(R)`` is the rotation angle in radians. A weight ``w`` per copy scales this.
   Coordinates in an orthonormal basis are ``sqrt(w) * u`` (:meth:`LieGroup.to_orthonormal`):
@@ -595,11 +596,10 @@ class SO3(LieGroup):
     def bracket(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.cross(u, v)
 
-    def dexp(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    @staticmethod
+    def _dexp_coefficients(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # dexp_u = I + a hat(u) + b hat(u)^2, a = (1 - cos t)/t^2, b = (t - sin t)/t^3, t = |u|
         # (the series sum_k ad_u^k/(k+1)! of paper 000 eq. 15 in closed form).
-        u = np.asarray(u, dtype=np.float64)
-        v = np.asarray(v, dtype=np.float64)
         t = np.linalg.norm(u, axis=-1)
         small = t < _SMALL_ANGLE_SERIES
         a = _series_or(
@@ -614,8 +614,28 @@ class SO3(LieGroup):
             lambda x: 1.0 / 6.0 - x**2 / 120.0 + x**4 / 5040.0,
             lambda x: (x - np.sin(x)) / x**3,
         )
+        return a, b
+
+    def dexp(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        a, b = self._dexp_coefficients(u)
         uv = np.cross(u, v)
         return v + a[..., None] * uv + b[..., None] * np.cross(u, uv)
+
+    def dexp_matrix(self, u: np.ndarray) -> np.ndarray:
+        """The matrix of ``v -> dexp_u(v)``, ``I + a hat(u) + b hat(u)^2``, shape ``(..., 3, 3)``.
+
+        The same closed form as :meth:`dexp` (one home for it), for callers that apply
+        ``dexp_u`` to many vectors or compose it with other matrices (the closing Jacobian).
+        """
+        u = np.asarray(u, dtype=np.float64)
+        a, b = self._dexp_coefficients(u)
+        # hat(u)^2 = u u^T - |u|^2 I
+        t2 = np.einsum("...i,...i->...", u, u)
+        out = (b[..., None, None] * u[..., :, None]) * u[..., None, :] + a[..., None, None] * hat(u)
+        out += (1.0 - b * t2)[..., None, None] * np.eye(3)
+        return out
 
     def dexp_inv(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         # dexp_u^{-1} = I - hat(u)/2 + e hat(u)^2, e = (1 - (t/2) cot(t/2)) / t^2.

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from blend_testlib import walker
 
-from elastic_motion.apps.align import align_motions, prepare_motions
+from elastic_motion.apps.align import align_motions
 from elastic_motion.apps.blend import blend_motions
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import bone_length_error, foot_joints, foot_sliding
+from elastic_motion.apps.prepare import PrepareOptions, prepare_motions
 from elastic_motion.groups import SO3
 from elastic_motion.motion import (
     drop_joints,
@@ -21,6 +22,7 @@ from elastic_motion.motion import (
     trim,
     write_bvh,
 )
+from elastic_motion.warp import WarpOptions
 
 SO3G = SO3()
 METHODS = [
@@ -70,7 +72,7 @@ def test_weight_one_gives_b_at_its_own_timing(pair, method, warp):
 
 def test_halfway_blend_duration_skeleton_and_fingers(pair):
     a, b = pair
-    res = blend_motions([a, b], 0.5, method="lie", warp="dp")
+    res = blend_motions([a, b], 0.5, method="lie", warp="dp", metrics=True)
     m = res.motion
     assert abs(m.duration - 0.5 * (a.duration + b.duration)) <= 1.0 / a.fps
     assert m.skeleton.names == a.skeleton.names
@@ -78,9 +80,10 @@ def test_halfway_blend_duration_skeleton_and_fingers(pair):
     assert "LeftHandIndex1" in res.prepared.extra_joints  # finger joint: blended frame by frame
     assert np.isfinite(m.rotations).all()
     assert res.timing[0] == 0.0 and res.timing[-1] == 1.0 and (np.diff(res.timing) > 0).all()
-    met = res.metrics
+    met = res.metrics.summary()
     assert set(met) == {"foot_sliding", "bone_length_error", "distances"}
     assert met["bone_length_error"]["result"]["max_relative"] < 1e-9
+    assert res.metrics.bone_length_error.max_relative < 1e-9
     d = met["distances"]
     assert d["labels"] == ["A", "B"]
     d_ab = d["between_inputs"][0][1]
@@ -100,7 +103,9 @@ def test_blend_is_placed_like_a(pair):
     assert pb.root_translation[0, 1] == pytest.approx(b.root_translation[0, 1])  # height kept
     path = res.motion.root_translation
     assert abs(path[-1, 0] - path[0, 0]) < 0.02 and path[-1, 2] > path[0, 2] + 1.0
-    unplaced = blend_motions([a, b], 0.5, align=False, metrics=False).motion.root_translation
+    unplaced = blend_motions(
+        [a, b], 0.5, prepare=PrepareOptions(align=False), metrics=False
+    ).motion.root_translation
     assert abs(unplaced[-1, 0] - unplaced[0, 0]) > 0.3
 
 
@@ -124,7 +129,7 @@ def test_three_way_weighted_mean(pair):
     assert abs(m.duration - expected) < 0.15  # the template's warps are not recentred
     only_a = blend_motions([a, b, c], [1.0, 0.0, 0.0], warp="none", metrics=False)
     assert _angle(only_a.motion.rotations, a.rotations).max() < 1e-6
-    with pytest.raises(ValueError, match="two motions only"):
+    with pytest.raises(ValueError, match="expected two motions"):
         blend_motions([a, b, c], [0.4, 0.3, 0.3], landmarks="auto")
     with pytest.raises(ValueError, match=r"in \[0, 1\] for 3 motions"):
         blend_motions([a, b, c], [1.2, -0.1, -0.1], extrapolate=True)
@@ -135,9 +140,9 @@ def test_different_skeletons_name_the_joints(pair):
     b2 = drop_joints(b, ["LeftHand"])
     with pytest.raises(ValueError, match=r"only in A: \['LeftHand', 'LeftHandIndex1'\].*joints='common'"):
         blend_motions([a, b2], 0.5, metrics=False)
-    res = blend_motions([a, b2], 0.5, joints="common", metrics=False)
+    res = blend_motions([a, b2], 0.5, prepare=PrepareOptions(joints="common"), metrics=False)
     assert "LeftHand" not in res.motion.skeleton.names
-    assert any("dropped joints not shared" in n for n in res.notes)
+    assert any("joints not shared by all inputs" in n for n in res.notes)
 
 
 def test_different_frame_rates_are_resampled(pair):
@@ -151,7 +156,7 @@ def test_different_frame_rates_are_resampled(pair):
 def test_landmarks_pull_the_warp(pair):
     a, b = pair
     lm = [(0.6, 1.5), (1.4, 2.1)]
-    res = align_motions(a, b, landmarks=lm, lam=1000.0)
+    res = align_motions(a, b, landmarks=lm, warp=WarpOptions(landmark_weight=1000.0))
     np.testing.assert_allclose(res.time_in_b([0.6, 1.4]), [1.5, 2.1], atol=0.05)
     free = align_motions(a, b)
     assert free.distance <= res.distance + 1e-9
@@ -161,7 +166,7 @@ def test_landmarks_pull_the_warp(pair):
         align_motions(a, b, landmarks=[(0.5, 9.0)])
     with pytest.raises(ValueError, match="not in increasing order"):
         align_motions(a, b, landmarks=[(0.5, 1.5), (1.0, 1.0)])
-    with pytest.raises(ValueError, match="need a time warp"):
+    with pytest.raises(ValueError, match="expected a time warp"):
         blend_motions([a, b], 0.5, warp="none", landmarks=[(0.5, 0.5)])
 
 
@@ -226,9 +231,9 @@ def test_cmu_obstacle_walks_by_every_method(mocap_dir):
         ("lie", "dp", None),
         ("euler-elastic", "dp", "auto"),
     ]:
-        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm)
+        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm, metrics=True)
         assert res.motion.n_joints == 31 and np.isfinite(res.motion.rotations).all()
-        out[(method, warp)] = res.metrics
+        out[(method, warp)] = res.metrics.summary()
     lie_dp = out[("lie", "dp")]
     d = lie_dp["distances"]
     d_ab = d["between_inputs"][0][1]

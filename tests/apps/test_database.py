@@ -7,8 +7,11 @@ start a 2-worker ``LocalCluster``. Real data only in the ``mocap_dir`` tests.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -21,17 +24,20 @@ import pytest
 from elastic_motion.apps.database import (
     ClusterUnavailableError,
     DatabaseSettings,
-    PairSpec,
+    QueryResult,
     compute_matrix,
     compute_tile,
     find_motion_files,
     load_matrix,
     pair_distance,
+    prepare_motion,
     query_distances,
     tile_blocks,
 )
+from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, Skeleton, write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
+from elastic_motion.warp import WarpOptions
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 
@@ -89,7 +95,7 @@ def db_dir(tmp_path_factory) -> Path:
     return d
 
 
-SETTINGS = DatabaseSettings(n_samples=12, tile_size=2, pair=PairSpec(warp="dp", neighbourhood=4))
+SETTINGS = DatabaseSettings(n_samples=12, tile_size=2, warp=WarpOptions(method="dp", neighbourhood=4))
 
 
 def _arrays(out: Path) -> dict[str, bytes]:
@@ -118,11 +124,11 @@ def test_pair_distance_dp_below_none_and_symmetric() -> None:
     base = np.stack([np.sin(2 * np.pi * t[:-1] * (k + 1)) for k in range(5)], axis=1)
     q0 = base + 0.05 * rng.normal(size=base.shape)
     q1 = np.roll(base, 2, axis=0)
-    none = pair_distance(q0, q1, PairSpec(warp="none"))
+    none = pair_distance(q0, q1, WarpOptions(method="none"))
     assert none == pytest.approx(np.sqrt(np.mean(np.sum((q0 - q1) ** 2, axis=1))), rel=1e-14)
-    dp = pair_distance(q0, q1, PairSpec(warp="dp"))
+    dp = pair_distance(q0, q1, WarpOptions(method="dp"))
     assert dp <= none + 1e-12
-    assert pair_distance(q1, q0, PairSpec(warp="dp")) == pytest.approx(dp, rel=1e-12)
+    assert pair_distance(q1, q0, WarpOptions(method="dp")) == pytest.approx(dp, rel=1e-12)
 
 
 def test_compute_tile_layout() -> None:
@@ -134,13 +140,13 @@ def test_compute_tile_layout() -> None:
         q[1:],
         np.array([0, 0]),
         np.array([0, 0, 1]),
-        PairSpec(warp="none"),
+        WarpOptions(method="none"),
     )
     assert tile[0, 0] == pytest.approx(np.sqrt(2.0))  # d(0, 1): |0 - 1| in 2 dims
     assert tile[1, 0] == 0.0  # diagonal
     assert tile[0, 2] == np.inf and tile[1, 2] == np.inf  # other group
     assert np.isnan(
-        compute_tile(np.array([2]), np.array([1]), q[2:3], q[1:2], [0], [0], PairSpec("none"))
+        compute_tile(np.array([2]), np.array([1]), q[2:3], q[1:2], [0], [0], WarpOptions("none"))
     ).all()
 
 
@@ -149,6 +155,41 @@ def test_find_motion_files_ignores_text_and_keeps_bad_files(db_dir: Path) -> Non
     names = [f.name for f in files]
     assert "broken.bvh" in names and "empty.bvh" in names and "missing.bvh" in names
     assert [i.name for i in ignored] == ["notes.txt"]
+
+
+def test_settings_default_warp_and_format_1_json() -> None:
+    s = DatabaseSettings()
+    assert s.warp == WarpOptions(method="dp") and s.warp.neighbourhood == 10  # WarpOptions' default
+    assert DatabaseSettings(warp="none").warp == WarpOptions(method="none")
+    assert DatabaseSettings.from_json(SETTINGS.to_json()) == SETTINGS
+    old = {  # settings as written by format 1 (PairSpec)
+        "n_samples": 12,
+        "representations": ["lie"],
+        "pair": {"warp": "none", "neighbourhood": 6, "coarse_to_fine": True},
+        "joints": ["Hips", "Spine"],
+        "drop_fingers": True,
+        "align_heading": False,
+        "tile_size": 2,
+    }
+    s = DatabaseSettings.from_json(old)
+    assert s.warp == WarpOptions(method="none", neighbourhood=6, coarse_to_fine=True)
+    assert s.joints == ("Hips", "Spine") and s.representations == ("lie",) and not s.align_heading
+    with pytest.raises(OptionError, match=r"settings: .*unknown \['colour'\]"):
+        DatabaseSettings.from_json({**SETTINGS.to_json(), "colour": 1})
+
+
+def test_prepare_motion_runs_the_shared_preparation_step() -> None:
+    m = synthetic_motion(0, 0, frames=30)
+    rot = m.rotations.copy()
+    rot[0] = np.eye(3)  # a rest pose at frame 0, far from frame 1 (90 degrees below)
+    rot[1:] = euler_to_matrix(np.array([0.0, 0.0, np.pi / 2]), "ZYX") @ rot[1:]
+    m = m.replace(rotations=rot, up_axis="z")
+    p = prepare_motion("clip.bvh", 8, motion=m)
+    assert p.preparation is not None and p.preparation.tpose_dropped and p.preparation.up_axis_in == "z"
+    assert p.original_frames == 29 and p.motion.n_frames == 9 and p.motion.up_axis == "y"
+    assert any("T-pose" in n for n in p.notes) and any("z-up to y-up" in n for n in p.notes)
+    with pytest.raises(OptionError, match=r"joints: clip: expected joints named \['Tail'\]"):
+        prepare_motion("clip.bvh", 8, motion=m, joints=["Hips", "Tail"])
 
 
 # --------------------------------------------------------------------------------------------
@@ -196,7 +237,7 @@ def test_serial_run_outputs(serial_run, db_dir: Path) -> None:
 
 
 def test_warp_none_is_an_upper_bound(serial_run, db_dir: Path, tmp_path: Path) -> None:
-    s = DatabaseSettings(n_samples=12, tile_size=2, pair=PairSpec(warp="none"))
+    s = DatabaseSettings(n_samples=12, tile_size=2, warp=WarpOptions(method="none"))
     none = compute_matrix([db_dir], tmp_path / "none", s).distances["lie"]
     dp = np.load(serial_run.out_dir / "distances_lie.npy")
     fin = np.isfinite(dp)
@@ -241,8 +282,11 @@ def test_common_joints_makes_one_group(db_dir: Path, tmp_path: Path) -> None:
 
 
 def test_no_readable_motion_is_an_error(db_dir: Path, tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="no readable motion"):
+    with pytest.raises(
+        ValueError, match=r"expected at least one readable motion; got none \(skipped: .*broken"
+    ):
         compute_matrix([db_dir / "broken.bvh"], tmp_path / "x", SETTINGS)
+    assert not (tmp_path / "x").exists()  # nothing written
 
 
 @needs_dask
@@ -257,11 +301,84 @@ def test_unreachable_scheduler_leaves_no_output(db_dir: Path, tmp_path: Path) ->
 
 def test_search_matches_the_matrix_row(serial_run, db_dir: Path) -> None:
     m = load_matrix(serial_run.out_dir, "lie")
-    names, _, d, info = query_distances(db_dir / "k1_v2.bvh", serial_run.out_dir, "lie")
-    k = names.index("k1_v2")
-    assert d[k] == 0.0
-    np.testing.assert_allclose(d, m.distances[k], rtol=1e-10)
-    assert info["group"] == 0
+    res = query_distances(db_dir / "k1_v2.bvh", serial_run.out_dir, "lie")
+    k = res.names.index("k1_v2")
+    assert res.distances[k] == 0.0
+    np.testing.assert_allclose(res.distances, m.distances[k], rtol=1e-10)
+    assert res.group == 0 and res.names == m.names and res.settings == SETTINGS
+
+
+def test_query_result_is_a_named_frozen_result(serial_run, db_dir: Path) -> None:
+    res = query_distances(db_dir / "k0_v0.bvh", serial_run.out_dir, "euler")
+    assert isinstance(res, QueryResult) and res.representation == "euler"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.group = 1  # type: ignore[misc]
+    assert res.distances.shape == (7,) and np.isinf(res.distances[6])  # the other skeleton
+    near = res.nearest(2)
+    assert [res.names[k][:2] for k in near] == ["k0", "k0"] and res.names.index("k0_v0") not in near
+    summary = res.summary()
+    text = json.dumps(summary, allow_nan=False)  # strict JSON: +inf became null
+    assert json.loads(text)["distances"][6] is None and summary["settings"]["warp"]["neighbourhood"] == 4
+    # a database of files: read now, with the settings given
+    files = [db_dir / "k0_v1.bvh", db_dir / "k1_v0.bvh"]
+    s = DatabaseSettings(n_samples=12, representations=("euler",), warp=WarpOptions(method="none"))
+    res = query_distances(db_dir / "k0_v0.bvh", files, "euler", s)
+    assert res.names == ["k0_v1", "k1_v0"] and res.settings == s and np.isfinite(res.distances).all()
+    with pytest.raises(OptionError, match=r"representation: expected one of .*\['euler'\]; got 'lie'"):
+        query_distances(db_dir / "k0_v0.bvh", files, "lie", s)
+
+
+def _as_format_1(out: Path) -> None:
+    """Rewrite a run's manifest, report and SRV cache as the previous release wrote them."""
+
+    def old(settings: dict) -> dict:
+        d = dict(settings)
+        w = d.pop("warp")
+        d["pair"] = {"warp": w["method"], "neighbourhood": w["neighbourhood"], "coarse_to_fine": False}
+        return d
+
+    man = json.loads((out / "manifest.json").read_text())
+    man["identity"]["format"] = 1
+    man["identity"]["settings"] = old(man["identity"]["settings"])
+    (out / "manifest.json").write_text(json.dumps(man))
+    rep = json.loads((out / "report.json").read_text())
+    rep["settings"] = old(rep["settings"])
+    rep.pop("format", None)
+    (out / "report.json").write_text(json.dumps(rep))
+    with np.load(out / "srv_cache.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    meta = json.loads(str(arrays["meta"]))
+    meta["format"] = 1
+    meta["settings"] = old(meta["settings"])
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(out / "srv_cache.npz", **arrays)
+
+
+def test_run_of_the_previous_format_resumes_or_says_how_to_restart(
+    serial_run, db_dir: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "format1"
+    shutil.copytree(serial_run.out_dir, out)
+    _as_format_1(out)
+    man = json.loads((out / "manifest.json").read_text())
+    lost = sorted(man["tiles"])[0]
+    del man["tiles"][lost]
+    (out / "tiles" / f"{lost}.npy").unlink()  # interrupted before this tile
+    (out / "manifest.json").write_text(json.dumps(man))
+    # its cache and settings are read as they were
+    q = query_distances(db_dir / "k1_v2.bvh", out, "lie")
+    assert q.settings == SETTINGS
+    # other settings (the new default neighbourhood): refused, saying how to resume or restart
+    with pytest.raises(
+        OptionError,
+        match=r"warp\.neighbourhood: 4 -> 10.*settings it was started with.*overwrite=True \(--overwrite\)",
+    ):
+        compute_matrix([db_dir], out, DatabaseSettings(n_samples=12, tile_size=2))
+    # the settings it was started with: resumed, nothing recomputed but the lost tile
+    res = compute_matrix([db_dir], out, SETTINGS)
+    assert res.complete and res.report["runs"][-1]["tiles_computed"] == 1
+    assert json.loads((out / "manifest.json").read_text())["identity"]["format"] == 2
+    assert _arrays(out) == _arrays(serial_run.out_dir)
 
 
 # --------------------------------------------------------------------------------------------
@@ -280,7 +397,8 @@ _KILLER = textwrap.dedent(
     """
     import os, sys
     sys.path.insert(0, {src!r})
-    from elastic_motion.apps.database import DatabaseSettings, PairSpec, compute_matrix
+    from elastic_motion.apps.database import DatabaseSettings, compute_matrix
+    from elastic_motion.warp import WarpOptions
 
     def progress(stage, done, total, seen=[0]):
         if stage == "tiles":
@@ -289,7 +407,7 @@ _KILLER = textwrap.dedent(
                 os._exit(17)  # hard exit, as SIGKILL: no cleanup, no final manifest
 
     if __name__ == "__main__":
-        s = DatabaseSettings(n_samples=12, tile_size=2, pair=PairSpec(warp="dp", neighbourhood=4))
+        s = DatabaseSettings(n_samples=12, tile_size=2, warp=WarpOptions(method="dp", neighbourhood=4))
         compute_matrix([{db!r}], {out!r}, s, engine={engine!r}, n_workers=2, progress=progress)
     """
 )
@@ -354,12 +472,17 @@ def test_tile_on_disk_but_not_in_manifest_is_adopted(serial_run, db_dir: Path, t
 # --------------------------------------------------------------------------------------------
 
 
-def _cli(argv: list[str]) -> int:
+def _parser() -> argparse.ArgumentParser:
     from elastic_motion.cli_commands import database
+    from elastic_motion.cli_commands._argparse import CliParser
 
-    parser = argparse.ArgumentParser(prog="elastic-motion")
+    parser = CliParser(prog="elastic-motion")
     database.register(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _cli(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
     return args.func(args)
 
 
@@ -397,6 +520,17 @@ def test_cli_mean_refuses_to_overwrite_an_input(db_dir: Path, capsys) -> None:
     assert a.read_bytes() == before
 
 
+def test_cli_mean_writes_the_named_result(db_dir: Path, tmp_path: Path, capsys) -> None:
+    a, b = str(db_dir / "k0_v0.bvh"), str(db_dir / "k0_v1.bvh")
+    out = tmp_path / "mean.bvh"
+    argv = ["mean", a, b, "--output", str(out), "--samples", "8", "--neighbourhood", "3", "--quiet", "--json"]
+    assert _cli(argv) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["command"] == "mean" and rep["output"] == str(out) and rep["outputs"] == [str(out)]
+    assert rep["inputs"] == [a, b] and list(rep["distances"]) == [a, b] and rep["representation"] == "lie"
+    assert len(rep["energies"]) == rep["iterations"] >= 1 and out.stat().st_size > 0
+
+
 @needs_dask
 def test_cli_unreachable_scheduler_exit_code(db_dir: Path, tmp_path: Path, capsys) -> None:
     out = tmp_path / "never"
@@ -404,6 +538,83 @@ def test_cli_unreachable_scheduler_exit_code(db_dir: Path, tmp_path: Path, capsy
     assert _cli([*argv, "--timeout", "1", "--quiet"]) == 3
     assert "could not reach the Dask scheduler" in capsys.readouterr().err
     assert not out.exists()
+
+
+COMMANDS = ("matrix", "search", "classify", "mean", "cluster")
+
+
+def _subparsers() -> dict[str, argparse.ArgumentParser]:
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return {c: sub.choices[c] for c in COMMANDS}
+
+
+def test_cli_help_one_name_per_concept_and_every_default() -> None:
+    for cmd, p in _subparsers().items():
+        text = p.format_help()
+        assert "--method" in text, cmd
+        for old in ("--repr", "--out ", "--no-align-heading"):
+            assert old not in text, (cmd, old)  # hidden aliases
+        for a in p._actions:
+            if a.help == argparse.SUPPRESS or not a.option_strings or a.nargs == 0:
+                continue
+            if a.default is not None:
+                shown = re.search(r"\(default: ([^)]*)\)", a.help)
+                assert shown, (cmd, a.option_strings)
+                if isinstance(a.default, float):
+                    assert float(shown[1]) == a.default, (cmd, a.option_strings)
+                else:
+                    assert shown[1] == str(a.default), (cmd, a.option_strings)
+    helps = {c: p.format_help() for c, p in _subparsers().items()}
+    assert "(default: 1)" in helps["classify"] and "(default: 10)" in helps["matrix"]
+    for cmd in ("matrix", "mean"):
+        assert "-o OUTPUT, --output OUTPUT" in helps[cmd]
+    for cmd in ("matrix", "search", "mean"):
+        assert "--no-align" in helps[cmd] and "--neighbourhood N" in helps[cmd]
+    assert "--linkage {average,complete,single,weighted}" in helps["cluster"]
+
+
+def test_cli_old_spellings_still_work_with_a_note(db_dir: Path, tmp_path: Path, capsys) -> None:
+    files = [str(db_dir / f"k{k}_v{v}.bvh") for k in (0, 1) for v in (0, 1)]
+    common = ["--samples", "8", "--neighbourhood", "3", "--tile-size", "3", "--quiet", "--json"]
+    old = tmp_path / "old"
+    assert _cli(["matrix", *files, "--out", str(old), "--repr", "lie", "--no-align-heading", *common]) == 0
+    out, err = capsys.readouterr()
+    for a, b in (("--out", "--output"), ("--repr", "--method"), ("--no-align-heading", "--no-align")):
+        assert f"{a} is deprecated" in err and f"use {b}" in err
+    rep = json.loads(out)
+    assert rep["settings"]["representations"] == ["lie"] and rep["settings"]["align_heading"] is False
+    new = tmp_path / "new"
+    assert _cli(["matrix", *files, "-o", str(new), "--method", "lie", "--no-align", *common]) == 0
+    assert "deprecated" not in capsys.readouterr().err
+    assert np.load(old / "distances_lie.npy").tobytes() == np.load(new / "distances_lie.npy").tobytes()
+    args = _parser().parse_args(["search", files[0], str(new), "--repr", "euler"])
+    assert args.method == "euler"
+    args = _parser().parse_args(["mean", *files[:2], "--out", str(tmp_path / "m.bvh")])
+    assert args.output == str(tmp_path / "m.bvh")
+
+
+def test_cli_errors_name_the_option(serial_run, db_dir: Path, capsys) -> None:
+    out = str(serial_run.out_dir)
+    assert _cli(["cluster", out, "--method", "average"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "elastic-motion cluster: error: --method: expected a curve representation, one of lie, euler; "
+        "got 'average', a linkage (use --linkage average)"
+    )
+    assert _cli(["cluster", out, "--linkage", "complete", "--clusters", "2", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["linkage_method"] == "complete"
+    assert _cli(["classify", out, "--labels", "cmu", "--method", "lie,quaternion"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        "elastic-motion classify: error: --method: expected distinct entries of lie, euler;"
+    )
+    assert _cli(["matrix", str(db_dir), "-o", out, "--neighbourhood", "0", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("elastic-motion matrix: error: --neighbourhood: expected an integer >= 1")
+    before = _arrays(serial_run.out_dir)
+    assert _cli(["matrix", str(db_dir), "-o", out, "--samples", "10", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("elastic-motion matrix: error: --output: ") and "n_samples: 12 -> 10" in err
+    assert "--overwrite" in err and _arrays(serial_run.out_dir) == before
 
 
 # --------------------------------------------------------------------------------------------
@@ -419,7 +630,7 @@ def test_real_folders_groups_and_skips(mocap_dir: Path, tmp_path: Path) -> None:
     ]
     bad = tmp_path / "truncated.bvh"
     bad.write_text((mocap_dir / "cmu" / "bvh" / "07_01.bvh").read_text()[:5000])
-    s = DatabaseSettings(n_samples=16, pair=PairSpec(neighbourhood=4))
+    s = DatabaseSettings(n_samples=16, warp=WarpOptions(method="dp", neighbourhood=4))
     res = compute_matrix([*files, bad], tmp_path / "real", s)
     rep = res.report
     assert rep["complete"] and rep["n_motions"] == 5

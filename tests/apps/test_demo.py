@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import json
-import re
 import sys
+from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
@@ -24,11 +24,38 @@ def demo(tmp_path_factory):
     return out
 
 
+class _Page(HTMLParser):
+    """The links, image sources and legend elements of a page."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.links: list[str] = []
+        self.sources: list[str] = []
+        self.legends = 0
+        self.swatch_colours: set[str] = set()
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "a" and "href" in a:
+            self.links.append(a["href"])
+        if tag == "img" and "src" in a:
+            self.sources.append(a["src"])
+        classes = (a.get("class") or "").split()
+        self.legends += "legend" in classes
+        if "swatch" in classes:
+            self.swatch_colours.add(a.get("title", "").lower())
+
+
+def _page(demo: Path) -> _Page:
+    page = _Page()
+    page.feed((demo / "index.html").read_text(encoding="utf-8"))
+    return page
+
+
 def test_demo_folder(demo, capsys):
-    index = demo / "index.html"
-    text = index.read_text()
-    # every picture, video and file the page points to exists
-    targets = re.findall(r'(?:src|href)="([^"]+)"', text) + re.findall(r"href='([^']+)'", text)
+    page = _page(demo)
+    # every picture, video and file the page points to exists (in-page anchors aside)
+    targets = page.sources + [t for t in page.links if not t.startswith("#")]
     assert len(targets) >= 12
     for t in targets:
         assert (demo / t).is_file(), t
@@ -46,6 +73,35 @@ def test_demo_folder(demo, capsys):
     m = read_bvh(demo / "blends" / "walk_run_lie_warp.bvh")
     assert m.n_joints == 13 and m.n_frames > 30
     assert rep["timings"]["total_s"] < 180
+
+
+def test_demo_page_links_every_bvh_and_has_a_legend(demo):
+    from elastic_motion.apps.render import _LEFT, _RIGHT
+
+    page = _page(demo)
+    bvh = sorted(p.relative_to(demo).as_posix() for p in demo.rglob("*.bvh"))
+    assert len(bvh) >= 14
+    missing = [p for p in bvh if p not in page.links]
+    assert not missing, f"BVH files the page does not link: {missing}"
+    for link in page.links:  # relative links, so that the folder can be moved or served
+        assert "://" not in link and not link.startswith("/"), link
+    assert page.legends >= 1
+    assert {_LEFT, _RIGHT} <= page.swatch_colours  # the side colours are explained
+
+
+def test_demo_videos_play_in_real_time(demo):
+    from PIL import Image
+
+    for gif in sorted((demo / "videos").glob("*.gif")):
+        img = Image.open(gif)
+        total = 0
+        for k in range(img.n_frames):
+            img.seek(k)
+            total += img.info["duration"]
+        fps = 20.0 if gif.stem.startswith("loop_") else 30.0  # the demo's frame rates
+        # each frame is shown for 1/fps on average (the clock changes in every frame, so no
+        # frame is merged with the next)
+        assert abs(total - 1000.0 * img.n_frames / fps) <= 5, (gif.name, img.n_frames, total)
 
 
 def test_demo_prints_where_it_is(tmp_path, capsys):

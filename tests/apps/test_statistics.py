@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from elastic_motion.apps.statistics import (
+    MeanMotionResult,
     bandai_labels,
     cluster,
     cmu_label,
@@ -21,6 +24,7 @@ from elastic_motion.curves import DiscreteCurve, reparametrize_curve, srv_distan
 from elastic_motion.groups import Euclidean, animation_group
 from elastic_motion.motion import Motion, Skeleton, read_bvh, write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
+from elastic_motion.warp import WarpOptions
 
 # --------------------------------------------------------------------------------------------
 # Labels, search, k-NN
@@ -144,7 +148,7 @@ def test_karcher_mean_of_copies_is_the_curve() -> None:
 
 def test_karcher_mean_of_reparametrisations() -> None:
     curves = [_r3_curve(warp=w) for w in (-0.5, 0.0, 0.4, 0.6)]
-    res = karcher_mean(curves, n_samples=40, neighbourhood=6, max_iter=15)
+    res = karcher_mean(curves, n_samples=40, warp=WarpOptions(method="dp", neighbourhood=6), max_iter=15)
     e = res.energies
     assert (np.diff(e) <= 1e-12 * e[0]).all()  # energy never increases
     plain = karcher_mean(curves, n_samples=40, warp="none")
@@ -169,7 +173,7 @@ def test_karcher_mean_in_the_lie_group() -> None:
         alg = base + 0.05 * rng.normal(size=base.shape)
         pts = np.concatenate([alg[:, :3], g.factors[1].exp(alg[:, 3:]).reshape(len(t), 18)], axis=1)
         curves.append(DiscreteCurve(pts, g))
-    res = karcher_mean(curves, neighbourhood=4)
+    res = karcher_mean(curves, warp=WarpOptions(method="dp", neighbourhood=4))
     assert res.mean.group == g and res.mean.n_points == 21
     assert (np.diff(res.energies) <= 1e-12).all() and res.distances.shape == (3,)
     with pytest.raises(ValueError, match=r"expected a curve in"):
@@ -202,12 +206,16 @@ def test_mean_motion_writes_a_bvh(representation: str, tmp_path: Path) -> None:
     files = []
     for v in range(3):
         files.append(write_bvh(_walk(v), tmp_path / f"w{v}.bvh"))
-    motion, res, info = mean_motion(files, n_samples=16, representation=representation, neighbourhood=4)
+    res = mean_motion(
+        files, n_samples=16, representation=representation, warp=WarpOptions(method="dp", neighbourhood=4)
+    )
+    motion = res.motion
     out = write_bvh(motion, tmp_path / "mean.bvh")
     back = read_bvh(out)
     assert back.n_joints == 3 and back.fps == pytest.approx(30.0)
-    assert info["energies"] == res.energies.tolist() and len(info["energies"]) >= 1
-    assert back.n_frames == motion.n_frames and abs(back.duration - info["duration"]) < 1 / 30 + 1e-9
+    info = res.summary()
+    assert info["energies"] == res.karcher.energies.tolist() and len(info["energies"]) >= 1
+    assert back.n_frames == motion.n_frames and abs(back.duration - res.duration) < 1 / 30 + 1e-9
     # the legs still swing in opposition in the mean
     assert np.corrcoef(back.rotations[:, 1, 1, 2], back.rotations[:, 2, 1, 2])[0, 1] < -0.9
 
@@ -220,16 +228,33 @@ def test_mean_motion_refuses_mixed_skeletons(tmp_path: Path) -> None:
     b = write_bvh(drop_joints(m, ["RightLeg"]), tmp_path / "b.bvh")
     with pytest.raises(ValueError, match=r"different skeleton.*common"):
         mean_motion([a, b], n_samples=8)
-    motion, _, _ = mean_motion([a, b], n_samples=8, joints="common", neighbourhood=3)
-    assert motion.skeleton.names == ("Hips", "LeftLeg")
+    res = mean_motion([a, b], n_samples=8, joints="common", warp=WarpOptions(method="dp", neighbourhood=3))
+    assert res.motion.skeleton.names == ("Hips", "LeftLeg")
+
+
+def test_mean_motion_result_is_named_and_serialisable(tmp_path: Path) -> None:
+    files = [str(write_bvh(_walk(v), tmp_path / f"w{v}.bvh")) for v in range(2)]
+    res = mean_motion(files, n_samples=8, warp="none")  # a method name: WarpOptions(method="none")
+    assert isinstance(res, MeanMotionResult) and res.inputs == tuple(files)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.duration = 1.0  # type: ignore[misc]
+    summary = res.summary()
+    back = json.loads(json.dumps(summary, allow_nan=False))
+    assert back["inputs"] == files and list(back["distances"]) == files
+    assert back["distances"][files[1]] == pytest.approx(float(res.distances[1]))
+    assert back["iterations"] == 0 and back["converged"] is True  # no warp: the plain average
+    assert back["frames"] == res.motion.n_frames and back["fps"] == res.motion.fps
+    assert back["representation"] == "lie" and back["n_samples"] == 8 and set(back["notes"]) == set(files)
+    with pytest.raises(ValueError, match=r"warp: expected one of"):
+        mean_motion(files, n_samples=8, warp="fast")
 
 
 @pytest.mark.mocap
 def test_mean_of_two_real_walks(mocap_dir: Path) -> None:
     files = [mocap_dir / "cmu" / "bvh" / f for f in ("07_01.bvh", "08_02.bvh")]
-    motion, res, info = mean_motion(files, n_samples=24, neighbourhood=4, max_iter=5)
-    assert motion.n_joints == 25 and (np.diff(res.energies) <= 1e-9 * res.energies[0]).all()
-    assert 2.0 < info["duration"] < 3.0
+    res = mean_motion(files, n_samples=24, warp=WarpOptions(method="dp", neighbourhood=4), max_iter=5)
+    assert res.motion.n_joints == 25 and (np.diff(res.energies) <= 1e-9 * res.energies[0]).all()
+    assert 2.0 < res.duration < 3.0
 
 
 def test_reparametrize_helper_consistency() -> None:

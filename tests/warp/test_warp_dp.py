@@ -52,7 +52,7 @@ def test_dp_equals_brute_force(n0, n1, max_step, uniform):
         warp_energy(q0, q1, np.column_stack([t0[[p[0] for p in path]], t1[[p[1] for p in path]]]), t0, t1)
         for path in paths
     ]
-    res = optimal_warp(q0, q1, t0=t0, t1=t1, neighbourhood=max_step)
+    res = optimal_warp(q0, q1, t0=t0, t1=t1, neighbourhood=max_step, method="dp")
     assert res.energy == pytest.approx(min(energies), rel=1e-12, abs=1e-14)
     assert res.diagnostics.energy_dp == pytest.approx(res.energy)
     assert res.distance == pytest.approx(np.sqrt(res.energy))
@@ -68,7 +68,7 @@ def test_dp_custom_grid_brute_force():
         warp_energy(q0, q1, np.column_stack([u[[p[0] for p in path]], v[[p[1] for p in path]]]))
         for path in paths
     )
-    res = optimal_warp(q0, q1, grid=(u, v), neighbourhood=2)
+    res = optimal_warp(q0, q1, grid=(u, v), neighbourhood=2, method="dp")
     assert res.energy == pytest.approx(best, rel=1e-12)
 
 

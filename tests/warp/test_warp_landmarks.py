@@ -42,7 +42,7 @@ def test_landmark_charged_by_domain_erratum():
     """The feature term of a warp equals lam (phi(theta0) - theta1)^2 at the DP optimum."""
     q0, q1, _ = open_pair(50)
     lm = Landmarks([0.31, 0.77], [0.4, 0.7])
-    res = optimal_warp(q0, q1, landmarks=lm, lam=3.0)
+    res = optimal_warp(q0, q1, landmarks=lm, lam=3.0, method="dp")
     x = warp_at(res.vertices, lm.theta0)
     assert res.landmark_cost == pytest.approx(3.0 * np.sum((x - lm.theta1) ** 2), rel=1e-12)
     assert res.energy == pytest.approx(res.diagnostics.energy_dp, rel=1e-12)
@@ -75,8 +75,8 @@ def test_hard_windows_are_never_violated():
 def test_symmetric_form_is_symmetric_under_swapping():
     q0, q1, _ = open_pair(60)
     lm = Landmarks([0.25, 0.7], [0.35, 0.6])
-    a = optimal_warp(q0, q1, landmarks=lm, lam=5.0, symmetric=True)
-    b = optimal_warp(q1, q0, landmarks=lm.swapped(), lam=5.0, symmetric=True)
+    a = optimal_warp(q0, q1, landmarks=lm, lam=5.0, symmetric=True, method="dp")
+    b = optimal_warp(q1, q0, landmarks=lm.swapped(), lam=5.0, symmetric=True, method="dp")
     assert a.energy == pytest.approx(b.energy, rel=1e-9)
     assert a.landmark_cost == pytest.approx(b.landmark_cost, rel=1e-9)
     s = np.linspace(0, 1, 301)
@@ -89,11 +89,11 @@ def test_symmetric_form_is_symmetric_under_swapping():
 def test_penalties_builtin_and_callable():
     q0, q1, _ = open_pair(50)
     lm = Landmarks([0.5], [0.3])
-    sq = optimal_warp(q0, q1, landmarks=lm, lam=20.0)
-    cb = optimal_warp(q0, q1, landmarks=lm, lam=20.0, penalty=lambda x, c: (x - c) ** 2)
+    sq = optimal_warp(q0, q1, landmarks=lm, lam=20.0, method="dp")
+    cb = optimal_warp(q0, q1, landmarks=lm, lam=20.0, penalty=lambda x, c: (x - c) ** 2, method="dp")
     # the callable is tabulated for the DP (4096 intervals): same warp up to table error
     assert cb.energy == pytest.approx(sq.energy, rel=1e-5)
-    ab = optimal_warp(q0, q1, landmarks=lm, lam=20.0, penalty="abs")
+    ab = optimal_warp(q0, q1, landmarks=lm, lam=20.0, penalty="abs", method="dp")
     gap = abs(warp_at(ab.vertices, 0.5) - 0.3)
     assert ab.landmark_cost == pytest.approx(20.0 * gap, rel=1e-12)
 

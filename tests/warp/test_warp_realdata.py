@@ -41,7 +41,7 @@ def test_recovers_known_warp_on_cmu_walk(mocap_dir):
     res = optimal_warp(q0, q1, method="dp+refine")
     truth = np.interp(t, *GAMMA.T)
     assert np.abs(res.phi - truth).max() < 3.0 / n  # within the grid resolution
-    assert res.energy < 0.05 * optimal_warp(q0, q1, neighbourhood=[[1, 1]]).energy
+    assert res.energy < 0.05 * optimal_warp(q0, q1, neighbourhood=[[1, 1]], method="dp").energy
 
 
 def test_recovers_known_warp_on_2d_outline():

@@ -22,12 +22,13 @@ with any method (``euler-linear`` with a warp interpolates the time-aligned fram
 
 What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s) A + s B``)
 ------------------------------------------------------------------------------------------
-1. :func:`elastic_motion.apps.align.prepare_motions`: metres, common joints (``joints``),
-   B resampled to A's frame rate, B placed like A (a rotation about the up axis and a
-   floor translation fitted to A's root path: registration-curve style). Recorded in
+1. :func:`elastic_motion.apps.prepare.prepare_motions` (the one preparation step, options
+   ``prepare``): T-pose frame, trim, static root, metres, Y-up, common joints, B resampled
+   to A's frame rate, B placed like A (a rotation about the up axis and a floor
+   translation fitted to A's root path: registration-curve style). Recorded in
    ``BlendResult.notes``.
-2. The warp ``phi`` of B onto A (``warp != "none"``), on the curves of the method at most
-   ``warp_fps`` frames per second, with the landmarks (seconds, or ``"auto"``).
+2. The warp ``phi`` of B onto A (``warp.method != "none"``), on the curves of the method
+   at most ``warp.sample_fps`` frames per second, with the landmarks (seconds, or ``"auto"``).
 3. The blend, on curves of all non-finger joints at the full frame rate:
    ``R^{-1}((1 - s) qA + s (qB * phi))`` started at the blended start point (paper 000,
    eq. 20; :func:`elastic_motion.curves.weighted_blend`), or for ``euler-linear``
@@ -58,7 +59,8 @@ SRV space after aligning all to a common template, the weighted Karcher mean
 mean, average, repeat). Its warps ``phi_k`` map the template's parameter to each motion's,
 and the timing is ``T(u) = sum_k w_k d_k phi_k(u)``. Landmarks are for two motions only.
 
-Metrics (``BlendResult.metrics``, computed unless ``metrics=False``): foot sliding of the
+Metrics (``BlendResult.metrics``, a :class:`BlendMetrics`, computed only with
+``metrics=True``: they cost ``K (K + 1) / 2`` extra DP solves): foot sliding of the
 result and of each input (:func:`elastic_motion.apps.metrics.foot_sliding`), bone-length
 error of the result against its own skeleton and each input's
 (:func:`elastic_motion.apps.metrics.bone_length_error`), and Lie elastic distances
@@ -70,6 +72,7 @@ discretisation, a useful check).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -78,24 +81,23 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.align import (
-    DEFAULT_LAMBDA,
-    DEFAULT_WARP_FPS,
-    PreparedMotions,
     _check_method,
-    _check_warp,
     landmark_parameters,
     motion_curves,
-    prepare_motions,
     resolve_landmarks,
     solve_warp,
+    warp_options,
 )
+from elastic_motion.apps.metrics import BoneLengthError, FootSliding
+from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.curves import DiscreteCurve, srv_transform, weighted_blend
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, PowerGroup
 from elastic_motion.motion import Motion, Skeleton, from_euler_curve, from_lie_curve
-from elastic_motion.warp import DEFAULT_MAX_STEP
+from elastic_motion.warp import WarpOptions
 
-__all__ = ["BlendResult", "blend_motions"]
+__all__ = ["BlendMetrics", "BlendResult", "blend_metrics", "blend_motions"]
 
 _SO3 = SO3()
 _IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
@@ -121,8 +123,10 @@ class BlendResult:
         Curve parameter ``u`` of each output frame (see step 4 of the module docstring).
     prepared : PreparedMotions
         The inputs after preparation (units, joints, frame rate, placement).
-    metrics : dict
-        Quality metrics (module docstring); empty with ``metrics=False``.
+    warp_options : WarpOptions
+        How the warp was found.
+    metrics : BlendMetrics or None
+        Quality metrics (module docstring); None unless asked for.
     notes : tuple of str
         What was done, in words (preparation, warps, timing).
     """
@@ -135,7 +139,8 @@ class BlendResult:
     landmarks: tuple[tuple[float, float], ...]
     timing: np.ndarray
     prepared: PreparedMotions
-    metrics: dict[str, Any] = field(default_factory=dict)
+    warp_options: WarpOptions = field(default_factory=WarpOptions)
+    metrics: BlendMetrics | None = None
     notes: tuple[str, ...] = ()
 
     def summary(self) -> dict[str, Any]:
@@ -150,8 +155,10 @@ class BlendResult:
             "fps": m.fps,
             "duration_s": m.duration,
             "joints": m.n_joints,
+            "warp_options": self.warp_options.to_json(),
             "warp_vertices": [w.tolist() for w in self.warps],
-            "metrics": self.metrics,
+            "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
+            "metrics": None if self.metrics is None else self.metrics.summary(),
             "notes": list(self.notes),
         }
 
@@ -161,27 +168,28 @@ def _check_weights(weights: Any, k: int, extrapolate: bool) -> np.ndarray:
         w = np.full(k, 1.0 / k)
     elif np.ndim(weights) == 0:
         if k != 2:
-            raise ValueError(
-                f"weights: a single weight s means (1 - s, s) for two motions; got {k} motions, "
-                f"give {k} weights"
+            raise OptionError(
+                "weights",
+                f"a single weight s means (1 - s, s) for two motions; got {k} motions, give {k} weights",
             )
         s = float(weights)
         w = np.array([1.0 - s, s])
     else:
         w = np.asarray(weights, dtype=np.float64).reshape(-1)
         if w.shape != (k,):
-            raise ValueError(f"weights: expected {k} weights (one per motion); got {w.shape[0]}")
+            raise OptionError("weights", f"expected {k} weights (one per motion); got {w.shape[0]}")
     if not np.isfinite(w).all():
-        raise ValueError(f"weights: expected finite weights; got {w.tolist()}")
+        raise OptionError("weights", f"expected finite weights; got {w.tolist()}")
     if abs(w.sum() - 1.0) > 1e-9:
-        raise ValueError(f"weights: expected weights summing to 1; got {w.tolist()} (sum {w.sum():g})")
+        raise OptionError("weights", f"expected weights summing to 1; got {w.tolist()} (sum {w.sum():g})")
     if (w < 0).any() or (w > 1).any():
         if k != 2:
-            raise ValueError(f"weights: expected weights in [0, 1] for {k} motions; got {w.tolist()}")
+            raise OptionError("weights", f"expected weights in [0, 1] for {k} motions; got {w.tolist()}")
         if not extrapolate:
-            raise ValueError(
-                f"weights: s = {w[1]:g} is outside [0, 1]: that extrapolates beyond the inputs; "
-                "pass extrapolate=True (CLI: --extrapolate) to allow it"
+            raise OptionError(
+                "weights",
+                f"s = {w[1]:g} is outside [0, 1]: that extrapolates beyond the inputs; "
+                "pass extrapolate=True (CLI: --extrapolate) to allow it",
             )
     return w
 
@@ -230,9 +238,9 @@ def _timing(
     note = ""
     if not (np.diff(total) > 0).all() or total[-1] <= 0:
         if duration <= 0:
-            raise ValueError(
-                f"weights: the blended duration sum_k w_k d_k = {duration:g} s is not positive; "
-                "extrapolate less"
+            raise OptionError(
+                "weights",
+                f"the blended duration sum_k w_k d_k = {duration:g} s is not positive; extrapolate less",
             )
         x = np.array([0.0, 1.0])
         total = np.array([0.0, duration])
@@ -264,57 +272,51 @@ def _blend_skeleton(ms: Sequence[Motion], w: np.ndarray, mode: str) -> Skeleton:
 
 
 def blend_motions(
-    motions: Sequence[Motion],
+    motions: Sequence[Source] | PreparedMotions,
     weights: float | Sequence[float] | None = None,
     *,
     method: str = "lie",
-    warp: str = "dp",
+    warp: str | WarpOptions | None = None,
     landmarks: Any = None,
-    lam: float = DEFAULT_LAMBDA,
-    joints: str | Sequence[str] = "all",
+    prepare: PrepareOptions | None = None,
     extrapolate: bool = False,
-    align: bool = True,
     skeleton: str = "blend",
-    warp_fps: float = DEFAULT_WARP_FPS,
-    neighbourhood: int = DEFAULT_MAX_STEP,
     landmark_kinds: Sequence[str] | None = None,
     max_pairs: int | None = None,
-    metrics: bool = True,
+    metrics: bool = False,
     progress: Progress | None = None,
 ) -> BlendResult:
     """Blend two or more motions.
 
     Parameters
     ----------
-    motions : sequence of Motion
-        ``K >= 2`` motions (the first, A, sets the frame rate, joint order and placement).
+    motions : sequence of path or Motion, or PreparedMotions
+        ``K >= 2`` motions (the first, A, sets the frame rate, joint order and placement);
+        or the result of :func:`~elastic_motion.apps.prepare.prepare_motions` (then
+        ``prepare`` must be None).
     weights : float or array_like of shape (K,), optional
         Two motions: ``s`` (the result is ``(1 - s) A + s B``) or ``(1 - s, s)``. More: one
         weight each, summing to 1. Default: equal weights.
     method : {"lie", "euler-elastic", "euler-linear"}
-    warp : {"dp", "dp+refine", "none"}
+    warp : str or WarpOptions, optional
+        How the warp is found (default ``WarpOptions()``); a method name (``"dp"``,
+        ``"dp+refine"``, ``"none"``) is short for ``WarpOptions(method=name)``.
     landmarks : None, "auto" or array_like of shape (M, 2)
         Two motions only: pairs ``(time in A, time in B)`` in seconds (after preparation,
         i.e. from each motion's first frame), or ``"auto"``
         (:func:`elastic_motion.apps.landmarks.auto_landmarks`).
-    lam : float
-        Relative landmark weight (:mod:`elastic_motion.apps.align`).
-    joints : "all", "common" or sequence of str
-        :func:`elastic_motion.apps.align.prepare_motions`.
+    prepare : PrepareOptions, optional
+        The preparation step (:mod:`elastic_motion.apps.prepare`): T-pose, trim, units, up
+        axis, joints (``"common"``...), placement.
     extrapolate : bool
         Allow ``s`` outside ``[0, 1]`` (two motions only).
-    align : bool
-        Place the inputs like A first (heading and floor position).
     skeleton : {"blend", "first"}
         Bone offsets of the result: weighted mean of the inputs', or A's.
-    warp_fps : float
-        Frame rate (at most) of the curves the warp is computed on.
-    neighbourhood : int
-        DP slopes.
     landmark_kinds, max_pairs
         For ``landmarks="auto"`` (default kind ``"left_knee_passes"``, all pairs).
-    metrics : bool
-        Compute :attr:`BlendResult.metrics` (three or more DP solves).
+    metrics : bool, default False
+        Compute :attr:`BlendResult.metrics` (:func:`blend_metrics`: three or more extra DP
+        solves).
     progress : callable, optional
         ``progress(stage, done, total)``.
 
@@ -330,24 +332,25 @@ def blend_motions(
         clips or out of order, landmarks with more than two motions or without a warp.
     """
     report = progress or null_progress
-    motions = list(motions)
-    k = len(motions)
+    if not isinstance(motions, PreparedMotions):
+        motions = list(motions)
+    k = len(motions.motions) if isinstance(motions, PreparedMotions) else len(motions)
     if k < 2:
         raise ValueError(f"motions: expected at least 2 motions to blend; got {k}")
     _check_method(method)
-    _check_warp(warp)
+    opts = warp_options(warp)
     if skeleton not in ("blend", "first"):
-        raise ValueError(f"skeleton: expected 'blend' or 'first'; got {skeleton!r}")
+        raise OptionError("skeleton", f"expected 'blend' or 'first'; got {skeleton!r}")
     w = _check_weights(weights, k, extrapolate)
     has_landmarks = landmarks is not None and not (isinstance(landmarks, str) and landmarks == "none")
     if has_landmarks and k != 2:
-        raise ValueError(f"landmarks: supported for two motions only; got {k} motions")
-    if has_landmarks and warp == "none":
-        raise ValueError("landmarks: need a time warp (warp='dp' or 'dp+refine'), not warp='none'")
+        raise OptionError("landmarks", f"expected two motions (landmarks pair A with B); got {k} motions")
+    if has_landmarks and opts.method == "none":
+        raise OptionError("landmarks", "expected a time warp (warp 'dp' or 'dp+refine'); got warp 'none'")
 
     stages = 4 if metrics else 3
     report("prepare", 0, stages)
-    prep = prepare_motions(motions, joints=joints, align=align)
+    prep = prepare_motions(motions, prepare)
     ms = prep.motions
     notes = list(prep.notes)
     durations = np.array([m.duration for m in ms])
@@ -356,31 +359,25 @@ def blend_motions(
     # 2. warps, on curves of the method at warp_fps
     pairs: list[tuple[float, float]] = []
     warps: list[np.ndarray] = [_IDENTITY] * k
-    if warp != "none":
-        coarse = motion_curves(prep, method, fps=warp_fps)
+    if opts.method != "none":
+        coarse = motion_curves(prep, method, fps=opts.sample_fps)
         if k == 2:
             pairs = resolve_landmarks(landmarks, ms[0], ms[1], kinds=landmark_kinds, max_pairs=max_pairs)
             if has_landmarks and not pairs:
                 notes.append("landmarks auto: no events to pair; warp without landmarks")
             theta = landmark_parameters(pairs, durations[0], durations[1], prep.labels[:2]) if pairs else None
-            res = solve_warp(
-                srv_transform(coarse[0]),
-                srv_transform(coarse[1]),
-                warp,
-                landmarks=theta,
-                lam=lam,
-                neighbourhood=neighbourhood,
-            )
+            res = solve_warp(srv_transform(coarse[0]), srv_transform(coarse[1]), opts, landmarks=theta)
             warps = [_IDENTITY, np.asarray(res.vertices)]
             notes.append(
-                f"warp ({warp}) of {prep.labels[1]} onto {prep.labels[0]}: distance {res.distance:.4g}"
+                f"warp ({opts.method}) of {prep.labels[1]} onto {prep.labels[0]}: distance {res.distance:.4g}"
                 + (f", {len(pairs)} landmark pairs" if pairs else "")
             )
         else:
             from elastic_motion.apps.statistics import karcher_mean
 
             n = max(c.n_points for c in coarse) - 1
-            km = karcher_mean(coarse, weights=w, n_samples=n, warp="dp", neighbourhood=neighbourhood)
+            # the Karcher mean aligns by DP (its template moves between iterations)
+            km = karcher_mean(coarse, weights=w, n_samples=n, warp=opts.replace(method="dp"))
             warps = [np.asarray(v) for v in km.warps]
             notes.append(
                 f"weighted Karcher mean template: {km.iterations} iterations, "
@@ -431,10 +428,10 @@ def blend_motions(
         rotations=rotations,
         joint_translations=jt,
         source=(),
-        name=f"blend ({method}, warp {warp}): {label}",
+        name=f"blend ({method}, warp {opts.method}): {label}",
     )
 
-    out_metrics: dict[str, Any] = {}
+    out_metrics = None
     if metrics:
         report("metrics", 3, stages)
         out_metrics = blend_metrics(result, prep, w)
@@ -442,49 +439,106 @@ def blend_motions(
     return BlendResult(
         motion=result,
         method=method,
-        warp=warp,
+        warp=opts.method,
         weights=w,
         warps=tuple(warps),
         landmarks=tuple(pairs),
         timing=u,
         prepared=prep,
+        warp_options=opts,
         metrics=out_metrics,
         notes=tuple(notes),
     )
 
 
-def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray) -> dict[str, Any]:
+@dataclass(frozen=True, eq=False)
+class BlendMetrics:
+    """Quality metrics of a blend (:func:`blend_metrics`), on the prepared inputs (metres).
+
+    Attributes
+    ----------
+    labels : tuple of str
+        The inputs' names.
+    foot_sliding : FootSliding
+        Of the result (:func:`elastic_motion.apps.metrics.foot_sliding`).
+    foot_sliding_inputs : tuple of FootSliding
+        Of each prepared input.
+    bone_length_error : BoneLengthError
+        Of the result against its own skeleton.
+    bone_length_error_vs_inputs : tuple of BoneLengthError
+        Of the result against each input's skeleton.
+    distances_between_inputs : ndarray, shape (K, K)
+        Lie elastic distances (``R^3 x SO(3)^J`` SRV, optimal warp by DP, shared weights).
+    distances_to_inputs : ndarray, shape (K,)
+        From the result to each input, same metric.
+    geodesic_expected : ndarray, shape (2,) or (0,)
+        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
+    """
+
+    labels: tuple[str, ...]
+    foot_sliding: FootSliding
+    foot_sliding_inputs: tuple[FootSliding, ...]
+    bone_length_error: BoneLengthError
+    bone_length_error_vs_inputs: tuple[BoneLengthError, ...]
+    distances_between_inputs: np.ndarray
+    distances_to_inputs: np.ndarray
+    geodesic_expected: np.ndarray
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready scalars (speeds in m/s, distances in the Lie SRV metric)."""
+        return {
+            "foot_sliding": {
+                "result": self.foot_sliding.summary(),
+                "inputs": [f.summary() for f in self.foot_sliding_inputs],
+            },
+            "bone_length_error": {
+                "result": self.bone_length_error.summary(),
+                "vs_inputs": [b.summary() for b in self.bone_length_error_vs_inputs],
+            },
+            "distances": {
+                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
+                "labels": list(self.labels),
+                "between_inputs": self.distances_between_inputs.tolist(),
+                "result_to_inputs": self.distances_to_inputs.tolist(),
+                "geodesic_expected": self.geodesic_expected.tolist(),
+            },
+        }
+
+
+def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray) -> BlendMetrics:
     """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
+
+    Parameters
+    ----------
+    result : Motion
+        The blend (:attr:`BlendResult.motion`).
+    prepared : PreparedMotions
+        Its prepared inputs (:attr:`BlendResult.prepared`).
+    weights : ndarray, shape (K,)
 
     Returns
     -------
-    dict
-        ``{"foot_sliding": {"result": {...}, "inputs": [{...}, ...]},
-        "bone_length_error": {"result": {...}, "vs_inputs": [{...}, ...]},
-        "distances": {"labels": [...], "between_inputs": [[...]], "result_to_inputs": [...],
-        "geodesic_expected": [...] (two motions: s d(A,B) and (1-s) d(A,B))}}``.
+    BlendMetrics
     """
     from elastic_motion.apps.distance import distance_table
     from elastic_motion.apps.metrics import bone_length_error, foot_sliding
 
     ms = prepared.motions
-    fs = {
-        "result": foot_sliding(result).summary(),
-        "inputs": [foot_sliding(m).summary() for m in ms],
-    }
-    ble = {
-        "result": bone_length_error(result).summary(),
-        "vs_inputs": [bone_length_error(result, m).summary() for m in ms],
-    }
-    table = distance_table([*ms, result], labels=[*prepared.labels, "result"], joints="common")
+    table = distance_table(
+        [*ms, result],
+        labels=[*prepared.labels, "result"],
+        prepare=PrepareOptions(joints="common", drop_tpose=False),
+    )
     d = table.matrix
     k = len(ms)
-    dist: dict[str, Any] = {
-        "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
-        "labels": list(prepared.labels),
-        "between_inputs": d[:k, :k].tolist(),
-        "result_to_inputs": d[k, :k].tolist(),
-    }
-    if k == 2:
-        dist["geodesic_expected"] = [float(weights[1] * d[0, 1]), float(weights[0] * d[0, 1])]
-    return {"foot_sliding": fs, "bone_length_error": ble, "distances": dist}
+    expected = np.array([weights[1] * d[0, 1], weights[0] * d[0, 1]]) if k == 2 else np.zeros(0)
+    return BlendMetrics(
+        labels=tuple(prepared.labels),
+        foot_sliding=foot_sliding(result),
+        foot_sliding_inputs=tuple(foot_sliding(m) for m in ms),
+        bone_length_error=bone_length_error(result),
+        bone_length_error_vs_inputs=tuple(bone_length_error(result, m) for m in ms),
+        distances_between_inputs=d[:k, :k].copy(),
+        distances_to_inputs=d[k, :k].copy(),
+        geodesic_expected=expected,
+    )

@@ -4,7 +4,8 @@
 (``pybullet_data.getDataPath()/data/motions``; importing ``pybullet_data`` does not load
 the physics engine; install with ``pip install "elastic-motion[demo]"``) and writes a folder::
 
-    index.html            the results side by side, with short explanations
+    index.html            the results side by side, with short explanations, a legend of the
+                          pictures' colours and a link to every BVH file
     report.json           what was computed, the metrics, timings
     blends/*.bvh          walk x run blends by every method (paper 001 Fig. 5, paper 000)
     loops/*.bvh           the cartwheel and the backflip made seamless, and 3-cycle previews
@@ -29,8 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from elastic_motion.apps.progress import Progress, null_progress
 
@@ -192,6 +191,7 @@ def run_demo(
     _prepare_out(out, force)
     mp4 = _mp4_available() if mp4 is None else bool(mp4)
     files: list[Path] = []
+    bvh_files: list[tuple[Path, str]] = []  # (path, what it holds), for index.html
     timings: dict[str, float] = {}
     rel = lambda p: p.relative_to(out).as_posix()  # noqa: E731
 
@@ -210,16 +210,18 @@ def run_demo(
     blends = []
     for n, (stem, method, warp, lm, label) in enumerate(_METHODS):
         report_cb("blends", n, len(_METHODS))
-        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm)
+        res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm, metrics=True)
         path = out / "blends" / f"walk_run_{stem}.bvh"
         write_bvh(res.motion, path)
         files.append(path)
+        bvh_files.append((path, f"50 % blend of walk and run: {label}"))
         blends.append((stem, label, res, path))
     report_cb("blends", len(_METHODS), len(_METHODS))
-    for key in ("walk", "run"):
+    for key, what in (("walk", "input A: the walk"), ("run", "input B: the run")):
         path = out / "blends" / f"input_{key}.bvh"
         write_bvh(blends[0][2].prepared.motions[0 if key == "walk" else 1], path)
         files.append(path)
+        bvh_files.append((path, f"{what}, as blended (prepared: metres, placed like the walk)"))
     timings["blends_s"] = time.perf_counter() - t0
 
     # ---- loops ------------------------------------------------------------------------------
@@ -238,6 +240,11 @@ def run_demo(
         write_bvh(repeat_motion(res.motion, 3), p3)
         write_bvh(repeat_motion(m, 3), p0)
         files += [p1, p3, p0]
+        bvh_files += [
+            (p1, f"{label} made seamless: one cycle, to loop in a player"),
+            (p3, f"{label} made seamless, played 3 times"),
+            (p0, f"the original {label} played 3 times (it jumps at each seam)"),
+        ]
         loops.append((key, label, m, res, before, after))
     report_cb("loops", len(_LOOP_INPUTS), len(_LOOP_INPUTS))
     timings["loops_s"] = time.perf_counter() - t0
@@ -346,8 +353,8 @@ def run_demo(
             "clip": key,
             "closed_joints": list(res.closed_joints),
             "heading_change_rad": res.heading_change,
-            "seam_before": {k: v for k, v in before.items() if np.ndim(v) == 0},
-            "seam_after": {k: v for k, v in after.items() if np.ndim(v) == 0},
+            "seam_before": before.summary(),
+            "seam_after": after.summary(),
             "closing_iterations": res.closing.iterations,
         }
         for key, _, _, res, before, after in loops
@@ -359,7 +366,7 @@ def run_demo(
     index = out / "index.html"
     from elastic_motion._io import atomic_write_text
 
-    atomic_write_text(index, _html(out, blends, loops, table, al, figs, videos, timings))
+    atomic_write_text(index, _html(out, blends, loops, table, al, figs, videos, timings, bvh_files))
     write_report(out / "report.json", rep)
     files += [index, out / "report.json"]
     return DemoResult(out, index, tuple(files), rep, time.perf_counter() - t_start)
@@ -380,6 +387,11 @@ th { background: #f5f5f5; } td:first-child, th:first-child { text-align: left; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }
 .row > figure { margin: 0; flex: 1 1 380px; } figcaption { font-size: 0.85em; color: #555; }
 code { background: #f3f3f3; padding: 0 0.2em; } .note { color: #666; font-size: 0.9em; }
+.legend { border: 1px solid #ddd; background: #fafafa; padding: 0.4em 1em; font-size: 0.9em; }
+.legend dt { font-weight: 600; margin-top: 0.5em; } .legend dd { margin-left: 1.2em; }
+.swatch { display: inline-block; width: 1.6em; height: 0.55em; vertical-align: middle;
+          margin-right: 0.3em; border: 1px solid #ccc; }
+.swatch.line { height: 0.22em; border: none; }
 """
 
 
@@ -409,8 +421,104 @@ def _f(x: Any, d: int = 3) -> str:
         return html.escape(str(x))
 
 
-def _html(out, blends, loops, table, al, figs, videos, timings) -> str:
+def _swatch(colour: str, what: str, *, line: bool = False, dashed: bool = False) -> str:
+    """A coloured sample and what it means."""
+    style = f"background: {colour};"
+    if dashed:
+        style = f"background: repeating-linear-gradient(90deg, {colour} 0 5px, transparent 5px 8px);"
+    cls = "swatch line" if line or dashed else "swatch"
+    return f'<span class="{cls}" style="{style}" title="{html.escape(colour)}"></span>{html.escape(what)}'
+
+
+def _legend() -> str:
+    """How to read the colours and lines of the pictures (taken from the drawing code)."""
+    from elastic_motion.apps.render import (
+        _CENTRE,
+        _FLOOR,
+        _GHOST,
+        _LEFT,
+        _PALETTE,
+        _RIGHT,
+        _TRACE,
+        _WARP,
+    )
+
+    def item(*parts: str) -> str:
+        return "<dd>" + "; ".join(parts) + "</dd>"
+
+    return "\n".join(
+        [
+            "<div class='legend' id='legend'><h3>How to read the pictures</h3><dl>",
+            "<dt>Skeleton videos</dt>",
+            item(
+                _swatch(_LEFT, "left limbs"),
+                _swatch(_RIGHT, "right limbs"),
+                _swatch(_CENTRE, "spine, neck and head"),
+            ),
+            item(
+                _swatch(_LEFT, "left ankle over the last second", line=True),
+                _swatch(_RIGHT, "right ankle over the last second", line=True),
+            ),
+            item(
+                _swatch(
+                    _FLOOR,
+                    "the floor, seen from slightly above (its front edge is a grey line; a "
+                    "tick every 0.5 m shows the travel)",
+                ),
+                "the clock under each panel: seconds",
+            ),
+            item(
+                "panel titles: <b>A: walk</b> is input A, <b>B: run</b> is input B, the other panels are "
+                "the 50 % blends (the method in the title); in the loop videos, the original clip and the "
+                "looped one"
+            ),
+            "<dt>Foot trajectories</dt>",
+            item(
+                _swatch(_LEFT, "left foot", line=True),
+                _swatch(_RIGHT, "right foot", line=True),
+                _swatch(_GHOST, "a few poses of the whole body"),
+                "axes in metres",
+            ),
+            "<dt>Time warp</dt>",
+            item(
+                _swatch(
+                    _WARP,
+                    "the optimal warp: time in A (walk) against the matched time in B (run), seconds",
+                    line=True,
+                ),
+                _swatch("#999999", "no warp (uniform)", dashed=True),
+                "black crosses: landmarks",
+            ),
+            "<dt>Curves on the sphere</dt>",
+            item(
+                _swatch(_PALETTE[0], "input A (walk)", line=True),
+                _swatch(_PALETTE[1], "input B (run)", line=True),
+                _swatch(_PALETTE[2], "the Lie blend with warp", line=True),
+                "a dot marks each start",
+            ),
+            "<dt>Loop seams</dt>",
+            item(
+                _swatch(_TRACE[0], "the right ankle's path", line=True),
+                _swatch(_TRACE[1], "the left hand's (or elbow's) path", line=True),
+                "black circles: where a cycle's last frame puts the joint; red crosses: where the next "
+                "cycle starts (they coincide for a seamless loop)",
+            ),
+            item(
+                "close-up: " + _swatch(_LEFT, "the last 3 frames of a cycle"),
+                _swatch(_RIGHT, "the first 3 frames of the next one"),
+            ),
+            "</dl></div>",
+        ]
+    )
+
+
+def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=()) -> str:
     e = html.escape
+
+    def link(p: Path) -> str:
+        rel = e(p.relative_to(out).as_posix())
+        return f"<a href='{rel}'>{rel}</a>"
+
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'><title>elastic-motion demo</title>",
         f"<style>{_CSS}</style></head><body>",
@@ -420,7 +528,8 @@ def _html(out, blends, loops, table, al, figs, videos, timings) -> str:
         "R<sup>3</sup> &times; SO(3)<sup>J</sup> (root position and one rotation per joint); the square "
         "root velocity transform (SRVT) turns them into functions in a vector space where blends are "
         "straight lines and distances are L2 distances, after the optimal time warp. The BVH files beside "
-        "this page open in Blender and three.js.</p>",
+        "this page open in Blender and three.js (<a href='#files'>list of files</a>).</p>",
+        _legend(),
         "<h2>1. Blending a walk and a run</h2>",
         "<p>A walk (2 cycles, 2.5 s, 4 steps) and a run (3 cycles, 2.4 s, 6 steps) have different rhythms "
         "and numbers of steps, the hard case of paper 001 Fig. 5. Each blend is 50 % of each, computed by "
@@ -448,14 +557,15 @@ def _html(out, blends, loops, table, al, figs, videos, timings) -> str:
         "<table><tr><th>method</th><th>file</th><th>frames</th><th>foot sliding (m/s)</th>"
         "<th>distance to walk</th><th>distance to run</th></tr>"
     )
-    slide_in = blends[0][2].metrics["foot_sliding"]["inputs"]
+    metrics0 = blends[0][2].metrics.summary()
+    slide_in = metrics0["foot_sliding"]["inputs"]
     parts.append(
         f"<tr><td>inputs</td><td></td><td></td><td>walk {_f(slide_in[0]['mean_speed_m_s'])}, run "
         f"{_f(slide_in[1]['mean_speed_m_s'])}</td><td colspan=2>walk to run: "
-        f"{_f(blends[0][2].metrics['distances']['between_inputs'][0][1])}</td></tr>"
+        f"{_f(metrics0['distances']['between_inputs'][0][1])}</td></tr>"
     )
     for _, label, r, p in blends:
-        met = r.metrics
+        met = r.metrics.summary()
         d = met["distances"]["result_to_inputs"]
         parts.append(
             f"<tr><td>{e(label)}</td><td><a href='{e(p.relative_to(out).as_posix())}'>{e(p.name)}</a></td>"
@@ -504,9 +614,9 @@ def _html(out, blends, loops, table, al, figs, videos, timings) -> str:
     for key, _, _, res, before, after in loops:
         parts.append(
             f"<tr><td>{e(key)}</td>"
-            f"<td>{_f(before['seam_angle_max_deg'])} &rarr; {_f(after['seam_angle_max_deg'])}</td>"
-            f"<td>{_f(before['seam_position_max_m'])} &rarr; {_f(after['seam_position_max_m'])}</td>"
-            f"<td>{_f(after.get('deviation_max_m', 0))}</td><td>{res.closing.iterations}</td></tr>"
+            f"<td>{_f(before.seam_angle_max_deg)} &rarr; {_f(after.seam_angle_max_deg)}</td>"
+            f"<td>{_f(before.seam_position_max_m)} &rarr; {_f(after.seam_position_max_m)}</td>"
+            f"<td>{_f(after.deviation_max_m or 0)}</td><td>{res.closing.iterations}</td></tr>"
         )
     parts.append("</table>")
     parts.append(
@@ -524,6 +634,14 @@ def _html(out, blends, loops, table, al, figs, videos, timings) -> str:
     for lab, row in zip(table.labels, table.matrix, strict=True):
         parts.append(f"<tr><td>{e(lab)}</td>" + "".join(f"<td>{x:.2f}</td>" for x in row) + "</tr>")
     parts.append("</table>")
+    if bvh_files:
+        parts.append(
+            "<h2 id='files'>Files</h2><p>Every motion written by this run (BVH, open in Blender or "
+            "three.js); <a href='report.json'>report.json</a> holds the numbers, "
+            "<a href='distances.csv'>distances.csv</a> the distance table.</p><ul>"
+        )
+        parts += [f"<li>{link(p)}: {e(what)}</li>" for p, what in bvh_files]
+        parts.append("</ul>")
     parts.append(
         "<h2>Reproduce</h2><p><code>elastic-motion blend A.bvh B.bvh -o out.bvh --method lie --warp dp "
         "--json report.json</code>, <code>elastic-motion loop clip.bvh -o loop.bvh --repeat 3</code>, "

@@ -6,14 +6,15 @@ For many motions (caching, tiles, parallel engines, resume) use
 
 Conventions
 -----------
-* The motions are prepared together (:func:`elastic_motion.apps.align.prepare_motions`:
-  metres, common joints, one frame rate, each placed like the first), their curves are
-  built over the non-finger joints with weights shared by all (``"lie"``) or unweighted
-  (``"euler-*"``), at most ``warp_fps`` frames per second, each on ``[0, 1]`` (a clip's
+* The motions are prepared together (:func:`elastic_motion.apps.prepare.prepare_motions`:
+  T-pose, metres, Y-up, joints, one frame rate, each placed like the first), their curves
+  are built over the non-finger joints with weights shared by all (``"lie"``) or
+  unweighted (``"euler-*"``), at most ``warp.sample_fps`` frames per second, each on ``[0, 1]`` (a clip's
   duration is normalised away: the distance compares shapes, not lengths).
-* ``warp="dp"``: the elastic distance ``min_phi ||q_i - q_j * phi||`` by dynamic
-  programming (:func:`elastic_motion.warp.optimal_warp`), always with the lower index as
-  the curve warped onto (``q_i``, ``i < j``); ``warp="none"``: ``||q_i - q_j||``, the
+* ``warp`` (a :class:`elastic_motion.warp.WarpOptions` or a method name), ``"dp"``: the
+  elastic distance ``min_phi ||q_i - q_j * phi||`` by dynamic programming
+  (:func:`elastic_motion.warp.optimal_warp`), always with the lower index as the curve
+  warped onto (``q_i``, ``i < j``); ``warp="none"``: ``||q_i - q_j||``, the
   distance of the parametrised curves (paper 000, eq. 4). The matrix is symmetric with a
   zero diagonal.
 * The database module uses the same definitions but samples every clip at a fixed number
@@ -28,17 +29,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.apps.align import (
-    DEFAULT_WARP_FPS,
-    _check_method,
-    _check_warp,
-    motion_curves,
-    prepare_motions,
-)
+from elastic_motion.apps.align import _check_method, motion_curves, warp_options
+from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.curves import srv_transform
-from elastic_motion.motion import Motion
-from elastic_motion.warp import DEFAULT_MAX_STEP, optimal_warp, warp_energy
+from elastic_motion.errors import OptionError
+from elastic_motion.warp import WarpOptions, optimal_warp, warp_energy
 
 __all__ = ["DistanceTable", "distance_table", "format_table", "motion_distance"]
 
@@ -82,34 +78,27 @@ class DistanceTable:
 
 
 def distance_table(
-    motions: Sequence[Motion],
+    motions: Sequence[Source] | PreparedMotions,
     *,
     labels: Sequence[str] | None = None,
     method: str = "lie",
-    warp: str = "dp",
-    joints: str | Sequence[str] = "all",
-    align: bool = True,
-    warp_fps: float = DEFAULT_WARP_FPS,
-    neighbourhood: int = DEFAULT_MAX_STEP,
+    warp: str | WarpOptions | None = None,
+    prepare: PrepareOptions | None = None,
     progress: Progress | None = None,
 ) -> DistanceTable:
     """All pairwise distances of ``K >= 2`` motions, serially (``K (K - 1) / 2`` DP solves).
 
     Parameters
     ----------
-    motions : sequence of Motion
+    motions : sequence of path or Motion, or PreparedMotions
+        (:func:`~elastic_motion.apps.prepare.prepare_motions`' result: ``prepare`` must be None)
     labels : sequence of str, optional
     method : {"lie", "euler-elastic", "euler-linear"}
         Representation (both Euler methods mean the Euler curve here).
-    warp : {"dp", "dp+refine", "none"}
-    joints : "all", "common" or sequence of str
-        See :func:`elastic_motion.apps.align.prepare_motions`.
-    align : bool
-        Place the motions like the first (heading and floor position).
-    warp_fps : float
-        Frame rate (at most) of the curves.
-    neighbourhood : int
-        DP slopes.
+    warp : str or WarpOptions, optional
+        How the warp is found (default ``WarpOptions()``); ``"none"``: no warp.
+    prepare : PrepareOptions, optional
+        The preparation step (:mod:`elastic_motion.apps.prepare`).
     progress : callable, optional
         ``progress("distances", done, total)``.
 
@@ -118,13 +107,15 @@ def distance_table(
     DistanceTable
     """
     _check_method(method)
-    _check_warp(warp)
+    opts = warp_options(warp)
     report = progress or null_progress
-    motions = list(motions)
-    if len(motions) < 2:
-        raise ValueError(f"motions: expected at least 2 motions; got {len(motions)}")
-    prep = prepare_motions(motions, joints=joints, align=align, labels=labels)
-    srvs = [srv_transform(c) for c in motion_curves(prep, method, fps=warp_fps)]
+    if not isinstance(motions, PreparedMotions):
+        motions = list(motions)
+    n = len(motions.motions) if isinstance(motions, PreparedMotions) else len(motions)
+    if n < 2:
+        raise OptionError("motions", f"expected at least 2 motions; got {n}")
+    prep = prepare_motions(motions, prepare, labels=labels)
+    srvs = [srv_transform(c) for c in motion_curves(prep, method, fps=opts.sample_fps)]
     k = len(srvs)
     d = np.zeros((k, k))
     du = np.zeros((k, k))
@@ -133,18 +124,18 @@ def distance_table(
     for n, (i, j) in enumerate(pairs):
         a, b = srvs[i], srvs[j]
         du[i, j] = du[j, i] = math.sqrt(max(warp_energy(a.q, b.q, _IDENTITY, a.t, b.t), 0.0))
-        if warp == "none":
+        if opts.method == "none":
             d[i, j] = d[j, i] = du[i, j]
         else:
-            r = optimal_warp(a.q, b.q, t0=a.t, t1=b.t, method=warp, neighbourhood=neighbourhood)
+            r = optimal_warp(a.q, b.q, t0=a.t, t1=b.t, **opts.solver_kwargs())
             d[i, j] = d[j, i] = r.distance
         report("distances", n + 1, len(pairs))
-    return DistanceTable(prep.labels, d, du, method, warp, prep.notes)
+    return DistanceTable(prep.labels, d, du, method, opts.method, prep.notes)
 
 
-def motion_distance(a: Motion, b: Motion, **kw) -> float:
+def motion_distance(a: Source, b: Source, **kw: object) -> float:
     """Elastic distance of two motions: ``distance_table([a, b], **kw).matrix[0, 1]``."""
-    return float(distance_table([a, b], **kw).matrix[0, 1])
+    return float(distance_table([a, b], **kw).matrix[0, 1])  # type: ignore[arg-type]
 
 
 def format_table(table: DistanceTable, digits: int = 3) -> str:

@@ -26,7 +26,10 @@ Conventions
   - ``"inplace"``: all of it, floor position and heading too (paper 000's closing).
 
   The first frame never changes.
-* **Euler baseline** (``representation="euler"``): the same motion as continuous Euler
+* **Preparation**: the input goes through the one preparation step
+  (:func:`elastic_motion.apps.prepare.prepare_motions`: T-pose frame, trim, static root
+  folded, metres, Y-up), so a path and a ``Motion`` give the same loop as the command line.
+* **Euler baseline** (``method="euler-elastic"``): the same motion as continuous Euler
   angles in ``R^(3+3J)`` (:func:`elastic_motion.motion.to_euler_curve`, with the Lie
   curve's weights on the coordinates), closed by the Newton projection of paper 001,
   Thm. 2 (:func:`elastic_motion.closing.project_closed_rd`; C1 by
@@ -40,6 +43,7 @@ Conventions
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -48,8 +52,10 @@ import numpy as np
 
 from elastic_motion._validation import check_finite
 from elastic_motion.apps.metrics import foot_sliding
+from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
 from elastic_motion.curves import DiscreteCurve
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, Euclidean
 from elastic_motion.motion import (
     Motion,
@@ -63,7 +69,10 @@ from elastic_motion.motion import (
 from elastic_motion.motion.rotations import axis_rotation
 
 __all__ = [
+    "CLOSING_SOLVERS",
+    "LOOP_METHODS",
     "LoopResult",
+    "SeamMetrics",
     "cycle_transform",
     "loop_motion",
     "repeat_motion",
@@ -73,7 +82,10 @@ __all__ = [
 _SO3 = SO3()
 _AXES = "xyz"
 _ROOT_MODES = ("travel", "inplace")
-_REPRESENTATIONS = ("lie", "euler")
+#: What is closed: the Lie group curve (the method) or the Euler-angle curve (the baseline).
+LOOP_METHODS = ("lie", "euler-elastic")
+#: Closing solvers (:func:`elastic_motion.closing.close_curve`).
+CLOSING_SOLVERS = ("gauss-newton", "gradient")
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,13 +95,14 @@ class LoopResult:
     Attributes
     ----------
     motion : Motion
-        The closed cycle: same frames, skeleton and first frame as the input.
+        The closed cycle: same frames, skeleton and first frame as the prepared input
+        (metres when the unit is known, Y-up).
     original : Motion
-        The input.
+        The prepared input.
     closing : ClosingResult
         The curve-level result (gap history, iterations, timing; see
         :mod:`elastic_motion.closing`).
-    representation : {"lie", "euler"}
+    method : {"lie", "euler-elastic"}
     root : {"travel", "inplace"}
     c1 : bool
     closed_joints, free_joints : tuple of str
@@ -98,18 +111,57 @@ class LoopResult:
         ``delta`` of the result's cycle transform, radians (0 for ``"inplace"``).
     displacement : ndarray, shape (3,)
         Floor-plane root displacement per cycle, motion length units (0 for ``"inplace"``).
+    seam_before, seam_after : SeamMetrics
+        :func:`seam_metrics` of the input and of the loop (closed joints; ``seam_after``
+        with the deviation from the input).
+    prepared : PreparedMotions
+        The preparation step's result (its ``inputs[0]`` says what was done).
+    notes : tuple of str
     """
 
     motion: Motion
     original: Motion
     closing: ClosingResult
-    representation: str
+    method: str
     root: str
     c1: bool
     closed_joints: tuple[str, ...]
     free_joints: tuple[str, ...]
     heading_change: float
     displacement: np.ndarray
+    seam_before: SeamMetrics
+    seam_after: SeamMetrics
+    prepared: PreparedMotions
+    notes: tuple[str, ...] = ()
+
+    def summary(self) -> dict:
+        """JSON-ready fields of a report (``docs/cli.md``)."""
+        c = self.closing
+        return {
+            "root": self.root,
+            "method": self.method,
+            "c1": self.c1,
+            "frames": self.motion.n_frames,
+            "fps": self.motion.fps,
+            "closed_joints": list(self.closed_joints),
+            "free_joints": list(self.free_joints),
+            "heading_change_deg": math.degrees(self.heading_change),
+            "displacement_m": self.displacement.tolist(),
+            "closing": {
+                "gap_initial": c.gap_initial,
+                "gap": c.gap,
+                "velocity_gap_initial": c.velocity_gap_initial,
+                "velocity_gap": c.velocity_gap,
+                "iterations": c.iterations,
+                "converged": c.converged,
+                "message": c.message,
+                "time_s": c.time,
+            },
+            "seam_before": self.seam_before.summary(),
+            "seam_after": self.seam_after.summary(),
+            "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
+            "notes": list(self.notes),
+        }
 
 
 # ------------------------------------------------------------------------------------------
@@ -130,7 +182,7 @@ def _twist_angle(r: np.ndarray, axis: int) -> float:
 
 def _check_root(root: str) -> str:
     if root not in _ROOT_MODES:
-        raise ValueError(f"root: expected 'travel' or 'inplace'; got {root!r}")
+        raise OptionError("root", f"expected 'travel' or 'inplace'; got {root!r}")
     return root
 
 
@@ -220,20 +272,21 @@ def repeat_motion(motion: Motion, cycles: int = 3, root: str = "travel") -> Moti
     )
 
 
-def _excluded(motion: Motion, exclude: str | Sequence[str] | None) -> list[str]:
-    if exclude is None:
+def _free(motion: Motion, free: str | Sequence[str] | None) -> list[str]:
+    if free is None:
         return []
-    if isinstance(exclude, str):
-        if exclude != "fingers":
-            raise ValueError(
-                f"exclude_joints: expected 'fingers', None or a list of joint names; got {exclude!r}"
+    if isinstance(free, str):
+        if free != "fingers":
+            raise OptionError(
+                "free_joints", f"expected 'fingers', None or a list of joint names; got {free!r}"
             )
         return list(finger_joints(motion.skeleton))
-    names = list(exclude)
+    names = list(free)
     unknown = [n for n in names if n not in motion.skeleton.names]
     if unknown:
-        raise ValueError(
-            f"exclude_joints: unknown joint names {unknown}; the skeleton has {list(motion.skeleton.names)}"
+        raise OptionError(
+            "free_joints",
+            f"expected joint names of the skeleton {list(motion.skeleton.names)}; got unknown {unknown}",
         )
     return names
 
@@ -244,15 +297,16 @@ def _excluded(motion: Motion, exclude: str | Sequence[str] | None) -> list[str]:
 
 
 def loop_motion(
-    motion: Motion,
+    motion: Source | PreparedMotions,
     *,
     root: str = "travel",
     c1: bool = False,
-    representation: str = "lie",
-    method: str = "gauss-newton",
+    method: str = "lie",
+    solver: str = "gauss-newton",
     tol: float = 1e-6,
     max_iter: int = 100,
-    exclude_joints: str | Sequence[str] | None = "fingers",
+    free_joints: str | Sequence[str] | None = "fingers",
+    prepare: PrepareOptions | None = None,
     joint_weights: np.ndarray | None = None,
     translation_weight: float | None = None,
 ) -> LoopResult:
@@ -260,21 +314,26 @@ def loop_motion(
 
     Parameters
     ----------
-    motion : Motion
-        At least 3 frames, finite. Preprocess first if needed (e.g.
-        :func:`elastic_motion.motion.drop_tpose`).
+    motion : path or Motion, or PreparedMotions of one input
+        At least 3 frames after preparation, finite.
     root : {"travel", "inplace"}
         Loop convention (module docstring): keep the floor-plane displacement and heading
         change of one cycle, or close them too.
     c1 : bool
         Also match the velocities at the seam (:func:`elastic_motion.closing.close_curve`).
-    representation : {"lie", "euler"}
+    method : {"lie", "euler-elastic"}
         Close the Lie curve (the method) or the Euler-angle curve (the baseline).
-    method, tol, max_iter
-        Passed to :func:`~elastic_motion.closing.close_curve` (Lie, and Euler with C1);
-        the Euler C0 projection uses Newton with ``tol`` and ``max_iter``.
-    exclude_joints : "fingers", None or sequence of str
+    solver : {"gauss-newton", "gradient"}
+        Closing solver of :func:`~elastic_motion.closing.close_curve` (Lie, and Euler with
+        C1); the Euler C0 projection uses Newton.
+    tol : float, default 1e-6
+        Stop when the seam gap (weighted norm of the closing residual: radians for joint
+        rotations, weighted metres for the root) is below this.
+    max_iter : int, default 100
+    free_joints : "fingers", None or sequence of str
         Joints left free (their rotations keep their samples).
+    prepare : PrepareOptions, optional
+        The preparation step (:mod:`elastic_motion.apps.prepare`).
     joint_weights, translation_weight
         Inner-product weights (default: those of :func:`elastic_motion.motion.to_lie_curve`).
 
@@ -284,19 +343,24 @@ def loop_motion(
 
     Raises
     ------
-    ValueError
+    OptionError
         Fewer than 3 frames; NaN/inf in the motion; a closed joint whose seam rotation is
         at log's cut locus (angle pi: the error names the joint; leave it free with
-        ``exclude_joints`` to loop anyway); bad option values.
+        ``free_joints`` to loop anyway); bad option values.
     """
-    motion = _check_motion(motion)
+    if method not in LOOP_METHODS:
+        raise OptionError("method", f"expected one of {list(LOOP_METHODS)}; got {method!r}")
+    if solver not in CLOSING_SOLVERS:
+        raise OptionError("solver", f"expected one of {list(CLOSING_SOLVERS)}; got {solver!r}")
     _check_root(root)
-    if representation not in _REPRESENTATIONS:
-        raise ValueError(f"representation: expected 'lie' or 'euler'; got {representation!r}")
+    prepared = prepare_motions(motion if isinstance(motion, PreparedMotions) else [motion], prepare)
+    if len(prepared.motions) != 1:
+        raise OptionError("motion", f"expected one motion to loop; got {len(prepared.motions)}")
+    motion = _check_motion(prepared.motions[0])
     names = motion.skeleton.names
     j = motion.n_joints
     up = _AXES.index(motion.up_axis)
-    free = set(_excluded(motion, exclude_joints))
+    free = set(_free(motion, free_joints))
     closed_joint = np.array([n not in free for n in names])
     lie = to_lie_curve(motion, joint_weights, translation_weight=translation_weight)
     # per-joint closing mask (3 coordinates each), root first
@@ -305,13 +369,13 @@ def loop_motion(
     if root == "travel":
         pos_mask[:] = False
         pos_mask[up] = True
-    if representation == "lie":
+    if method == "lie":
         if root == "travel" and closed_joint[0]:
             rot_mask[0, up] = False  # root: swing about the up axis (heading free)
         mask = np.concatenate([pos_mask, rot_mask.ravel()])
         res = close_curve(
             lie,
-            method=method,
+            method=solver,
             tol=tol,
             max_iter=max_iter,
             factors=mask,
@@ -331,30 +395,92 @@ def loop_motion(
             rot_mask[0, 0] = False  # outermost root angle is the heading
         mask = np.concatenate([pos_mask, rot_mask.ravel()])
         if c1:
-            res = close_curve(curve, method=method, tol=tol, max_iter=max_iter, factors=mask, c1=True)
+            res = close_curve(curve, method=solver, tol=tol, max_iter=max_iter, factors=mask, c1=True)
         else:
             res = project_closed_rd(curve, factors=mask, tol=tol, max_iter=max_iter)
         out = from_euler_curve(res.curve, motion)
     out = out.replace(name=motion.name, source=())
     rot, _ = cycle_transform(out, root)
     heading = _twist_angle(rot, up) if root == "travel" else 0.0
+    closed = [n for n, c in zip(names, closed_joint, strict=True) if c]
     return LoopResult(
         motion=out,
         original=motion,
         closing=res,
-        representation=representation,
+        method=method,
         root=root,
         c1=bool(c1),
         closed_joints=tuple(n for n, c in zip(names, closed_joint, strict=True) if c),
         free_joints=tuple(n for n, c in zip(names, closed_joint, strict=True) if not c),
         heading_change=float(heading),
         displacement=out.root_translation[-1] - out.root_translation[0] if root == "travel" else np.zeros(3),
+        seam_before=seam_metrics(motion, root=root, joints=closed),
+        seam_after=seam_metrics(out, original=motion, root=root, joints=closed),
+        prepared=prepared,
+        notes=prepared.notes,
     )
 
 
 # ------------------------------------------------------------------------------------------
 # Metrics
 # ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class SeamMetrics:
+    """What an animator sees at the seam of a looping clip (:func:`seam_metrics`).
+
+    Angles in degrees, positions in metres (the motion's length unit when unknown), times
+    in seconds.
+
+    Attributes
+    ----------
+    seam_angle_max_deg, seam_angle_mean_deg : float
+        Per-joint angle between the last frame and ``T`` applied to the first (local
+        rotations; root with the cycle transform ``T``).
+    seam_angular_velocity_max_deg_s, seam_angular_velocity_mean_deg_s : float
+        Per joint ``|omega_last - Ad_T omega_first|``, ``omega`` the right-trivialised
+        angular velocity of the last / first frame step.
+    seam_position_max_m, seam_position_mean_m : float
+        FK positions of the joints and their end sites, last frame vs ``T`` (first frame).
+    seam_velocity_max_m_s : float
+        Largest jump of an FK point's velocity at the seam.
+    foot_sliding_m_s : float
+        Mean horizontal speed of foot joints over frame steps where they touch the floor,
+        over two cycles played in a row (so the seam counts).
+    foot_sliding_seam_m_s : float
+        The largest such speed at the seam step (0 if no foot touches).
+    seam_angle_deg, seam_angular_velocity_deg_s : ndarray, shape (J,)
+        Per joint (all joints, also those not selected).
+    deviation_max_m, deviation_mean_m : float or None
+        With ``original``: FK positions of the same points against the original, all frames.
+    deviation_per_frame_max_m, deviation_per_frame_mean_m : ndarray, shape (F,), or None
+    """
+
+    seam_angle_max_deg: float
+    seam_angle_mean_deg: float
+    seam_angular_velocity_max_deg_s: float
+    seam_angular_velocity_mean_deg_s: float
+    seam_position_max_m: float
+    seam_position_mean_m: float
+    seam_velocity_max_m_s: float
+    foot_sliding_m_s: float
+    foot_sliding_seam_m_s: float
+    seam_angle_deg: np.ndarray
+    seam_angular_velocity_deg_s: np.ndarray
+    deviation_max_m: float | None = None
+    deviation_mean_m: float | None = None
+    deviation_per_frame_max_m: np.ndarray | None = None
+    deviation_per_frame_mean_m: np.ndarray | None = None
+
+    def summary(self) -> dict[str, float]:
+        """The scalars, for a JSON report (deviation only when measured)."""
+        out = {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if not isinstance(getattr(self, f.name), np.ndarray) and getattr(self, f.name) is not None
+        }
+        return out
 
 
 def seam_metrics(
@@ -364,7 +490,7 @@ def seam_metrics(
     root: str = "travel",
     joints: Sequence[str] | None = None,
     contact_height: float = 0.05,
-) -> dict:
+) -> SeamMetrics:
     """What an animator sees at the seam of a looping clip, and how far it is from the original.
 
     Parameters
@@ -385,27 +511,7 @@ def seam_metrics(
 
     Returns
     -------
-    dict
-        Scalars (float):
-
-        - ``seam_angle_max_deg``, ``seam_angle_mean_deg``: per-joint angle between the last
-          frame and ``T`` applied to the first (local rotations; root with ``T``).
-        - ``seam_angular_velocity_max_deg_s``, ``seam_angular_velocity_mean_deg_s``: per joint
-          ``|omega_last - Ad_T omega_first|``, ``omega`` the right-trivialised angular
-          velocity of the last / first frame step.
-        - ``seam_position_max_m``, ``seam_position_mean_m``: FK positions of the joints and
-          their end sites, last frame vs ``T``(first frame).
-        - ``seam_velocity_max_m_s``: largest jump of an FK point's velocity at the seam.
-        - ``foot_sliding_m_s``: mean horizontal speed of foot joints
-          (:func:`elastic_motion.apps.metrics.foot_joints`)
-          over frame steps where they touch the floor, measured over two cycles played
-          in a row (so the seam counts); ``foot_sliding_seam_m_s``: the largest such speed at
-          the seam step (0 if no foot touches).
-        - with ``original``: ``deviation_max_m``, ``deviation_mean_m`` (FK positions of the
-          same points, over all frames).
-
-        Arrays: ``seam_angle_deg`` (J,), ``seam_angular_velocity_deg_s`` (J,), and with
-        ``original``: ``deviation_per_frame_max_m``, ``deviation_per_frame_mean_m`` (F,).
+    SeamMetrics
     """
     motion = _check_motion(motion)
     _check_root(root)
@@ -413,7 +519,7 @@ def seam_metrics(
     if joints is not None:
         unknown = [n for n in joints if n not in motion.skeleton.names]
         if unknown:
-            raise ValueError(f"joints: unknown joint names {unknown}")
+            raise OptionError("joints", f"expected joint names of the motion; got unknown {unknown}")
         sel = np.array([motion.skeleton.index(n) for n in joints], dtype=np.int64)
     scale = _metres(motion)
     fps = motion.fps
@@ -458,7 +564,7 @@ def seam_metrics(
         out["deviation_mean_m"] = float(dev.mean())
         out["deviation_per_frame_max_m"] = dev.max(axis=1)
         out["deviation_per_frame_mean_m"] = dev.mean(axis=1)
-    return out
+    return SeamMetrics(**out)
 
 
 def _foot_sliding(motion: Motion, root: str, contact_height: float) -> dict:

@@ -1,4 +1,5 @@
-"""Quality metrics of a motion an animator judges: foot sliding and bone lengths.
+"""Quality metrics of a motion an animator judges: skating while in contact, feet below the
+floor, foot sliding and bone lengths.
 
 The one home of these two concepts (the loop seam metrics of
 :func:`elastic_motion.apps.loop.seam_metrics` and the blend report use them). Distances of
@@ -17,6 +18,13 @@ Conventions
   speed (up coordinate dropped) is averaged: ``mean_speed`` in m/s. A planted foot scores
   0; a foot that skates while down scores its skating speed. Contact is decided by height
   alone (not by speed), so a sliding foot is not excused for moving.
+* **Skating** (:func:`contact_skating`): the mean horizontal speed (m/s) of the contact
+  joints over the frame steps where a given :class:`~elastic_motion.motion.contacts.Contacts`
+  says they are planted (both frames of the step), measured on a motion by forward
+  kinematics. Pass the *input's* contacts to measure an output against what should stay
+  planted (a loop: the same frames; a blend: the inputs' contacts carried through the
+  warp). With it, the **lowest point below the floor** (m, >= 0): how far the motion's
+  lowest joint or end site goes below a given floor height (the input's floor).
 * **Bone-length error** (:func:`bone_length_error`): the largest relative difference, over
   frames and bones, between a bone's length in the motion (from forward kinematics:
   distance of a joint to its parent) and the rest length of the same bone in a reference
@@ -32,11 +40,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion.motion import Motion, Skeleton, forward_kinematics
+from elastic_motion.motion.contacts import Contacts
 
 __all__ = [
     "BoneLengthError",
+    "ContactSkating",
     "FootSliding",
     "bone_length_error",
+    "contact_skating",
     "foot_joints",
     "foot_sliding",
 ]
@@ -253,4 +264,96 @@ def bone_length_error(motion: Motion, reference: Motion | Skeleton | None = None
         max_absolute=float(err.max() * scale),
         worst_joint=sk.names[int(idx[worst[1]])],
         n_bones=len(pairs),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSkating:
+    """Skating during contacts and depth below the floor (:func:`contact_skating`).
+
+    Attributes
+    ----------
+    mean_speed : float
+        Mean horizontal speed (m/s) of the planted joints over the frame steps where they
+        are planted; 0 when no contact.
+    max_speed : float
+    per_joint : dict of str to float
+        Mean speed per contact joint that has contacts.
+    steps : int
+        Number of (frame step, joint) pairs measured.
+    below_floor : float
+        How far (m, >= 0) the lowest joint or end site goes below ``floor``.
+    floor : float
+        The floor height used (m).
+    """
+
+    mean_speed: float
+    max_speed: float
+    per_joint: dict[str, float]
+    steps: int
+    below_floor: float
+    floor: float
+
+    def summary(self) -> dict[str, float | int | dict[str, float]]:
+        """JSON-ready (``*_m_s`` in m/s, ``*_m`` in m)."""
+        return {
+            "skating_mean_m_s": self.mean_speed,
+            "skating_max_m_s": self.max_speed,
+            "skating_per_joint_m_s": dict(self.per_joint),
+            "contact_steps": self.steps,
+            "below_floor_m": self.below_floor,
+            "floor_m": self.floor,
+        }
+
+
+def contact_skating(motion: Motion, contacts: Contacts) -> ContactSkating:
+    """Skating of ``motion``'s joints during ``contacts`` and its depth below their floor.
+
+    Parameters
+    ----------
+    motion : Motion
+        Measured by forward kinematics (metres when its unit is known).
+    contacts : Contacts
+        Which joints should be planted in which frames (same frame count as ``motion``),
+        and the floor (:func:`elastic_motion.motion.contacts.detect_contacts`, usually of an
+        input).
+
+    Returns
+    -------
+    ContactSkating
+
+    Raises
+    ------
+    ValueError
+        Frame counts that differ, a contact joint missing from the motion.
+    """
+    if contacts.n_frames != motion.n_frames:
+        raise ValueError(
+            f"contacts: expected {motion.n_frames} frames like the motion; got {contacts.n_frames}"
+        )
+    missing = [n for n in contacts.joints if n not in motion.skeleton.names]
+    if missing:
+        raise ValueError(f"contacts: joints {missing} are not in the motion's skeleton")
+    scale, _ = _metres(motion)
+    up = _AXES.index(motion.up_axis)
+    pos = forward_kinematics(motion, end_sites=True) * scale
+    below = float(max(0.0, contacts.floor - pos[..., up].min()))
+    idx = [motion.skeleton.index(n) for n in contacts.joints]
+    if not idx or motion.n_frames < 2:
+        return ContactSkating(0.0, 0.0, {}, 0, below, contacts.floor)
+    p = pos[:, idx]
+    step = np.diff(p, axis=0)
+    step[..., up] = 0.0
+    speed = np.linalg.norm(step, axis=-1) * motion.fps  # (F-1, K)
+    planted = contacts.mask[:-1] & contacts.mask[1:]
+    per_joint = {
+        n: float(speed[planted[:, k], k].mean()) for k, n in enumerate(contacts.joints) if planted[:, k].any()
+    }
+    return ContactSkating(
+        mean_speed=float(speed[planted].mean()) if planted.any() else 0.0,
+        max_speed=float(speed[planted].max()) if planted.any() else 0.0,
+        per_joint=per_joint,
+        steps=int(planted.sum()),
+        below_floor=below,
+        floor=contacts.floor,
     )

@@ -19,7 +19,15 @@ Conventions
 * **Feet**: the ankle joints of :func:`elastic_motion.apps.landmarks.find_leg_joints`
   (the joint located at the ankle: CMU ``LeftFoot``, DeepMimic ``left_ankle``); where
   none is found, the lowest joint of each side.
-* **Units**: metres when the motion's unit is known.
+* **Floor**: the horizontal plane through the lowest point of a clip, drawn with the same
+  projection as the joints (:meth:`View.project`): with a tilted camera it is a band, not
+  a line, and a foot on the floor is drawn on it, wherever the foot is in depth.
+* **Framing**: an animation panel's view holds every pose of its motion (limits from the
+  projected points of all frames, with a margin); titles sit outside the drawing.
+* **Time**: a video plays in real time: frame ``k`` is the pose at ``k / fps`` seconds and
+  stays on screen ``1 / fps``; a GIF's delays, whole centiseconds, are chosen so that the
+  cumulative time stays exact (:func:`gif_frame_delays`).
+* **Units**: metres when the motion's unit is known; axes say their unit.
 * **Video formats**: ``.gif`` through Pillow (a matplotlib dependency), ``.mp4`` (H.264)
   through the optional ``imageio-ffmpeg`` package (``pip install "elastic-motion[video]"``),
   ``.png`` a still (see :func:`render`).
@@ -43,8 +51,11 @@ from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.motion import Motion, forward_kinematics, global_rotations, select_frames
 
 __all__ = [
+    "KINDS",
+    "RENDER_KEYWORDS",
     "VIDEO_FORMATS",
     "View",
+    "gif_frame_delays",
     "joint_rotation_curve",
     "plot_foot_trajectories",
     "plot_seam",
@@ -52,6 +63,7 @@ __all__ = [
     "plot_warp",
     "render",
     "render_animation",
+    "render_kind",
     "save_figure",
     "side_view",
 ]
@@ -64,6 +76,12 @@ _LEFT = "#1f77b4"  # matplotlib blue
 _RIGHT = "#ff7f0e"  # matplotlib orange
 _CENTRE = "#555555"
 _GHOST = "#b0b0b0"
+_WARP = "#d62728"  # the optimal warp in plot_warp
+_FLOOR = "#eeeeee"  # the floor band of the animations
+#: Colours of the traced joints of plot_seam, in order.
+_TRACE = ("#2ca02c", "#9467bd", "#8c564b", "#e377c2")
+#: Colours of the curves of plot_so3_curves, in order.
+_PALETTE = ("#1f77b4", "#ff7f0e", "#d62728", "#2ca02c", "#9467bd", "#8c564b")
 
 
 # ------------------------------------------------------------------------------------------
@@ -233,16 +251,70 @@ def _points(motion: Motion) -> np.ndarray:
 # Animation
 # ------------------------------------------------------------------------------------------
 
+#: A GIF stores each frame's delay in whole centiseconds; browsers show delays under 2 cs as
+#: 10 cs, so a GIF plays at most 50 frames per second.
+_GIF_MIN_DELAY_CS = 2
+
+
+def _centiseconds(t: float) -> int:
+    """Seconds rounded to whole centiseconds (half up)."""
+    return math.floor(100.0 * t + 0.5)
+
+
+def gif_frame_delays(times: Sequence[float], end: float) -> tuple[np.ndarray, np.ndarray]:
+    """The frames a GIF shows, and their delays, so that it plays in real time.
+
+    A GIF delay is a whole number of centiseconds, at least 2 (:data:`_GIF_MIN_DELAY_CS`).
+    Frame ``k`` is shown from its time rounded to the centisecond to the next shown frame's,
+    the last one until ``end``: the cumulative delays track the true time to within half a
+    centisecond, and the total is ``end`` rounded to the centisecond. Frames closer than
+    2 cs to the previous shown frame (above 50 fps) are left out.
+
+    Parameters
+    ----------
+    times : sequence of float, shape (N,)
+        Increasing display times of the frames, seconds; the first is normally 0.
+    end : float
+        Seconds at which the clip ends (after the last frame's display time).
+
+    Returns
+    -------
+    shown : ndarray of int, shape (K,)
+        Indices into ``times`` of the frames to write, ``K >= 1`` when ``N >= 1``.
+    delays_cs : ndarray of int, shape (K,)
+        Centiseconds each shown frame stays on screen; they sum to ``end`` in centiseconds
+        minus the first frame's time (at least 2 cs per frame).
+    """
+    cs = [_centiseconds(t) for t in times]
+    if not cs:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    shown = [0]
+    for k in range(1, len(cs)):
+        if cs[k] - cs[shown[-1]] >= _GIF_MIN_DELAY_CS:
+            shown.append(k)
+    stop = _centiseconds(end)
+    while len(shown) > 1 and stop - cs[shown[-1]] < _GIF_MIN_DELAY_CS:
+        shown.pop()  # too close to the end: the previous frame stays on instead
+    marks = [cs[k] for k in shown] + [max(stop, cs[shown[-1]] + _GIF_MIN_DELAY_CS)]
+    return np.asarray(shown, dtype=int), np.diff(np.asarray(marks, dtype=int))
+
 
 class _VideoSink:
-    """Frames in, one video file out (atomically): ``send(rgb)``, then ``commit()`` or ``abort()``."""
+    """Frames in, one video file out (atomically): ``send(rgb, t)``, then ``commit()`` or ``abort()``.
+
+    A GIF keeps the frames :func:`gif_frame_delays` shows (:meth:`wants` says which, before
+    they are drawn) and stores each with its delay, so that it plays in real time; an MP4
+    plays at ``fps``.
+    """
 
     def __init__(self, path: Path, fps: float) -> None:
         self.path = path
-        self.fps = fps
+        self.fps = float(fps)
         self.ext = path.suffix.lower()
         if self.ext not in VIDEO_FORMATS:
             raise ValueError(f"output: expected a .gif or .mp4 file for an animation; got {path.name!r}")
+        if not self.fps > 0:
+            raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
         self._ffmpeg = None
         if self.ext == ".mp4":
             try:
@@ -254,6 +326,9 @@ class _VideoSink:
                 ) from exc
             self._ffmpeg = imageio_ffmpeg
         self._frames: list[Any] = []
+        self._cs: list[int] = []  # display time of each kept GIF frame, centiseconds
+        self._sent = 0
+        self._last_t = 0.0
         self._writer = None
         # the shared atomic writer: frames go to a temporary file beside ``path``, renamed
         # onto it by commit(), removed by abort()
@@ -261,8 +336,27 @@ class _VideoSink:
         self._stack = contextlib.ExitStack()
         self.tmp = self._stack.enter_context(atomic_path(path))
 
-    def send(self, rgb: np.ndarray) -> None:
+    def wants(self, t: float) -> bool:
+        """Whether a frame at ``t`` seconds would be written (a GIF skips frames < 2 cs apart)."""
+        if self.ext != ".gif" or not self._cs:
+            return True
+        return _centiseconds(t) - self._cs[-1] >= _GIF_MIN_DELAY_CS
+
+    def send(self, rgb: np.ndarray | None, t: float | None = None) -> None:
+        """One frame, ``(H, W, 3)`` uint8, shown at ``t`` seconds (default: ``frames sent / fps``).
+
+        ``rgb`` may be None for a frame :meth:`wants` declined (only its time is recorded).
+        """
+        t = self._sent / self.fps if t is None else float(t)
+        if self._sent and t <= self._last_t:
+            raise ValueError(f"t: frame times must increase; got {t} after {self._last_t}")
+        self._sent += 1
+        self._last_t = t
         if self.ext == ".gif":
+            if not self.wants(t):
+                return
+            if rgb is None:
+                raise ValueError(f"rgb: the GIF shows the frame at {t:.3f} s; got no picture")
             from PIL import Image
 
             img = Image.fromarray(rgb)
@@ -270,7 +364,10 @@ class _VideoSink:
                 self._frames.append(img.quantize(colors=96, method=Image.Quantize.MEDIANCUT))
             else:
                 self._frames.append(img.quantize(palette=self._frames[0], dither=Image.Dither.NONE))
+            self._cs.append(_centiseconds(t))
             return
+        if rgb is None:
+            raise ValueError("rgb: an MP4 needs every frame")
         if self._writer is None:
             self._writer = self._ffmpeg.write_frames(
                 str(self.tmp),
@@ -286,13 +383,18 @@ class _VideoSink:
         self._writer.send(np.ascontiguousarray(rgb))
 
     def commit(self) -> None:
+        """Write the file (a GIF lasts until one frame period after the last frame sent)."""
         if self.ext == ".gif":
-            self._frames[0].save(
+            if not self._frames:
+                raise ValueError(f"rendering {self.path.name}: no frames to write")
+            shown, delays = gif_frame_delays([c / 100.0 for c in self._cs], self._last_t + 1.0 / self.fps)
+            frames = [self._frames[k] for k in shown]
+            frames[0].save(
                 self.tmp,
                 format="GIF",
                 save_all=True,
-                append_images=self._frames[1:],
-                duration=max(20, round(1000.0 / self.fps)),
+                append_images=frames[1:],
+                duration=[int(d) * 10 for d in delays],  # milliseconds, whole centiseconds
                 loop=0,
                 disposal=1,
             )
@@ -309,6 +411,174 @@ class _VideoSink:
                 pass
         aborted = RuntimeError(f"rendering {self.path.name} was aborted")
         self._stack.__exit__(type(aborted), aborted, None)  # removes the temporary file
+
+
+def _smooth(x: np.ndarray, window: int) -> np.ndarray:
+    """Moving average over ``window`` frames along axis 0, edges held (``x``: ``(F, ...)``)."""
+    if window <= 1 or len(x) < 2:
+        return np.array(x, dtype=np.float64)
+    pad = np.concatenate([np.repeat(x[:1], window, axis=0), x, np.repeat(x[-1:], window, axis=0)])
+    c = np.cumsum(pad, axis=0)
+    c = np.concatenate([np.zeros_like(c[:1]), c])
+    lo = np.arange(len(x)) + window - window // 2
+    return (c[lo + window] - c[lo]) / window
+
+
+class _AnimationPanel:
+    """One panel of :func:`render_animation`: a skeleton, its feet's trails, the floor, a clock.
+
+    The camera follows the root's floor position, smoothed over half a second (the point
+    followed at frame ``f`` has screen abscissa ``cx[f]`` and depth ``cd[f]``). The floor is
+    the horizontal plane through the lowest point of the clip, drawn with the same
+    projection (:meth:`View.project`) as the joints: a band from depth ``cd + d_near`` (its
+    front edge, a line) to ``cd + d_far`` that holds every point within 10 cm of the floor in
+    every frame, with cross ticks every 0.5 m. The axis limits hold every projected point of
+    every frame with a margin; the title sits above the drawing area, the clock below it.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Positioned by the caller, ``aspect`` = its width / height in pixels.
+    motion : Motion
+    view : View
+    label : str
+    aspect : float
+    trail : float
+        Seconds of foot trail.
+    clock : matplotlib.text.Text, optional
+        Where to write the time.
+    """
+
+    TICK = 0.5  # metres between floor ticks
+    CONTACT = 0.10  # metres above the floor that count as touching it
+
+    def __init__(
+        self, ax: Any, motion: Motion, view: View, *, label: str, aspect: float, trail: float, clock=None
+    ) -> None:
+        from matplotlib.collections import LineCollection
+        from matplotlib.patches import Polygon
+
+        self.ax, self.m, self.view, self.aspect, self.trail = ax, motion, view, float(aspect), float(trail)
+        pts = _points(motion)  # (F, P, 3) metres
+        self.scr = view.project(pts)  # (F, P, 2)
+        height = pts @ view.up  # (F, P)
+        depth = pts @ view.depth
+        self.floor_h = float(height.min())
+        followed = _smooth(pts[:, 0], max(1, round(0.5 * motion.fps)))  # (F, 3)
+        self.cx = followed @ view.right
+        self.cd = followed @ view.depth
+        touching = height <= self.floor_h + self.CONTACT
+        rel = (depth - self.cd[:, None])[touching]
+        self.d_near = float(min(rel.min(), 0.0)) - 0.15
+        self.d_far = float(max(rel.max(), 0.0)) + 0.15
+        # extents of the drawing relative to the followed floor point, over all frames
+        ref = self.floor_ref()  # (F, 2)
+        dx = self.scr[..., 0] - ref[:, None, 0]
+        dy = self.scr[..., 1] - ref[:, None, 1]
+        s = math.sin(view.elevation)
+        lo_y = min(float(dy.min()), self.d_near * s, self.d_far * s)
+        hi_y = max(float(dy.max()), self.d_near * s, self.d_far * s)
+        span = max(hi_y - lo_y, 2.0 * float(np.abs(dx).max()), 0.5)
+        self.tick_len = 0.03 * span
+        margin = 0.06 * span
+        lo_y -= margin + self.tick_len
+        hi_y += margin
+        half_w = float(np.abs(dx).max()) + margin
+        half_h = 0.5 * (hi_y - lo_y)
+        if 2 * half_w < self.aspect * 2 * half_h:
+            half_w = self.aspect * half_h
+        else:
+            half_h = half_w / self.aspect
+        self.half_w = half_w
+        self.y_range = (0.5 * (lo_y + hi_y) - half_h, 0.5 * (lo_y + hi_y) + half_h)
+
+        ax.set_axis_off()
+        ax.set_aspect("equal", adjustable="box")
+        self.band = Polygon(np.zeros((4, 2)), closed=True, fc=_FLOOR, ec="none", zorder=0)
+        ax.add_patch(self.band)
+        self.ticks = LineCollection([], colors="#b8b8b8", linewidths=0.8, zorder=0.5)
+        ax.add_collection(self.ticks)
+        (self.front,) = ax.plot([], [], "-", color="#888888", lw=1.0, zorder=0.6)
+        self.a, self.b, colours = _bone_colours(motion)
+        self.bones = LineCollection([], colors=colours, linewidths=2.2, capstyle="round", zorder=2)
+        ax.add_collection(self.bones)
+        self.feet = _feet(motion)
+        self.trails = [
+            ax.plot([], [], "-", color=c, lw=1.0, alpha=0.8, zorder=1.5)[0] if j is not None else None
+            for j, c in zip(self.feet, (_LEFT, _RIGHT), strict=True)
+        ]
+        self.title = ax.set_title(label, fontsize=8, pad=2)
+        self.clock = clock
+
+    def floor_ref(self, frames: Any = slice(None)) -> np.ndarray:
+        """Screen position ``(..., 2)`` of the floor point below the followed root."""
+        return self.floor_points(self.cx[frames], self.cd[frames])
+
+    def floor_points(self, x: Any, d: Any) -> np.ndarray:
+        """Screen position ``(..., 2)`` of floor points at screen abscissa ``x`` and depth ``d`` (m)."""
+        x, d = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(d, dtype=np.float64))
+        v = self.view
+        world = x[..., None] * v.right + d[..., None] * v.depth + self.floor_h * v.up
+        return v.project(world)
+
+    def frame_index(self, t: float) -> int:
+        """The motion frame shown at ``t`` seconds (the last one after the end)."""
+        return int(min(round(t * self.m.fps), self.m.n_frames - 1))
+
+    def update(self, t: float) -> None:
+        """Draw the pose at ``t`` seconds."""
+        fi = self.frame_index(t)
+        s = self.scr[fi]
+        self.bones.set_segments(np.stack([s[self.a], s[self.b]], axis=1))
+        lo = int(max(0, fi - round(self.trail * self.m.fps)))
+        for j, line in zip(self.feet, self.trails, strict=True):
+            if line is not None:
+                tr = self.scr[lo : fi + 1, j]
+                line.set_data(tr[:, 0], tr[:, 1])
+        cx, cd = float(self.cx[fi]), float(self.cd[fi])
+        ref_y = float(self.floor_points(cx, cd)[1])
+        x0, x1 = cx - self.half_w, cx + self.half_w
+        self.ax.set_xlim(x0, x1)
+        self.ax.set_ylim(ref_y + self.y_range[0], ref_y + self.y_range[1])
+        near, far = cd + self.d_near, cd + self.d_far
+        corners = self.floor_points([x0, x1, x1, x0], [near, near, far, far])
+        self.band.set_xy(corners)
+        self.front.set_data(corners[:2, 0], corners[:2, 1])
+        tick_x = np.arange(math.ceil(x0 / self.TICK), math.floor(x1 / self.TICK) + 1) * self.TICK
+        front = self.floor_points(tick_x, near)
+        back = self.floor_points(tick_x, far)
+        front[:, 1] -= self.tick_len
+        self.ticks.set_segments(np.stack([front, back], axis=1))
+        if self.clock is not None:
+            self.clock.set_text(f"{min(t, self.m.duration):.2f} s")
+
+
+def _animation_figure(
+    motions: Sequence[Motion], view: View, labels: Sequence[str], panel_size: tuple[int, int], trail: float
+) -> tuple[Any, list[_AnimationPanel]]:
+    """The figure of :func:`render_animation`: one panel per motion, side by side.
+
+    Each panel is ``panel_size`` pixels (rounded down to even numbers): a strip at the top
+    for the title, the drawing, a strip at the bottom for the clock.
+    """
+    w_px, h_px = max(2, int(panel_size[0]) // 2 * 2), max(2, int(panel_size[1]) // 2 * 2)
+    k = len(motions)
+    dpi = 100.0
+    strip = min(16.0, 0.15 * h_px)  # pixels above (title) and below (clock) the drawing
+    font = max(4.0, min(8.0, 0.75 * strip * 72.0 / dpi))
+    fig = _figure(k * w_px / dpi, h_px / dpi, dpi)
+    panels = []
+    for i, m in enumerate(motions):
+        ax = fig.add_axes((i / k, strip / h_px, 1.0 / k, 1.0 - 2.0 * strip / h_px))
+        clock = fig.text(
+            (i + 0.03) / k, 0.5 * strip / h_px, "", ha="left", va="center", fontsize=font - 1, color="#666666"
+        )
+        panel = _AnimationPanel(
+            ax, m, view, label=labels[i], aspect=w_px / (h_px - 2.0 * strip), trail=trail, clock=clock
+        )
+        panel.title.set_fontsize(font)
+        panels.append(panel)
+    return fig, panels
 
 
 def render_animation(
@@ -329,9 +599,15 @@ def render_animation(
     """Skeleton animations side by side, written as a GIF or an MP4.
 
     Each panel follows its motion's root along the floor (the camera moves with it; the
-    ticks on the floor, every 0.5 m, show the travel) and draws the trails of both feet
-    over the last ``trail`` seconds. All motions play at the same clock; a shorter one
-    holds its last frame.
+    floor is drawn in the same tilted projection as the skeleton, with a tick every 0.5 m
+    to show the travel) and draws the trails of both feet over the last ``trail`` seconds.
+    All motions play at the same clock; a shorter one holds its last frame. The panel's
+    view holds every pose of its motion; its title is above the drawing, the clock below.
+
+    Frames are drawn at ``0, 1/fps, 2/fps, ...`` up to ``seconds``, and each is shown for
+    ``1/fps``: the video plays in real time. A GIF stores delays in whole centiseconds, so
+    its delays vary (3 and 4 cs at 30 fps) to keep the cumulative time exact
+    (:func:`gif_frame_delays`); above 50 fps a GIF leaves frames out.
 
     Parameters
     ----------
@@ -341,11 +617,11 @@ def render_animation(
     labels : sequence of str, optional
         Panel titles (default the motions' names).
     fps : float, optional
-        Video frame rate (default: the highest of the motions', at most 30).
+        Video frame rate, frames per second (default: the highest of the motions', at most 30).
     panel_size : (int, int)
-        Pixels per panel (width, height).
+        Pixels per panel (width, height), rounded down to even numbers.
     seconds : float, optional
-        Length of the video (default: the longest motion).
+        Length of the video in seconds (default: the longest motion).
     trail : float
         Seconds of foot trail.
     azimuth, elevation : float
@@ -373,105 +649,34 @@ def render_animation(
             raise ValueError(
                 f"output: expected one of {list(VIDEO_FORMATS)} for an animation; got {target.name!r}"
             )
-    report = progress or null_progress
     labels = [m.name for m in motions] if labels is None else list(labels)
+    if len(labels) != len(motions):
+        raise ValueError(f"labels: expected {len(motions)} labels; got {len(labels)}")
     fps = float(fps) if fps else min(30.0, max(m.fps for m in motions))
+    if not fps > 0:
+        raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
     duration = max(m.duration for m in motions) if seconds is None else float(seconds)
+    if not duration >= 0:
+        raise ValueError(f"seconds: expected a length >= 0; got {seconds!r}")
+    report = progress or null_progress
     n_frames = max(1, math.floor(duration * fps + 1e-6) + 1)
     view = side_view(motions[0], azimuth=azimuth, elevation=elevation)
-    flat_view = side_view(motions[0], azimuth=azimuth, elevation=0.0)
 
-    w_px, h_px = int(panel_size[0]) // 2 * 2, int(panel_size[1]) // 2 * 2
-    k = len(motions)
-    dpi = 100.0
-    fig = _figure(k * w_px / dpi, h_px / dpi, dpi)
-    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.0, top=1.0, wspace=0.0)
-    from matplotlib.collections import LineCollection
-
-    panels = []
-    for i, m in enumerate(motions):
-        pts = _points(m)
-        scr = view.project(pts)
-        up_i = _AXES.index(m.up_axis)
-        floor_h = float(pts[..., up_i].min())
-        height = float(np.ptp(pts[..., up_i], axis=1).max())
-        size = max(height, 1.0) * 1.35
-        root_x = flat_view.project(pts[:, 0])[:, 0]
-        win = max(1, round(0.5 * m.fps))
-        kernel = np.ones(win) / win
-        padded = np.concatenate([np.full(win, root_x[0]), root_x, np.full(win, root_x[-1])])
-        smooth = np.convolve(padded, kernel, mode="same")[win:-win]
-        ax = fig.add_subplot(1, k, i + 1)
-        ax.set_axis_off()
-        ax.set_aspect("equal")
-        a_idx, b_idx, colours = _bone_colours(m)
-        bones = LineCollection([], colors=colours, linewidths=2.2, capstyle="round")
-        ax.add_collection(bones)
-        lf, rf = _feet(m)
-        trails = [
-            ax.plot([], [], "-", color=c, lw=1.0, alpha=0.8)[0] if j is not None else None
-            for j, c in ((lf, _LEFT), (rf, _RIGHT))
-        ]
-        floor_y = floor_h * math.cos(view.elevation)
-        (floor_line,) = ax.plot([], [], "-", color="#888888", lw=1.0)
-        ticks = LineCollection([], colors="#aaaaaa", linewidths=1.0)
-        ax.add_collection(ticks)
-        ax.text(0.5, 0.97, labels[i], transform=ax.transAxes, ha="center", va="top", fontsize=8, clip_on=True)
-        clock = ax.text(
-            0.03, 0.03, "", transform=ax.transAxes, ha="left", va="bottom", fontsize=7, color="#666666"
-        )
-        panels.append(
-            dict(
-                m=m,
-                scr=scr,
-                a=a_idx,
-                b=b_idx,
-                bones=bones,
-                feet=(lf, rf),
-                trails=trails,
-                floor=floor_line,
-                ticks=ticks,
-                floor_y=floor_y,
-                size=size,
-                smooth=smooth,
-                ax=ax,
-                clock=clock,
-                pts=pts,
-            )
-        )
-
+    fig, panels = _animation_figure(motions, view, labels, panel_size, trail)
     sinks: list[_VideoSink] = []
     try:
         for target in [out, *extra]:
             sinks.append(_VideoSink(target, fps))
         for f in range(n_frames):
             t = f / fps
-            for p in panels:
-                m = p["m"]
-                fi = int(min(round(t * m.fps), m.n_frames - 1))
-                s = p["scr"][fi]
-                p["bones"].set_segments(np.stack([s[p["a"]], s[p["b"]]], axis=1))
-                lo = int(max(0, fi - round(trail * m.fps)))
-                for j, line in zip(p["feet"], p["trails"], strict=True):
-                    if line is not None:
-                        tr = p["scr"][lo : fi + 1, j]
-                        line.set_data(tr[:, 0], tr[:, 1])
-                cx = p["smooth"][fi]
-                half = 0.5 * p["size"] * (w_px / h_px)
-                x0, x1 = cx - half, cx + half
-                y0 = p["floor_y"] - 0.12 * p["size"]
-                p["ax"].set_xlim(x0, x1)
-                p["ax"].set_ylim(y0, y0 + p["size"])
-                p["floor"].set_data([x0, x1], [p["floor_y"], p["floor_y"]])
-                tick_x = np.arange(math.floor(x0 / 0.5), math.ceil(x1 / 0.5) + 1) * 0.5
-                p["ticks"].set_segments(
-                    [[(x, p["floor_y"]), (x, p["floor_y"] - 0.04 * p["size"])] for x in tick_x]
-                )
-                p["clock"].set_text(f"{min(t, m.duration):.2f} s")
-            fig.canvas.draw()
-            rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+            wanted = [sink for sink in sinks if sink.wants(t)]
+            if wanted:
+                for p in panels:
+                    p.update(t)
+                fig.canvas.draw()
+                rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
             for sink in sinks:
-                sink.send(rgb)
+                sink.send(rgb if sink in wanted else None, t)
             report("render", f + 1, n_frames)
         for sink in sinks:
             sink.commit()
@@ -570,10 +775,12 @@ def plot_foot_trajectories(
     for i in range(k, nrows * ncols):
         axes[i // ncols][i % ncols].set_axis_off()
     axes[0][0].legend(fontsize=6, loc="upper left", frameon=False)
+    ylabel = "height (m)" if elevation == 0 else f"height (m), seen {elevation:g} deg from above"
+    xlabel = "along the walk (m)" if azimuth == 0 else f"along the walk, turned {azimuth:g} deg (m)"
     for r in range(nrows):
-        axes[r][0].set_ylabel("height (m)", fontsize=7)
-    for c in range(ncols):
-        axes[nrows - 1][c].set_xlabel("along the walk (m)", fontsize=7)
+        axes[r][0].set_ylabel(ylabel, fontsize=7)
+    for c in range(min(ncols, k)):
+        axes[(k - 1 - c) // ncols][c].set_xlabel(xlabel, fontsize=7)  # the lowest panel drawn
     if title:
         fig.suptitle(title, fontsize=9)
     fig.tight_layout()
@@ -637,7 +844,7 @@ def plot_warp(
     fig = _figure(4.2, 4.0, dpi)
     ax = fig.add_subplot(1, 1, 1)
     ax.plot([0, da], [0, db], "--", color="#999999", lw=1, label="uniform (no warp)")
-    ax.plot(v[:, 0] * da, v[:, 1] * db, "-", color="#d62728", lw=1.6, label="optimal warp")
+    ax.plot(v[:, 0] * da, v[:, 1] * db, "-", color=_WARP, lw=1.6, label="optimal warp")
     if len(landmarks):
         lm = np.asarray(landmarks, dtype=np.float64)
         ax.plot(lm[:, 0], lm[:, 1], "x", color="k", ms=7, mew=1.5, label="landmarks")
@@ -665,7 +872,10 @@ def plot_warp(
 
 
 def _trace_joints(motion: Motion, joints: Sequence[str] | None) -> list[tuple[str, int]]:
+    """``(name, index)`` of the joints :func:`plot_seam` traces (``KeyError`` for an unknown name)."""
     sk = motion.skeleton
+    if isinstance(joints, str):
+        joints = [joints]
     if joints:
         return [(n, sk.index(n)) for n in joints]
     _lf, rf = _feet(motion)
@@ -705,6 +915,27 @@ def plot_seam(
     puts the joint and a cross where the next cycle starts: they coincide for a seamless
     loop; the distance between them is the jump. Right: the skeleton in the last three
     frames of the clip (blue) and the first three of the next cycle, ``T`` applied (orange).
+    Both panels are side views without tilt: horizontal, metres along the direction the
+    repeated clip travels most; vertical, height in metres.
+
+    Parameters
+    ----------
+    original : Motion
+    looped : Motion, optional
+        The same clip made seamless (:func:`elastic_motion.apps.loop.loop_motion`).
+    path : str or os.PathLike, optional
+        Write the figure there; otherwise only return it.
+    repeat : int
+        Cycles to play (at least 2).
+    root : {"travel", "inplace"}
+        Loop convention (:func:`elastic_motion.apps.loop.repeat_motion`).
+    joints : sequence of str, optional
+        Joints whose paths are drawn (default: the right ankle and the left hand or wrist).
+    labels : (str, str)
+        Row titles.
+    title : str, optional
+    dpi : float
+    protected : sequence of paths
 
     Returns
     -------
@@ -714,12 +945,15 @@ def plot_seam(
 
     from elastic_motion.apps.loop import cycle_transform, repeat_motion
 
+    if int(repeat) < 2:
+        raise ValueError(f"repeat: expected at least 2 cycles to show a seam; got {repeat!r}")
+    repeat = int(repeat)
     rows = [(labels[0], original)] + ([(labels[1], looped)] if looped is not None else [])
     view = side_view(repeat_motion(original, repeat, root))
     trace = _trace_joints(original, joints)
     fig = _figure(9.0, 2.3 * len(rows) + (0.3 if title else 0.0), dpi)
     axes = fig.subplots(len(rows), 2, squeeze=False, gridspec_kw={"width_ratios": [3.2, 1.0]})
-    colours = ["#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
+    colours = _TRACE
     for r, (lab, m) in enumerate(rows):
         scale = m.metres_per_unit or 1.0
         rot, shift = cycle_transform(m, root)
@@ -740,6 +974,8 @@ def plot_seam(
                 ax.plot(*scr[k * (f - 1), j], "x", color="r", ms=5)
         ax.set_title(f"{lab}: {repeat} cycles", fontsize=8)
         ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("along the travel (m)", fontsize=7)
+        ax.set_ylabel("height (m)", fontsize=7)
         ax.tick_params(labelsize=6)
         ax.grid(True, lw=0.3, alpha=0.5)
         if r == 0:
@@ -759,6 +995,8 @@ def plot_seam(
         axc.autoscale()
         axc.set_aspect("equal", adjustable="datalim")
         axc.set_title("seam: end (blue), next start (orange)", fontsize=7)
+        axc.set_xlabel("along the travel (m)", fontsize=7)
+        axc.set_ylabel("height (m)", fontsize=7)
         axc.tick_params(labelsize=6)
     if title:
         fig.suptitle(title, fontsize=9)
@@ -820,7 +1058,7 @@ def plot_so3_curves(
     ys = np.outer(np.sin(u), np.sin(w))
     zs = np.outer(np.ones_like(u), np.cos(w))
     ax.plot_wireframe(xs, ys, zs, color="#dddddd", lw=0.4)
-    palette = ["#1f77b4", "#ff7f0e", "#d62728", "#2ca02c", "#9467bd", "#8c564b"]
+    palette = _PALETTE
     styles = ["-", "--", ":", "-."]
     labels = [f"curve {k}" for k in range(len(curves))] if labels is None else list(labels)
     if elev is None or azim is None:
@@ -875,6 +1113,25 @@ def plot_so3_curves(
 #: What :func:`render` draws.
 KINDS = ("auto", "animation", "feet", "warp", "seam", "sphere")
 
+#: The keywords :func:`render` accepts for each kind (besides ``labels``, ``protected``,
+#: ``progress``).
+RENDER_KEYWORDS: dict[str, tuple[str, ...]] = {
+    "animation": ("fps", "panel_size", "seconds", "trail", "azimuth", "elevation", "also"),
+    "feet": ("ncols", "ghosts", "azimuth", "elevation", "title"),
+    "warp": ("method", "warp", "landmarks", "joints", "prepare", "max_pairs", "title"),
+    "seam": ("repeat", "root", "joints", "title"),
+    "sphere": ("joint", "frame", "vectors", "title"),
+}
+
+
+def render_kind(kind: str, path: str | os.PathLike[str]) -> str:
+    """The picture :func:`render` draws into ``path`` for ``kind`` (resolves ``"auto"``)."""
+    if kind not in KINDS:
+        raise ValueError(f"kind: expected one of {list(KINDS)}; got {kind!r}")
+    if kind == "auto":
+        return "animation" if Path(path).suffix.lower() in VIDEO_FORMATS else "feet"
+    return kind
+
 
 def render(
     motions: Sequence[Motion],
@@ -895,78 +1152,94 @@ def render(
         ``.gif``/``.mp4`` (animation) or ``.png``/``.svg``/``.pdf`` (a still).
     kind : {"auto", "animation", "feet", "warp", "seam", "sphere"}
         ``"auto"``: an animation for ``.gif``/``.mp4``, the foot trajectories for a still.
-        ``"warp"``: two motions, aligned by :func:`elastic_motion.apps.align.align_motions`
-        (``kw``: ``method``, ``warp``, ``landmarks``, ``joints``). ``"seam"``: each motion
-        as a loop, repeated (``kw``: ``repeat``, ``root``, ``joints``; two motions: the
-        original and the looped one). ``"sphere"``: the rotation curve of one joint per
-        motion on the sphere (``kw``: ``joint``, default the root; ``frame``).
     labels : sequence of str, optional
+        Panel titles, one per motion (default: the motions' names; ``"warp"`` and ``"seam"``
+        use their own).
     protected : sequence of paths
         Input files (never overwritten).
     progress : callable, optional
+        ``progress("render", frame, frames)`` (animations).
     **kw
-        Passed on (see ``kind``).
+        The keywords of the function that draws ``kind`` (:data:`RENDER_KEYWORDS`):
+
+        * ``"animation"`` (:func:`render_animation`): ``fps`` (frames per second),
+          ``panel_size`` (pixels, ``(width, height)``), ``seconds``, ``trail`` (seconds),
+          ``azimuth``, ``elevation`` (degrees), ``also`` (more video files).
+        * ``"feet"`` (:func:`plot_foot_trajectories`): ``ncols``, ``ghosts``, ``azimuth``,
+          ``elevation`` (degrees), ``title``.
+        * ``"warp"``: two motions, aligned by :func:`elastic_motion.apps.align.align_motions`
+          (``method``, ``warp``, ``landmarks`` (seconds), ``prepare``, ``max_pairs``;
+          ``joints``, the joints compared: ``"all"``, ``"common"`` or names, sets
+          ``prepare.joints``) and drawn by :func:`plot_warp` (``title``).
+        * ``"seam"`` (:func:`plot_seam`): each motion as a loop, repeated: ``repeat``
+          (cycles), ``root``, ``joints`` (the joints whose paths are drawn), ``title``; two
+          motions: the original and the looped one.
+        * ``"sphere"``: the rotation curve of one joint per motion on the sphere
+          (:func:`joint_rotation_curve`: ``joint``, default the root; ``frame``;
+          :func:`plot_so3_curves`: ``vectors``, ``title``).
 
     Returns
     -------
     pathlib.Path
+
+    Raises
+    ------
+    TypeError
+        A keyword that ``kind`` does not use (the message names it and lists the accepted
+        ones).
+    ValueError
+        A bad value: an unknown kind, a still written as a video, the wrong number of motions.
     """
-    if kind not in KINDS:
-        raise ValueError(f"kind: expected one of {list(KINDS)}; got {kind!r}")
+    kind = render_kind(kind, path)
+    accepted = RENDER_KEYWORDS[kind]
+    unknown = sorted(set(kw) - set(accepted))
+    if unknown:
+        raise TypeError(
+            f"render(kind={kind!r}): unexpected keyword{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(map(repr, unknown))}; accepted: {', '.join(accepted)}"
+        )
     out = Path(path)
     ext = out.suffix.lower()
     motions = list(motions)
-    if kind == "auto":
-        kind = "animation" if ext in VIDEO_FORMATS else "feet"
+    if not motions:
+        raise ValueError("motions: expected at least one motion")
     if kind == "animation":
-        allowed = {"fps", "panel_size", "seconds", "trail", "azimuth", "elevation"}
-        return render_animation(
-            motions,
-            out,
-            labels=labels,
-            protected=protected,
-            progress=progress,
-            **{k: v for k, v in kw.items() if k in allowed},
-        )
+        return render_animation(motions, out, labels=labels, protected=protected, progress=progress, **kw)
     if ext in VIDEO_FORMATS:
         raise ValueError(
             f"output: a {kind!r} picture is a still; write a .png, .svg or .pdf (got {out.name!r})"
         )
     if kind == "feet":
-        plot_foot_trajectories(motions, out, labels=labels, protected=protected)
+        plot_foot_trajectories(motions, out, labels=labels, protected=protected, **kw)
     elif kind == "warp":
         if len(motions) != 2:
             raise ValueError(f"kind 'warp': expected two motions; got {len(motions)}")
         from elastic_motion.apps.align import align_motions
 
-        allowed = {"method", "warp", "landmarks", "joints", "lam"}
-        res = align_motions(motions[0], motions[1], **{k: v for k, v in kw.items() if k in allowed})
-        plot_warp(res, out, protected=protected)
+        title = kw.pop("title", None)
+        joints = kw.pop("joints", None)
+        if joints is not None:
+            from elastic_motion.apps.prepare import PrepareOptions
+
+            prepare = kw.get("prepare") or PrepareOptions()
+            kw["prepare"] = prepare.replace(joints=joints if isinstance(joints, str) else tuple(joints))
+        res = align_motions(motions[0], motions[1], **kw)
+        plot_warp(res, out, title=title, protected=protected)
     elif kind == "seam":
-        looped = motions[1] if len(motions) == 2 else None
         if len(motions) > 2:
             raise ValueError(
                 f"kind 'seam': expected one motion (or the original and its loop); got {len(motions)}"
             )
-        plot_seam(
-            motions[0],
-            looped,
-            out,
-            repeat=int(kw.get("repeat", 3)),
-            root=kw.get("root", "travel"),
-            joints=kw.get("trace_joints"),
-            protected=protected,
-        )
+        looped = motions[1] if len(motions) == 2 else None
+        seam_labels = ("original", "looped")
+        if labels:
+            seam_labels = (labels[0], labels[1] if len(labels) > 1 else "looped")
+        plot_seam(motions[0], looped, out, labels=seam_labels, protected=protected, **kw)
     else:  # sphere
-        joint = kw.get("joint")
-        frame = kw.get("frame", "local")
+        joint = kw.pop("joint", None)
+        frame = kw.pop("frame", "local")
         curves = [joint_rotation_curve(m, joint if joint is not None else 0, frame=frame) for m in motions]
         name = joint if joint is not None else motions[0].skeleton.names[0]
-        plot_so3_curves(
-            curves,
-            out,
-            labels=labels or [m.name for m in motions],
-            title=f"{name} ({frame} rotation)",
-            protected=protected,
-        )
+        kw.setdefault("title", f"{name} ({frame} rotation)")
+        plot_so3_curves(curves, out, labels=labels or [m.name for m in motions], protected=protected, **kw)
     return out

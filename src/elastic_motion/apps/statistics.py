@@ -13,13 +13,13 @@ Conventions
 * **Karcher mean** (:func:`karcher_mean`) of curves in one Lie group, in SRV space:
   ``mu = argmin sum_k w_k min_phi ||mu - q_k * phi||^2``, by alternating (i) the optimal warp of
   each ``q_k`` onto the current mean (:func:`elastic_motion.warp.optimal_warp`) and (ii) the
-  weighted average of the aligned SRV functions (projected on the common grid). Each step
-  does not increase the energy (the previous warp is a path of the next DP; the average is the
-  L2 minimiser). The mean curve is reconstructed with
-  :func:`elastic_motion.curves.weighted_blend` from the aligned inputs (start point: the
-  group's weighted mean of the start points). The warps are not re-centred (fdasrsf's
-  ``srsf_align`` re-centres them so their mean is the identity); the mean therefore keeps the
-  time-parametrisation the iteration converges to.
+  weighted average of the aligned SRV functions (projected on the common grid). With the
+  DP (``WarpOptions(method="dp")``, the default) each step does not increase the energy (the
+  previous warp is a path of the next DP; the average is the L2 minimiser). The mean curve
+  is reconstructed with :func:`elastic_motion.curves.weighted_blend` from the aligned inputs
+  (start point: the group's weighted mean of the start points). The warps are not re-centred
+  (fdasrsf's ``srsf_align`` re-centres them so their mean is the identity); the mean
+  therefore keeps the time-parametrisation the iteration converges to.
 * **Hierarchical clustering**: :func:`scipy.cluster.hierarchy.linkage` on the condensed
   matrix; ``+inf`` entries are replaced by twice the largest finite distance (so motions of
   different skeletons join last).
@@ -32,13 +32,15 @@ from __future__ import annotations
 import os
 import re
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from elastic_motion.apps.progress import Progress
+from elastic_motion.apps.report import jsonable
 from elastic_motion.curves import (
     DiscreteCurve,
     SRVFunction,
@@ -46,12 +48,18 @@ from elastic_motion.curves import (
     srv_transform,
     weighted_blend,
 )
+from elastic_motion.errors import OptionError
+from elastic_motion.warp import WarpOptions
+
+if TYPE_CHECKING:
+    from elastic_motion.motion import Motion
 
 __all__ = [
     "CMU_CATEGORIES",
     "ClusterResult",
     "KarcherMeanResult",
     "KnnEvaluation",
+    "MeanMotionResult",
     "bandai_labels",
     "cluster",
     "cmu_label",
@@ -61,8 +69,6 @@ __all__ = [
     "mean_motion",
     "nearest",
 ]
-
-Progress = Callable[[str, int, int], None]
 
 #: Categories of the CMU trials in the project's test data (CMU database descriptions).
 CMU_CATEGORIES = {
@@ -139,7 +145,7 @@ def nearest(distances: Any, k: int = 5, *, exclude: Sequence[int] = ()) -> np.nd
     if d.ndim != 1:
         raise ValueError(f"distances: expected a vector (M,); got shape {d.shape}")
     if k < 1:
-        raise ValueError(f"k: expected k >= 1; got {k}")
+        raise OptionError("k", f"expected k >= 1; got {k}")
     d[list(exclude)] = np.inf
     d[np.isnan(d)] = np.inf
     order = np.argsort(d, kind="stable")
@@ -203,11 +209,11 @@ def knn_evaluate(
     m = d.shape[0]
     labels = list(labels)
     if len(labels) != m:
-        raise ValueError(f"labels: expected {m} labels (one per row); got {len(labels)}")
+        raise OptionError("labels", f"expected {m} labels (one per row); got {len(labels)}")
     if blocks is not None and len(blocks) != m:
-        raise ValueError(f"blocks: expected {m} entries; got {len(blocks)}")
+        raise OptionError("blocks", f"expected {m} entries; got {len(blocks)}")
     if k < 1:
-        raise ValueError(f"k: expected k >= 1; got {k}")
+        raise OptionError("k", f"expected k >= 1; got {k}")
     valid = np.array([bool(lab) for lab in labels])
     preds: list[str | None] = [None] * m
     per: dict[str, list[int]] = {}
@@ -295,6 +301,18 @@ def dtw_matrix(
 # --------------------------------------------------------------------------------------------
 
 
+def _warp_options(warp: WarpOptions | str | None) -> WarpOptions:
+    if warp is None:
+        from elastic_motion.apps.database.settings import DEFAULT_WARP
+
+        return DEFAULT_WARP
+    if isinstance(warp, WarpOptions):
+        return warp
+    if isinstance(warp, str):
+        return WarpOptions(method=warp)  # type: ignore[arg-type]
+    raise OptionError("warp", f"expected a WarpOptions or a method name ('dp', 'none'...); got {warp!r}")
+
+
 @dataclass(frozen=True, eq=False)
 class KarcherMeanResult:
     """Karcher mean of curves in SRV space.
@@ -331,8 +349,7 @@ def karcher_mean(
     *,
     weights: Sequence[float] | None = None,
     n_samples: int | None = None,
-    warp: str = "dp",
-    neighbourhood: int = 6,
+    warp: WarpOptions | str | None = None,
     max_iter: int = 20,
     tol: float = 1e-4,
     progress: Progress | None = None,
@@ -347,14 +364,17 @@ def karcher_mean(
         Non-negative weights (normalised to sum 1); default equal.
     n_samples : int, optional
         Cells ``n`` of the common uniform grid (default: the largest ``n_points - 1``).
-    warp : {"dp", "none"}
-        ``"none"``: the plain SRV average (one iteration, no alignment).
-    neighbourhood : int
-        DP slopes (see :func:`elastic_motion.warp.optimal_warp`).
-    max_iter : int
+    warp : WarpOptions or {"dp", "dp+refine", "none"}, optional
+        How each curve is aligned to the mean (default
+        :data:`elastic_motion.apps.database.DEFAULT_WARP`: DP, neighbourhood 10, as for a
+        database); a method name stands for ``WarpOptions(method=name)``. ``"none"``: the
+        plain SRV average (one iteration, no alignment). ``"dp+refine"`` gives each input a
+        closer warp, but the energy is then no longer guaranteed to decrease (the refined
+        warp of one iteration is not a path of the next DP).
+    max_iter : int, default 20
         Alignment iterations at most.
-    tol : float
-        Stop when ``(E_{i-1} - E_i) / E_{i-1} < tol``.
+    tol : float, default 1e-4
+        Stop when ``(E_{i-1} - E_i) / E_{i-1} < tol`` (relative, dimensionless).
     progress : callable, optional
         ``progress("mean", iteration, max_iter)``.
 
@@ -381,13 +401,14 @@ def karcher_mean(
     kk = len(curves)
     w = np.full(kk, 1.0 / kk) if weights is None else np.asarray(weights, dtype=np.float64)
     if w.shape != (kk,) or (w < 0).any() or not w.sum() > 0:
-        raise ValueError(f"weights: expected {kk} non-negative weights with a positive sum; got {weights!r}")
+        raise OptionError(
+            "weights", f"expected {kk} non-negative weights with a positive sum; got {weights!r}"
+        )
     w = w / w.sum()
-    if warp not in ("dp", "none"):
-        raise ValueError(f"warp: expected 'dp' or 'none'; got {warp!r}")
+    opts = _warp_options(warp)
     n = int(n_samples) if n_samples is not None else max(c.n_points for c in curves) - 1
     if n < 2:
-        raise ValueError(f"n_samples: expected at least 2 cells; got {n}")
+        raise OptionError("n_samples", f"expected at least 2 cells; got {n}")
     t = np.linspace(0.0, 1.0, n + 1)
     uniform = [
         c if c.n_points == n + 1 and np.array_equal(c.t, t) else DiscreteCurve(c.evaluate(t), g, t)
@@ -402,12 +423,13 @@ def karcher_mean(
     dists = np.sqrt(np.array([warp_energy(mu, q[k], identity) for k in range(kk)]))
     converged = False
     iterations = 0
-    if warp == "none":
+    if opts.method == "none":
         energies.append(float(np.dot(w, dists**2)))
         converged = True
     else:
+        solver = opts.solver_kwargs()
         for it in range(max_iter):
-            results = [optimal_warp(mu, q[k], neighbourhood=neighbourhood) for k in range(kk)]
+            results = [optimal_warp(mu, q[k], **solver) for k in range(kk)]
             e = float(sum(w[k] * r.energy for k, r in enumerate(results)))
             energies.append(e)
             warps = [r.vertices for r in results]
@@ -423,7 +445,7 @@ def karcher_mean(
             if e == 0.0:
                 converged = True
                 break
-    mean_curve = weighted_blend(uniform, w, warps if warp == "dp" else None, t_out=t)
+    mean_curve = weighted_blend(uniform, w, warps if opts.method != "none" else None, t_out=t)
     return KarcherMeanResult(
         mean=mean_curve,
         srv=SRVFunction(mu, t, mean_curve.values[0], g),
@@ -435,6 +457,71 @@ def karcher_mean(
     )
 
 
+@dataclass(frozen=True, eq=False)
+class MeanMotionResult:
+    """Karcher mean of motion files, as a motion (:func:`mean_motion`).
+
+    Attributes
+    ----------
+    motion : Motion
+        The mean, on the skeleton of the first file (after preparation: metres when the
+        unit is known, Y-up, no finger joints by default), lasting ``duration`` seconds at
+        the output frame rate.
+    karcher : KarcherMeanResult
+        The mean curve, its SRV function, the warps, energies and distances.
+    inputs : tuple of str
+        The files, in order (length ``K``).
+    representation : {"lie", "euler"}
+    n_samples : int
+        Cells of the common grid the mean was computed on (``n_samples + 1`` frames).
+    duration : float
+        Seconds: the mean of the inputs' durations.
+    notes : dict of str -> tuple of str
+        What the preparation did to each input file.
+    """
+
+    motion: Motion
+    karcher: KarcherMeanResult
+    inputs: tuple[str, ...]
+    representation: str
+    n_samples: int
+    duration: float
+    notes: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    @property
+    def energies(self) -> np.ndarray:
+        """``(iterations,)``: Karcher energy ``sum_k w_k d(mu_i, c_k)^2`` per iteration."""
+        return self.karcher.energies
+
+    @property
+    def converged(self) -> bool:
+        """The relative energy decrease fell below ``tol``."""
+        return self.karcher.converged
+
+    @property
+    def distances(self) -> np.ndarray:
+        """``(K,)``: elastic distance of each input to the mean (SRV norm units)."""
+        return self.karcher.distances
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready fields of a report, through :func:`~elastic_motion.apps.report.jsonable`."""
+        return jsonable(
+            {
+                "inputs": self.inputs,
+                "representation": self.representation,
+                "n_samples": self.n_samples,
+                "energies": self.karcher.energies,
+                "iterations": self.karcher.iterations,
+                "converged": self.karcher.converged,
+                "distances": dict(zip(self.inputs, self.karcher.distances, strict=True)),
+                "duration": self.duration,
+                "fps": self.motion.fps,
+                "frames": self.motion.n_frames,
+                "notes": self.notes,
+            }
+        )
+
+
 def mean_motion(
     files: Sequence[str | os.PathLike[str]],
     *,
@@ -443,13 +530,12 @@ def mean_motion(
     joints: str | Sequence[str] = "all",
     drop_fingers: bool = True,
     align_heading: bool = True,
-    warp: str = "dp",
-    neighbourhood: int = 6,
+    warp: WarpOptions | str | None = None,
     max_iter: int = 20,
     tol: float = 1e-4,
     fps: float | None = None,
     progress: Progress | None = None,
-) -> tuple[Any, KarcherMeanResult, dict[str, Any]]:
+) -> MeanMotionResult:
     """Karcher mean of motion files, as a motion.
 
     The files are prepared as for a database (:func:`elastic_motion.apps.database.prepare_motion`,
@@ -458,29 +544,46 @@ def mean_motion(
     ``from_euler_curve``) on the skeleton of the first file, with the mean duration, and
     resampled (geodesic interpolation) to ``fps`` (default: the first file's frame rate).
 
+    Parameters
+    ----------
+    files : sequence of paths
+        At least one motion file, of one skeleton (or ``joints="common"``).
+    n_samples : int, default 64
+    representation : {"lie", "euler"}, default "lie"
+    joints : "all", "common" or sequence of str, default "all"
+    drop_fingers, align_heading : bool, default True
+        As in :class:`elastic_motion.apps.database.DatabaseSettings`.
+    warp : WarpOptions or method name, optional
+        Default: DP, neighbourhood 10 (see :func:`karcher_mean`).
+    max_iter : int, default 20
+    tol : float, default 1e-4
+    fps : float, optional
+        Frames per second of the result (default: the first file's, after preparation).
+    progress : callable, optional
+        ``progress("mean", iteration, max_iter)``.
+
     Returns
     -------
-    motion : elastic_motion.motion.Motion
-    result : KarcherMeanResult
-    info : dict
-        ``{"inputs", "energies", "iterations", "converged", "distances", "duration", "notes"}``.
+    MeanMotionResult
 
     Raises
     ------
-    ValueError
-        Fewer than one readable file, different skeletons (use ``joints="common"``), or an
-        unknown representation.
+    OptionError
+        No file, different skeletons (use ``joints="common"``), or an unknown representation.
+    ParseError
+        A malformed file.
     """
     from elastic_motion import motion as mm
-    from elastic_motion.apps import database as db
+    from elastic_motion.apps.database import prepare_motion, restrict_to_common_joints
 
     if representation not in ("lie", "euler"):
-        raise ValueError(f"representation: expected 'lie' or 'euler'; got {representation!r}")
+        raise OptionError("representation", f"expected 'lie' or 'euler'; got {representation!r}")
+    opts = _warp_options(warp)
     files = [os.fspath(f) for f in files]
     if not files:
-        raise ValueError("files: expected at least one motion file")
+        raise OptionError("files", "expected at least one motion file; got none")
     prepared = [
-        db.prepare_motion(
+        prepare_motion(
             f,
             n_samples,
             joints=joints if not isinstance(joints, str) else "all",
@@ -490,40 +593,21 @@ def mean_motion(
         for f in files
     ]
     if joints == "common":
-        common = set(prepared[0].joint_names)
-        for p in prepared[1:]:
-            common &= set(p.joint_names)
-        prepared = [
-            db.PreparedMotion(
-                p.path,
-                mm.select_joints(p.motion, db._closed_joint_set(p.motion.skeleton, common)),
-                p.original_frames,
-                p.duration,
-                p.notes,
-            )
-            for p in prepared
-        ]
+        prepared = restrict_to_common_joints(prepared)
     names0 = prepared[0].joint_names
     for f, p in zip(files, prepared, strict=True):
         if p.joint_names != names0:
-            raise ValueError(
-                f"files: {f!r} has a different skeleton ({len(p.joint_names)} joints) from {files[0]!r} "
-                f"({len(names0)} joints); average motions of one skeleton, or pass joints='common'"
+            raise OptionError(
+                "joints",
+                f"{f}: expected the skeleton of {files[0]} ({len(names0)} joints); got a different skeleton "
+                f"({len(p.joint_names)} joints): average motions of one skeleton, or pass joints='common'",
             )
     if representation == "lie":
-        jw, tw = db.group_weights([p.motion for p in prepared])
+        jw, tw = mm.group_weights([p.motion for p in prepared])
         curves = [mm.to_lie_curve(p.motion, jw, translation_weight=tw) for p in prepared]
     else:
         curves = [mm.to_euler_curve(p.motion) for p in prepared]
-    res = karcher_mean(
-        curves,
-        n_samples=n_samples,
-        warp=warp,
-        neighbourhood=neighbourhood,
-        max_iter=max_iter,
-        tol=tol,
-        progress=progress,
-    )
+    res = karcher_mean(curves, n_samples=n_samples, warp=opts, max_iter=max_iter, tol=tol, progress=progress)
     duration = float(np.mean([p.duration for p in prepared]))
     like = prepared[0].motion
     conv = mm.from_lie_curve if representation == "lie" else mm.from_euler_curve
@@ -533,20 +617,15 @@ def mean_motion(
     if duration > 0 and out_fps > 0:
         motion = mm.resample(motion, out_fps)
     motion = motion.replace(name="karcher mean")
-    info = {
-        "inputs": files,
-        "representation": representation,
-        "n_samples": n_samples,
-        "energies": res.energies.tolist(),
-        "iterations": res.iterations,
-        "converged": res.converged,
-        "distances": dict(zip(files, res.distances.tolist(), strict=True)),
-        "duration": duration,
-        "fps": motion.fps,
-        "frames": motion.n_frames,
-        "notes": {p.path: list(p.notes) for p in prepared},
-    }
-    return motion, res, info
+    return MeanMotionResult(
+        motion=motion,
+        karcher=res,
+        inputs=tuple(files),
+        representation=representation,
+        n_samples=n_samples,
+        duration=duration,
+        notes={p.path: p.notes for p in prepared},
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -601,7 +680,7 @@ def cluster(
     from scipy.spatial.distance import squareform
 
     if method not in ("average", "complete", "single", "weighted"):
-        raise ValueError(f"method: expected 'average', 'complete', 'single' or 'weighted'; got {method!r}")
+        raise OptionError("method", f"expected 'average', 'complete', 'single' or 'weighted'; got {method!r}")
     d = _check_matrix(distances).copy()
     m = d.shape[0]
     if m < 2:
@@ -618,6 +697,6 @@ def cluster(
     labels = None
     if n_clusters is not None:
         if not 1 <= n_clusters <= m:
-            raise ValueError(f"n_clusters: expected 1..{m}; got {n_clusters}")
+            raise OptionError("n_clusters", f"expected an integer in 1..{m}; got {n_clusters}")
         labels = fcluster(z, t=n_clusters, criterion="maxclust")
     return ClusterResult(linkage=z, labels=labels, method=method, names=names)

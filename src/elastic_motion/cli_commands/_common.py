@@ -1,7 +1,9 @@
 """Helpers shared by the motion sub-commands (blend, landmarks, loop, align, distance, render).
 
-Reading inputs (T-pose removal, trimming), refusing outputs that are inputs, parsing
-landmark arguments, the ``--json`` option and error reporting. No numerical work.
+The options of the preparation step and of the time warp (one name per concept across all
+commands, mapped onto :class:`elastic_motion.apps.prepare.PrepareOptions` and
+:class:`elastic_motion.warp.WarpOptions`), refusing outputs that are inputs, parsing landmark
+arguments, the ``--json`` option and error reporting. No numerical work.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from elastic_motion.errors import ParseError
+from elastic_motion.errors import OptionError, ParseError
 
 #: Exit code for bad input (unreadable file, bad argument value).
 EXIT_BAD_INPUT = 2
@@ -31,10 +33,23 @@ def fail(command: str, message: str) -> int:
     return EXIT_BAD_INPUT
 
 
+#: API argument names that are input files on the command line, not options.
+_POSITIONAL = {"motions", "motion", "labels", "prepare"}
+
+
+def option_message(exc: OptionError) -> str:
+    """An :class:`OptionError` in command-line words: the API argument ``trim`` is ``--trim``."""
+    if exc.option in _POSITIONAL:
+        return exc.message
+    return f"--{exc.option.replace('_', '-')}: {exc.message}"
+
+
 def run_guarded(command: str, fn, args: argparse.Namespace) -> int:
     """Call ``fn(args)``; turn user errors (bad files, bad values) into exit code 2."""
     try:
         return int(fn(args))
+    except OptionError as exc:
+        return fail(command, option_message(exc))
     except (CommandError, ParseError, ValueError, KeyError, FileNotFoundError, IsADirectoryError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
         return fail(command, str(msg))
@@ -54,119 +69,184 @@ def add_json_option(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="PATH",
         help="write a JSON report of what was done, with the quality metrics, to PATH "
-        "(without PATH: print it on stdout instead of the summary)",
+        "(without PATH: print it on stdout instead of the summary; default: no report)",
     )
 
 
 def add_quiet_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar on stderr")
+    p.add_argument(
+        "-q", "--quiet", action="store_true", help="no progress bar on stderr (default: bars on terminals)"
+    )
 
 
-def add_input_options(p: argparse.ArgumentParser, *, several: bool = True) -> None:
-    """``--trim``, ``--keep-first-frame``, ``--units``."""
+def add_input_options(p: argparse.ArgumentParser, *, several: bool = True, writes_bvh: bool = True) -> None:
+    """The preparation step's options (:class:`elastic_motion.apps.prepare.PrepareOptions`):
+    ``--trim``, ``--keep-first-frame``, ``--units``, ``--up``, and ``--units-out`` for the
+    commands that write a BVH (``writes_bvh``)."""
     p.add_argument(
         "--trim",
         nargs="+",
         default=None,
         metavar="START:STOP",
-        help="keep only this time range of each input, seconds from its first frame"
-        + (" (one range per input, in order; ':' keeps a whole file)" if several else "")
-        + "; e.g. 1.0:3.4",
+        help="keep only this time range of each input, seconds from its first frame (after a dropped "
+        "T-pose frame)"
+        + ("; one range per input, in order (':' keeps a whole file)" if several else "")
+        + "; e.g. 1.0:3.4 (default: whole clips)",
     )
     p.add_argument(
         "--keep-first-frame",
         action="store_true",
-        help="keep frame 0 even when it looks like a T-pose (by default such a frame is dropped)",
+        help="keep frame 0 even when it looks like a T-pose (default: such a frame is dropped)",
     )
+    # unit names are checked by PrepareOptions (elastic_motion.motion.UNITS); not imported
+    # here so that --help does not load the numerical stack
     p.add_argument(
         "--units",
         default=None,
-        help="length unit of BVH inputs (m, cm, mm, inch, cmu); default: guessed from the skeleton",
+        metavar="UNIT",
+        help="length unit of BVH inputs: m, cm, mm, inch or cmu (default: guessed from the skeleton's size)",
+    )
+    p.add_argument(
+        "--up",
+        default=None,
+        choices=("y", "z"),
+        help="up axis of the inputs (default: as detected when reading; Blender exports are z-up)",
+    )
+    if not writes_bvh:
+        return
+    p.add_argument(
+        "--units-out",
+        default=None,
+        metavar="UNIT",
+        help="length unit of the written BVH: m, cm, mm, inch or cmu (default: the unit of the first input)",
     )
 
 
 def add_joint_options(p: argparse.ArgumentParser) -> None:
+    """``--joints`` and ``--no-align`` (preparation step)."""
+    from elastic_motion.cli_commands._argparse import add_alias
+
     p.add_argument(
         "--joints",
         default="all",
-        help="'all' (the inputs must have the same joints), 'common' (keep the shared joints) "
-        "or a comma-separated list of joint names",
+        help="'all' (the inputs must have the same joints), 'common' (keep the shared joints; refused "
+        "when that leaves less than half a body) or a comma-separated list of joint names",
     )
     p.add_argument(
         "--no-align",
         action="store_true",
         help="do not place the inputs like the first one (heading and floor position)",
     )
+    add_alias(p, "--no-align-heading", "--no-align")
 
 
-def joints_arg(value: str) -> str | list[str]:
+def add_warp_options(p: argparse.ArgumentParser, *, landmarks: bool = True) -> None:
+    """The time warp's options (:class:`elastic_motion.warp.WarpOptions`)."""
+    from elastic_motion.cli_commands._argparse import add_alias
+    from elastic_motion.warp import WARP_METHODS, WarpOptions
+
+    defaults = WarpOptions()  # the API's defaults, so that both doors agree
+    p.add_argument(
+        "--warp",
+        choices=WARP_METHODS,
+        default=defaults.method,
+        help="time warp of B onto A: dynamic programming, DP then gradient refinement, or none",
+    )
+    p.add_argument(
+        "--neighbourhood",
+        type=int,
+        default=defaults.neighbourhood,
+        metavar="N",
+        help="DP slopes: all coprime steps (a, b) with a, b <= N",
+    )
+    p.add_argument(
+        "--sample-fps",
+        type=float,
+        default=defaults.sample_fps,
+        metavar="FPS",
+        help="frame rate (frames per second, at most) of the curves the warp is computed on",
+    )
+    add_alias(p, "--warp-fps", "--sample-fps")
+
+
+def prepare_options(args: argparse.Namespace, n_inputs: int) -> Any:
+    """The :class:`~elastic_motion.apps.prepare.PrepareOptions` of the parsed options."""
+    from elastic_motion.apps.prepare import PrepareOptions
+
+    trims: tuple = ()
+    raw = getattr(args, "trim", None)
+    if raw is not None:
+        if len(raw) not in (1, n_inputs):
+            raise CommandError(
+                f"--trim: expected one range per input ({n_inputs}) or one for all; got {len(raw)}"
+            )
+        trims = tuple(_parse_range(r) for r in raw)
+    joints = getattr(args, "joints", "all")
+    return PrepareOptions(
+        drop_tpose=not getattr(args, "keep_first_frame", False),
+        units=getattr(args, "units", None),
+        up=getattr(args, "up", None),
+        trim=trims,
+        joints=joints_arg(joints) if isinstance(joints, str) else joints,
+        align=not getattr(args, "no_align", False),
+        units_out=getattr(args, "units_out", None),
+    )
+
+
+def warp_options(args: argparse.Namespace) -> Any:
+    """The :class:`~elastic_motion.warp.WarpOptions` of the parsed options."""
+    from elastic_motion.warp import WarpOptions
+
+    lw = getattr(args, "landmark_weight", None)
+    return WarpOptions(
+        method=args.warp,
+        neighbourhood=args.neighbourhood,
+        sample_fps=args.sample_fps,
+        landmark_weight=WarpOptions().landmark_weight if lw is None else lw,
+    )
+
+
+def prepare_inputs(args: argparse.Namespace, paths: Sequence[str]) -> Any:
+    """Read and prepare the input files: the same step the Python API runs."""
+    from elastic_motion.apps.prepare import prepare_motions
+
+    return prepare_motions(list(paths), prepare_options(args, len(paths)))
+
+
+def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], inputs: Sequence[str]) -> None:
+    """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`)."""
+    from elastic_motion.apps.prepare import output_motion
+    from elastic_motion.motion import write_bvh
+
+    write_bvh(output_motion(motion, prepared.units_out), path, protected=list(inputs))
+
+
+def joints_arg(value: str) -> str | tuple[str, ...]:
     if value in ("all", "common"):
         return value
-    names = [v.strip() for v in value.split(",") if v.strip()]
+    names = tuple(v.strip() for v in value.split(",") if v.strip())
     if not names:
         raise CommandError(f"--joints: expected 'all', 'common' or joint names; got {value!r}")
     return names
 
 
-# ------------------------------------------------------------------------------------------
-# Inputs and outputs
-# ------------------------------------------------------------------------------------------
-
-
-def _parse_range(text: str, label: str) -> tuple[float | None, float | None]:
+def _parse_range(text: str) -> tuple[float | None, float | None] | None:
+    if text.strip() == ":":
+        return None
     if ":" not in text:
-        raise CommandError(f"--trim: expected START:STOP in seconds for {label}; got {text!r}")
+        raise CommandError(f"--trim: expected START:STOP in seconds; got {text!r}")
     a, b = text.split(":", 1)
     try:
         start = float(a) if a.strip() else None
         stop = float(b) if b.strip() else None
     except ValueError:
-        raise CommandError(f"--trim: expected numbers in START:STOP for {label}; got {text!r}") from None
+        raise CommandError(f"--trim: expected numbers in START:STOP (seconds); got {text!r}") from None
     return start, stop
 
 
-def load_inputs(
-    paths: Sequence[str],
-    *,
-    trims: Sequence[str] | None = None,
-    keep_first_frame: bool = False,
-    units: str | None = None,
-) -> tuple[list[Any], list[str]]:
-    """Read motion files; drop a T-pose frame 0 and trim as asked.
-
-    Returns
-    -------
-    motions : list of Motion
-    notes : list of str
-        One line per change (``"107_02_30hz.bvh: dropped T-pose frame 0"``).
-    """
-    from elastic_motion.motion import drop_tpose, has_tpose_first_frame, read_motion, trim
-
-    if trims is not None and len(trims) not in (1, len(paths)):
-        raise CommandError(f"--trim: expected one range per input ({len(paths)}); got {len(trims)}")
-    motions, notes = [], []
-    for k, path in enumerate(paths):
-        if not os.path.exists(path):
-            raise CommandError(f"{path}: no such file")
-        kw = {}
-        if units is not None and path.lower().endswith(".bvh"):
-            kw["units"] = units
-        m = read_motion(path, **kw)
-        name = Path(path).name
-        if not keep_first_frame and has_tpose_first_frame(m):
-            m = drop_tpose(m)
-            notes.append(f"{name}: dropped frame 0 (a T-pose; --keep-first-frame keeps it)")
-        if trims is not None:
-            rng = trims[k] if len(trims) == len(paths) else trims[0]
-            if rng.strip() != ":":
-                start, stop = _parse_range(rng, name)
-                m = trim(m, start, stop)
-                notes.append(
-                    f"{name}: kept {start if start is not None else 0:g}-"
-                    f"{stop if stop is not None else m.duration:g} s ({m.n_frames} frames)"
-                )
-        motions.append(m.replace(name=Path(path).stem))
-    return motions, notes
+# ------------------------------------------------------------------------------------------
+# Inputs and outputs
+# ------------------------------------------------------------------------------------------
 
 
 def check_output(
@@ -295,7 +375,8 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
         "--landmarks",
         default=None,
         help="'auto' (pair the events of A and B in order: the left knee passing the right knee), "
-        "'none', a file, or pairs 'tA:tB,...' (times in --landmark-units, or suffixed s/f)",
+        "'none', a file, or pairs 'tA:tB,...' (times in --landmark-units, or suffixed s/f) "
+        "(default: none)",
     )
     p.add_argument(
         "--landmark-units",
@@ -313,14 +394,18 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--max-pairs", type=int, default=None, help="--landmarks auto: at most this many pairs per kind"
     )
+    from elastic_motion.cli_commands._argparse import add_alias
+    from elastic_motion.warp import WarpOptions
+
     p.add_argument(
-        "--lambda",
-        dest="lam",
+        "--landmark-weight",
         type=float,
-        default=None,
-        help="relative weight of the landmark term (default 100: missing a landmark by 5%% of the "
-        "clip costs a quarter of the curves' squared norms)",
+        default=WarpOptions().landmark_weight,
+        metavar="W",
+        help="relative weight of the landmark term (100: missing a landmark by 5%% of the "
+        "clip costs a quarter of the curves' squared SRV norms)",
     )
+    add_alias(p, "--lambda", "--landmark-weight")
 
 
 def landmark_kinds(value: str) -> list[str]:

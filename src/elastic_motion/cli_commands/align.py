@@ -11,14 +11,15 @@ from elastic_motion.cli_commands._common import (
     add_joint_options,
     add_json_option,
     add_landmark_options,
+    add_warp_options,
     check_output,
     emit_report,
     fmt_float,
-    joints_arg,
     landmark_kinds,
-    load_inputs,
     parse_landmarks,
+    prepare_inputs,
     run_guarded,
+    warp_options,
 )
 
 
@@ -35,18 +36,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("a", metavar="A", help="reference motion")
     p.add_argument("b", metavar="B", help="motion warped onto A")
     p.add_argument("--method", choices=("lie", "euler-elastic"), default="lie", help="curve representation")
-    p.add_argument("--warp", choices=("dp", "dp+refine", "none"), default="dp")
+    add_warp_options(p)
     add_landmark_options(p)
     add_joint_options(p)
-    p.add_argument("--plot", default=None, metavar="PNG", help="write a plot of the warp with the landmarks")
-    p.add_argument("--warp-fps", type=float, default=30.0, help="frame rate of the curves")
-    add_input_options(p)
+    p.add_argument(
+        "--plot",
+        default=None,
+        metavar="PNG",
+        help="write a plot of the warp with the landmarks (default: none)",
+    )
+    add_input_options(p, writes_bvh=False)
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("align", run, a))
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.align import DEFAULT_LAMBDA, align_motions
+    from elastic_motion.apps.align import align_motions
     from elastic_motion.apps.render import plot_warp
     from elastic_motion.apps.report import report_header
 
@@ -56,19 +61,13 @@ def run(args: argparse.Namespace) -> int:
         if args.plot
         else None
     )
-    (a, b), notes = load_inputs(
-        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
-    )
+    prep = prepare_inputs(args, inputs)
+    fps = [r.fps for r in prep.inputs]
     res = align_motions(
-        a,
-        b,
+        prep,
         method=args.method,
-        warp=args.warp,
-        landmarks=parse_landmarks(args.landmarks, args.landmark_units, a.fps, b.fps),
-        lam=DEFAULT_LAMBDA if args.lam is None else args.lam,
-        joints=joints_arg(args.joints),
-        align=not args.no_align,
-        warp_fps=args.warp_fps,
+        warp=warp_options(args),
+        landmarks=parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1]),
         landmark_kinds=landmark_kinds(args.landmark_kinds),
         max_pairs=args.max_pairs,
     )
@@ -76,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     if plot is not None:
         plot_warp(res, plot, protected=inputs)
         outputs.append(str(plot))
-    all_notes = notes + list(res.prepared.notes)
+    all_notes = list(res.prepared.notes)
     report = report_header("align", inputs, outputs, all_notes)
     report.update(res.summary())
     report["notes"] = all_notes
@@ -94,5 +93,5 @@ def run(args: argparse.Namespace) -> int:
     if plot is not None:
         lines.append(f"wrote {plot}")
     lines += [f"note: {n}" for n in all_notes]
-    emit_report(args, report, inputs, "\n".join(lines))
+    emit_report(args, report, [*inputs, *outputs], "\n".join(lines))
     return 0

@@ -11,15 +11,17 @@ from elastic_motion.cli_commands._common import (
     add_json_option,
     add_landmark_options,
     add_quiet_option,
+    add_warp_options,
     check_output,
     emit_report,
     fmt_float,
-    joints_arg,
     landmark_kinds,
-    load_inputs,
     parse_landmarks,
+    prepare_inputs,
     progress_for,
     run_guarded,
+    warp_options,
+    write_motion,
 )
 
 _METHOD_HELP = (
@@ -47,20 +49,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("-o", "--output", required=True, help="output .bvh file (never one of the inputs)")
     p.add_argument(
-        "--weight", type=float, default=None, help="s for two motions: the result is (1-s) A + s B"
+        "--weight",
+        type=float,
+        default=None,
+        help="s for two motions: the result is (1-s) A + s B (default: 0.5)",
     )
     p.add_argument(
-        "--weights", type=float, nargs="+", default=None, help="one weight per input, summing to 1"
+        "--weights",
+        type=float,
+        nargs="+",
+        default=None,
+        help="one weight per input, summing to 1 (default: equal weights)",
     )
     p.add_argument(
         "--method", choices=("lie", "euler-elastic", "euler-linear"), default="lie", help=_METHOD_HELP
     )
-    p.add_argument(
-        "--warp",
-        choices=("dp", "dp+refine", "none"),
-        default="dp",
-        help="time warp of B onto A: dynamic programming (default), DP then gradient refinement, or none",
-    )
+    add_warp_options(p)
     add_landmark_options(p)
     add_joint_options(p)
     p.add_argument(
@@ -73,10 +77,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="bone offsets of the result: weighted mean of the inputs' (default) or A's",
     )
     p.add_argument(
-        "--warp-fps", type=float, default=30.0, help="frame rate of the curves the warp is computed on"
-    )
-    p.add_argument(
-        "--no-metrics", action="store_true", help="skip the quality metrics (saves three DP solves)"
+        "--no-metrics",
+        action="store_true",
+        help="skip the quality metrics in the report (saves three or more DP solves)",
     )
     add_input_options(p)
     add_json_option(p)
@@ -86,42 +89,33 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Blend ``args.inputs`` into ``args.output``; exit code 0, or 2 for bad input."""
-    from elastic_motion.apps.align import DEFAULT_LAMBDA
     from elastic_motion.apps.blend import blend_motions
     from elastic_motion.apps.report import report_header
-    from elastic_motion.motion import write_bvh
 
     inputs = list(args.inputs)
     if len(inputs) < 2:
-        raise CommandError("expected at least two input motions")
+        raise CommandError(f"FILE: expected at least two input motions; got {len(inputs)}")
     out = check_output(args.output, inputs, suffixes=(".bvh",))
     if args.weight is not None and args.weights is not None:
-        raise CommandError("give --weight (two motions) or --weights, not both")
+        raise CommandError("--weight: expected --weight (two motions) or --weights, not both")
     weights = args.weight if args.weight is not None else args.weights
     if args.weight is not None and len(inputs) != 2:
         raise CommandError(
-            f"--weight s is for two motions; got {len(inputs)}: use --weights w1 ... w{len(inputs)}"
+            f"--weight: expected two motions for s; got {len(inputs)}: use --weights w1 ... w{len(inputs)}"
         )
-    if weights is None and len(inputs) == 2:
-        weights = 0.5
-    motions, notes = load_inputs(
-        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
-    )
-    landmarks = parse_landmarks(args.landmarks, args.landmark_units, motions[0].fps, motions[1].fps)
+    prep = prepare_inputs(args, inputs)
+    fps = [r.fps for r in prep.inputs]
+    landmarks = parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1])
     bar = progress_for("blend", args)
     try:
         res = blend_motions(
-            motions,
+            prep,
             weights,
             method=args.method,
-            warp=args.warp,
+            warp=warp_options(args),
             landmarks=landmarks,
-            lam=DEFAULT_LAMBDA if args.lam is None else args.lam,
-            joints=joints_arg(args.joints),
             extrapolate=args.extrapolate,
-            align=not args.no_align,
             skeleton=args.skeleton,
-            warp_fps=args.warp_fps,
             landmark_kinds=landmark_kinds(args.landmark_kinds),
             max_pairs=args.max_pairs,
             metrics=not args.no_metrics,
@@ -129,12 +123,10 @@ def run(args: argparse.Namespace) -> int:
         )
     finally:
         bar.close()
-    write_bvh(res.motion, out)
-    all_notes = notes + list(res.notes)
-    report = report_header("blend", inputs, [str(out)], all_notes)
+    write_motion(res.motion, res.prepared, out, inputs)
+    report = report_header("blend", inputs, [str(out)], res.notes)
     report.update(res.summary())
-    report["notes"] = all_notes
-    emit_report(args, report, inputs, _summary(res, out, all_notes))
+    emit_report(args, report, [*inputs, str(out)], _summary(res, out, list(res.notes)))
     return 0
 
 
@@ -147,7 +139,7 @@ def _summary(res, out, notes) -> str:
     ]
     if res.landmarks:
         lines.append("landmarks (s): " + ", ".join(f"{a:.2f}:{b:.2f}" for a, b in res.landmarks))
-    met = res.metrics
+    met = res.metrics.summary() if res.metrics is not None else None
     if met:
         fs = met["foot_sliding"]
         lines.append(

@@ -3,26 +3,65 @@
 Thin wrappers over :mod:`elastic_motion.apps.database` and :mod:`elastic_motion.apps.statistics`;
 progress goes to stderr, results to stdout; ``--json [PATH]`` writes the report to PATH (or
 prints it on stdout), as every command does.
+
+One option name per concept, as in the other commands: ``--method`` the curve
+representation, ``-o/--output`` the output, ``--no-align``, ``--warp`` and
+``--neighbourhood`` the warp; ``cluster --linkage`` the clustering linkage. The spellings of
+earlier releases (``--repr``, ``--out``, ``--no-align-heading``) still work for one release,
+hidden from ``--help``, with a note on stderr.
+
 Exit codes: 0 success, 1 incomplete/interrupted run, 2 bad input, 3 cluster unreachable.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
+from elastic_motion.cli_commands._argparse import (
+    EXIT_BAD_INPUT,
+    EXIT_INCOMPLETE,
+    add_alias,
+    handle_error,
+    print_error,
+)
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_json_option,
     add_quiet_option,
     check_output,
     emit_report,
-    fail,
     progress_for,
 )
-from elastic_motion.errors import ParseError
+from elastic_motion.errors import OptionError, ParseError
+
+#: Curve representations (``--method``) of the database commands.
+METHODS = ("lie", "euler")
+#: Linkages of ``cluster --linkage``.
+LINKAGES = ("average", "complete", "single", "weighted")
+#: Removed in this release (shown in the deprecation notes of the old spellings).
+_ALIAS_UNTIL = "0.3"
+
+#: Python argument names (``OptionError.option``) -> the flag that sets them; ``None``: the
+#: message already starts with the file it concerns.
+_FLAGS: dict[str, str | None] = {
+    "representation": "--method",
+    "representations": "--method",
+    "n_samples": "--samples",
+    "joints": "--joints",
+    "warp": "--warp",
+    "neighbourhood": "--neighbourhood",
+    "tile_size": "--tile-size",
+    "out_dir": "--output",
+    "k": "-k",
+    "n_clusters": "--clusters",
+    "method": "--linkage",
+    "labels": "--labels",
+    "scheduler": "--scheduler",
+    "engine": "--engine",
+    "inputs": "inputs",
+}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -35,59 +74,138 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# Shared options
+# Shared options and errors
 # --------------------------------------------------------------------------------------------
+
+
+def _alias(p: argparse.ArgumentParser, old: str, new: str) -> None:
+    add_alias(p, old, new, until=_ALIAS_UNTIL)
 
 
 def _add_preparation(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--samples", type=int, default=64, help="frames per motion after resampling, minus one (default 64)"
+        "--samples",
+        type=int,
+        default=64,
+        help="cells of the common time grid: each motion is resampled to SAMPLES + 1 frames uniformly "
+        "over its duration (default: 64)",
     )
     p.add_argument(
         "--joints",
         default="all",
-        help="'all' (group motions by skeleton), 'common' (joints shared by all motions) or a comma list",
+        help="'all' (every joint: matrix groups motions by skeleton, mean needs one skeleton), 'common' "
+        "(the joints all motions share) or a comma-separated list of joint names (default: all)",
     )
+    p.add_argument("--keep-fingers", action="store_true", help="keep finger/thumb joints (default: dropped)")
     p.add_argument(
-        "--keep-fingers", action="store_true", help="keep finger/thumb joints (dropped by default)"
+        "--no-align",
+        action="store_true",
+        help="do not remove the heading and floor position of the root at frame 0 (default: removed)",
     )
-    p.add_argument("--no-align-heading", action="store_true", help="do not remove the heading at frame 0")
+    _alias(p, "--no-align-heading", "--no-align")
 
 
 def _joints(value: str) -> str | tuple[str, ...]:
-    return value if value in ("all", "common") else tuple(v.strip() for v in value.split(",") if v.strip())
+    if value in ("all", "common"):
+        return value
+    names = tuple(v.strip() for v in value.split(",") if v.strip())
+    if not names:
+        raise CommandError(f"--joints: expected 'all', 'common' or joint names; got {value!r}")
+    return names
 
 
-def _add_pair(p: argparse.ArgumentParser) -> None:
+def _add_warp(p: argparse.ArgumentParser) -> None:
+    from elastic_motion.warp import DEFAULT_MAX_STEP, WARP_METHODS
+
     p.add_argument(
-        "--warp", choices=("dp", "none"), default="dp", help="dp: elastic distance; none: no warping"
+        "--warp",
+        choices=WARP_METHODS,
+        default="dp",
+        help="dp: elastic distance (optimal warp by dynamic programming); dp+refine: then refined off "
+        "the grid; none: no warping, distance of the parametrised curves (default: dp)",
     )
     p.add_argument(
-        "--neighbourhood", type=int, default=6, help="DP slopes: coprime (a, b) up to this (default 6)"
+        "--neighbourhood",
+        type=int,
+        default=DEFAULT_MAX_STEP,
+        metavar="N",
+        help="DP slopes: all coprime steps (a, b) with a, b <= N; larger is more exact and slower "
+        f"(default: {DEFAULT_MAX_STEP})",
     )
     p.add_argument(
-        "--coarse-to-fine", action="store_true", help="banded coarse-to-fine DP (faster, approximate)"
+        "--coarse-to-fine",
+        action="store_true",
+        help="banded coarse-to-fine DP (faster on long grids, approximate; default: off)",
     )
+
+
+def _add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
+    """``--method`` (the curve representation), with the old spelling ``--repr``."""
+    if several:
+        p.add_argument(
+            "--method",
+            default="lie,euler",
+            metavar="{lie,euler}[,...]",
+            help="curve representations, comma-separated: lie (R^3 x SO(3)^J) and/or euler (Euler angles, "
+            "radians) (default: lie,euler)",
+        )
+    else:
+        p.add_argument(
+            "--method",
+            default="lie",
+            metavar="{lie,euler}",
+            help="curve representation: lie (R^3 x SO(3)^J) or euler (Euler angles, radians) (default: lie)",
+        )
+    _alias(p, "--repr", "--method")
+
+
+def _methods(value: str, *, several: bool) -> tuple[str, ...]:
+    got = tuple(v.strip() for v in value.split(",") if v.strip()) if several else (value,)
+    if not got or any(m not in METHODS for m in got) or len(set(got)) != len(got):
+        if not several and value in LINKAGES:
+            raise CommandError(
+                f"--method: expected a curve representation, one of {', '.join(METHODS)}; got {value!r}, a "
+                f"linkage (use --linkage {value})"
+            )
+        what = "distinct entries of" if several else "one of"
+        raise CommandError(f"--method: expected {what} {', '.join(METHODS)}; got {value!r}")
+    return got
 
 
 def _settings(args: argparse.Namespace, reps: tuple[str, ...]):
-    from elastic_motion.apps.database import DatabaseSettings, PairSpec
+    from elastic_motion.apps.database import DatabaseSettings
+    from elastic_motion.warp import WarpOptions
 
     return DatabaseSettings(
         n_samples=args.samples,
         representations=reps,
-        pair=PairSpec(warp=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine),
+        warp=WarpOptions(
+            method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
+        ),
         joints=_joints(args.joints),
         drop_fingers=not args.keep_fingers,
-        align_heading=not args.no_align_heading,
+        align_heading=not args.no_align,
         tile_size=getattr(args, "tile_size", 32),
     )
 
 
-def _fail(cmd: str, exc: BaseException, code: int = 2) -> int:
-    """Print the error the way every command does; ``code`` 1 incomplete, 2 bad input, 3 unreachable."""
-    fail(cmd, str(exc))
-    return code
+def _fail(command: str, exc: BaseException) -> int:
+    """Print ``elastic-motion CMD: error: FILE-OR-OPTION: expected ...; got ...``; return the exit code.
+
+    An :class:`~elastic_motion.errors.OptionError` is shown with the flag that sets the option.
+    """
+    if isinstance(exc, OptionError) and exc.option in _FLAGS:
+        flag = _FLAGS[exc.option]
+        print_error(command, exc.message if flag is None else f"{flag}: {exc.message}")
+        return EXIT_BAD_INPUT
+    if isinstance(exc, OSError) and exc.errno is None and exc.args:  # our own FILE: expected ...; got ...
+        print_error(command, str(exc))
+        return EXIT_BAD_INPUT
+    return handle_error(command, exc)
+
+
+#: Exceptions a database command reports as an error line (others are bugs and propagate).
+_USER_ERRORS = (CommandError, ValueError, KeyError, OSError, ParseError)
 
 
 def _emit(args: argparse.Namespace, command: str, body: dict, inputs, outputs, lines: list[str]) -> None:
@@ -109,28 +227,51 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
         help="all-pairs elastic distances of a motion database (tiles, resumable, Dask)",
         description=(
             "Compute all-pairs elastic distances (Lie and Euler representations) of the motions in "
-            "files/folders, tile by tile, into OUT: distances_<repr>.npy, names.csv, report.json. "
+            "files/folders, tile by tile, into OUTPUT: distances_<method>.npy, names.csv, report.json. "
             "Re-running the same command resumes an interrupted run."
         ),
     )
     p.add_argument("inputs", nargs="+", help="motion files and/or folders")
-    p.add_argument("-o", "--out", required=True, help="output folder")
-    p.add_argument("--engine", choices=("serial", "local", "dask"), default="serial")
+    p.add_argument("-o", "--output", required=True, help="output folder (created; required)")
+    _alias(p, "--out", "--output")
     p.add_argument(
-        "--scheduler", default=None, help="Dask scheduler address for --engine dask (tcp://host:8786)"
+        "--engine",
+        choices=("serial", "local", "dask"),
+        default="serial",
+        help="serial: this process; local: a Dask cluster of --workers processes started here; dask: the "
+        "Dask scheduler at --scheduler (default: serial)",
     )
-    p.add_argument("--workers", type=int, default=2, help="worker processes of --engine local (default 2)")
     p.add_argument(
-        "--timeout", type=float, default=10.0, help="seconds to wait for the scheduler (default 10)"
+        "--scheduler",
+        default=None,
+        help="Dask scheduler address for --engine dask, e.g. tcp://host:8786 (default: none)",
     )
-    p.add_argument("--repr", default="lie,euler", help="representations, comma separated (default lie,euler)")
-    p.add_argument("--tile-size", type=int, default=32, help="motions per tile side (default 32)")
-    p.add_argument("--recursive", action="store_true", help="search folders recursively")
-    p.add_argument("--overwrite", action="store_true", help="replace a different run found in OUT")
+    p.add_argument("--workers", type=int, default=2, help="worker processes of --engine local (default: 2)")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=10.0,
+        metavar="SECONDS",
+        help="seconds to wait for the scheduler (default: 10)",
+    )
+    _add_method(p, several=True)
+    p.add_argument(
+        "--tile-size",
+        type=int,
+        default=32,
+        metavar="N",
+        help="motions per tile side: a tile (one task) holds up to N^2 pairs (default: 32)",
+    )
+    p.add_argument("--recursive", action="store_true", help="search folders recursively (default: off)")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a run with other settings or inputs found in OUTPUT (default: refuse)",
+    )
     add_quiet_option(p)
     add_json_option(p)
     _add_preparation(p)
-    _add_pair(p)
+    _add_warp(p)
     p.set_defaults(func=run_matrix)
 
 
@@ -139,10 +280,10 @@ def run_matrix(args: argparse.Namespace) -> int:
 
     bar = progress_for("matrix", args)
     try:
-        settings = _settings(args, tuple(r.strip() for r in args.repr.split(",") if r.strip()))
+        settings = _settings(args, _methods(args.method, several=True))
         res = compute_matrix(
             args.inputs,
-            args.out,
+            args.output,
             settings,
             engine=args.engine,
             scheduler=args.scheduler,
@@ -152,16 +293,11 @@ def run_matrix(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             progress=bar,
         )
-    except ClusterUnavailableError as exc:
-        return _fail("matrix", exc, 3)
-    except (ValueError, FileNotFoundError, ParseError) as exc:
-        return _fail("matrix", exc)
     except KeyboardInterrupt:
-        print(
-            "elastic-motion matrix: interrupted; finished tiles are kept, run the same command to resume",
-            file=sys.stderr,
-        )
-        return 1
+        print_error("matrix", "interrupted (Ctrl-C): finished tiles are kept; run the same command to resume")
+        return EXIT_INCOMPLETE
+    except (*_USER_ERRORS, ClusterUnavailableError) as exc:  # unreachable scheduler: exit code 3
+        return _fail("matrix", exc)
     finally:
         bar.close()
     rep = res.report
@@ -173,7 +309,7 @@ def run_matrix(args: argparse.Namespace) -> int:
         *(f"skipped {sk['path']}: {sk['reason']}" for sk in rep["skipped"]),
     ]
     _emit(args, "matrix", rep, args.inputs, [res.out_dir], lines)
-    return 0 if res.complete else 1
+    return 0 if res.complete else EXIT_INCOMPLETE
 
 
 # --------------------------------------------------------------------------------------------
@@ -186,46 +322,51 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
         "search",
         help="nearest motions of a query by elastic distance",
         description=(
-            "Rank the motions of DB (a `matrix` output folder, whose SRV cache and settings are used, or "
-            "motion files/folders) by elastic distance to QUERY."
+            "Rank the motions of DATABASE (a `matrix` output folder, whose SRV cache and settings are "
+            "used, or motion files/folders, read with the options below) by elastic distance to QUERY."
         ),
     )
     p.add_argument("query", help="a motion file")
     p.add_argument("database", nargs="+", help="a matrix output folder, or motion files/folders")
-    p.add_argument("-k", type=int, default=5, help="number of results (default 5)")
-    p.add_argument("--repr", choices=("lie", "euler"), default="lie")
+    p.add_argument("-k", type=int, default=5, help="number of results (default: 5)")
+    _add_method(p, several=False)
     add_quiet_option(p)
     add_json_option(p)
     _add_preparation(p)
-    _add_pair(p)
+    _add_warp(p)
     p.set_defaults(func=run_search)
 
 
 def run_search(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import query_distances
-    from elastic_motion.apps.statistics import nearest
 
     db = args.database[0] if len(args.database) == 1 else args.database
     bar = progress_for("search", args)
     try:
-        names, paths, d, info = query_distances(
-            args.query, db, args.repr, _settings(args, (args.repr,)), progress=bar
-        )
-    except (ValueError, FileNotFoundError, ParseError, KeyError) as exc:
+        (method,) = _methods(args.method, several=False)
+        res = query_distances(args.query, db, method, _settings(args, (method,)), progress=bar)
+        idx = res.nearest(args.k)
+    except _USER_ERRORS as exc:
         return _fail("search", exc)
     finally:
         bar.close()
-    query = str(Path(args.query).resolve())
-    exclude = [k for k, p in enumerate(paths) if p == query]
-    idx = nearest(d, args.k, exclude=exclude)
     results = [
-        {"rank": r + 1, "name": names[k], "path": paths[k], "distance": float(d[k])}
+        {"rank": r + 1, "name": res.names[k], "path": res.paths[k], "distance": float(res.distances[k])}
         for r, k in enumerate(idx)
     ]
     lines = [f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}" for r in results] or [
         "no comparable motion (different skeletons? try --joints common)"
     ]
-    body = {"query": args.query, "representation": args.repr, "results": results, **info}
+    s = res.summary()
+    body = {
+        "query": args.query,
+        "representation": method,
+        "results": results,
+        "group": s["group"],
+        "settings": s["settings"],
+        "skipped": s["skipped"],
+        "notes": s["notes"],
+    }
     _emit(args, "search", body, [args.query, *args.database], [], lines)
     return 0
 
@@ -246,10 +387,12 @@ def _register_classify(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("matrix_dir", help="output folder of `elastic-motion matrix`")
     p.add_argument(
-        "--labels", required=True, help="CSV file name,label or bandai-content | bandai-style | cmu"
+        "--labels",
+        required=True,
+        help="CSV file name,label or bandai-content | bandai-style | cmu (required)",
     )
-    p.add_argument("-k", type=int, default=1)
-    p.add_argument("--repr", default="lie,euler", help="representations to evaluate (default lie,euler)")
+    p.add_argument("-k", type=int, default=1, help="neighbours that vote (default: 1)")
+    _add_method(p, several=True)
     add_json_option(p)
     p.set_defaults(func=run_classify)
 
@@ -264,6 +407,10 @@ def _labels_for(names: list[str], spec: str) -> list[str | None]:
         return [cmu_label(n) for n in names]
     import csv
 
+    if not Path(spec).is_file():
+        raise CommandError(
+            f"--labels: expected a CSV file (name,label) or bandai-content, bandai-style, cmu; got {spec!r}"
+        )
     with open(spec, newline="") as fh:
         table = {row[0]: row[1] for row in csv.reader(fh) if len(row) >= 2}
     return [table.get(n) for n in names]
@@ -275,7 +422,7 @@ def run_classify(args: argparse.Namespace) -> int:
 
     out = {}
     try:
-        for rep in [r.strip() for r in args.repr.split(",") if r.strip()]:
+        for rep in _methods(args.method, several=True):
             m = load_matrix(args.matrix_dir, rep)
             labels = _labels_for(m.names, args.labels)
             ev = knn_evaluate(m.distances, labels, args.k)
@@ -286,7 +433,7 @@ def run_classify(args: argparse.Namespace) -> int:
                 "per_class": ev.per_class,
                 "predictions": dict(zip(m.names, ev.predictions, strict=True)),
             }
-    except (ValueError, FileNotFoundError, OSError) as exc:
+    except _USER_ERRORS as exc:
         return _fail("classify", exc)
     lines = []
     for rep, r in out.items():
@@ -311,60 +458,74 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("files", nargs="+", help="motion files of one skeleton")
-    p.add_argument("-o", "--out", required=True, help="output .bvh")
-    p.add_argument("--repr", choices=("lie", "euler"), default="lie")
-    p.add_argument("--max-iter", type=int, default=20)
-    p.add_argument("--tol", type=float, default=1e-4, help="relative energy decrease to stop (default 1e-4)")
+    p.add_argument("-o", "--output", required=True, help="output .bvh file (required)")
+    _alias(p, "--out", "--output")
+    _add_method(p, several=False)
+    p.add_argument("--max-iter", type=int, default=20, help="alignment iterations at most (default: 20)")
     p.add_argument(
-        "--fps", type=float, default=None, help="frame rate of the output (default: the first file's)"
+        "--tol", type=float, default=1e-4, help="relative energy decrease to stop at (default: 1e-4)"
     )
-    p.add_argument("--plot", default=None, help="also write the energy per iteration as a PNG")
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        metavar="FPS",
+        help="frames per second of the output (default: the first file's frame rate)",
+    )
+    p.add_argument(
+        "--plot",
+        default=None,
+        metavar="PNG",
+        help="also write the energy per iteration as a PNG (default: no plot)",
+    )
     add_quiet_option(p)
     add_json_option(p)
     _add_preparation(p)
-    _add_pair(p)
+    _add_warp(p)
     p.set_defaults(func=run_mean)
 
 
 def run_mean(args: argparse.Namespace) -> int:
     from elastic_motion.apps.statistics import mean_motion
     from elastic_motion.motion import write_bvh
+    from elastic_motion.warp import WarpOptions
 
-    try:
-        check_output(args.out, args.files, suffixes=(".bvh",))
-    except CommandError as exc:
-        return _fail("mean", exc)
     bar = progress_for("mean", args)
     try:
-        motion, res, info = mean_motion(
+        check_output(args.output, args.files, suffixes=(".bvh",), what="--output")
+        (method,) = _methods(args.method, several=False)
+        res = mean_motion(
             args.files,
             n_samples=args.samples,
-            representation=args.repr,
+            representation=method,
             joints=_joints(args.joints),
             drop_fingers=not args.keep_fingers,
-            align_heading=not args.no_align_heading,
-            warp=args.warp,
-            neighbourhood=args.neighbourhood,
+            align_heading=not args.no_align,
+            warp=WarpOptions(
+                method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
+            ),
             max_iter=args.max_iter,
             tol=args.tol,
             fps=args.fps,
             progress=bar,
         )
-        path = write_bvh(motion, args.out, protected=args.files)
-    except (ValueError, FileNotFoundError, ParseError, KeyError) as exc:
+        path = write_bvh(res.motion, args.output, protected=args.files)
+    except _USER_ERRORS as exc:
         return _fail("mean", exc)
     finally:
         bar.close()
-    info["output"] = str(path)
+    body: dict[str, Any] = {**res.summary(), "output": str(path)}
+    outputs: list[Any] = [path]
     if args.plot:
         from elastic_motion.apps.plots_database import plot_energies
 
-        info["plot"] = str(plot_energies(res.energies, args.plot, title="Karcher mean energy"))
-    state = "converged" if info["converged"] else "not converged (raise --max-iter)"
-    lines = [f"iteration {i:3d}  energy {e:.6g}" for i, e in enumerate(info["energies"], 1)]
-    frames = f"{info['frames']} frames at {info['fps']:g} fps"
+        body["plot"] = str(plot_energies(res.energies, args.plot, title="Karcher mean energy"))
+        outputs.append(body["plot"])
+    state = "converged" if res.converged else "not converged (raise --max-iter)"
+    lines = [f"iteration {i:3d}  energy {e:.6g}" for i, e in enumerate(body["energies"], 1)]
+    frames = f"{body['frames']} frames at {body['fps']:g} fps"
     lines.append(f"{state}; mean of {len(args.files)} motions -> {path} ({frames})")
-    _emit(args, "mean", info, args.files, [path] + ([info["plot"]] if args.plot else []), lines)
+    _emit(args, "mean", body, args.files, outputs, lines)
     return 0
 
 
@@ -380,12 +541,22 @@ def _register_cluster(subparsers: argparse._SubParsersAction) -> None:
         description="Agglomerative clustering of the motions of a `matrix` output folder.",
     )
     p.add_argument("matrix_dir", help="output folder of `elastic-motion matrix`")
-    p.add_argument("--repr", choices=("lie", "euler"), default="lie")
-    p.add_argument("--method", choices=("average", "complete", "single", "weighted"), default="average")
-    p.add_argument("--clusters", type=int, default=None, help="cut into this many flat clusters")
-    p.add_argument("--plot", default=None, help="dendrogram PNG to write")
+    _add_method(p, several=False)
     p.add_argument(
-        "--labels", default=None, help="colour leaves: CSV name,label or bandai-content|bandai-style|cmu"
+        "--linkage",
+        choices=LINKAGES,
+        default="average",
+        help="distance between clusters: average (UPGMA), complete, single or weighted (WPGMA) "
+        "(default: average)",
+    )
+    p.add_argument(
+        "--clusters", type=int, default=None, metavar="K", help="cut into K flat clusters (default: no cut)"
+    )
+    p.add_argument("--plot", default=None, metavar="PNG", help="dendrogram PNG to write (default: no plot)")
+    p.add_argument(
+        "--labels",
+        default=None,
+        help="colour leaves: CSV name,label or bandai-content | bandai-style | cmu (default: no colours)",
     )
     add_json_option(p)
     p.set_defaults(func=run_cluster)
@@ -396,23 +567,25 @@ def run_cluster(args: argparse.Namespace) -> int:
     from elastic_motion.apps.statistics import cluster
 
     try:
-        m = load_matrix(args.matrix_dir, args.repr)
-        res = cluster(m.distances, m.names, method=args.method, n_clusters=args.clusters)
-    except (ValueError, FileNotFoundError, OSError) as exc:
+        (method,) = _methods(args.method, several=False)
+        m = load_matrix(args.matrix_dir, method)
+        res = cluster(m.distances, m.names, method=args.linkage, n_clusters=args.clusters)
+        colors = None
+        if args.plot and args.labels:
+            colors = [lab or "?" for lab in _labels_for(m.names, args.labels)]
+    except _USER_ERRORS as exc:
         return _fail("cluster", exc)
-    out: dict[str, Any] = {"method": res.method, "representation": args.repr, "linkage": res.linkage.tolist()}
+    out: dict[str, Any] = {
+        "linkage_method": res.method,
+        "representation": method,
+        "linkage": res.linkage.tolist(),
+    }
     if res.labels is not None:
         out["clusters"] = dict(zip(m.names, res.labels.tolist(), strict=True))
     if args.plot:
         from elastic_motion.apps.plots_database import plot_dendrogram
 
-        colors = None
-        if args.labels:
-            labs = _labels_for(m.names, args.labels)
-            colors = [lab or "?" for lab in labs]
-        out["plot"] = str(
-            plot_dendrogram(res, args.plot, title=f"{args.repr} elastic distance", colors=colors)
-        )
+        out["plot"] = str(plot_dendrogram(res, args.plot, title=f"{method} elastic distance", colors=colors))
     lines = [f"{c:3d}  {n}" for n, c in out.get("clusters", {}).items()]
     if args.plot:
         lines.append(f"dendrogram -> {out['plot']}")

@@ -20,14 +20,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument(
-        "-o", "--output", default="elastic-motion-demo", help="output folder (default ./elastic-motion-demo)"
+        "-o",
+        "--output",
+        default="elastic-motion-demo",
+        help="output folder, created if needed (default: elastic-motion-demo, in the current folder)",
     )
-    p.add_argument("--data", default=None, help="folder with the DeepMimic clips (default: pybullet's)")
-    p.add_argument("--no-video", action="store_true", help="skip the animations (the slowest part)")
     p.add_argument(
-        "--no-mp4", action="store_true", help="write GIFs only, even when imageio-ffmpeg is installed"
+        "--data",
+        default=None,
+        help="folder with the DeepMimic clips (default: the data folder of the installed pybullet)",
     )
-    p.add_argument("--force", action="store_true", help="write into a non-empty folder not made by the demo")
+    p.add_argument(
+        "--no-video",
+        action="store_true",
+        help="skip the animations, the slowest part (default: off, the GIF animations are written)",
+    )
+    p.add_argument(
+        "--no-mp4",
+        action="store_true",
+        help="write GIFs only, even when imageio-ffmpeg is installed (default: off, MP4s are written "
+        "beside the GIFs when imageio-ffmpeg is installed)",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="write into a non-empty folder not made by the demo (default: off, such a folder is refused)",
+    )
     add_quiet_option(p)
     p.set_defaults(func=run)
 

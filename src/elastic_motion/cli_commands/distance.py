@@ -8,15 +8,17 @@ from __future__ import annotations
 import argparse
 
 from elastic_motion.cli_commands._common import (
+    CommandError,
     add_input_options,
     add_joint_options,
     add_json_option,
     add_quiet_option,
+    add_warp_options,
     emit_report,
-    joints_arg,
-    load_inputs,
+    prepare_inputs,
     progress_for,
     run_guarded,
+    warp_options,
 )
 
 
@@ -33,10 +35,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("inputs", nargs="+", metavar="FILE", help="two or more motion files")
     p.add_argument("--method", choices=("lie", "euler-elastic"), default="lie", help="curve representation")
-    p.add_argument("--warp", choices=("dp", "dp+refine", "none"), default="dp", help="none: no time warp")
-    p.add_argument("--warp-fps", type=float, default=30.0, help="frame rate of the curves")
+    add_warp_options(p)
     add_joint_options(p)
-    add_input_options(p)
+    add_input_options(p, writes_bvh=False)
     add_json_option(p)
     add_quiet_option(p)
     p.set_defaults(func=lambda a: run_guarded("distance", run, a))
@@ -48,28 +49,16 @@ def run(args: argparse.Namespace) -> int:
 
     inputs = list(args.inputs)
     if len(inputs) < 2:
-        raise ValueError(f"expected at least two motion files; got {len(inputs)}")
-    motions, notes = load_inputs(
-        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
-    )
+        raise CommandError(f"FILE: expected at least two motion files; got {len(inputs)}")
+    prep = prepare_inputs(args, inputs)
     bar = progress_for("distance", args)
     try:
-        table = distance_table(
-            motions,
-            method=args.method,
-            warp=args.warp,
-            joints=joints_arg(args.joints),
-            align=not args.no_align,
-            warp_fps=args.warp_fps,
-            progress=bar,
-        )
+        table = distance_table(prep, method=args.method, warp=warp_options(args), progress=bar)
     finally:
         bar.close()
-    all_notes = notes + list(table.notes)
-    report = report_header("distance", inputs, [], all_notes)
+    report = report_header("distance", inputs, [], table.notes)
     report.update(table.summary())
-    report["notes"] = all_notes
     text = f"{table.method} elastic distances (warp {table.warp}):\n{format_table(table)}"
-    text += "".join(f"\nnote: {n}" for n in all_notes)
+    text += "".join(f"\nnote: {n}" for n in table.notes)
     emit_report(args, report, inputs, text)
     return 0

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
-
-from elastic_motion.errors import ParseError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,7 +29,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Read ``args.file`` and print its summary; exit code 0, or 2 for an unreadable file."""
+    """Read ``args.file`` and print its summary; return exit code 0.
+
+    An unreadable file raises (:class:`~elastic_motion.errors.ParseError`, ``ValueError``,
+    ``OSError``); ``cli.main`` prints ``elastic-motion info: error: FILE: ...`` and exits
+    with 2 (3 for an environment failure such as permission denied).
+    """
     from elastic_motion.motion import format_info, motion_info, read_motion
 
     kw = {}
@@ -44,11 +46,7 @@ def run(args: argparse.Namespace) -> int:
             kw["fps"] = args.fps
     elif name.endswith(".bvh") and args.units is not None:
         kw["units"] = args.units
-    try:
-        motion = read_motion(args.file, **kw)
-    except (ParseError, ValueError) as exc:
-        print(f"elastic-motion info: {exc}", file=sys.stderr)
-        return 2
+    motion = read_motion(args.file, **kw)
     info = motion_info(motion)
     if args.json:
         print(json.dumps(info, indent=2))

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
+    CommandError,
     add_input_options,
     add_json_option,
     emit_report,
     landmark_kinds,
-    load_inputs,
+    prepare_options,
     run_guarded,
 )
 
@@ -32,27 +34,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="event kinds to detect (comma-separated)",
     )
     p.add_argument(
-        "--pair-kinds",
+        "--landmark-kinds",
         default="left_knee_passes",
-        help="kinds to pair for two files (default left_knee_passes)",
+        help="kinds to pair for two files, as `blend --landmarks auto --landmark-kinds` pairs them",
     )
-    p.add_argument("--max-pairs", type=int, default=None, help="at most this many pairs per kind")
-    add_input_options(p)
+    add_alias(p, "--pair-kinds", "--landmark-kinds")
+    p.add_argument(
+        "--max-pairs", type=int, default=None, help="at most this many pairs per kind (default: all)"
+    )
+    add_input_options(p, writes_bvh=False)
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("landmarks", run, a))
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.align import prepare_motions
     from elastic_motion.apps.landmarks import detect_events, pair_events
+    from elastic_motion.apps.prepare import prepare_motions
     from elastic_motion.apps.report import report_header
 
     inputs = list(args.inputs)
     if len(inputs) not in (1, 2):
-        raise ValueError(f"expected one or two motion files; got {len(inputs)}")
-    motions, notes = load_inputs(
-        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
-    )
+        raise CommandError(f"FILE: expected one or two motion files; got {len(inputs)}")
+    # the motions as blend and align see them: the same preparation (common joints for two)
+    opts = prepare_options(args, len(inputs))
+    prep = prepare_motions(inputs, opts.replace(joints="common") if len(inputs) == 2 else opts)
+    motions = prep.motions
+    notes = list(prep.notes)
     kinds = landmark_kinds(args.kinds)
     events = [detect_events(m, kinds) for m in motions]
     report = report_header("landmarks", inputs, [], notes)
@@ -65,10 +72,8 @@ def run(args: argparse.Namespace) -> int:
         lines.append(f"{f}: {len(ev)} events in {m.duration:.2f} s")
         lines += [f"  {e.time:7.3f} s  frame {e.frame:5d}  {e.kind}" for e in ev]
     if len(inputs) == 2:
-        pk = landmark_kinds(args.pair_kinds)
-        # pair on the motions as blend/align see them (same time origin; placement does not move times)
-        prep = prepare_motions(motions, joints="common")
-        ev_a, ev_b = (detect_events(m, pk) for m in prep.motions)
+        pk = landmark_kinds(args.landmark_kinds)
+        ev_a, ev_b = (detect_events(m, pk) for m in motions)
         pairs = pair_events(ev_a, ev_b, pk, max_pairs=args.max_pairs)
         report["pairs_s"] = [[a.time, b.time] for a, b in pairs]
         report["pairs"] = [{"kind": a.kind, "time_a_s": a.time, "time_b_s": b.time} for a, b in pairs]

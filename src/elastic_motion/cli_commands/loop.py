@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
@@ -13,22 +14,24 @@ from elastic_motion.cli_commands._common import (
     check_output,
     emit_report,
     fmt_float,
-    load_inputs,
+    prepare_inputs,
     run_guarded,
+    write_motion,
 )
 
-_SCALARS = (
-    "seam_angle_max_deg",
-    "seam_angle_mean_deg",
-    "seam_angular_velocity_max_deg_s",
-    "seam_position_max_m",
-    "seam_position_mean_m",
-    "seam_velocity_max_m_s",
-    "foot_sliding_m_s",
-    "foot_sliding_seam_m_s",
-    "deviation_max_m",
-    "deviation_mean_m",
-)
+
+def _representation(value: str) -> str:
+    # the old --representation said "euler" for what --method calls "euler-elastic"
+    return "euler-elastic" if value == "euler" else value
+
+
+def _method(value: str) -> str:
+    if value in ("gauss-newton", "gradient"):  # --method named the solver before 0.2
+        raise argparse.ArgumentTypeError(
+            f"expected 'lie' or 'euler-elastic' (the curve that is closed); got {value!r}: "
+            "the closing solver is --solver now"
+        )
+    return value
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -46,33 +49,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("input", metavar="IN", help="motion file (.bvh, .amc, DeepMimic .txt)")
     p.add_argument("-o", "--output", required=True, help="output .bvh file: one closed cycle")
     p.add_argument(
-        "--root", choices=("travel", "inplace"), default="travel", help="loop convention (default travel)"
+        "--root",
+        choices=("travel", "inplace"),
+        default="travel",
+        help="loop convention: keep one cycle's displacement and turn, or come back to the start",
     )
     p.add_argument("--c1", action="store_true", help="also match the velocities at the seam")
     p.add_argument(
-        "--representation",
-        choices=("lie", "euler"),
+        "--method",
+        type=_method,
+        choices=("lie", "euler-elastic"),
         default="lie",
-        help="close the Lie group curve (default) or the Euler-angle curve (the baseline)",
+        help="close the Lie group curve or the Euler-angle curve (the baseline of paper 001)",
+    )
+    add_alias(p, "--representation", "--method", convert=_representation)
+    p.add_argument(
+        "--solver", choices=("gauss-newton", "gradient"), default="gauss-newton", help="closing solver"
     )
     p.add_argument(
-        "--method", choices=("gauss-newton", "gradient"), default="gauss-newton", help="closing solver"
+        "--tol",
+        type=float,
+        default=1e-6,
+        help="stop when the seam gap is below this (radians for joint rotations; the weighted norm "
+        "of the closing residual)",
     )
-    p.add_argument("--tol", type=float, default=1e-6, help="stop when the seam gap is below this")
-    p.add_argument("--max-iter", type=int, default=100, help="iterations at most")
+    p.add_argument("--max-iter", type=int, default=100, help="iterations of the closing solver at most")
     p.add_argument(
         "--free-joints",
         default="fingers",
-        help="joints left free: 'fingers' (default: finger/thumb joints), 'none', or comma-separated names",
+        help="joints left free: 'fingers' (finger/thumb joints), 'none', or comma-separated names",
     )
     p.add_argument(
         "--repeat",
         type=int,
         default=None,
         metavar="N",
-        help="also write a preview: the looped clip played N times (OUT with .repeatN.bvh)",
+        help="also write a preview: the looped clip played N times (default: no preview)",
     )
-    p.add_argument("--preview", default=None, help="path of the preview (default OUT.repeatN.bvh)")
+    p.add_argument("--preview", default=None, help="path of the preview (default: OUT.repeatN.bvh)")
     add_input_options(p, several=False)
     add_json_option(p)
     add_quiet_option(p)
@@ -88,9 +102,7 @@ def _free(value: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.loop import loop_motion, repeat_motion, seam_metrics
-    from elastic_motion.apps.report import report_header
-    from elastic_motion.motion import write_bvh
+    from elastic_motion.apps.loop import loop_motion, repeat_motion
 
     inputs = [args.input]
     out = check_output(args.output, inputs, suffixes=(".bvh",))
@@ -99,69 +111,41 @@ def run(args: argparse.Namespace) -> int:
         if args.repeat < 1:
             raise CommandError(f"--repeat: expected a positive number of cycles; got {args.repeat}")
         preview = Path(args.preview) if args.preview else out.with_name(f"{out.stem}.repeat{args.repeat}.bvh")
-        check_output(str(preview), inputs, suffixes=(".bvh",), what="--preview")
-    (motion,), notes = load_inputs(
-        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
-    )
+        check_output(str(preview), [*inputs, str(out)], suffixes=(".bvh",), what="--preview")
     res = loop_motion(
-        motion,
+        prepare_inputs(args, inputs),
         root=args.root,
         c1=args.c1,
-        representation=args.representation,
         method=args.method,
+        solver=args.solver,
         tol=args.tol,
         max_iter=args.max_iter,
-        exclude_joints=_free(args.free_joints),
+        free_joints=_free(args.free_joints),
     )
-    write_bvh(res.motion, out)
+    write_motion(res.motion, res.prepared, out, inputs)
     outputs = [str(out)]
     if preview is not None:
-        write_bvh(repeat_motion(res.motion, args.repeat, args.root), preview)
+        write_motion(repeat_motion(res.motion, args.repeat, args.root), res.prepared, preview, inputs)
         outputs.append(str(preview))
-    closed = list(res.closed_joints)
-    before = seam_metrics(motion, root=args.root, joints=closed)
-    after = seam_metrics(res.motion, original=motion, root=args.root, joints=closed)
-    c = res.closing
-    report = report_header("loop", inputs, outputs, notes)
-    report.update(
-        {
-            "root": res.root,
-            "representation": res.representation,
-            "c1": res.c1,
-            "frames": res.motion.n_frames,
-            "fps": res.motion.fps,
-            "closed_joints": closed,
-            "free_joints": list(res.free_joints),
-            "heading_change_deg": float(res.heading_change * 180.0 / 3.141592653589793),
-            "displacement": res.displacement,
-            "closing": {
-                "gap_initial": c.gap_initial,
-                "gap": c.gap,
-                "velocity_gap_initial": c.velocity_gap_initial,
-                "velocity_gap": c.velocity_gap,
-                "iterations": c.iterations,
-                "converged": c.converged,
-                "message": c.message,
-                "time_s": c.time,
-            },
-            "seam_before": {k: before[k] for k in _SCALARS if k in before},
-            "seam_after": {k: after[k] for k in _SCALARS if k in after},
-        }
-    )
+    from elastic_motion.apps.report import report_header
+
+    report = report_header("loop", inputs, outputs, res.notes)
+    report.update(res.summary())
+    before, after, c = res.seam_before, res.seam_after, res.closing
     lines = [
         f"wrote {out}: {res.motion.n_frames} frames at {res.motion.fps:g} fps, loop ({res.root}, "
-        f"{res.representation}{', C1' if res.c1 else ''})",
-        f"seam: largest joint angle {fmt_float(before['seam_angle_max_deg'])} -> "
-        f"{fmt_float(after['seam_angle_max_deg'])} deg, largest position jump "
-        f"{fmt_float(before['seam_position_max_m'])} -> {fmt_float(after['seam_position_max_m'])} m",
-        f"changed the clip by at most {fmt_float(after.get('deviation_max_m', 0.0))} m "
-        f"(mean {fmt_float(after.get('deviation_mean_m', 0.0))} m); foot sliding "
-        f"{fmt_float(before['foot_sliding_m_s'])} -> {fmt_float(after['foot_sliding_m_s'])} m/s",
+        f"{res.method}{', C1' if res.c1 else ''})",
+        f"seam: largest joint angle {fmt_float(before.seam_angle_max_deg)} -> "
+        f"{fmt_float(after.seam_angle_max_deg)} deg, largest position jump "
+        f"{fmt_float(before.seam_position_max_m)} -> {fmt_float(after.seam_position_max_m)} m",
+        f"changed the clip by at most {fmt_float(after.deviation_max_m or 0.0)} m "
+        f"(mean {fmt_float(after.deviation_mean_m or 0.0)} m); foot sliding "
+        f"{fmt_float(before.foot_sliding_m_s)} -> {fmt_float(after.foot_sliding_m_s)} m/s",
         f"closing: {c.iterations} iterations, gap {fmt_float(c.gap_initial)} -> {fmt_float(c.gap)}"
         + ("" if c.converged else f" (not converged: {c.message})"),
     ]
     if preview is not None:
         lines.append(f"wrote {preview}: the loop played {args.repeat} times")
-    lines += [f"note: {n}" for n in notes]
-    emit_report(args, report, inputs, "\n".join(lines))
+    lines += [f"note: {n}" for n in res.notes]
+    emit_report(args, report, [*inputs, *outputs], "\n".join(lines))
     return 0

@@ -11,10 +11,25 @@ from elastic_motion.cli_commands._common import (
     add_quiet_option,
     check_output,
     emit_report,
-    load_inputs,
+    joints_arg,
+    prepare_options,
     progress_for,
-    run_guarded,
 )
+
+#: The options that only some kinds use: option -> (``args`` attribute, kinds).
+_KIND_OPTIONS = {
+    "--fps": ("fps", ("animation",)),
+    "--size": ("size", ("animation",)),
+    "--seconds": ("seconds", ("animation",)),
+    "--trail": ("trail", ("animation",)),
+    "--joint": ("joint", ("sphere",)),
+    "--frame": ("frame", ("sphere",)),
+    "--repeat": ("repeat", ("seam",)),
+    "--root": ("root", ("seam",)),
+    "--joints": ("render_joints", ("seam", "warp")),
+    "--method": ("method", ("warp",)),
+    "--landmarks": ("landmarks", ("warp",)),
+}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,78 +40,173 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Draw motions. .gif (Pillow) or .mp4 (needs imageio-ffmpeg: "
             "pip install 'elastic-motion[video]'): "
-            "the skeletons side by side. .png/.svg/.pdf: foot trajectories as in the papers (default), or "
-            "--kind warp (two files), seam (a loop; or the original and its loop), sphere (a joint's "
-            "rotation curve on the sphere, paper 000 Fig. 2-3)."
+            "the skeletons side by side, playing in real time. .png/.svg/.pdf: foot trajectories as in the "
+            "papers (default), or --kind warp (two files), seam (a loop; or the original and its loop), "
+            "sphere (a joint's rotation curve on the sphere, paper 000 Fig. 2-3). Lengths are drawn in "
+            "metres. Options marked '--kind K' apply to that kind only."
         ),
     )
     p.add_argument("inputs", nargs="+", metavar="FILE", help="motion files")
-    p.add_argument("-o", "--output", required=True, help="output .gif, .mp4, .png, .svg or .pdf")
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="output file: .gif or .mp4 (a video), .png, .svg or .pdf (required; no default)",
+    )
     p.add_argument(
         "--kind",
         choices=("auto", "animation", "feet", "warp", "seam", "sphere"),
         default="auto",
-        help="what to draw",
-    )
-    p.add_argument("--labels", default=None, help="comma-separated panel titles (default: file names)")
-    p.add_argument(
-        "--fps", type=float, default=None, help="video frame rate (default: the motions', at most 30)"
-    )
-    p.add_argument("--size", default="320x320", help="pixels per panel of a video, WxH (default 320x320)")
-    p.add_argument("--seconds", type=float, default=None, help="video length (default: the longest motion)")
-    p.add_argument("--joint", default=None, help="--kind sphere: the joint (default the root)")
-    p.add_argument(
-        "--frame", choices=("local", "global"), default="local", help="--kind sphere: rotation frame"
-    )
-    p.add_argument("--repeat", type=int, default=3, help="--kind seam: cycles to play (default 3)")
-    p.add_argument(
-        "--root", choices=("travel", "inplace"), default="travel", help="--kind seam: loop convention"
+        help="what to draw; auto: an animation for .gif/.mp4, the foot trajectories for a still "
+        "(default: auto)",
     )
     p.add_argument(
-        "--method", choices=("lie", "euler-elastic"), default="lie", help="--kind warp: representation"
+        "--labels", default=None, help="comma-separated panel titles, one per file (default: the file names)"
     )
-    p.add_argument("--landmarks", default=None, help="--kind warp: 'auto' or pairs 'tA:tB,...' (seconds)")
-    add_input_options(p)
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        help="video frame rate in frames per second (fps); a GIF shows at most 50 fps "
+        "(default: the inputs' highest frame rate, at most 30 fps)",
+    )
+    p.add_argument(
+        "--size",
+        default=None,
+        metavar="WxH",
+        help="size of each video panel in pixels, width x height (default: 320x320 pixels)",
+    )
+    p.add_argument(
+        "--seconds",
+        type=float,
+        default=None,
+        help="video length in seconds (default: the duration of the longest input)",
+    )
+    p.add_argument(
+        "--trail",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="length of the feet's trails in a video, seconds (default: 1.0 seconds)",
+    )
+    p.add_argument(
+        "--joint", default=None, help="--kind sphere: the joint whose rotation is drawn (default: the root)"
+    )
+    p.add_argument(
+        "--frame",
+        choices=("local", "global"),
+        default=None,
+        help="--kind sphere: the joint's rotation relative to its parent (local) or to the world "
+        "(global) (default: local)",
+    )
+    p.add_argument(
+        "--repeat", type=int, default=None, help="--kind seam: cycles to play, at least 2 (default: 3)"
+    )
+    p.add_argument(
+        "--root",
+        choices=("travel", "inplace"),
+        default=None,
+        help="--kind seam: loop convention; travel: each cycle starts where the last one ended, "
+        "inplace: every cycle starts at the same place (default: travel)",
+    )
+    p.add_argument(
+        "--joints",
+        dest="render_joints",
+        metavar="NAMES",
+        default=None,
+        help="--kind seam: comma-separated joints whose paths are drawn (default: the right ankle and "
+        "the left hand); --kind warp: the joints compared, 'all', 'common' or comma-separated names "
+        "(default: all)",
+    )
+    p.add_argument(
+        "--method",
+        choices=("lie", "euler-elastic"),
+        default=None,
+        help="--kind warp: representation of the motions (default: lie)",
+    )
+    p.add_argument(
+        "--landmarks",
+        default=None,
+        help="--kind warp: 'auto' or pairs 'tA:tB,...' of times in seconds (default: none)",
+    )
+    add_input_options(p, writes_bvh=False)
     add_json_option(p)
     add_quiet_option(p)
-    p.set_defaults(func=lambda a: run_guarded("render", run, a))
+    p.set_defaults(func=run)
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise CommandError(f"--size: expected WxH in pixels, e.g. 320x320; got {text!r}") from None
+    if w < 16 or h < 16:
+        raise CommandError(f"--size: expected at least 16x16 pixels; got {text!r}")
+    return w, h
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.render import render
+    from elastic_motion.apps.render import render, render_kind
     from elastic_motion.apps.report import report_header
     from elastic_motion.cli_commands._common import parse_landmarks
 
     inputs = list(args.inputs)
     out = check_output(args.output, inputs, suffixes=(".gif", ".mp4", ".png", ".svg", ".pdf"))
-    try:
-        w, h = (int(x) for x in args.size.lower().split("x"))
-    except ValueError:
-        raise CommandError(f"--size: expected WxH in pixels, e.g. 320x320; got {args.size!r}") from None
-    motions, notes = load_inputs(
-        inputs, trims=args.trim, keep_first_frame=args.keep_first_frame, units=args.units
-    )
+    kind = render_kind(args.kind, out)
+    for option, (attr, kinds) in _KIND_OPTIONS.items():
+        if getattr(args, attr) is not None and kind not in kinds:
+            raise CommandError(
+                f"{option}: only used with --kind {' or '.join(kinds)}; this draws {kind!r} "
+                f"(--kind {args.kind}, output {out.name})"
+            )
+    from elastic_motion.apps.prepare import load_motion
+
+    options = prepare_options(args, len(inputs))
+    motions, notes = [], []
+    for k, path in enumerate(inputs):
+        m, prep = load_motion(path, options, trim=options.trim_for(k, len(inputs)))
+        motions.append(m)
+        notes += prep.notes
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else [m.name for m in motions]
     if len(labels) != len(motions):
         raise CommandError(f"--labels: expected {len(motions)} labels; got {len(labels)}")
-    kw = {
-        "fps": args.fps,
-        "panel_size": (w, h),
-        "seconds": args.seconds,
-        "joint": args.joint,
-        "frame": args.frame,
-        "repeat": args.repeat,
-        "root": args.root,
-        "method": args.method,
-    }
-    if args.kind == "warp" and args.landmarks:
-        kw["landmarks"] = parse_landmarks(args.landmarks, "seconds", motions[0].fps, motions[-1].fps)
+    kw: dict = {}
+    if kind == "animation":
+        for attr in ("fps", "seconds", "trail"):
+            if getattr(args, attr) is not None:
+                kw[attr] = getattr(args, attr)
+        if args.size is not None:
+            kw["panel_size"] = _size(args.size)
+    elif kind == "sphere":
+        if args.joint is not None:
+            kw["joint"] = args.joint
+        if args.frame is not None:
+            kw["frame"] = args.frame
+    elif kind == "seam":
+        if args.repeat is not None:
+            kw["repeat"] = args.repeat
+        if args.root is not None:
+            kw["root"] = args.root
+        if args.render_joints is not None:
+            names = [x.strip() for x in args.render_joints.split(",") if x.strip()]
+            if not names:
+                raise CommandError(
+                    f"--joints: expected comma-separated joint names; got {args.render_joints!r}"
+                )
+            kw["joints"] = names
+    elif kind == "warp":
+        if args.method is not None:
+            kw["method"] = args.method
+        if args.render_joints is not None:
+            kw["joints"] = joints_arg(args.render_joints)
+        if args.landmarks:
+            kw["landmarks"] = parse_landmarks(args.landmarks, "seconds", motions[0].fps, motions[-1].fps)
     bar = progress_for("render", args)
     try:
-        render(motions, out, kind=args.kind, labels=labels, protected=inputs, progress=bar, **kw)
+        render(motions, out, kind=kind, labels=labels, protected=inputs, progress=bar, **kw)
     finally:
         bar.close()
     report = report_header("render", inputs, [str(out)], notes)
-    report.update({"kind": args.kind, "labels": labels})
+    report.update({"kind": kind, "labels": labels})
     emit_report(args, report, inputs, f"wrote {out}" + "".join(f"\nnote: {n}" for n in notes))
     return 0

@@ -4,8 +4,9 @@ the two curve representations (``R^3 x SO(3)^J`` and Euler angles in ``R^d``).
 Conventions (details in :mod:`.skeleton` and ``docs/motion.md``): local joint rotations are
 matrices ``(F, J, 3, 3)`` acting on column vectors, ``global = parent_global @ local``;
 joint 0 is the root; root translation ``(F, 3)`` in the file's length unit
-(``Motion.metres_per_unit`` converts); Y up for every supported format; Euler angles are
-intrinsic in channel order; quaternions are **(w, x, y, z)**.
+(``Motion.metres_per_unit`` converts); up axis in ``Motion.up_axis`` (BVH: detected from the
+motion, :func:`detect_up_axis`; the other formats are Y-up); Euler angles are intrinsic in
+channel order; quaternions are **(w, x, y, z)**.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.asfamc import read_amc, read_asf, read_asf_amc
+from elastic_motion.motion.axes import UpAxisEstimate, detect_up_axis, is_lying_down, up_axis_warning
 from elastic_motion.motion.bvh import guess_units, read_bvh, write_bvh
 from elastic_motion.motion.deepmimic import deepmimic_skeleton, read_deepmimic, read_urdf_skeleton
 from elastic_motion.motion.edit import (
@@ -26,6 +28,7 @@ from elastic_motion.motion.edit import (
     has_tpose_first_frame,
     heading_angle,
     merge_root,
+    place_like,
     place_on_floor,
     resample,
     resample_at_times,
@@ -42,6 +45,7 @@ from elastic_motion.motion.representations import (
     default_translation_weight,
     from_euler_curve,
     from_lie_curve,
+    group_weights,
     lie_group_for,
     skeleton_diameter,
     to_euler_curve,
@@ -55,11 +59,13 @@ __all__ = [
     "Motion",
     "ParseError",
     "Skeleton",
+    "UpAxisEstimate",
     "align_heading",
     "convert_to_bvh",
     "deepmimic_skeleton",
     "default_joint_weights",
     "default_translation_weight",
+    "detect_up_axis",
     "drop_joints",
     "drop_tpose",
     "find_asf",
@@ -69,13 +75,16 @@ __all__ = [
     "from_euler_curve",
     "from_lie_curve",
     "global_rotations",
+    "group_weights",
     "guess_units",
     "has_reference_root",
     "has_tpose_first_frame",
     "heading_angle",
+    "is_lying_down",
     "lie_group_for",
     "merge_root",
     "motion_info",
+    "place_like",
     "place_on_floor",
     "read_amc",
     "read_asf",
@@ -95,6 +104,7 @@ __all__ = [
     "to_metres",
     "trim",
     "unwrap_euler",
+    "up_axis_warning",
     "write_bvh",
 ]
 

@@ -22,6 +22,13 @@ name, an unknown channel.
 
 Lengths are in the file's unit, which BVH does not record: pass ``units=`` to the reader
 or let it guess from the rest-pose size of the skeleton (:func:`guess_units`).
+
+The up axis is not recorded either. BVH is Y-up by convention, but Blender's BVH exports
+are Z-up (its exporter writes its Z-up armature space). The reader labels the
+motion with the up axis detected from the motion itself (:func:`.axes.detect_up_axis`),
+positions kept as they are in the file; ``up_axis="y"`` or ``"z"`` forces the label. An
+ambiguous detection labels ``"y"``; ``detect_up_axis(motion)`` on the result gives the same
+estimate, with ``fallback`` set, for the caller to warn.
 """
 
 from __future__ import annotations
@@ -38,6 +45,7 @@ from numba import njit
 
 from elastic_motion._io import atomic_write_text, read_text
 from elastic_motion.errors import ParseError
+from elastic_motion.motion.axes import detect_up_axis
 from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler, valid_euler_order
 from elastic_motion.motion.skeleton import (
     POSITION_CHANNELS,
@@ -476,7 +484,7 @@ def read_bvh(
     path: str | os.PathLike[str],
     *,
     units: str | float | None = None,
-    up_axis: str = "y",
+    up_axis: str | None = None,
 ) -> Motion:
     """Read a BVH file.
 
@@ -486,23 +494,31 @@ def read_bvh(
     units : str or float, optional
         Length unit of the file: a name from :data:`.skeleton.UNITS` (``"m"``, ``"cm"``,
         ``"cmu"``, ...) or metres per unit. Default: guessed by :func:`guess_units`.
-    up_axis : {"x", "y", "z"}, default "y"
-        BVH is Y-up by convention; every file in the project's test data is.
+    up_axis : {"x", "y", "z"}, optional
+        Label for ``Motion.up_axis`` (positions are never changed). Default: detected from
+        the motion, :func:`.axes.detect_up_axis` ``(motion).up_axis``: the detected axis,
+        or ``"y"`` when the estimate is ambiguous, upside down or the skeleton is not a
+        human one (no torso and two legs below the hips). Every file of the project's test
+        data is detected Y-up; Blender's BVH exports come out ``"z"``.
 
     Returns
     -------
     Motion
         ``rotations (F, J, 3, 3)``, ``root_translation (F, 3)``, ``joint_translations
         (F, J, 3)`` when a non-root joint has position channels, ``fps`` from
-        ``Frame Time`` (see :func:`snap_fps`).
+        ``Frame Time`` (see :func:`snap_fps`), ``up_axis`` as above.
 
     Raises
     ------
     ParseError
         For any malformed content; the message names the file, the line and what was
         expected.
+    ValueError
+        For an ``up_axis`` other than ``"x"``, ``"y"``, ``"z"`` or ``None``.
     """
     path_s = os.fspath(path)
+    if up_axis is not None and up_axis not in ("x", "y", "z"):
+        raise ValueError(f"up_axis: expected 'x', 'y', 'z' or None (detect) for {path_s!r}; got {up_axis!r}")
     text = read_text(path)
     if "\r" in text:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
@@ -532,7 +548,12 @@ def read_bvh(
     if not math.isfinite(fps):
         raise ParseError(path_s, i + 1, f"expected a frame time of at least 1e-300 s, found {ft_tok!r}")
     values = _parse_frames(path_s, text, lines, i + 1, n_frames, skeleton.n_channels)
-    return _motion_from_values(skeleton, values, fps, units, up_axis, path_s)
+    motion = _motion_from_values(skeleton, values, fps, units, up_axis or "y", path_s)
+    if up_axis is None:
+        detected = detect_up_axis(motion).up_axis
+        if detected != motion.up_axis:
+            motion = motion.replace(up_axis=detected)
+    return motion
 
 
 def _motion_from_values(

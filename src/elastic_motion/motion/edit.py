@@ -35,6 +35,7 @@ __all__ = [
     "has_tpose_first_frame",
     "heading_angle",
     "merge_root",
+    "place_like",
     "place_on_floor",
     "resample",
     "resample_at_times",
@@ -426,9 +427,12 @@ def _apply_world_transform(motion: Motion, rot: np.ndarray, shift: np.ndarray) -
 def set_up_axis(motion: Motion, up_axis: str) -> Motion:
     """Rotate the whole motion so that its up axis becomes ``up_axis``.
 
-    The rotation is the quarter turn taking the current up axis to the new one
-    (``y -> z``: +90 degrees about x; ``z -> y``: -90 degrees about x; ``x <-> y``: about z;
-    ``x <-> z``: about y). Joint-local data is unchanged; only the root moves.
+    The rotation is the proper quarter turn (determinant +1: handedness kept) taking the
+    current up axis to the new one (``y -> z``: +90 degrees about x, ``(x, y, z) -> (x, -z,
+    y)``, what Blender's BVH import does; ``z -> y``: -90 degrees about x, ``(x, y, z) ->
+    (x, z, -y)``, its exact inverse, so Blender's forward -y becomes +z; ``x <-> y``: about
+    z; ``x <-> z``: about y). Joint-local data is unchanged; only the root moves. Positions
+    are rotated, not relabelled: use ``motion.replace(up_axis=...)`` to fix a wrong label.
     """
     if up_axis not in _AXES:
         raise ValueError(f"up_axis: expected 'x', 'y' or 'z'; got {up_axis!r}")
@@ -490,3 +494,66 @@ def place_on_floor(motion: Motion, *, floor: float = 0.0) -> Motion:
     shift = np.zeros(3)
     shift[up] = floor - lowest
     return _apply_world_transform(motion, np.eye(3), shift)
+
+
+# ------------------------------------------------------------------------------------------
+# Placing one motion like another
+# ------------------------------------------------------------------------------------------
+_MIN_PATH = 0.10  # metres: root paths shorter than this are "on the spot"
+
+
+def _floor_axes(up: int) -> tuple[int, int]:
+    return (up + 1) % 3, (up + 2) % 3
+
+
+def _root_path(m: Motion, up: int, n: int = 64) -> np.ndarray:
+    """Floor-plane root positions ``(n, 2)`` at equal fractions of the clip."""
+    p, q = _floor_axes(up)
+    u = np.linspace(0.0, 1.0, n) * (m.n_frames - 1)
+    src = np.arange(m.n_frames)
+    r = m.root_translation
+    return np.column_stack([np.interp(u, src, r[:, p]), np.interp(u, src, r[:, q])])
+
+
+def _rigid(m: Motion, angle: float, shift: np.ndarray) -> Motion:
+    """Rotate the world by ``angle`` about the up axis, then translate by ``shift`` (3,)."""
+    rot = axis_rotation(np.array(angle), "XYZ"[_AXES.index(m.up_axis)])
+    return _apply_world_transform(m, rot, shift)
+
+
+def place_like(reference: Motion, motion: Motion) -> tuple[Motion, str]:
+    """Move ``motion`` rigidly (a turn about the up axis and a floor translation, heights
+    untouched) so that its root starts where ``reference``'s does, turned to best match the
+    reference's root path.
+
+    The turn is the least-squares fit (2D Procrustes about the start) of the floor-plane
+    root displacements from frame 0, sampled at equal fractions of each clip's duration.
+    When either root path spans less than 10 cm (motion on the spot) the fit is ill-posed
+    and the root's facing directions at frame 0 are matched instead.
+
+    Returns
+    -------
+    motion : Motion
+    note : str
+        How it was placed.
+    """
+    up = _AXES.index(reference.up_axis)
+    p, q = _floor_axes(up)
+    scale = reference.metres_per_unit or 1.0
+    pa, pb = _root_path(reference, up), _root_path(motion, up)
+    a, b = pa - pa[0], pb - pb[0]
+    span = min(np.ptp(pa, axis=0).max(), np.ptp(pb, axis=0).max()) * scale
+    if span >= _MIN_PATH:
+        angle = math.atan2(float(np.sum(b[:, 0] * a[:, 1] - b[:, 1] * a[:, 0])), float(np.sum(b * a)))
+        how = "start matched, root paths fitted"
+    else:
+        angle = float(
+            heading_angle(reference.rotations[0, 0], up) - heading_angle(motion.rotations[0, 0], up)
+        )
+        how = "start and frame-0 facing matched (motion on the spot)"
+    c, s = math.cos(angle), math.sin(angle)
+    moved0 = np.array([c * pb[0, 0] - s * pb[0, 1], s * pb[0, 0] + c * pb[0, 1]])
+    shift = np.zeros(3)
+    shift[p], shift[q] = pa[0] - moved0
+    angle = (angle + math.pi) % (2 * math.pi) - math.pi
+    return _rigid(motion, angle, shift), f"{how}: turned {math.degrees(angle):+.1f} deg about the up axis"

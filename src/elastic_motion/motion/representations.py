@@ -45,6 +45,7 @@ lock) remains: that is the baseline's known weakness.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numba import njit
@@ -59,6 +60,7 @@ __all__ = [
     "default_translation_weight",
     "from_euler_curve",
     "from_lie_curve",
+    "group_weights",
     "lie_group_for",
     "skeleton_diameter",
     "to_euler_curve",
@@ -160,6 +162,29 @@ def default_translation_weight(skeleton: Skeleton) -> float:
     if not half > 0:
         return 1.0
     return skeleton.n_joints / half**2
+
+
+def group_weights(motions: Sequence[Motion]) -> tuple[np.ndarray, float]:
+    """Inner-product weights shared by motions of one skeleton: the means of the per-motion
+    defaults (:func:`default_joint_weights`, :func:`default_translation_weight`).
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+        At least one; all with the same joints in the same order.
+
+    Returns
+    -------
+    joint_weights : ndarray, shape (J,)
+    translation_weight : float
+        In 1 / (length unit)^2 of the motions.
+    """
+    motions = list(motions)
+    if not motions:
+        raise ValueError("motions: expected at least one motion to take weights from; got none")
+    jw = np.mean([default_joint_weights(m.skeleton) for m in motions], axis=0)
+    tw = float(np.mean([default_translation_weight(m.skeleton) for m in motions]))
+    return jw, tw
 
 
 def lie_group_for(

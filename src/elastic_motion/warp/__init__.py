@@ -27,8 +27,14 @@ from elastic_motion.warp.energy import (
     warp_energy,
 )
 from elastic_motion.warp.landmarks import Landmarks, landmark_cost
-from elastic_motion.warp.solver import (
+from elastic_motion.warp.options import (
+    DEFAULT_LANDMARK_WEIGHT,
     DEFAULT_MAX_STEP,
+    DEFAULT_SAMPLE_FPS,
+    WARP_METHODS,
+    WarpOptions,
+)
+from elastic_motion.warp.solver import (
     WarpDiagnostics,
     WarpResult,
     coprime_steps,
@@ -37,9 +43,13 @@ from elastic_motion.warp.solver import (
 )
 
 __all__ = [
+    "DEFAULT_LANDMARK_WEIGHT",
     "DEFAULT_MAX_STEP",
+    "DEFAULT_SAMPLE_FPS",
+    "WARP_METHODS",
     "Landmarks",
     "WarpDiagnostics",
+    "WarpOptions",
     "WarpResult",
     "compose_warps",
     "coprime_steps",

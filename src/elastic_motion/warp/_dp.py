@@ -8,7 +8,7 @@ Conventions (see :mod:`elastic_motion.warp`):
   (shape ``(nv+1,)``), both from 0 to 1.  A DP edge joins node ``(k, l)`` to ``(i, j)``
   with ``(i - k, j - l)`` one of the neighbourhood ``steps``; on it ``phi`` is the linear
   piece ``phi(x) = v[l] + s (x - u[k])``, ``s = (v[j] - v[l]) / (u[i] - u[k])``.
-- Cost of an edge, exact for piecewise constant q's (DESIGN.md sec. 3, paper 001 eq. 28):
+- Cost of an edge, exact for piecewise constant q's (paper 001 eq. 28; ``docs/warp.md``):
 
       E(k,l;i,j) = int_{u_k}^{u_i} |q0|^2 + int_{v_l}^{v_j} |q1|^2
                    - 2 sqrt(s) int_{u_k}^{u_i} <q0(x), q1(phi(x))> dx
@@ -17,7 +17,8 @@ Conventions (see :mod:`elastic_motion.warp`):
   variables ``y = phi(x)`` in the second).  The cross term is a sum over the merged
   break points of ``G[a, b] * length`` with the Gram matrix ``G = q0 @ q1.T``, so one edge
   costs O(cells it crosses), independent of the dimension D.
-- Landmark term of an edge (paper 001 eq. 27-28 with the erratum of DESIGN.md sec. 3): a
+- Landmark term of an edge (paper 001 eq. 27-28 with the erratum in ``docs/warp.md``,
+  section "Landmarks"): a
   feature pair ``(theta0_m, theta1_m)`` is charged on the edge whose *domain* ``(u_k, u_i]``
   holds ``theta0_m``, at ``phi(theta0_m)`` of the linear piece; in the symmetric form
   (sec. 2.4, Remark 16) also on the edge whose *range* ``(v_l, v_j]`` holds ``theta1_m``,

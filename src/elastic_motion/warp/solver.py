@@ -17,6 +17,7 @@ import numpy as np
 from elastic_motion.warp import _dp
 from elastic_motion.warp.energy import check_pair, check_vertices, kernel_array, srv_norm2
 from elastic_motion.warp.landmarks import (
+    _WINDOW_SLACK,
     Landmarks,
     Penalty,
     PenaltySpec,
@@ -24,13 +25,19 @@ from elastic_motion.warp.landmarks import (
     as_landmarks,
     make_penalty,
 )
+from elastic_motion.warp.options import DEFAULT_MAX_STEP, WarpOptions
 from elastic_motion.warp.refine import refine_warp
 
 Method = Literal["dp", "dp+refine", "refine"]
 
-#: Default neighbourhood: all coprime slopes (a, b) with 1 <= a, b <= 10 (63 slopes), the
-#: set of fdasrsf's ``DP`` (its ``Nbrs`` table in ``DP.c``).
-DEFAULT_MAX_STEP = 10
+#: Default solver of :func:`optimal_warp` (and of :class:`WarpOptions`): the DP alone has
+#: slopes in ``[1/m, m]`` and does not reach the elastic distance when the best warp is
+#: steeper or flatter, whatever the grid; the refinement off the grid does (``docs/warp.md``,
+#: "Default method").
+DEFAULT_METHOD: Method = "dp+refine"
+
+# DEFAULT_MAX_STEP (10: all coprime slopes (a, b) with 1 <= a, b <= 10, the 63 slopes of
+# fdasrsf's ``DP``, its ``Nbrs`` table in ``DP.c``) has its home in warp.options.
 
 #: Coarse-to-fine: the coarsest level of the pyramid has at most this many cells.
 C2F_MIN_CELLS = 100
@@ -244,11 +251,13 @@ class _LandmarkData:
             )
         lm, spec = self.lm, self.spec
         o0 = np.argsort(lm.theta0, kind="stable")
-        fx, fy, fd = lm.theta0[o0], lm.theta1[o0], spec.windows[o0]
+        # the kernels test |r| > d_m + slack: a window d_m = 0 (exact hard constraint) is met by
+        # an edge through the landmark node up to the rounding of phi on the linear piece
+        fx, fy, fd = lm.theta0[o0], lm.theta1[o0], spec.windows[o0] + _WINDOW_SLACK
         cnt0 = np.searchsorted(fx, u, side="right").astype(np.int64)
         tab0 = spec.table(fy)
         o1 = np.argsort(lm.theta1, kind="stable")
-        sx, sy, sd = lm.theta0[o1], lm.theta1[o1], spec.windows[o1]
+        sx, sy, sd = lm.theta0[o1], lm.theta1[o1], spec.windows[o1] + _WINDOW_SLACK
         cnt1 = np.searchsorted(sy, v, side="right").astype(np.int64)
         tab1 = spec.table(sx) if self.symmetric else empty_t
         k = kernel_array
@@ -277,14 +286,14 @@ class _LandmarkData:
         at0 = lm.theta0 == 0.0
         if at0.any():
             r = -lm.theta1[at0]
-            if (np.abs(r) > spec.windows[at0]).any():
+            if (np.abs(r) > spec.windows[at0] + _WINDOW_SLACK).any():
                 return np.inf
             cost += spec.lam * float(spec.values(np.zeros_like(r), lm.theta1[at0]).sum())
         if self.symmetric:
             at0 = lm.theta1 == 0.0
             if at0.any():
                 r = -lm.theta0[at0]
-                if (np.abs(r) > spec.windows[at0]).any():
+                if (np.abs(r) > spec.windows[at0] + _WINDOW_SLACK).any():
                     return np.inf
                 cost += spec.lam * float(spec.values(np.zeros_like(r), lm.theta0[at0]).sum())
         return cost
@@ -537,8 +546,8 @@ def optimal_warp(
     *,
     t0: Any = None,
     t1: Any = None,
-    method: Method = "dp",
-    neighbourhood: int | Any = DEFAULT_MAX_STEP,
+    method: Method | None = None,
+    neighbourhood: int | Any | None = None,
     grid: tuple[Any, Any] | None = None,
     landmarks: Landmarks | Any | None = None,
     lam: float = 1.0,
@@ -546,10 +555,11 @@ def optimal_warp(
     windows: float | Any | None = None,
     symmetric: bool = False,
     closed: bool = False,
-    coarse_to_fine: bool = False,
+    coarse_to_fine: bool | None = None,
     band: int | None = None,
     tol: float = 1e-7,
     max_iter: int = 500,
+    options: WarpOptions | None = None,
 ) -> WarpResult:
     """Optimal warp ``phi`` minimising ``||q0 - q1 * phi||^2 + lam * FM`` (paper 001, eq. 21).
 
@@ -562,11 +572,13 @@ def optimal_warp(
         SRV array of curve 1 (the curve that is warped), on ``t1``; n1 may differ from n0.
     t0, t1 : array_like, shapes (n0+1,), (n1+1,), optional
         Strictly increasing break points from 0 to 1; uniform when omitted.
-    method : {"dp", "dp+refine", "refine"}
-        ``"dp"``: dynamic programming, exact on its grid.  ``"dp+refine"``: then gradient
-        refinement off the grid (never increases the energy).  ``"refine"``: gradient
-        refinement started from the identity (a local method).
-    neighbourhood : int or array_like of shape (K, 2)
+    method : {"dp+refine", "dp", "refine"}, default "dp+refine"
+        ``"dp"``: dynamic programming, exact on its grid, slopes in ``[1/m, m]``.
+        ``"dp+refine"`` (default): then gradient refinement off the grid (never increases the
+        energy); it reaches the elastic distance as the grid is refined also when the best
+        warp is steeper or flatter than the DP's slopes (``docs/warp.md``, "Default method").
+        ``"refine"``: gradient refinement started from the identity (a local method).
+    neighbourhood : int or array_like of shape (K, 2), default 10
         Slopes of the DP edges: an int ``m`` gives all coprime ``(a, b)`` with
         ``1 <= a, b <= m`` (default 10: the 63 slopes of fdasrsf's DP); or explicit
         ``(domain step, range step)`` pairs in grid nodes.
@@ -597,6 +609,13 @@ def optimal_warp(
         iteration, averaged over 5 iterations.
     max_iter : int
         Refinement: maximal number of iterations.
+    options : WarpOptions, optional
+        Fills ``method``, ``neighbourhood`` and ``coarse_to_fine`` from
+        :meth:`WarpOptions.solver_kwargs` (its ``landmark_weight`` is relative and its
+        ``sample_fps`` concerns motions: neither is used here, pass ``lam`` yourself, e.g.
+        ``options.absolute_landmark_weight(...)``).  An explicit keyword that *disagrees* with
+        ``options`` is an error (no silent precedence); one that agrees is accepted.
+        ``options.method == "none"`` is an error (the identity needs no solver).
 
     Returns
     -------
@@ -616,6 +635,7 @@ def optimal_warp(
     table are filled in parallel (numba ``prange``).  Memory ``O(nu nv)``.
     """
     t_start = time.perf_counter()
+    method, neighbourhood, coarse_to_fine = _resolve_options(options, method, neighbourhood, coarse_to_fine)
     q0a, t0a, q1a, t1a = check_pair(q0, q1, t0, t1)
     if method not in ("dp", "dp+refine", "refine"):
         raise ValueError(f"method: expected 'dp', 'dp+refine' or 'refine'; got {method!r}")
@@ -726,6 +746,37 @@ def optimal_warp(
         diagnostics=diag,
         seed_shift=seed_shift,
     )
+
+
+def _resolve_options(
+    options: WarpOptions | None, method: Any, neighbourhood: Any, coarse_to_fine: Any
+) -> tuple[Any, Any, bool]:
+    """``(method, neighbourhood, coarse_to_fine)`` from the keywords and ``options``."""
+    explicit = {"method": method, "neighbourhood": neighbourhood, "coarse_to_fine": coarse_to_fine}
+    if options is not None:
+        if not isinstance(options, WarpOptions):
+            raise ValueError(f"options: expected a WarpOptions or None; got {type(options).__name__}")
+        if options.method == "none":
+            raise ValueError("options: method 'none' has no solver (the identity warp needs no optimal_warp)")
+        for key, value in options.solver_kwargs().items():
+            given = explicit[key]
+            if given is None:
+                explicit[key] = value
+                continue
+            same = (
+                bool(np.array_equal(np.asarray(given), np.asarray(value)))
+                if key == "neighbourhood"
+                else given == value
+            )
+            if not same:
+                raise ValueError(
+                    f"{key}: {given!r} given both explicitly and as options.{key} = {value!r}; "
+                    f"pass one of them"
+                )
+    m = DEFAULT_METHOD if explicit["method"] is None else explicit["method"]
+    nb = DEFAULT_MAX_STEP if explicit["neighbourhood"] is None else explicit["neighbourhood"]
+    c2f = False if explicit["coarse_to_fine"] is None else bool(explicit["coarse_to_fine"])
+    return m, nb, c2f
 
 
 def identity_energy(q0: Any, q1: Any, t0: Any = None, t1: Any = None) -> float:

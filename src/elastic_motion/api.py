@@ -1,0 +1,162 @@
+"""The notebook face of the package: read, blend, loop, align, compare and write in a few calls.
+
+``import elastic_motion as em`` exposes every name here (loaded on first use, so that the
+command line starts fast). Each function is the one the command line calls, with the same
+defaults, so a notebook and ``elastic-motion`` give the same numbers for the same files::
+
+    import elastic_motion as em
+
+    res = em.blend(["walk.bvh", "run.bvh"], 0.5, warp="dp")   # paths or Motion objects
+    em.write(res, "walk_run.bvh")          # in the first input's length unit
+    print(em.to_json(res))                 # the report the CLI's --json writes (without header)
+
+Inputs may be paths or :class:`~elastic_motion.motion.Motion` objects; both go through the
+one preparation step (:mod:`elastic_motion.apps.prepare`: T-pose frame, trim, static root,
+metres, Y-up, joints, placement), set with ``prepare=em.PrepareOptions(...)``. How warps are
+found is one :class:`~elastic_motion.warp.WarpOptions` (``warp="dp"`` is short for
+``em.WarpOptions(method="dp")``).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from elastic_motion.apps.align import AlignResult, align_motions
+from elastic_motion.apps.blend import BlendMetrics, BlendResult, blend_metrics, blend_motions
+from elastic_motion.apps.distance import DistanceTable, distance_table
+from elastic_motion.apps.loop import LoopResult, SeamMetrics, loop_motion, repeat_motion, seam_metrics
+from elastic_motion.apps.prepare import (
+    MotionPreparation,
+    PreparedMotions,
+    PrepareOptions,
+    Source,
+    load_motion,
+    output_motion,
+    prepare_motions,
+)
+from elastic_motion.apps.report import jsonable, report_json
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import Motion, read_motion, write_bvh
+from elastic_motion.warp import WarpOptions
+
+__all__ = [
+    "AlignResult",
+    "BlendMetrics",
+    "BlendResult",
+    "DistanceTable",
+    "LoopResult",
+    "Motion",
+    "MotionPreparation",
+    "PrepareOptions",
+    "PreparedMotions",
+    "SeamMetrics",
+    "WarpOptions",
+    "align",
+    "blend",
+    "blend_metrics",
+    "distance",
+    "distances",
+    "load",
+    "loop",
+    "prepare",
+    "read",
+    "repeat",
+    "seam_metrics",
+    "to_json",
+    "write",
+]
+
+#: ``em.read(path, units=..., up_axis=...)``: a motion file as it is, no preparation.
+read = read_motion
+#: ``em.load(source, options)``: one input through the per-input preparation steps.
+load = load_motion
+#: ``em.prepare(sources, options)``: inputs made comparable (the step every app runs first).
+prepare = prepare_motions
+#: ``em.blend(motions, weights, method=, warp=, landmarks=, prepare=, metrics=)``.
+blend = blend_motions
+#: ``em.loop(motion, root=, c1=, method=, solver=, free_joints=, prepare=)``.
+loop = loop_motion
+#: ``em.align(a, b, method=, warp=, landmarks=, prepare=)``: the warp of B onto A.
+align = align_motions
+#: ``em.distances(motions, method=, warp=, prepare=)``: all pairwise distances (DistanceTable).
+distances = distance_table
+#: ``em.repeat(motion, cycles, root)``: a loop played several times.
+repeat = repeat_motion
+
+
+def distance(
+    a: Source,
+    b: Source,
+    *,
+    method: str = "lie",
+    warp: str | WarpOptions | None = None,
+    prepare: PrepareOptions | None = None,
+) -> float:
+    """Elastic distance of two motions (the ``[0, 1]`` entry of :func:`distances`).
+
+    Parameters
+    ----------
+    a, b : path or Motion
+    method : {"lie", "euler-elastic"}
+    warp : str or WarpOptions, optional
+        Default ``WarpOptions()``; ``"none"`` gives the distance without warp.
+    prepare : PrepareOptions, optional
+
+    Returns
+    -------
+    float
+        In the SRV metric of the representation (dimensionless for ``"lie"`` with the
+        default weights).
+    """
+    return float(distance_table([a, b], method=method, warp=warp, prepare=prepare).matrix[0, 1])
+
+
+def write(
+    result: Motion | BlendResult | LoopResult,
+    path: str | os.PathLike[str],
+    *,
+    units: str | None = None,
+    protected: Sequence[str | os.PathLike[str]] = (),
+) -> Path:
+    """Write a motion or an app's result as BVH, atomically, in the documented unit.
+
+    Parameters
+    ----------
+    result : Motion, BlendResult or LoopResult
+        A result is written in its first input's length unit (the command line's rule,
+        :attr:`PreparedMotions.units_out`); a Motion in its own unit.
+    path : path
+        ``.bvh`` destination; never one of the inputs (refused).
+    units : str, optional
+        Force the output unit (``"m"``, ``"cm"``, ``"mm"``, ``"inch"``, ``"cmu"``).
+    protected : sequence of paths
+        More files that must not be overwritten.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    from elastic_motion.motion import UNITS
+
+    if units is not None and units not in UNITS:
+        raise OptionError("units", f"expected one of {sorted(UNITS)}; got {units!r}")
+    if isinstance(result, BlendResult | LoopResult):
+        motion, prepared = result.motion, result.prepared
+        target = UNITS[units] if units is not None else prepared.units_out
+        sources = [r.source for r in prepared.inputs if r.source is not None]
+    elif isinstance(result, Motion):
+        motion, target, sources = result, (UNITS[units] if units is not None else None), []
+    else:
+        raise OptionError(
+            "result", f"expected a Motion, BlendResult or LoopResult; got {type(result).__name__}"
+        )
+    return write_bvh(output_motion(motion, target), path, protected=[*sources, *protected])
+
+
+def to_json(result: Any) -> str:
+    """A result as the JSON text of its report (``summary()`` when it has one), strict JSON."""
+    body = result.summary() if hasattr(result, "summary") else jsonable(result)
+    return report_json(body if isinstance(body, dict) else {"value": body})

@@ -1,0 +1,90 @@
+"""All-pairs elastic distances over a motion database: the package's face.
+
+Everything a user needs is importable from here (``from elastic_motion.apps.database import
+compute_matrix``); each submodule does one job:
+
+============== ===========================================================================
+``files``      finding motion files in files and folders (:func:`find_motion_files`)
+``settings``   what determines the numbers (:class:`DatabaseSettings`) and its JSON form
+``preparation`` one motion to the database's common form (:func:`prepare_motion`), on top
+               of the library's one preparation step (:func:`elastic_motion.apps.prepare.load_motion`)
+``cache``      the SRV arrays of every motion, grouped by skeleton (:class:`SRVCache`)
+``tiles``      pair distances and tiles of pairs, the numerical work (:func:`pair_distance`)
+``engines``    where tiles run: serial, Dask ``LocalCluster``, Dask scheduler
+``storage``    the output folder: file names, atomic writes, ``names.csv``
+``matrix``     the resumable run (:func:`compute_matrix`)
+``results``    reading a matrix back (:func:`load_matrix`)
+``query``      one motion against a database (:func:`query_distances`)
+============== ===========================================================================
+
+Conventions
+-----------
+* **Motions -> SRV arrays.** Every readable input is prepared once (:mod:`.preparation`),
+  resampled to ``n_samples + 1`` frames uniformly in time and transformed to SRV arrays
+  ``q`` of shape ``(n_samples, D)`` on the grid ``linspace(0, 1, n_samples + 1)`` (each
+  clip's duration normalised to 1), in the representations ``"lie"`` (``R^3 x SO(3)^J``,
+  weights shared by a skeleton group) and ``"euler"`` (root position in metres, Euler
+  angles in radians); see :mod:`.cache`.
+* **Pair distance**: with ``WarpOptions(method="dp")`` the elastic distance
+  ``min_phi ||q_i - q_j * phi||_L2`` (:func:`elastic_motion.warp.optimal_warp`), with
+  ``method="none"`` the distance of parametrised curves ``||q_i - q_j||_L2`` (paper 000,
+  eq. 4). Only ``i < j`` is computed and mirrored; diagonal 0; ``+inf`` between skeleton
+  groups (:mod:`.tiles`). Every engine and tiling gives the same matrix bit for bit.
+* **Output folder** and resume: :mod:`.storage`, :mod:`.matrix`.
+
+Numerical code here prints nothing; progress goes to an optional ``progress(stage, done,
+total)`` callback.
+"""
+
+from __future__ import annotations
+
+from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
+from elastic_motion.apps.database.engines import ClusterUnavailableError
+from elastic_motion.apps.database.files import MOTION_EXTENSIONS, find_motion_files
+from elastic_motion.apps.database.matrix import MatrixResult, compute_matrix, remove_run
+from elastic_motion.apps.database.preparation import (
+    PreparedMotion,
+    prepare_motion,
+    restrict_to_common_joints,
+)
+from elastic_motion.apps.database.query import QueryResult, query_distances
+from elastic_motion.apps.database.results import DistanceMatrix, load_matrix
+from elastic_motion.apps.database.settings import DEFAULT_WARP, REPRESENTATIONS, DatabaseSettings
+from elastic_motion.apps.database.tiles import (
+    compute_tile,
+    distance_matrix,
+    pair_distance,
+    single_threaded_blas,
+    tile_blocks,
+)
+from elastic_motion.apps.progress import Progress
+from elastic_motion.warp import WarpOptions
+
+__all__ = [
+    "DEFAULT_WARP",
+    "MOTION_EXTENSIONS",
+    "REPRESENTATIONS",
+    "ClusterUnavailableError",
+    "DatabaseSettings",
+    "DistanceMatrix",
+    "MatrixResult",
+    "PreparedMotion",
+    "Progress",
+    "QueryResult",
+    "SRVCache",
+    "WarpOptions",
+    "build_srv_cache",
+    "compute_matrix",
+    "compute_tile",
+    "distance_matrix",
+    "find_motion_files",
+    "load_matrix",
+    "pair_distance",
+    "prepare_motion",
+    "query_distances",
+    "remove_run",
+    "restrict_to_common_joints",
+    "single_threaded_blas",
+    "srv_arrays",
+    "tile_blocks",
+]

@@ -1,0 +1,431 @@
+"""The matrix run: all-pairs distances of a folder of motions, tile by tile, resumable.
+
+:func:`compute_matrix` finds the files (:mod:`.files`), prepares them once into the SRV
+cache (:mod:`.cache`), splits the upper triangle into tiles (:mod:`.tiles`), runs them on
+an engine (:mod:`.engines`) and writes each finished tile, the matrices and the reports
+into the output folder (:mod:`.storage`).
+
+Resume: the identity of a run is its settings and its input files (``manifest.json``). A
+folder holding a run with the same identity is resumed: every tile file on disk is kept
+(never recomputed) and the matrices are rebuilt from them, so an interruption at any point
+loses at most the tiles in flight and duplicates none. A run of format 1 (settings with
+``"pair"``) is read as the same settings (:mod:`.settings`) and resumed alike.
+
+Numerical code here prints nothing; progress goes to an optional ``progress(stage, done,
+total)`` callback.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import platform
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from elastic_motion.apps.database import storage
+from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
+from elastic_motion.apps.database.engines import Engine, Task, open_engine
+from elastic_motion.apps.database.files import find_motion_files
+from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
+from elastic_motion.apps.database.tiles import block, tile_blocks
+from elastic_motion.apps.progress import Progress
+from elastic_motion.errors import OptionError
+
+__all__ = ["MatrixResult", "compute_matrix", "remove_run"]
+
+
+@dataclass(frozen=True, eq=False)
+class MatrixResult:
+    """Outcome of :func:`compute_matrix`.
+
+    Attributes
+    ----------
+    out_dir : Path
+    names : list of str
+        Motion names, in matrix order.
+    distances : dict of str -> ndarray, shape (M, M)
+        Read-only memory maps of ``distances_<repr>.npy`` (NaN where not computed yet).
+    report : dict
+        The content of ``report.json``.
+    """
+
+    out_dir: Path
+    names: list[str]
+    distances: dict[str, np.ndarray]
+    report: dict[str, Any]
+
+    @property
+    def complete(self) -> bool:
+        """Every tile of every representation is on disk."""
+        return bool(self.report.get("complete"))
+
+
+def _identity(settings: DatabaseSettings, files: Sequence[Path]) -> dict[str, Any]:
+    return {
+        "format": FORMAT_VERSION,
+        "settings": settings.to_json(),
+        "inputs": [os.fspath(f) for f in files],
+    }
+
+
+def _upgraded_identity(old: Any) -> dict[str, Any] | None:
+    """The identity of an earlier run in this release's form; None if unreadable."""
+    if not isinstance(old, dict) or old.get("format") not in READABLE_FORMATS:
+        return None
+    try:
+        settings = DatabaseSettings.from_json(old["settings"]).to_json()
+    except (KeyError, TypeError, ValueError):
+        return None
+    return {"format": FORMAT_VERSION, "settings": settings, "inputs": old.get("inputs")}
+
+
+def _identity_diff(old: dict[str, Any] | None, new: dict[str, Any]) -> str:
+    if not old:
+        return "its manifest.json is from an unknown format or unreadable"
+    diffs = []
+    if old.get("inputs") != new["inputs"]:
+        o, n = set(old.get("inputs") or ()), set(new["inputs"])
+        diffs.append(f"inputs differ ({len(n - o)} new, {len(o - n)} missing)")
+    so, sn = old.get("settings", {}), new["settings"]
+    for k in sn:
+        if isinstance(sn[k], dict) and isinstance(so.get(k), dict):
+            diffs += [f"{k}.{f}: {so[k].get(f)!r} -> {sn[k][f]!r}" for f in sn[k] if so[k].get(f) != sn[k][f]]
+        elif so.get(k) != sn[k]:
+            diffs.append(f"{k}: {so.get(k)!r} -> {sn[k]!r}")
+    return "; ".join(diffs) or "format differs"
+
+
+def compute_matrix(
+    inputs: Sequence[str | os.PathLike[str]],
+    out_dir: str | os.PathLike[str],
+    settings: DatabaseSettings | None = None,
+    *,
+    engine: Literal["serial", "local", "dask"] = "serial",
+    scheduler: str | None = None,
+    n_workers: int = 2,
+    connect_timeout: float = 10.0,
+    recursive: bool = False,
+    overwrite: bool = False,
+    progress: Progress | None = None,
+) -> MatrixResult:
+    """All-pairs distances of the motions in ``inputs``, written tile by tile to ``out_dir``.
+
+    Parameters
+    ----------
+    inputs : sequence of paths
+        Motion files and/or folders (see :func:`find_motion_files`).
+    out_dir : path
+        Output folder (created). If it holds a run with the same settings and inputs, that
+        run is resumed: finished tiles are kept, the rest computed. A different run there is
+        an error unless ``overwrite=True`` (which deletes this module's files only).
+    settings : DatabaseSettings, optional
+        Default ``DatabaseSettings()``.
+    engine : {"serial", "local", "dask"}, default "serial"
+    scheduler : str, optional
+        Address of the Dask scheduler for ``engine="dask"``.
+    n_workers : int, default 2
+        Worker processes of the ``"local"`` cluster.
+    connect_timeout : float, default 10
+        Seconds to wait for the scheduler (``"dask"``).
+    recursive : bool, default False
+        Search folders recursively.
+    overwrite : bool, default False
+    progress : callable, optional
+        ``progress(stage, done, total)`` with stages ``"read"`` and ``"tiles"``; called after
+        each tile is safely on disk.
+
+    Returns
+    -------
+    MatrixResult
+
+    Raises
+    ------
+    ClusterUnavailableError
+        The scheduler cannot be reached (checked before anything is written).
+    OptionError
+        ``out_dir`` holding another run (the message says how to resume or restart it) or
+        an input; no readable motion.
+    ValueError
+        Bad settings.
+    """
+    settings = settings or DatabaseSettings()
+    out = Path(out_dir)
+    files, ignored = find_motion_files(inputs, recursive=recursive)
+    names = storage.our_names()
+    if any(out.resolve() == f or (out.resolve() in f.parents and f.name in names) for f in files):
+        raise OptionError(
+            "out_dir",
+            f"expected a folder that holds no input; got {os.fspath(out)!r}, which would overwrite one",
+        )
+    ident = _identity(settings, files)
+    manifest_path = out / storage.MANIFEST
+    if manifest_path.exists():
+        try:
+            old = _upgraded_identity(storage.read_json(manifest_path).get("identity"))
+        except (OSError, ValueError, AttributeError):
+            old = None
+        if old != ident:
+            if not overwrite:
+                raise OptionError(
+                    "out_dir",
+                    f"{os.fspath(out)!r} holds a run with other settings or inputs "
+                    f"({_identity_diff(old, ident)}); expected the same settings and inputs to resume it. "
+                    "Run again with the settings it was started with to resume it, choose another folder, "
+                    "or pass overwrite=True (--overwrite) to start it again",
+                )
+            storage.clean_outputs(out)
+    elif overwrite and out.exists():
+        storage.clean_outputs(out)
+    # connect before writing anything: an unreachable scheduler leaves no output behind
+    eng = open_engine(engine, scheduler, n_workers, connect_timeout)
+    try:
+        return _run(out, files, ignored, settings, ident, eng, progress)
+    finally:
+        eng.close()
+
+
+def _load_or_build_cache(
+    out: Path,
+    files: list[Path],
+    ignored: list[Path],
+    settings: DatabaseSettings,
+    resuming: bool,
+    progress: Progress | None,
+) -> tuple[SRVCache, bool]:
+    cache_path = out / storage.CACHE
+    cache = None
+    if resuming and cache_path.exists():
+        with contextlib.suppress(Exception):  # unreadable: rebuilt below (same inputs, same numbers)
+            cache = SRVCache.load(cache_path)
+    if cache is not None:
+        return cache, True
+    cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
+    if len(cache) == 0:  # before anything is written
+        raise OptionError(
+            "inputs",
+            "expected at least one readable motion; got none (skipped: "
+            + "; ".join(f"{s['path']}: {s['reason']}" for s in cache.skipped[:5])
+            + ")",
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    cache.save(cache_path)
+    return cache, False
+
+
+def _run(
+    out: Path,
+    files: list[Path],
+    ignored: list[Path],
+    settings: DatabaseSettings,
+    ident: dict[str, Any],
+    eng: Engine,
+    progress: Progress | None,
+) -> MatrixResult:
+    started = time.time()
+    manifest_path = out / storage.MANIFEST
+    manifest = storage.read_json(manifest_path) if manifest_path.exists() else None
+    t_read = time.perf_counter()
+    cache, cache_reused = _load_or_build_cache(out, files, ignored, settings, manifest is not None, progress)
+    t_read = time.perf_counter() - t_read
+    tiles_dir = out / storage.TILES
+    tiles_dir.mkdir(parents=True, exist_ok=True)
+    storage.write_names(out, cache)
+    m = len(cache)
+    ts = settings.tile_size
+    blocks = tile_blocks(m, ts)
+    if manifest is None:
+        manifest = {"n_motions": m, "tile_size": ts, "n_blocks": -(-m // ts), "tiles": {}, "runs": []}
+    manifest["identity"] = ident  # a format-1 run resumed is written in this release's form
+    run_id = len(manifest["runs"]) + 1
+    # adopt tile files on disk (ground truth): also those finished after the last manifest write
+    on_disk = {f.name for f in tiles_dir.iterdir() if storage.TILE_RE.match(f.name)}
+    recovered = 0
+    for name in sorted(on_disk):
+        key = name[:-4]
+        if key not in manifest["tiles"]:
+            manifest["tiles"][key] = {"run": run_id, "recovered": True}
+            recovered += 1
+    for key in list(manifest["tiles"]):
+        if key + ".npy" not in on_disk:  # listed but file gone: recompute
+            del manifest["tiles"][key]
+    run_info: dict[str, Any] = {
+        "run": run_id,
+        "engine": eng.name,
+        "workers": eng.n_workers,
+        "scheduler": getattr(eng, "scheduler", None),
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
+        "tiles_before": len(manifest["tiles"]),
+        "tiles_recovered": recovered,
+        "tiles_computed": 0,
+        "pairs_computed": 0,
+    }
+    manifest["runs"].append(run_info)
+    storage.write_json(manifest_path, manifest)
+
+    report = _report(cache, settings, eng, files, complete=False)
+    report["runs"] = manifest["runs"]
+    storage.write_json(out / storage.REPORT, report)
+
+    # matrices: rebuilt from the tiles on disk
+    mats = {}
+    for r in settings.representations:
+        mm = np.lib.format.open_memmap(
+            out / storage.matrix_name(r), mode="w+", dtype=np.float64, shape=(m, m)
+        )
+        mm[:] = np.nan
+        mats[r] = mm
+    for key in manifest["tiles"]:
+        r, bi, bj = storage.parse_tile_key(key)
+        _place(mats[r], np.load(tiles_dir / (key + ".npy")), block(bi, ts, m), block(bj, ts, m))
+
+    todo = []
+    for r in settings.representations:
+        for bi, bj in blocks:
+            key = storage.tile_key(r, bi, bj)
+            if key not in manifest["tiles"]:
+                todo.append(Task(key, r, bi, bj, block(bi, ts, m), block(bj, ts, m)))
+    total = len(blocks) * len(settings.representations)
+    done = total - len(todo)
+    if progress is not None:
+        progress("tiles", done, total)
+
+    warp = settings.warp
+    groups = cache.groups
+    handles: dict[str, list[Any]] = {}
+
+    def args_of(t: Task) -> tuple:
+        if t.rep not in handles:
+            handles[t.rep] = eng.share(cache.q[t.rep])
+        qs = handles[t.rep]
+        return (
+            t.rows,
+            t.cols,
+            [qs[i] for i in t.rows],
+            [qs[j] for j in t.cols],
+            groups[t.rows],
+            groups[t.cols],
+            warp,
+        )
+
+    t_tiles = time.perf_counter()
+    tile_seconds = 0.0
+    last_manifest = time.monotonic()
+    for task, res, secs in eng.run(todo, args_of):
+        storage.save_npy(tiles_dir / (task.key + ".npy"), res)
+        _place(mats[task.rep], res, task.rows, task.cols)
+        n_pairs = _pairs_in(task.rows, task.cols, groups)
+        manifest["tiles"][task.key] = {"run": run_id, "seconds": round(secs, 4), "pairs": n_pairs}
+        run_info["tiles_computed"] += 1
+        run_info["pairs_computed"] += n_pairs
+        tile_seconds += secs
+        done += 1
+        if time.monotonic() - last_manifest > 2.0 or done == total:
+            storage.write_json(manifest_path, manifest)
+            last_manifest = time.monotonic()
+        if progress is not None:
+            progress("tiles", done, total)
+    wall = time.perf_counter() - t_tiles
+    for mm in mats.values():
+        mm.flush()
+    complete = all(
+        storage.tile_key(r, bi, bj) in manifest["tiles"]
+        for r in settings.representations
+        for bi, bj in blocks
+    )
+    if complete:
+        for r, mm in mats.items():
+            if np.isnan(mm).any():  # every tile present, so this is a bug, not an interruption
+                raise RuntimeError(f"{storage.matrix_name(r)}: NaN left after all tiles were written")
+    run_info["seconds_tiles"] = round(wall, 3)
+    run_info["seconds_tile_work"] = round(tile_seconds, 3)
+    run_info["seconds_read"] = round(t_read, 3)
+    run_info["cache_reused"] = cache_reused
+    run_info["pairs_per_second"] = (
+        round(run_info["pairs_computed"] / wall, 3) if wall > 0 and run_info["pairs_computed"] else None
+    )
+    storage.write_json(manifest_path, manifest)
+    report = _report(cache, settings, eng, files, complete=complete)
+    report["runs"] = manifest["runs"]
+    report["timings"] = {
+        "read_seconds": round(t_read, 3),
+        "tiles_seconds": round(wall, 3),
+        "pairs_computed": run_info["pairs_computed"],
+        "pairs_per_second": run_info["pairs_per_second"],
+    }
+    storage.write_json(out / storage.REPORT, report)
+    del mats
+    dists = {r: np.load(out / storage.matrix_name(r), mmap_mode="r") for r in settings.representations}
+    return MatrixResult(out, cache.names, dists, report)
+
+
+def _pairs_in(rows: np.ndarray, cols: np.ndarray, groups: np.ndarray) -> int:
+    i = rows[:, None]
+    j = cols[None, :]
+    return int(((i < j) & (groups[i] == groups[j])).sum())
+
+
+def _place(mat: np.ndarray, tile: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+    """Write a tile's upper-triangle entries and their mirror into ``mat``."""
+    a, b = np.nonzero(rows[:, None] <= cols[None, :])
+    i, j = rows[a], cols[b]
+    mat[i, j] = tile[a, b]
+    mat[j, i] = tile[a, b]
+
+
+def _comparison_note(settings: DatabaseSettings, groups: list[dict[str, Any]]) -> str:
+    if settings.joints == "common" and groups:
+        joints = groups[0]["joints"]
+        note = f"joints='common': all motions compared on the {len(joints)} joints they share"
+        if len(joints) < 5:
+            note += f" (only {joints}: the skeletons have little in common, distances mean little)"
+        return note
+    if len(groups) <= 1:
+        return "one skeleton group"
+    return (
+        f"{len(groups)} skeleton groups: distances between groups are +inf "
+        "(use joints='common' to compare them on their shared joints)"
+    )
+
+
+def _report(
+    cache: SRVCache, settings: DatabaseSettings, eng: Engine, files: Sequence[Path], *, complete: bool
+) -> dict[str, Any]:
+    groups = []
+    for g, joints in enumerate(cache.group_joints):
+        members = [n for n, gg in zip(cache.names, cache.groups, strict=True) if gg == g]
+        groups.append({"group": g, "joints": joints, "n_joints": len(joints), "motions": members})
+    return {
+        "complete": complete,
+        "format": FORMAT_VERSION,
+        "n_inputs": len(files),
+        "n_motions": len(cache),
+        "settings": settings.to_json(),
+        "skipped": cache.skipped,
+        "ignored": cache.ignored,
+        "groups": groups,
+        "comparison": _comparison_note(settings, groups),
+        "joints_mode": settings.joints if isinstance(settings.joints, str) else "list",
+        "engine": eng.name,
+        "workers": eng.n_workers,
+        "scheduler": getattr(eng, "scheduler", None),
+        "host": platform.node(),
+        "files": {
+            "names": storage.NAMES,
+            "distances": {r: storage.matrix_name(r) for r in settings.representations},
+            "srv_cache": storage.CACHE,
+            "tiles": storage.TILES + "/",
+        },
+    }
+
+
+def remove_run(out_dir: str | os.PathLike[str]) -> None:
+    """Delete the files a run wrote in ``out_dir`` (never anything else), then the folder if empty."""
+    storage.clean_outputs(Path(out_dir))
+    with contextlib.suppress(OSError):
+        Path(out_dir).rmdir()

@@ -1,0 +1,172 @@
+"""Bringing one motion to the common form of a database: :func:`prepare_motion`.
+
+The per-file steps every door of the library shares (read, drop a T-pose frame 0, fold a
+static root, metres, Y-up) are :func:`elastic_motion.apps.prepare.load_motion`'s; this
+module adds the database's own steps, in this order:
+
+1. drop finger joints (``drop_fingers``; CMU's 180-degree flips);
+2. remove the heading and the floor position of the root at frame 0 (``align_heading``;
+   :func:`elastic_motion.motion.align_heading`);
+3. keep the joints asked for (a list; ``"common"`` is applied to a whole set by
+   :func:`restrict_to_common_joints`), closed towards the root
+   (:func:`elastic_motion.apps.prepare.closed_joint_set`);
+4. resample to ``n_samples + 1`` frames uniformly over the clip's duration (geodesic
+   interpolation of rotations), the grid of the SRV arrays.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from elastic_motion import motion as mm
+from elastic_motion.apps.prepare import MotionPreparation, PrepareOptions, closed_joint_set, load_motion
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import Motion
+
+__all__ = ["PreparedMotion", "prepare_motion", "restrict_to_common_joints"]
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedMotion:
+    """A motion read, cleaned and resampled, ready for its curves.
+
+    Attributes
+    ----------
+    path : str
+    motion : Motion
+        Metres when the unit is known, Y-up, resampled to ``n_samples + 1`` frames
+        uniformly over the clip's duration.
+    original_frames : int
+        Frames after cleaning, before resampling.
+    duration : float
+        Seconds.
+    notes : tuple of str
+        What the preparation did, one sentence per step that changed something.
+    preparation : MotionPreparation or None
+        The report of the shared per-file steps (:func:`~elastic_motion.apps.prepare.load_motion`).
+    """
+
+    path: str
+    motion: Motion
+    original_frames: int
+    duration: float
+    notes: tuple[str, ...] = ()
+    preparation: MotionPreparation | None = None
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Joint names of the prepared motion, in skeleton order."""
+        return tuple(self.motion.skeleton.names)
+
+
+def prepare_motion(
+    path: str | os.PathLike[str],
+    n_samples: int,
+    *,
+    joints: str | Sequence[str] = "all",
+    drop_fingers: bool = True,
+    align_heading: bool = True,
+    motion: Motion | None = None,
+    options: PrepareOptions | None = None,
+) -> PreparedMotion:
+    """Read a motion file and bring it to the common form of a database (module docstring).
+
+    Parameters
+    ----------
+    path : path
+        The motion file (``.bvh``, ``.amc``, DeepMimic ``.txt`` / ``.json``).
+    n_samples : int
+        Cells of the common grid: the result has ``n_samples + 1`` frames.
+    joints : "all", "common" or sequence of str, default "all"
+        ``"all"`` and ``"common"`` keep every joint here (``"common"`` is applied to a set by
+        :func:`restrict_to_common_joints`); a sequence keeps those joints and their chains to
+        the root.
+    drop_fingers, align_heading : bool, default True
+    motion : Motion, optional
+        Use this motion instead of reading ``path`` (``path`` then only names it).
+    options : PrepareOptions, optional
+        The shared per-file steps (default ``PrepareOptions()``: drop a T-pose frame 0,
+        fold a static root, unit guessed from the skeleton, up axis as read). Its set-level
+        fields (``joints``, ``align``, ``trim``) are not used here.
+
+    Returns
+    -------
+    PreparedMotion
+
+    Raises
+    ------
+    ParseError
+        Malformed file.
+    OptionError
+        Missing file, fewer than 3 frames, joints missing from the skeleton (all
+        ``ValueError``).
+    """
+    label = Path(path).stem
+    m, report = load_motion(path if motion is None else motion, options, label=label)
+    notes = list(report.notes)
+    if drop_fingers:
+        fingers = mm.finger_joints(m.skeleton)
+        if fingers:
+            m = mm.drop_joints(m, fingers)
+            notes.append(f"{label}: dropped {len(fingers)} finger joints")
+    if align_heading:
+        m = mm.align_heading(m)
+    if not isinstance(joints, str):
+        missing = [n for n in joints if n not in m.skeleton.names]
+        if missing:
+            raise OptionError(
+                "joints",
+                f"{label}: expected joints named {missing} in the skeleton; got a skeleton without them",
+            )
+        m = mm.select_joints(m, closed_joint_set(m.skeleton, joints))
+    original = m.n_frames
+    duration = m.duration
+    target = np.linspace(0.0, duration, n_samples + 1)
+    m = mm.resample_at_times(m, m.times, target, fps=n_samples / duration)
+    return PreparedMotion(os.fspath(path), m, original, duration, tuple(notes), report)
+
+
+def restrict_to_common_joints(prepared: Sequence[PreparedMotion]) -> list[PreparedMotion]:
+    """The prepared motions restricted to the joints all of them have (closed towards the root).
+
+    Parameters
+    ----------
+    prepared : sequence of PreparedMotion
+
+    Returns
+    -------
+    list of PreparedMotion
+        Same order; each on the same joints in its own skeleton order.
+
+    Raises
+    ------
+    OptionError
+        When the motions share no root joint (``joints='common'`` cannot compare them).
+    """
+    prepared = list(prepared)
+    if not prepared:
+        return []
+    common = set(prepared[0].joint_names)
+    for p in prepared[1:]:
+        common &= set(p.joint_names)
+    roots = sorted({p.joint_names[0] for p in prepared})
+    if len(roots) != 1 or not common:
+        raise OptionError(
+            "joints",
+            "expected motions sharing a root joint for joints='common'; got roots "
+            f"{roots} (compare them in separate runs or with joints='all')",
+        )
+    out = []
+    for p in prepared:
+        keep = closed_joint_set(p.motion.skeleton, common)
+        if len(keep) == len(p.joint_names):
+            out.append(p)
+            continue
+        note = f"{Path(p.path).stem}: kept the {len(keep)} joints shared by all motions"
+        out.append(replace(p, motion=mm.select_joints(p.motion, keep), notes=(*p.notes, note)))
+    return out

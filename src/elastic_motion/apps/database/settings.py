@@ -1,0 +1,201 @@
+"""What determines the numbers of a distance matrix: :class:`DatabaseSettings` and its JSON form.
+
+The JSON form is stored three times in an output folder (``manifest.json`` as the identity
+of the run, ``srv_cache.npz`` and ``report.json``)::
+
+    {"n_samples": 64, "representations": ["lie", "euler"],
+     "warp": {"method": "dp", "neighbourhood": 10, "coarse_to_fine": false,
+              "sample_fps": 30.0, "landmark_weight": 100.0},
+     "joints": "all", "drop_fingers": true, "align_heading": true, "tile_size": 32}
+
+Format 1 (releases before :class:`~elastic_motion.warp.WarpOptions`) stored the warp as
+``"pair": {"warp": "dp", "neighbourhood": 6, "coarse_to_fine": false}``;
+:meth:`DatabaseSettings.from_json` reads it as the same numbers (``warp`` -> ``method``), so
+a run started then can be resumed with the same settings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from elastic_motion.errors import OptionError
+from elastic_motion.warp import WarpOptions
+
+__all__ = [
+    "DEFAULT_WARP",
+    "FORMAT_VERSION",
+    "METHODS",
+    "REPRESENTATIONS",
+    "DatabaseSettings",
+    "canonical_method",
+    "public_method",
+]
+
+#: Curve representations a matrix can hold, as stored (file names ``distances_<repr>.npy``,
+#: SRV cache keys; ``docs/database.md``).
+REPRESENTATIONS = ("lie", "euler")
+
+#: The public names of the curve representations (``method=``), as in the rest of the library
+#: (``em.distance``, ``em.loop``): ``"lie"`` and ``"euler-elastic"``. ``"euler"`` is accepted
+#: as an alias of ``"euler-elastic"``.
+METHODS = ("lie", "euler-elastic")
+_METHOD_KEYS = {"lie": "lie", "euler-elastic": "euler", "euler": "euler"}
+
+
+def canonical_method(value: Any, option: str = "method") -> str:
+    """The stored key (``"lie"`` / ``"euler"``) of a curve representation name.
+
+    Parameters
+    ----------
+    value : {"lie", "euler-elastic", "euler"}
+        ``"euler"`` is an alias of ``"euler-elastic"``.
+    option : str, default "method"
+        Named in the error.
+
+    Raises
+    ------
+    OptionError
+        Any other value.
+    """
+    if isinstance(value, str) and value in _METHOD_KEYS:
+        return _METHOD_KEYS[value]
+    raise OptionError(option, f"expected one of {list(METHODS)} ('euler' is accepted for 'euler-elastic'); got {value!r}")
+
+
+def public_method(key: str) -> str:
+    """The public name (``"lie"`` / ``"euler-elastic"``) of a stored key (``"lie"`` / ``"euler"``)."""
+    return "euler-elastic" if key == "euler" else key
+
+#: Version of the files of an output folder. 1: settings with ``"pair"``; 2: with ``"warp"``
+#: (:class:`~elastic_motion.warp.WarpOptions`). Tiles and SRV arrays are the same in both.
+FORMAT_VERSION = 2
+#: Versions :meth:`DatabaseSettings.from_json` reads.
+READABLE_FORMATS = (1, 2)
+
+#: The warp of a database: :class:`~elastic_motion.warp.WarpOptions`' defaults (neighbourhood
+#: 10) with the DP alone (``method="dp"``). The refinement off the grid (``"dp+refine"``) costs
+#: 15-30 times a DP pair at ``n_samples = 64`` (measured: 1 ms against 17 ms), which an
+#: all-pairs matrix multiplies by ``M^2 / 2``; the Karcher mean's energy is non-increasing
+#: only with the DP. Pass ``WarpOptions(method="dp+refine")`` for the closer distances.
+DEFAULT_WARP = WarpOptions(method="dp")
+
+
+def _warp_options(warp: Any) -> WarpOptions:
+    if isinstance(warp, WarpOptions):
+        return warp
+    if isinstance(warp, str):
+        return WarpOptions(method=warp)  # type: ignore[arg-type]
+    raise OptionError("warp", f"expected a WarpOptions or a method name ('dp', 'none'...); got {warp!r}")
+
+
+@dataclass(frozen=True)
+class DatabaseSettings:
+    """Everything that determines the numbers of a distance matrix.
+
+    Attributes
+    ----------
+    n_samples : int, default 64
+        Cells of the common grid: each motion is resampled to ``n_samples + 1`` frames
+        uniformly over its duration (normalised to 1).
+    representations : tuple of {"lie", "euler-elastic"}, default ("lie", "euler")
+        Curve representations (``method`` names); ``"euler-elastic"`` is stored as its key
+        ``"euler"`` (:func:`canonical_method`), as are the matrix files.
+    warp : WarpOptions, default :data:`DEFAULT_WARP` (``WarpOptions(method="dp")``)
+        How a pair distance is computed (:func:`~elastic_motion.apps.database.pair_distance`):
+        ``method`` ``"dp"`` / ``"dp+refine"`` (elastic distance) or ``"none"`` (distance of
+        the parametrised curves), the DP ``neighbourhood`` (default 10), ``coarse_to_fine``.
+        A method name is accepted for ``WarpOptions(method=name)``. ``sample_fps`` and
+        ``landmark_weight`` are not used here (the grid is ``n_samples``; no landmarks).
+    joints : "all", "common" or tuple of str, default "all"
+        ``"all"``: every joint of each file; motions with different joint names form
+        separate groups (entries between groups are ``+inf``). ``"common"``: the joints
+        every readable motion has (one group). A tuple: exactly these joints (files
+        lacking one are skipped with the reason).
+    drop_fingers : bool, default True
+        Remove finger/thumb/hand-index joints (CMU's 180-degree flips).
+    align_heading : bool, default True
+        Remove the yaw and floor position of the root at frame 0 before comparing.
+    tile_size : int, default 32
+        Motions per tile side (a tile holds up to ``tile_size**2`` pairs).
+
+    Raises
+    ------
+    OptionError
+        A value out of range, naming the field.
+    """
+
+    n_samples: int = 64
+    representations: tuple[str, ...] = REPRESENTATIONS
+    warp: WarpOptions = DEFAULT_WARP
+    joints: str | tuple[str, ...] = "all"
+    drop_fingers: bool = True
+    align_heading: bool = True
+    tile_size: int = 32
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
+            raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
+        reps = (
+            (self.representations,) if isinstance(self.representations, str) else tuple(self.representations)
+        )
+        bad = [r for r in reps if r not in _METHOD_KEYS]
+        keys = tuple(_METHOD_KEYS.get(r, r) for r in reps)
+        if not reps or bad or len(set(keys)) != len(keys):
+            raise OptionError(
+                "representations", f"expected distinct entries of {list(METHODS)}; got {list(reps)}"
+            )
+        reps = keys
+        object.__setattr__(self, "representations", reps)
+        object.__setattr__(self, "warp", _warp_options(self.warp))
+        if isinstance(self.joints, str):
+            if self.joints not in ("all", "common"):
+                raise OptionError(
+                    "joints", f"expected 'all', 'common' or a list of joint names; got {self.joints!r}"
+                )
+        else:
+            names = tuple(str(n) for n in self.joints)
+            if not names:
+                raise OptionError("joints", "expected at least one joint name; got none")
+            object.__setattr__(self, "joints", names)
+        if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, int) or self.tile_size < 1:
+            raise OptionError("tile_size", f"expected an integer >= 1; got {self.tile_size!r}")
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain-JSON form (module docstring): lists for tuples, the warp options as a dict."""
+        return {
+            "n_samples": self.n_samples,
+            "representations": list(self.representations),
+            "warp": self.warp.to_json(),
+            "joints": self.joints if isinstance(self.joints, str) else list(self.joints),
+            "drop_fingers": self.drop_fingers,
+            "align_heading": self.align_heading,
+            "tile_size": self.tile_size,
+        }
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> DatabaseSettings:
+        """Inverse of :meth:`to_json`; also reads format 1 (``"pair"``, module docstring).
+
+        Raises
+        ------
+        OptionError
+            Unknown or missing fields, naming them.
+        """
+        d = dict(data)
+        if "pair" in d and "warp" not in d:  # format 1
+            pair = dict(d.pop("pair"))
+            if "warp" in pair:
+                pair["method"] = pair.pop("warp")
+            d["warp"] = pair
+        known = set(cls.__dataclass_fields__)
+        bad = sorted(set(d) - known)
+        if bad:
+            raise OptionError("settings", f"expected fields among {sorted(known)}; got unknown {bad}")
+        if isinstance(d.get("warp"), dict):
+            d["warp"] = WarpOptions.from_json(d["warp"])
+        if "representations" in d:
+            d["representations"] = tuple(d["representations"])
+        if "joints" in d and not isinstance(d["joints"], str):
+            d["joints"] = tuple(d["joints"])
+        return cls(**d)

@@ -1,0 +1,167 @@
+"""Pair distances and tiles of pairs: the numerical work, run in-process or on Dask workers.
+
+Rule (the same in every engine and tiling, so results agree bit for bit): only ``i < j`` is
+computed, always with the lower index as ``q0`` (the curve warped is ``q_j``), and mirrored;
+the diagonal is 0; motions of different skeleton groups are not compared (``+inf``). For the
+DP on a common uniform grid with a slope set symmetric in ``(a, b)`` (the default) swapping
+the curves gives the same minimum up to rounding (the inverse of a grid path is a grid path
+and ``||q0 - q1 * phi|| = ||q1 - q0 * phi^-1||``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from elastic_motion.apps.database.settings import DEFAULT_WARP
+from elastic_motion.apps.progress import Progress
+from elastic_motion.warp import WarpOptions
+
+__all__ = ["compute_tile", "distance_matrix", "pair_distance", "single_threaded_blas", "tile_blocks"]
+
+
+def pair_distance(q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WARP) -> float:
+    """Distance of two SRV arrays on the same uniform grid.
+
+    Parameters
+    ----------
+    q0, q1 : ndarray, shape (n, D)
+        Cell values on ``linspace(0, 1, n + 1)`` (orthonormal coordinates).
+    warp : WarpOptions, default :data:`~elastic_motion.apps.database.settings.DEFAULT_WARP`
+        ``method``, ``neighbourhood`` and ``coarse_to_fine`` are used.
+
+    Returns
+    -------
+    float
+        ``method="dp"`` (or ``"dp+refine"``): ``optimal_warp(q0, q1).distance`` =
+        ``min_phi ||q0 - q1 * phi||`` over the solver's warps; ``method="none"``:
+        ``||q0 - q1||_L2`` (``sqrt(mean_i |q0_i - q1_i|^2)``, paper 000, eq. 4). The DP
+        value never exceeds the ``"none"`` one (the identity is a DP path).
+    """
+    if warp.method == "none":
+        d = q0 - q1
+        return float(math.sqrt(np.einsum("ij,ij->", d, d) / q0.shape[0]))
+    from elastic_motion.warp import optimal_warp
+
+    return float(optimal_warp(q0, q1, **warp.solver_kwargs()).distance)
+
+
+def single_threaded_blas() -> contextlib.AbstractContextManager:
+    """Limit BLAS to one thread while tiles run, when ``threadpoolctl`` is installed.
+
+    The DP solver makes one small matrix product per pair (the Gram matrix ``q0 q1^T``); a
+    multi-threaded OpenBLAS spins its threads after each product and starves numba's own
+    threads: measured 4-5x slower pairs at N = 200 on 2 cores. One thread also makes the
+    product's summation order the same in every process (Dask workers are started with
+    ``OPENBLAS_NUM_THREADS=1``), which keeps serial and cluster results bit-identical.
+    """
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - optional dependency
+        return contextlib.nullcontext()
+    return threadpool_limits(1, user_api="blas")
+
+
+def compute_tile(
+    rows: np.ndarray,
+    cols: np.ndarray,
+    q_rows: Sequence[np.ndarray],
+    q_cols: Sequence[np.ndarray],
+    g_rows: np.ndarray,
+    g_cols: np.ndarray,
+    warp: WarpOptions,
+    numba_threads: int | None = None,
+) -> np.ndarray:
+    """Distances of one tile: motions ``rows`` against motions ``cols``.
+
+    Parameters
+    ----------
+    rows, cols : ndarray of int, shapes (a,), (b,)
+        Global motion indices.
+    q_rows, q_cols : sequences of ndarray, shapes (n, D_k)
+        SRV arrays of those motions.
+    g_rows, g_cols : ndarray of int, shapes (a,), (b,)
+        Skeleton group of each motion.
+    warp : WarpOptions
+    numba_threads : int, optional
+        Threads of numba's parallel DP inside this call (1 on single-threaded Dask
+        workers, so two workers do not oversubscribe two cores). Results do not depend on it.
+
+    Returns
+    -------
+    ndarray, shape (a, b), float64
+        ``d(rows[r], cols[c])`` where ``rows[r] < cols[c]`` and the groups agree; 0 on the
+        diagonal; ``+inf`` across groups; NaN where ``rows[r] > cols[c]`` (the mirrored
+        entry is computed by the tile holding the pair with the lower index first).
+    """
+    if numba_threads is not None:
+        import numba
+
+        numba.set_num_threads(max(1, min(int(numba_threads), numba.config.NUMBA_NUM_THREADS)))
+    # one memory layout everywhere (arrays received from a Dask scheduler are read-only and
+    # unaligned): the same compiled kernel runs in every engine, and it is the fast one
+    q_rows = [np.require(q, np.float64, ["C", "A", "W"]) for q in q_rows]
+    q_cols = [np.require(q, np.float64, ["C", "A", "W"]) for q in q_cols]
+    out = np.full((len(rows), len(cols)), np.nan)
+    with single_threaded_blas():
+        for a, i in enumerate(rows):
+            for b, j in enumerate(cols):
+                if i == j:
+                    out[a, b] = 0.0
+                elif i < j:
+                    out[a, b] = (
+                        pair_distance(q_rows[a], q_cols[b], warp) if g_rows[a] == g_cols[b] else np.inf
+                    )
+    return out
+
+
+def distance_matrix(
+    q: Sequence[np.ndarray],
+    warp: WarpOptions = DEFAULT_WARP,
+    groups: Sequence[int] | None = None,
+    *,
+    progress: Progress | None = None,
+) -> np.ndarray:
+    """All-pairs distances of in-memory SRV arrays, serially (no files, no resume).
+
+    Same rule as the tiled runs (module docstring), so the result equals theirs bit for bit.
+
+    Parameters
+    ----------
+    q : sequence of ndarray, shapes (n, D_k)
+    warp : WarpOptions, default ``DEFAULT_WARP`` (DP, neighbourhood 10)
+    groups : sequence of int, optional
+        Skeleton group per entry (default: all one group).
+    progress : callable, optional
+        ``progress("pairs", rows done, M)``.
+
+    Returns
+    -------
+    ndarray, shape (M, M)
+    """
+    m = len(q)
+    g = np.zeros(m, dtype=np.int64) if groups is None else np.asarray(groups, dtype=np.int64)
+    out = np.zeros((m, m))
+    for i in range(m):
+        idx = np.arange(i, m)
+        row = compute_tile(np.array([i]), idx, [q[i]], [q[j] for j in idx], g[[i]], g[idx], warp)
+        out[i, i:] = row[0]
+        out[i:, i] = row[0]
+        if progress is not None:
+            progress("pairs", i + 1, m)
+    return out
+
+
+def tile_blocks(n_motions: int, tile_size: int) -> list[tuple[int, int]]:
+    """Upper-triangle block pairs ``(I, J)``, ``I <= J``, of an ``n_motions`` square split in
+    blocks of ``tile_size``; block ``I`` holds motions ``I*tile_size .. (I+1)*tile_size - 1``."""
+    nb = -(-n_motions // tile_size)
+    return [(i, j) for i in range(nb) for j in range(i, nb)]
+
+
+def block(i: int, tile_size: int, n_motions: int) -> np.ndarray:
+    """Motion indices of block ``i`` (shape ``(<= tile_size,)``)."""
+    return np.arange(i * tile_size, min((i + 1) * tile_size, n_motions))

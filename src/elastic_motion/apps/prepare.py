@@ -1,0 +1,739 @@
+"""The one preparation step: every app and the command line bring motions to common ground here.
+
+Two entry points, both reporting what they did as named results:
+
+* :func:`load_motion` -- one input (a path or a :class:`~elastic_motion.motion.Motion`) on
+  its own: read it, drop a T-pose frame 0, trim, fold a static root, express lengths in
+  metres, bring it to Y-up. Returns the motion and a :class:`MotionPreparation`.
+* :func:`prepare_motions` -- a set of inputs made comparable: each loaded as above, then
+  the same joints in the same order, one frame rate, each later motion placed like the
+  first, and the shared inner-product weights. Returns :class:`PreparedMotions`.
+
+Conventions
+-----------
+* **Order of the per-input steps** (each recorded in ``MotionPreparation.notes``):
+
+  1. read (paths; a ``Motion`` is taken as it is); ``units`` forces the length unit of a
+     BVH file (default: guessed from the skeleton's size), ``up`` forces the up axis of any
+     input (default: a BVH file's is detected from the motion, :func:`elastic_motion.motion.
+     detect_up_axis`; a label that looks wrong or a body lying down under it is warned about);
+  2. drop frame 0 when it is a T-pose (:func:`elastic_motion.motion.has_tpose_first_frame`),
+     unless ``drop_tpose=False``;
+  3. trim to ``trim = (start, stop)`` seconds, counted from the first frame kept by step 2;
+  4. fold a root that is a static reference frame into its child (the Bandai files'
+     ``joint_Root``; :func:`elastic_motion.motion.merge_root`);
+  5. lengths to metres when the unit is known (:func:`elastic_motion.motion.to_metres`);
+  6. rotate to Y-up (:func:`elastic_motion.motion.set_up_axis`): the library's convention
+     and the BVH convention of Blender, Maya and MotionBuilder.
+
+* **Set steps** (:func:`prepare_motions`): all or none of the units must be known; joints
+  (``"all"``: the same joint set, reordered like the first; ``"common"``: the joints all
+  share, refused when that leaves fewer than half of any input's body joints; or a list);
+  frame rates resampled to the first motion's; placement (registration-curve style, see
+  :func:`elastic_motion.motion.place_like`); the curve joints (all but fingers) and their shared weights.
+* **Units of results and of written files**: apps work in metres; a result is written in
+  the length unit of the first input (``units_out`` overrides: ``"m"``, ``"cm"``...; see
+  :func:`output_motion`). Inputs of unknown unit stay in their own numbers throughout.
+* **Errors** name the input and the option: :class:`elastic_motion.errors.OptionError`
+  (``trim: 107_02.bvh: expected ...; got ...``), which the command line shows with the flag.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import (
+    UNITS,
+    Motion,
+    Skeleton,
+    finger_joints,
+    group_weights,
+    has_reference_root,
+    has_tpose_first_frame,
+    merge_root,
+    place_like,
+    read_motion,
+    resample,
+    select_frames,
+    select_joints,
+    set_up_axis,
+    to_metres,
+    up_axis_warning,
+)
+
+__all__ = [
+    "MotionPreparation",
+    "PrepareOptions",
+    "PreparedMotions",
+    "closed_joint_set",
+    "load_motion",
+    "output_motion",
+    "prepare_motions",
+    "unit_name",
+]
+
+TimeRange = tuple[float | None, float | None]
+Source = str | os.PathLike[str] | Motion
+
+#: ``joints="common"`` must keep at least this fraction of each input's body joints.
+MIN_COMMON_FRACTION = 0.5
+
+
+# ------------------------------------------------------------------------------------------
+# Options and reports
+# ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PrepareOptions:
+    """How to prepare inputs (module docstring for the order of the steps).
+
+    Attributes
+    ----------
+    drop_tpose : bool, default True
+        Drop frame 0 when it is a T-pose.
+    units : str or None, default None
+        Length unit of BVH inputs (a key of :data:`elastic_motion.motion.UNITS`: ``m``,
+        ``cm``, ``mm``, ``inch``, ``cmu``); default: guessed from the skeleton.
+    up : {"y", "z"} or None, default None
+        Up axis of the inputs; default: as read (the reader's detection or convention).
+    trim : tuple, default ()
+        ``()`` keeps whole clips; one ``(start, stop)`` range in seconds (either may be
+        None) for every input; or one range (or None) per input.
+    fold_static_root : bool, default True
+        Fold a static reference root into its child (Bandai files).
+    joints : "all", "common" or tuple of str, default "all"
+        Joint selection of :func:`prepare_motions`.
+    align : bool, default True
+        Place each later motion like the first (:func:`elastic_motion.motion.place_like`).
+    units_out : str or None, default None
+        Length unit of written results (a key of ``UNITS``); default: the first input's unit
+        (inputs of unknown unit are written in their own numbers).
+    check_up_axis : bool, default True
+        Warn (a note starting with ``warning:``) when the up axis as read or forced looks
+        wrong or the body lies down under it (:func:`elastic_motion.motion.up_axis_warning`).
+    """
+
+    drop_tpose: bool = True
+    units: str | None = None
+    up: str | None = None
+    trim: tuple[Any, ...] = ()
+    fold_static_root: bool = True
+    joints: str | tuple[str, ...] = "all"
+    align: bool = True
+    units_out: str | None = None
+    check_up_axis: bool = True
+
+    def __post_init__(self) -> None:
+        if self.units is not None and self.units not in UNITS:
+            raise OptionError("units", f"expected one of {sorted(UNITS)}; got {self.units!r}")
+        if self.units_out is not None and self.units_out not in UNITS:
+            raise OptionError("units_out", f"expected one of {sorted(UNITS)}; got {self.units_out!r}")
+        if self.up is not None and self.up not in ("x", "y", "z"):
+            raise OptionError("up", f"expected 'y' or 'z' (or 'x'); got {self.up!r}")
+        joints = self.joints
+        if isinstance(joints, str):
+            if joints not in ("all", "common"):
+                raise OptionError("joints", f"expected 'all', 'common' or joint names; got {joints!r}")
+        else:
+            names = tuple(str(n) for n in joints)
+            if not names:
+                raise OptionError("joints", "expected 'all', 'common' or at least one joint name; got none")
+            object.__setattr__(self, "joints", names)
+        object.__setattr__(self, "trim", _normalise_trim(self.trim))
+
+    def trim_for(self, k: int, n_inputs: int) -> TimeRange | None:
+        """The trim range of input ``k`` of ``n_inputs``."""
+        if not self.trim:
+            return None
+        if _is_range(self.trim):
+            return self.trim  # type: ignore[return-value]
+        if len(self.trim) == 1:
+            return self.trim[0]
+        if len(self.trim) != n_inputs:
+            raise OptionError(
+                "trim",
+                f"expected one range for all inputs or one per input ({n_inputs}); got {len(self.trim)}",
+            )
+        return self.trim[k]
+
+    def replace(self, **changes: Any) -> PrepareOptions:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+
+def _is_range(x: Any) -> bool:
+    return (
+        isinstance(x, tuple)
+        and len(x) == 2
+        and all(v is None or isinstance(v, int | float | np.floating | np.integer) for v in x)
+    )
+
+
+def _normalise_trim(trim: Any) -> tuple[Any, ...]:
+    if trim is None:
+        return ()
+    trim = tuple(trim)
+    if not trim:
+        return ()
+    if _is_range(trim):
+        return _check_range(trim)
+    out = []
+    for item in trim:
+        if item is None:
+            out.append(None)
+            continue
+        item = tuple(item)
+        if not _is_range(item):
+            raise OptionError("trim", f"expected (start, stop) in seconds, or None; got {item!r}")
+        out.append(_check_range(item))
+    return tuple(out)
+
+
+def _check_range(r: tuple[Any, Any]) -> TimeRange:
+    start, stop = (None if v is None else float(v) for v in r)
+    for v in (start, stop):
+        if v is not None and not math.isfinite(v):
+            raise OptionError("trim", f"expected finite times in seconds; got {start}:{stop}")
+    if start is not None and stop is not None and not start < stop:
+        raise OptionError("trim", f"expected START < STOP in seconds; got {start:g}:{stop:g}")
+    return (start, stop)
+
+
+@dataclass(frozen=True)
+class MotionPreparation:
+    """What :func:`load_motion` did to one input.
+
+    Attributes
+    ----------
+    label : str
+        The input's name in messages (file stem or ``Motion.name``).
+    source : str or None
+        The file read (None for a ``Motion`` given directly).
+    frames_read, frames_kept : int
+        Frame counts before and after steps 2-3.
+    fps : float
+        Frame rate (unchanged here).
+    tpose_dropped : bool
+    trim_s : tuple of (float or None) or None
+        The trim range applied, seconds.
+    unit_in : str or None
+        The input's length unit (``"cm"``, ``"cmu"``, ``"0.01 m"``...), None when unknown.
+    metres_per_unit_in : float or None
+    up_axis_in : str
+        The up axis as read (or forced).
+    static_root_folded : str or None
+        Name of the folded root joint.
+    notes : tuple of str
+        One sentence per step that changed something.
+    """
+
+    label: str
+    source: str | None
+    frames_read: int
+    frames_kept: int
+    fps: float
+    tpose_dropped: bool
+    trim_s: TimeRange | None
+    unit_in: str | None
+    metres_per_unit_in: float | None
+    up_axis_in: str
+    static_root_folded: str | None
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedMotions:
+    """Motions brought to common ground (:func:`prepare_motions`).
+
+    Attributes
+    ----------
+    motions : tuple of Motion
+        Same joints in the same order, same frame rate, Y-up, metres when known; each later
+        motion placed like the first.
+    labels : tuple of str
+        Names of the motions.
+    curve_joints : tuple of str
+        Joints carried by the curves (all but finger joints).
+    joint_weights : ndarray, shape (len(curve_joints),)
+        Lie inner-product weights of the curve joints, shared by all motions.
+    translation_weight : float
+        Lie inner-product weight of the root translation (1 / m^2 when units are known).
+    notes : tuple of str
+        What was done, in words (per-input steps first).
+    inputs : tuple of MotionPreparation
+        The per-input reports.
+    units_out : float or None
+        Metres per unit of written results (:func:`output_motion`); None: as they are.
+    """
+
+    motions: tuple[Motion, ...]
+    labels: tuple[str, ...]
+    curve_joints: tuple[str, ...]
+    joint_weights: np.ndarray
+    translation_weight: float
+    notes: tuple[str, ...] = field(default=())
+    inputs: tuple[MotionPreparation, ...] = field(default=())
+    units_out: float | None = None
+
+    @property
+    def fps(self) -> float:
+        """The common frame rate."""
+        return self.motions[0].fps
+
+    @property
+    def extra_joints(self) -> tuple[str, ...]:
+        """Joints not carried by the curves (finger joints)."""
+        keep = set(self.curve_joints)
+        return tuple(n for n in self.motions[0].skeleton.names if n not in keep)
+
+    def curve_motion(self, k: int) -> Motion:
+        """Motion ``k`` restricted to the curve joints."""
+        m = self.motions[k]
+        if len(self.curve_joints) == m.n_joints:
+            return m
+        return select_joints(m, self.curve_joints)
+
+    def with_notes(self, *notes: str) -> PreparedMotions:
+        """A copy with more notes."""
+        return replace(self, notes=(*self.notes, *notes))
+
+
+def unit_name(metres_per_unit: float | None) -> str | None:
+    """``0.01`` -> ``"cm"``; an unnamed size -> ``"0.0123 m"``; None -> None."""
+    if metres_per_unit is None:
+        return None
+    for name, size in UNITS.items():
+        if math.isclose(size, metres_per_unit, rel_tol=1e-6):
+            return name
+    return f"{metres_per_unit:.6g} m"
+
+
+# ------------------------------------------------------------------------------------------
+# One input
+# ------------------------------------------------------------------------------------------
+
+
+def _label_of(source: Source, label: str | None, k: int | None = None) -> str:
+    if label is not None:
+        return str(label)
+    if isinstance(source, Motion):
+        return source.name or (f"motion {k}" if k is not None else "motion")
+    return Path(source).stem
+
+
+def _read(source: Source, options: PrepareOptions) -> tuple[Motion, str | None]:
+    if isinstance(source, Motion):
+        m = source
+        if options.up is not None and m.up_axis != options.up:
+            m = m.replace(up_axis=options.up)
+        return m, None
+    if not isinstance(source, str | os.PathLike):
+        raise OptionError("motions", f"expected a path or a Motion; got {type(source).__name__}")
+    path = Path(source)
+    if not path.exists():
+        raise OptionError("motions", f"{os.fspath(source)}: no such file")
+    if path.is_dir():
+        raise OptionError("motions", f"{os.fspath(source)}: expected a motion file; got a folder")
+    kw: dict[str, Any] = {}
+    ext = path.suffix.lower()
+    if ext == ".bvh":
+        if options.units is not None:
+            kw["units"] = options.units
+        if options.up is not None:
+            kw["up_axis"] = options.up
+    m = read_motion(path, **kw)
+    if ext != ".bvh" and options.up is not None and m.up_axis != options.up:
+        m = m.replace(up_axis=options.up)
+    return m.replace(name=m.name or path.stem), os.fspath(source)
+
+
+def load_motion(
+    source: Source,
+    options: PrepareOptions | None = None,
+    *,
+    label: str | None = None,
+    trim: TimeRange | None = None,
+) -> tuple[Motion, MotionPreparation]:
+    """Read one input and apply the per-input steps (module docstring).
+
+    Parameters
+    ----------
+    source : path or Motion
+        A ``.bvh``, ``.amc`` (its ``.asf`` found beside it) or DeepMimic file, or a Motion.
+    options : PrepareOptions, optional
+        Default ``PrepareOptions()``. ``options.trim`` is not used here (it is per set);
+        pass ``trim``.
+    label : str, optional
+        Name in messages (default: file stem or ``Motion.name``).
+    trim : (start, stop), optional
+        Seconds from the first frame kept after the T-pose step.
+
+    Returns
+    -------
+    motion : Motion
+        Metres when the unit is known, Y-up, named ``label``.
+    report : MotionPreparation
+
+    Raises
+    ------
+    OptionError
+        Missing file, a trim range holding no frame, fewer than 3 frames left.
+    ParseError
+        A malformed file (from the reader).
+    """
+    opts = options or PrepareOptions()
+    m, path = _read(source, opts)
+    name = _label_of(source, label)
+    notes: list[str] = []
+    if opts.check_up_axis:
+        # BVH files are labelled by detection when read; a label given by the user (--up, a
+        # Motion built in code) or a format without detection is checked here
+        warning = up_axis_warning(m.replace(name=name))
+        if warning:
+            notes.append(f"warning: {warning}")
+    frames_read = m.n_frames
+    mpu_in, up_in = m.metres_per_unit, m.up_axis
+    dropped = False
+    if opts.drop_tpose and has_tpose_first_frame(m):
+        m = select_frames(m, slice(1, None))
+        dropped = True
+        notes.append(f"{name}: dropped frame 0 (a T-pose)")
+    rng = _check_range(tuple(trim)) if trim is not None else None
+    if rng is not None and rng != (None, None):
+        m = _trim(m, rng, name)
+        notes.append(
+            f"{name}: kept {rng[0] if rng[0] is not None else 0:g}-"
+            f"{rng[1] if rng[1] is not None else m.duration:g} s ({m.n_frames} frames)"
+        )
+    if m.n_frames < 3:
+        raise OptionError(
+            "motions", f"{name}: expected at least 3 frames after preparation; got {m.n_frames}"
+        )
+    folded = None
+    if opts.fold_static_root and has_reference_root(m):
+        folded = m.skeleton.names[0]
+        m = merge_root(m)
+        notes.append(f"{name}: folded the static root {folded!r} into its child {m.skeleton.names[0]!r}")
+    if m.metres_per_unit is not None:
+        if m.metres_per_unit != 1.0:
+            notes.append(f"{name}: lengths from {unit_name(m.metres_per_unit)} to metres")
+        m = to_metres(m)
+    else:
+        notes.append(f"{name}: length unit unknown; lengths kept as in the file")
+    if m.up_axis != "y":
+        notes.append(f"{name}: rotated from {m.up_axis}-up to y-up")
+        m = set_up_axis(m, "y")
+    m = m.replace(name=name)
+    report = MotionPreparation(
+        label=name,
+        source=path,
+        frames_read=frames_read,
+        frames_kept=m.n_frames,
+        fps=m.fps,
+        tpose_dropped=dropped,
+        trim_s=rng,
+        unit_in=unit_name(mpu_in),
+        metres_per_unit_in=mpu_in,
+        up_axis_in=up_in,
+        static_root_folded=folded,
+        notes=tuple(notes),
+    )
+    return m, report
+
+
+def _trim(m: Motion, rng: TimeRange, name: str) -> Motion:
+    start, stop = rng
+    d = m.duration
+    lo = 0.0 if start is None else start
+    hi = d if stop is None else stop
+    if lo < -1e-9 or lo > d + 1e-9:
+        raise OptionError(
+            "trim", f"{name}: expected START within the clip's 0-{d:.4g} s; got {_fmt_range(rng)}"
+        )
+    t = m.times
+    keep = (t >= lo - 1e-9) & (t <= hi + 1e-9)
+    if keep.sum() < 3:
+        raise OptionError(
+            "trim",
+            f"{name}: expected a range holding at least 3 frames of the clip's 0-{d:.4g} s; "
+            f"got {_fmt_range(rng)} ({int(keep.sum())} frames)",
+        )
+    return select_frames(m, keep)
+
+
+def _fmt_range(rng: TimeRange) -> str:
+    a, b = rng
+    return f"{'' if a is None else f'{a:g}'}:{'' if b is None else f'{b:g}'}"
+
+
+# ------------------------------------------------------------------------------------------
+# Joints
+# ------------------------------------------------------------------------------------------
+
+
+def closed_joint_set(skeleton: Skeleton, names: Sequence[str] | set[str]) -> list[str]:
+    """Names of ``skeleton`` in ``names`` whose whole chain to the root is in ``names`` too,
+    in skeleton order (a valid sub-skeleton: a joint whose parent is missing is dropped with
+    its subtree)."""
+    wanted = set(names)
+    keep = np.zeros(skeleton.n_joints, dtype=bool)
+    for j, n in enumerate(skeleton.names):
+        keep[j] = n in wanted and (j == 0 or keep[skeleton.parents[j]])
+    return [n for j, n in enumerate(skeleton.names) if keep[j]]
+
+
+def _parent_names(m: Motion) -> dict[str, str | None]:
+    sk = m.skeleton
+    return {n: (sk.names[p] if p >= 0 else None) for n, p in zip(sk.names, sk.parents, strict=True)}
+
+
+def _reorder(m: Motion, order: Sequence[str]) -> Motion:
+    """Same joints in ``order`` (which must list parents before children)."""
+    sk = m.skeleton
+    if tuple(order) == sk.names:
+        return m
+    idx = np.array([sk.index(n) for n in order])
+    pos = {n: i for i, n in enumerate(order)}
+    parents = [-1] + [pos[sk.names[sk.parents[j]]] for j in idx[1:]]
+    new_sk = Skeleton(
+        names=list(order),
+        parents=parents,
+        offsets=sk.offsets[idx],
+        channels=[sk.channels[j] for j in idx],
+        end_site_parents=[pos[sk.names[p]] for p in sk.end_site_parents],
+        end_site_offsets=sk.end_site_offsets,
+    )
+    jt = m.joint_translations
+    return m.replace(
+        skeleton=new_sk, rotations=m.rotations[:, idx], joint_translations=None if jt is None else jt[:, idx]
+    )
+
+
+def _describe_difference(a: Motion, b: Motion, la: str, lb: str) -> str:
+    na, nb = set(a.skeleton.names), set(b.skeleton.names)
+    only_a = [n for n in a.skeleton.names if n not in nb]
+    only_b = [n for n in b.skeleton.names if n not in na]
+    parts = []
+    if only_a:
+        parts.append(f"only in {la}: {only_a}")
+    if only_b:
+        parts.append(f"only in {lb}: {only_b}")
+    if not parts:
+        pa, pb = _parent_names(a), _parent_names(b)
+        parts.append(f"joints with different parents: {[n for n in a.skeleton.names if pa[n] != pb[n]]}")
+    return "; ".join(parts)
+
+
+def _select_joints(ms: list[Motion], labels: list[str], joints: str | tuple[str, ...]) -> tuple[list, list]:
+    notes: list[str] = []
+    if joints == "all":
+        names0, pa = set(ms[0].skeleton.names), _parent_names(ms[0])
+        for k in range(1, len(ms)):
+            if set(ms[k].skeleton.names) != names0 or _parent_names(ms[k]) != pa:
+                raise OptionError(
+                    "joints",
+                    f"expected the same skeleton in every input; {labels[0]} and {labels[k]} differ "
+                    f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])}); joints='common' "
+                    "(CLI: --joints common) keeps the shared joints",
+                )
+        return ms, notes
+    if joints == "common":
+        wanted = set(ms[0].skeleton.names)
+        for m in ms[1:]:
+            wanted &= set(m.skeleton.names)
+    else:
+        wanted = set(joints)
+        for m, lab in zip(ms, labels, strict=True):
+            missing = sorted(wanted - set(m.skeleton.names))
+            if missing:
+                raise OptionError("joints", f"{lab}: expected joints named {missing}; it has none of them")
+    keep = closed_joint_set(ms[0].skeleton, wanted)
+    if not keep:
+        raise OptionError(
+            "joints",
+            f"expected inputs sharing the joints from the root on; the roots are "
+            f"{[m.skeleton.names[0] for m in ms]}",
+        )
+    if joints == "common":
+        _check_enough_joints(ms, labels, keep, wanted)
+    for k, m in enumerate(ms):
+        dropped = [n for n in m.skeleton.names if n not in keep]
+        if dropped:
+            notes.append(f"{labels[k]}: dropped {len(dropped)} joints not shared by all inputs: {dropped}")
+            ms[k] = select_joints(m, [n for n in m.skeleton.names if n in keep])
+    pa = _parent_names(ms[0])
+    for k in range(1, len(ms)):
+        if set(ms[k].skeleton.names) != set(keep) or _parent_names(ms[k]) != pa:
+            raise OptionError(
+                "joints",
+                f"expected the shared joints to form one skeleton; {labels[0]} and {labels[k]} still differ "
+                f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])})",
+            )
+    return ms, notes
+
+
+def _check_enough_joints(ms: list[Motion], labels: list[str], keep: list[str], shared: set[str]) -> None:
+    """Refuse a common skeleton that keeps too little of a body to mean anything."""
+    short = []
+    for m, lab in zip(ms, labels, strict=True):
+        fingers = set(finger_joints(m.skeleton))
+        body = [n for n in m.skeleton.names if n not in fingers]
+        kept = [n for n in keep if n not in fingers]
+        if len(kept) < MIN_COMMON_FRACTION * len(body):
+            short.append(f"{lab} keeps {len(kept)} of its {len(body)} body joints")
+    if short:
+        unreachable = sorted(shared - set(keep))
+        raise OptionError(
+            "joints",
+            "expected the common joints to hold at least half of each input's body (a blend or distance "
+            f"of a few joints is not a body); got {len(keep)} shared joints connected to the root {keep}"
+            + (f" (also shared by name but cut off from the root: {unreachable})" if unreachable else "")
+            + f": {'; '.join(short)}. The skeletons use different joint names; give joint names "
+            "explicitly or convert one skeleton",
+        )
+
+
+# ------------------------------------------------------------------------------------------
+# A set of inputs
+# ------------------------------------------------------------------------------------------
+
+
+def prepare_motions(
+    sources: Sequence[Source],
+    options: PrepareOptions | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+) -> PreparedMotions:
+    """Load inputs and make them comparable: units, up axis, joints, frame rate, placement.
+
+    Parameters
+    ----------
+    sources : sequence of path or Motion, or PreparedMotions
+        At least one. Motions already prepared (a ``PreparedMotions``) are returned as they
+        are, so an app can take the result of this function in place of its inputs.
+    options : PrepareOptions, optional
+        Default ``PrepareOptions()``.
+    labels : sequence of str, optional
+        Names used in messages and reports (default: file stems or ``Motion.name``).
+
+    Returns
+    -------
+    PreparedMotions
+
+    Raises
+    ------
+    OptionError
+        Joint sets that differ (naming the joints), too few common joints, units known for
+        some inputs only, a bad trim range, missing files.
+    ParseError
+        A malformed file.
+    """
+    if isinstance(sources, PreparedMotions):
+        if options is not None:
+            raise OptionError("prepare", "expected no options for motions that are already prepared")
+        return sources
+    opts = options or PrepareOptions()
+    sources = list(sources)
+    if not sources:
+        raise OptionError("motions", "expected at least one motion; got none")
+    if labels is not None and len(labels) != len(sources):
+        raise OptionError("labels", f"expected {len(sources)} labels; got {len(labels)}")
+    names = [_label_of(s, None if labels is None else labels[k], k) for k, s in enumerate(sources)]
+    ms: list[Motion] = []
+    reports: list[MotionPreparation] = []
+    for k, src in enumerate(sources):
+        m, rep = load_motion(src, opts, label=names[k], trim=opts.trim_for(k, len(sources)))
+        _check_finite(m, names[k])
+        ms.append(m)
+        reports.append(rep)
+    notes = [n for r in reports for n in r.notes]
+    known = [r.metres_per_unit_in is not None for r in reports]
+    if any(known) and not all(known):
+        unknown = [lab for lab, kn in zip(names, known, strict=True) if not kn]
+        raise OptionError(
+            "units", f"expected the length unit of every input; unknown for {unknown} (give units=...)"
+        )
+
+    ms, jnotes = _select_joints(ms, names, opts.joints)
+    notes += jnotes
+    order = ms[0].skeleton.names
+    for k in range(1, len(ms)):
+        if ms[k].skeleton.names != order:
+            ms[k] = _reorder(ms[k], order)
+            notes.append(f"{names[k]}: joints reordered like {names[0]}")
+
+    fps = ms[0].fps
+    for k in range(1, len(ms)):
+        if not math.isclose(ms[k].fps, fps, rel_tol=1e-9):
+            notes.append(f"{names[k]}: resampled from {ms[k].fps:g} to {fps:g} fps (the rate of {names[0]})")
+            ms[k] = resample(ms[k], fps)
+            if ms[k].n_frames < 3:
+                raise OptionError("motions", f"{names[k]}: expected at least 3 frames at {fps:g} fps")
+
+    if opts.align:
+        for k in range(1, len(ms)):
+            ms[k], how = place_like(ms[0], ms[k])
+            notes.append(f"{names[k]}: placed like {names[0]} ({how})")
+
+    fingers = set(finger_joints(ms[0].skeleton))
+    curve_joints = tuple(n for n in order if n not in fingers)
+    body = [select_joints(m, curve_joints) if fingers else m for m in ms]
+    jw, tw = group_weights(body)
+    if fingers:
+        notes.append(f"finger joints blended frame by frame, not part of the curves: {sorted(fingers)}")
+    if opts.units_out is not None:
+        units_out: float | None = UNITS[opts.units_out]
+    else:
+        units_out = reports[0].metres_per_unit_in
+    return PreparedMotions(
+        motions=tuple(ms),
+        labels=tuple(names),
+        curve_joints=curve_joints,
+        joint_weights=np.asarray(jw),
+        translation_weight=float(tw),
+        notes=tuple(notes),
+        inputs=tuple(reports),
+        units_out=units_out,
+    )
+
+
+def _check_finite(m: Motion, name: str) -> None:
+    for arr, what in ((m.rotations, "rotations"), (m.root_translation, "root_translation")):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            idx = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise OptionError(
+                "motions",
+                f"{name}.{what}: expected finite values; found {arr[idx]} at index {idx} (frame {idx[0]}; "
+                f"{int(bad.sum())} non-finite entries in all)",
+            )
+
+
+def output_motion(motion: Motion, metres_per_unit: float | None) -> Motion:
+    """``motion`` (metres, as every app returns) expressed in the output length unit.
+
+    Parameters
+    ----------
+    motion : Motion
+        ``metres_per_unit`` 1 (or None: unknown units are written as they are).
+    metres_per_unit : float or None
+        Size of the output unit in metres (:attr:`PreparedMotions.units_out`); None keeps
+        the motion's numbers.
+    """
+    if metres_per_unit is None or motion.metres_per_unit is None:
+        return motion
+    if math.isclose(motion.metres_per_unit, metres_per_unit, rel_tol=1e-12):
+        return motion
+    # to_metres multiplies every length by metres_per_unit; declaring the current unit to be
+    # (current size / target size) of a "metre" scales lengths into the target unit.
+    scaled = to_metres(motion.replace(metres_per_unit=motion.metres_per_unit / metres_per_unit))
+    return scaled.replace(metres_per_unit=float(metres_per_unit))

@@ -1,0 +1,322 @@
+"""Contacts with the floor: when a foot, a toe or a hand is planted, per joint and frame.
+
+The one home of contacts: loops keep them, blends carry them through the warp and plant
+them again, landmarks pair their strikes and lift-offs, metrics measure skating during
+them, pictures draw them.
+
+Conventions
+-----------
+* **Candidate joints** (:func:`contact_joints`): joints whose name says foot, toe, ankle,
+  hand or wrist (case-insensitive; finger, thumb and hand-index joints excluded): CMU
+  ``LeftFoot``/``LeftToeBase``/``LeftHand``, ASF ``lfoot``/``ltoes``/``lhand``, DeepMimic
+  ``left_ankle``/``left_wrist``, Bandai ``Foot_L``/``Toes_L``/``Hand_L``.
+* **The floor** of a clip is the height (along the motion's up axis, metres) below which
+  the clip's lowest point stays only 2 % of the frames: the 2nd percentile over frames of
+  the lowest joint or end site. Robust to a few frames of noise.
+* **A joint's ground height** is its own height when planted: the 5th percentile of its
+  height over the clip, above the floor. A joint whose ground height exceeds
+  ``max_ground_offset`` (default 0.2 m) never touches in this clip (a hand in a walk) and
+  gets no contact.
+* **In contact** (hysteresis, per joint): a joint *enters* contact when it is within
+  ``height_enter`` (3 cm) of its ground height and its horizontal speed is below
+  ``speed_enter`` (0.4 m/s); it *leaves* when it rises above ``height_exit`` (6 cm) or
+  moves faster than ``speed_exit`` (0.8 m/s). Contacts shorter than ``min_duration``
+  (0.1 s) are dropped, gaps shorter than ``min_gap`` (0.05 s) between two contacts are
+  filled. Speeds are central differences (one-sided at the ends), in m/s.
+* **Intervals** are half-open frame ranges ``[start, stop)``.
+* Units: a motion whose ``metres_per_unit`` is unknown is measured in its own length unit
+  (thresholds then in that unit: pass suitable ones).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.motion.kinematics import forward_kinematics
+from elastic_motion.motion.skeleton import Motion, Skeleton
+
+__all__ = [
+    "ContactOptions",
+    "Contacts",
+    "contact_joints",
+    "detect_contacts",
+    "floor_height",
+]
+
+_AXES = "xyz"
+_CANDIDATE = re.compile(r"foot|toe|ankle|hand|wrist", re.IGNORECASE)
+_NOT_CANDIDATE = re.compile(r"finger|thumb|index|handtip|hand_end", re.IGNORECASE)
+_FLOOR_PERCENTILE = 2.0
+_GROUND_PERCENTILE = 5.0
+
+
+def contact_joints(skeleton: Skeleton | Motion) -> list[int]:
+    """Indices of the joints that can touch the floor (module docstring), skeleton order."""
+    sk = skeleton.skeleton if isinstance(skeleton, Motion) else skeleton
+    return [
+        j for j, n in enumerate(sk.names) if j != 0 and _CANDIDATE.search(n) and not _NOT_CANDIDATE.search(n)
+    ]
+
+
+@dataclass(frozen=True)
+class ContactOptions:
+    """Thresholds of contact detection (module docstring); lengths in metres, speeds in m/s,
+    durations in seconds."""
+
+    height_enter: float = 0.03
+    height_exit: float = 0.06
+    speed_enter: float = 0.4
+    speed_exit: float = 0.8
+    min_duration: float = 0.1
+    min_gap: float = 0.05
+    max_ground_offset: float = 0.2
+
+    def __post_init__(self) -> None:
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name}: expected a finite number >= 0; got {v!r}")
+        if self.height_exit < self.height_enter or self.speed_exit < self.speed_enter:
+            raise ValueError(
+                "contact thresholds: expected exit thresholds >= enter thresholds (hysteresis); got "
+                f"height {self.height_enter}/{self.height_exit}, speed {self.speed_enter}/{self.speed_exit}"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class Contacts:
+    """Contacts of a motion's joints with the floor (:func:`detect_contacts`).
+
+    Attributes
+    ----------
+    joints : tuple of str
+        The candidate joints (``K``), including those that never touch.
+    joint_indices : ndarray of int, shape (K,)
+        Their indices in the skeleton.
+    mask : ndarray of bool, shape (F, K)
+        ``mask[f, k]``: joint ``k`` is planted in frame ``f``.
+    floor : float
+        Floor height along the up axis (metres, or the motion's unit when unknown).
+    ground_height : ndarray, shape (K,)
+        Each joint's height above the floor when planted (NaN for joints that never touch).
+    fps : float
+    up_axis : str
+    options : ContactOptions
+    notes : tuple of str
+        What was found or skipped (no candidate joints, joints that never touch).
+    """
+
+    joints: tuple[str, ...]
+    joint_indices: np.ndarray
+    mask: np.ndarray
+    floor: float
+    ground_height: np.ndarray
+    fps: float
+    up_axis: str
+    options: ContactOptions = field(default_factory=ContactOptions)
+    notes: tuple[str, ...] = ()
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.mask.shape[0])
+
+    @property
+    def any(self) -> bool:
+        """True when some joint is ever in contact."""
+        return bool(self.mask.any())
+
+    def intervals(self, joint: str | int) -> list[tuple[int, int]]:
+        """Contact intervals ``[start, stop)`` (frames) of a joint (name or position in ``joints``)."""
+        k = self.joints.index(joint) if isinstance(joint, str) else int(joint)
+        return _runs(self.mask[:, k])
+
+    def all_intervals(self) -> dict[str, list[tuple[int, int]]]:
+        """Every joint's intervals, joints that never touch left out."""
+        out = {}
+        for k, name in enumerate(self.joints):
+            runs = _runs(self.mask[:, k])
+            if runs:
+                out[name] = runs
+        return out
+
+    def events(self) -> list[tuple[float, str, str]]:
+        """Strikes and lift-offs in time order: ``(time s, joint, "strike" | "lift")``.
+
+        A contact that starts at frame 0 has no strike and one that ends at the last frame
+        no lift-off (the clip cut them, they did not happen).
+        """
+        out = []
+        for name, runs in self.all_intervals().items():
+            for a, b in runs:
+                if a > 0:
+                    out.append((a / self.fps, name, "strike"))
+                if b < self.n_frames:
+                    out.append((b / self.fps, name, "lift"))
+        out.sort()
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: floor, per-joint intervals in frames and seconds, notes."""
+        return {
+            "floor_m": self.floor,
+            "fps": self.fps,
+            "joints": {
+                name: {
+                    "frames": [list(r) for r in runs],
+                    "seconds": [[a / self.fps, b / self.fps] for a, b in runs],
+                }
+                for name, runs in self.all_intervals().items()
+            },
+            "candidates": list(self.joints),
+            "notes": list(self.notes),
+        }
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
+    d = np.diff(m.astype(np.int8))
+    starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
+
+
+def _scale(motion: Motion) -> float:
+    return motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+
+
+def floor_height(motion: Motion, positions: np.ndarray | None = None) -> float:
+    """The clip's floor (module docstring), metres (the motion's unit when unknown).
+
+    Parameters
+    ----------
+    motion : Motion
+    positions : ndarray, shape (F, P, 3), optional
+        FK positions of joints and end sites in metres (computed when not given).
+    """
+    if positions is None:
+        positions = forward_kinematics(motion, end_sites=True) * _scale(motion)
+    up = _AXES.index(motion.up_axis)
+    lowest = positions[..., up].min(axis=1)
+    return float(np.percentile(lowest, _FLOOR_PERCENTILE))
+
+
+def _horizontal_speed(p: np.ndarray, up: int, fps: float) -> np.ndarray:
+    """Horizontal speed (F, K) by central differences (one-sided at the ends)."""
+    q = p.copy()
+    q[..., up] = 0.0
+    if q.shape[0] < 2:
+        return np.zeros(q.shape[:2])
+    v = np.gradient(q, axis=0) * fps
+    return np.linalg.norm(v, axis=-1)
+
+
+def _hysteresis(near_enter: np.ndarray, near_exit: np.ndarray) -> np.ndarray:
+    """Per column: on when ``near_enter``, stays on while ``near_exit``."""
+    f, k = near_enter.shape
+    out = np.zeros((f, k), dtype=bool)
+    state = near_enter[0].copy()
+    out[0] = state
+    for i in range(1, f):
+        state = np.where(state, near_exit[i], near_enter[i])
+        out[i] = state
+    # the state machine runs forward; a contact is also on where it would have started had
+    # the clip begun later: run it backward and take the union (symmetric in time)
+    back = np.zeros((f, k), dtype=bool)
+    state = near_enter[-1].copy()
+    back[-1] = state
+    for i in range(f - 2, -1, -1):
+        state = np.where(state, near_exit[i], near_enter[i])
+        back[i] = state
+    return out | back
+
+
+def _clean_runs(col: np.ndarray, min_len: int, min_gap: int) -> np.ndarray:
+    col = col.copy()
+    runs = _runs(col)
+    for (_, b), (c, _) in itertools.pairwise(runs):
+        if c - b < min_gap:
+            col[b:c] = True
+    for a, b in _runs(col):
+        if b - a < min_len:
+            col[a:b] = False
+    return col
+
+
+def detect_contacts(
+    motion: Motion,
+    options: ContactOptions | None = None,
+    *,
+    joints: Sequence[str] | None = None,
+) -> Contacts:
+    """Detect when each foot, toe and hand is planted on the clip's floor.
+
+    Parameters
+    ----------
+    motion : Motion
+        At least 2 frames.
+    options : ContactOptions, optional
+        Thresholds (module docstring).
+    joints : sequence of str, optional
+        Candidate joints (default :func:`contact_joints`).
+
+    Returns
+    -------
+    Contacts
+        With an empty candidate list (and a note) when no joint can touch the floor.
+
+    Raises
+    ------
+    ValueError
+        Unknown joint names, fewer than 2 frames.
+    """
+    opts = options or ContactOptions()
+    if not isinstance(motion, Motion):
+        raise ValueError(f"motion: expected a Motion; got {type(motion).__name__}")
+    if motion.n_frames < 2:
+        raise ValueError(f"motion: expected at least 2 frames to detect contacts; got {motion.n_frames}")
+    sk = motion.skeleton
+    if joints is None:
+        idx = contact_joints(sk)
+    else:
+        unknown = [n for n in joints if n not in sk.names]
+        if unknown:
+            raise ValueError(f"joints: expected joint names of the skeleton; got unknown {unknown}")
+        idx = [sk.index(n) for n in joints]
+    up = _AXES.index(motion.up_axis)
+    pos = forward_kinematics(motion, end_sites=True) * _scale(motion)
+    floor = floor_height(motion, pos)
+    names = tuple(sk.names[j] for j in idx)
+    f = motion.n_frames
+    if not idx:
+        return Contacts(
+            names, np.zeros(0, dtype=np.int64), np.zeros((f, 0), dtype=bool), floor, np.zeros(0),
+            motion.fps, motion.up_axis, opts, ("no joint that can touch the floor (feet, toes, hands)",),
+        )  # fmt: skip
+    p = pos[:, idx]
+    height = p[..., up] - floor
+    ground = np.percentile(height, _GROUND_PERCENTILE, axis=0)
+    speed = _horizontal_speed(p, up, motion.fps)
+    touches = ground <= opts.max_ground_offset
+    rel = height - ground
+    near_enter = (rel <= opts.height_enter) & (speed <= opts.speed_enter) & touches
+    near_exit = (rel <= opts.height_exit) & (speed <= opts.speed_exit) & touches
+    mask = _hysteresis(near_enter, near_exit)
+    min_len = max(1, math.ceil(opts.min_duration * motion.fps - 1e-9))
+    min_gap = max(1, math.ceil(opts.min_gap * motion.fps - 1e-9))
+    for k in range(mask.shape[1]):
+        mask[:, k] = _clean_runs(mask[:, k], min_len, min_gap)
+    notes = []
+    never = [n for n, t in zip(names, touches, strict=True) if not t]
+    if never:
+        notes.append(f"never near the floor in this clip: {never}")
+    ground_out = np.where(touches, ground, np.nan)
+    return Contacts(
+        names, np.asarray(idx, dtype=np.int64), mask, floor, ground_out, motion.fps, motion.up_axis,
+        opts, tuple(notes),
+    )  # fmt: skip
