@@ -31,8 +31,20 @@ Every warp of every method is scored by the same exact function
 ``--repeat`` runs after a warm-up (numba compilation excluded and reported apart), fdasrsf
 one run (it is slow) unless ``--fd-repeat``.
 
+Issue 13 extras (``--steep``, ``--closed``; written to the same JSON under ``"steep"`` and
+``"closed"``):
+
+- ``--steep``: the default method (``dp+refine``) against the DP alone on warps whose slopes
+  leave ``[1/10, 10]``: paper 001's open pair (three vs two extrema; reference: ``dp+refine``
+  at N = 3200) and ``c0 = c1 o gamma`` with ``gamma(t) = t^4`` (slope 0 at 0; the distance is
+  0 up to discretisation), on real motion pairs the cost of the default against ``dp``.
+- ``--closed``: :func:`elastic_motion.closed_curves.match_closed` (seed, warp, closed
+  descent, closed geodesic) on the hand outlines of ``examples/warp_2d.py`` at 100 / 200 /
+  400 points, three rows as paper 001's Table 1, timed beside the paper's seconds.
+
 Usage::
 
+    python benchmarks/warp.py --steep --closed --cases    # only the issue-13 tables
     python benchmarks/warp.py                      # full: N = 100 ... 1600, all cases
     python benchmarks/warp.py --n 100 200 --cases synth3 cmu131 --fd-max-n 200   # quick
 
@@ -153,13 +165,118 @@ def warp_error(vertices: np.ndarray, gamma: np.ndarray | None) -> tuple[float | 
     return float(np.abs(diff).max()), float(np.sqrt(np.mean(diff**2)))
 
 
+# ----------------------------------------------------------------------------- issue 13
+
+
+def open_pair(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Paper 001's open pair as in ``examples/warp_2d.py`` before issue 13 (SRV arrays)."""
+    t = np.linspace(0.0, 1.0, n + 1)
+    c0 = np.column_stack([t, 0.25 * np.sin(3 * np.pi * t)])
+    c1 = np.column_stack([t, 0.25 * np.sin(2 * np.pi * t) * (1 + 0.3 * t)])
+    return srv(c0, t), srv(c1, t)
+
+
+def power_pair(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``c0 = c1 o gamma``, ``gamma(t) = t^4``: the best warp has slope 0 at 0 (distance 0)."""
+    t = np.linspace(0.0, 1.0, n + 1)
+
+    def c(x):
+        return np.column_stack([np.cos(3 * x), np.sin(5 * x) + x])
+
+    return srv(c(t**4), t), srv(c(t), t)
+
+
+def steep_rows(ns: list[int], repeat: int) -> list[dict]:
+    rows = []
+    ref_open = optimal_warp(*open_pair(3200), method="dp+refine").distance
+    for case, make, ref in (("paper001-open", open_pair, ref_open), ("power4", power_pair, 0.0)):
+        for n in ns:
+            q0, q1 = make(n)
+            row = {"case": case, "N": n, "reference": ref}
+            for method in ("dp", "dp+refine"):
+                sec, verts, _ = run_ours(q0, q1, repeat, method=method)
+                d = float(np.sqrt(warp_energy(q0, q1, verts)))
+                row[method] = {"time": sec, "distance": d, "error": d - ref}
+            rows.append(row)
+            print(
+                f"{case} N={n}: dp {row['dp']['distance']:.5f} ({row['dp']['time']:.3f}s), default "
+                f"{row['dp+refine']['distance']:.5f} ({row['dp+refine']['time']:.3f}s), ref {ref:.5f}",
+                file=sys.stderr,
+                flush=True,
+            )
+    return rows
+
+
+def steep_markdown(rows: list[dict]) -> str:
+    lines = [
+        "| case | N | reference | dp distance | dp error | dp s "
+        "| default distance | default error | default s |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        dp, de = r["dp"], r["dp+refine"]
+        lines.append(
+            f"| {r['case']} | {r['N']} | {r['reference']:.5f} | {dp['distance']:.5f} | {dp['error']:+.5f} | "
+            f"{dp['time']:.3f} | {de['distance']:.5f} | {de['error']:+.5f} | {de['time']:.3f} |"
+        )
+    return "\n".join(lines)
+
+
+def closed_rows(repeat: int) -> list[dict]:
+    sys.path.insert(0, str(ROOT / "examples"))
+    import warp_2d as ex
+    from elastic_motion.closed_curves import match_closed
+    from elastic_motion.curves import srv_transform
+
+    cases, _, _ = ex.closed_cases()
+    rows = []
+    for n, paper in ex.PAPER_TABLE_1.items():
+        q0 = srv_transform(ex.hand(n, ex.FINGERS_A)).q
+        q1 = srv_transform(ex.hand(n, ex.FINGERS_B, rot=ex.SEED_B)).q
+        for (title, lm), paper_s in zip(cases, paper, strict=True):
+            best, m = np.inf, None
+            for _ in range(repeat):
+                t = time.perf_counter()
+                m = match_closed(q0, q1, landmarks=lm, lam=ex.LAM_CLOSED)
+                best = min(best, time.perf_counter() - t)
+            rows.append(
+                {
+                    "N": n,
+                    "case": title,
+                    "paper_s": paper_s,
+                    "time": best,
+                    "closed_distance": m.distance,
+                    "open_distance": m.open_distance,
+                    "closed_steps": m.closed_steps,
+                }
+            )
+            print(
+                f"closed N={n} {title}: {best:.2f}s (paper {paper_s} s), d = {m.distance:.4f}",
+                file=sys.stderr,
+            )
+    return rows
+
+
+def closed_markdown(rows: list[dict]) -> str:
+    lines = [
+        "| points | case | paper s | ours s | closed distance | open distance | closed steps |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['N']} | {r['case']} | {r['paper_s']} | {r['time']:.2f} | {r['closed_distance']:.4f} | "
+            f"{r['open_distance']:.4f} | {r['closed_steps']} |"
+        )
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------- main
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[100, 200, 400, 800, 1600])
-    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
+    ap.add_argument("--cases", nargs="*", default=list(CASES), choices=CASES)
     ap.add_argument(
         "--fd-max-n",
         type=int,
@@ -171,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="runs of our solver (minimum time)")
     ap.add_argument("--fd-repeat", type=int, default=1)
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "warp.json")
+    ap.add_argument("--steep", action="store_true", help="default method vs dp on steep warps (issue 13)")
+    ap.add_argument("--closed", action="store_true", help="closed matching vs paper 001 Table 1 (issue 13)")
     args = ap.parse_args(argv)
 
     have_fd = False
@@ -190,6 +309,12 @@ def main(argv: list[str] | None = None) -> int:
     optimal_warp(q0, q1, coarse_to_fine=True)
     compile_s = time.perf_counter() - t
 
+    extra: dict[str, list] = {}
+    if args.steep:
+        extra["steep"] = steep_rows(args.n, args.repeat)
+    if args.closed:
+        extra["closed"] = closed_rows(args.repeat)
+
     rows = []
     for case in args.cases:
         for n in args.n:
@@ -203,9 +328,9 @@ def main(argv: list[str] | None = None) -> int:
             d = q0.shape[1]
             res: dict[str, dict] = {}
             for name, kw in (
-                ("ours-dp", {}),
+                ("ours-dp", {"method": "dp"}),
                 ("ours-dp+refine", {"method": "dp+refine"}),
-                ("ours-c2f", {"coarse_to_fine": True}),
+                ("ours-c2f", {"coarse_to_fine": True, "method": "dp"}),
             ):
                 sec, verts, info = run_ours(q0, q1, args.repeat, **kw)
                 res[name] = {"time": sec, "vertices": verts, **info}
@@ -246,8 +371,13 @@ def main(argv: list[str] | None = None) -> int:
         meta["fdasrsf"] = fdasrsf.__version__
     except (ImportError, AttributeError):
         pass
-    write_json(args.out, {"meta": meta, "rows": rows})
-    print(markdown(rows))
+    write_json(args.out, {"meta": meta, "rows": rows, **extra})
+    if rows:
+        print(markdown(rows))
+    if "steep" in extra:
+        print(steep_markdown(extra["steep"]))
+    if "closed" in extra:
+        print(closed_markdown(extra["closed"]))
     print(f"\nnumba warm-up (compile or cache load): {compile_s:.1f} s; JSON: {args.out}")
     return 0
 

@@ -9,6 +9,8 @@ Layers (each depends only on the ones before it):
 See ``docs/architecture.md``.
 """
 
+import importlib
+import importlib.util
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
@@ -17,44 +19,19 @@ try:
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.0.0+unknown"
 
-_API = (
-    "AlignResult",
-    "BlendMetrics",
-    "BlendResult",
-    "DistanceTable",
-    "LoopResult",
-    "Motion",
-    "MotionPreparation",
-    "PrepareOptions",
-    "PreparedMotions",
-    "SeamMetrics",
-    "WarpOptions",
-    "align",
-    "blend",
-    "blend_metrics",
-    "distance",
-    "distances",
-    "load",
-    "loop",
-    "prepare",
-    "read",
-    "repeat",
-    "seam_metrics",
-    "to_json",
-    "write",
-)
-
-__all__ = ["__version__", *_API]
+__all__ = ["__version__"]  # the API's names are listed once, in elastic_motion.api.__all__
 
 
 def __getattr__(name: str) -> Any:
     # PEP 562: the API (numba, scipy, the apps) is imported on first use, not by the CLI's start.
-    if name in _API:
-        from elastic_motion import api
-
-        return getattr(api, name)
+    # a submodule (``from elastic_motion import limits``) is left to the import system
+    if not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}") is None:
+        api = importlib.import_module("elastic_motion.api")
+        if name in api.__all__:
+            return getattr(api, name)
     raise AttributeError(f"module 'elastic_motion' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(__all__)
+    api = importlib.import_module("elastic_motion.api")
+    return sorted({*globals(), *api.__all__})

@@ -79,8 +79,15 @@ from elastic_motion.curves import (
     srv_transform,
 )
 from elastic_motion.groups import Euclidean
-from elastic_motion.warp import Landmarks, landmark_cost, optimal_warp, shift_seed, warp_energy
-from elastic_motion.warp.energy import check_srv, check_vertices
+from elastic_motion.warp import (
+    Landmarks,
+    landmark_cost,
+    optimal_warp,
+    shift_seed,
+    swap_closed_match,
+    warp_energy,
+)
+from elastic_motion.warp.energy import check_srv
 from elastic_motion.warp.landmarks import as_landmarks
 from elastic_motion.warp.options import WarpOptions
 
@@ -452,51 +459,6 @@ def closed_distance(
 # ----------------------------------------------------------------------------- matching
 
 
-def swap_closed_match(vertices: Any, seed: float) -> tuple[float, np.ndarray]:
-    """Turn a match of q0 onto q1 into the same match of q1 onto q0.
-
-    A closed match ``(sigma, psi)`` of ``q_b`` onto ``q_a`` compares ``q_a`` with
-    ``shift_seed(q_b, sigma) * psi``.  The same correspondence seen from ``q_b`` is the
-    circle map ``x -> psi^{-1}((x - sigma) mod 1)``: the seed ``tau = psi^{-1}(1 - sigma)`` of
-    ``q_a`` and the warp ``phi(x) = (psi^{-1}((x - sigma) mod 1) - tau) mod 1``, with
-    ``||q_a - shift_seed(q_b, sigma) * psi|| = ||q_b - shift_seed(q_a, tau) * phi||`` exactly
-    (the action is an isometry).
-
-    Parameters
-    ----------
-    vertices : array_like, shape (K, 2)
-        ``psi``, strictly increasing (its inverse must be a function).
-    seed : float
-        ``sigma`` in [0, 1).
-
-    Returns
-    -------
-    tau : float
-    phi : ndarray, shape (K', 2)
-    """
-    v = check_vertices(vertices)
-    if (np.diff(v[:, 1]) <= 0).any():
-        raise ValueError("vertices: the warp has a flat piece; its inverse jumps (no swapped match)")
-    inv = v[:, ::-1]  # psi^{-1}: vertices (psi(x_k), x_k)
-    sigma = float(seed) % 1.0
-    if sigma == 0.0:
-        return 0.0, np.ascontiguousarray(inv)
-    cut = 1.0 - sigma
-    tau = float(np.interp(cut, inv[:, 0], inv[:, 1]))
-    s = np.union1d(inv[:, 0], [cut])
-    y = np.interp(s, inv[:, 0], inv[:, 1])
-    hi = s >= cut
-    lo = s <= cut
-    x = np.concatenate([s[hi] - cut, s[lo][1:] + sigma])
-    phi = np.concatenate([y[hi] - tau, y[lo][1:] + 1.0 - tau])
-    keep = np.concatenate([[True], np.diff(x) > 1e-15])
-    x, phi = x[keep], phi[keep]
-    x[0], x[-1] = 0.0, 1.0
-    phi = np.clip(np.maximum.accumulate(phi), 0.0, 1.0)
-    phi[0], phi[-1] = 0.0, 1.0
-    return tau, np.column_stack([x, phi])
-
-
 @dataclass(frozen=True)
 class ClosedMatch:
     """Optimal seed and warp of closed curve q1 onto q0 for the closed energy (eq. 22).
@@ -695,11 +657,11 @@ def match_closed(
 
     # (1) seed and warp by the DP, seeds on the breaks of both curves
     cands = []
-    a = optimal_warp(q0a, q1a, t0=t0a, t1=t1a, closed=True, landmarks=lm, **lmkw, **kw)
+    a = optimal_warp(q0a, q1a, t0=t0a, t1=t1a, closed=True, seeds="q1", landmarks=lm, **lmkw, **kw)
     cands.append(("q1", a.seed_shift, a.vertices))
     lm_sw = None if lm is None else lm.swapped()
     try:
-        b = optimal_warp(q1a, q0a, t0=t1a, t1=t0a, closed=True, landmarks=lm_sw, **lmkw, **kw)
+        b = optimal_warp(q1a, q0a, t0=t1a, t1=t0a, closed=True, seeds="q1", landmarks=lm_sw, **lmkw, **kw)
         tau_b, phi_b = swap_closed_match(b.vertices, b.seed_shift)
         cands.append(("q0", tau_b, phi_b))
     except ValueError:

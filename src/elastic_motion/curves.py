@@ -389,8 +389,9 @@ def reparametrize_srv(srv: SRVFunction, phi: object) -> SRVFunction:
         Piecewise constant on the merged break points: the vertices of ``phi`` and the
         preimages ``phi^{-1}(srv.t)``. It is the SRV function of ``c o phi`` for the
         piecewise geodesic curve ``c`` of ``srv`` (paper 000, Lemma 3.6), so
-        ``inverse_srv_transform`` of it samples ``c o phi`` exactly. Where ``phi`` is flat
-        the result is 0.
+        ``inverse_srv_transform`` of it samples ``c o phi`` exactly (break points closer
+        than :data:`MERGE_TOL` are merged: an error below ``MERGE_TOL |q|^2``). Where ``phi``
+        is flat the result is 0.
     """
     verts = as_warp_vertices(phi, srv.t)
     tau, ph = verts[:, 0], verts[:, 1]

@@ -255,3 +255,20 @@ def test_a_z_up_file_lands_upright(mocap_dir, tmp_path, capsys):
     assert any(n.startswith("warning:") and "+z-up" in n for n in forced.notes)
     code, out, _ = run(capsys, "loop", zfile, "-o", tmp_path / "l.bvh", "--up", "y", "-q")
     assert code == 0 and "warning:" in out
+
+
+def test_the_package_face_is_lazy_and_complete():
+    """``import elastic_motion`` loads no numerical stack (the CLI starts fast); every name of
+    ``elastic_motion.api.__all__`` is reachable as ``em.NAME``; submodules import as usual."""
+    import subprocess
+    import sys
+
+    code = "import sys, elastic_motion; assert 'numba' not in sys.modules and 'scipy' not in sys.modules"
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+    from elastic_motion import api
+
+    for name in api.__all__:
+        assert getattr(em, name) is getattr(api, name)
+        assert name in dir(em)
+    with pytest.raises(AttributeError, match="no attribute 'blendd'"):
+        em.blendd  # noqa: B018

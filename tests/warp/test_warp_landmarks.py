@@ -39,7 +39,11 @@ def test_landmark_is_approached_as_lambda_grows():
 
 
 def test_landmark_charged_by_domain_erratum():
-    """The feature term of a warp equals lam (phi(theta0) - theta1)^2 at the DP optimum."""
+    """The feature term of a warp equals lam (phi(theta0) - theta1)^2 at the DP optimum.
+
+    A consistency check of the re-scoring only; the tests that fail with the paper's charging
+    rule are in ``test_warp_exactness.py`` (DP table value, brute force over all grid paths).
+    """
     q0, q1, _ = open_pair(50)
     lm = Landmarks([0.31, 0.77], [0.4, 0.7])
     res = optimal_warp(q0, q1, landmarks=lm, lam=3.0, method="dp")

@@ -23,6 +23,7 @@ from elastic_motion.warp.energy import (
     compose_warps,
     invert_warp,
     shift_seed,
+    swap_closed_match,
     warp_at,
     warp_energy,
 )
@@ -58,6 +59,7 @@ __all__ = [
     "landmark_cost",
     "optimal_warp",
     "shift_seed",
+    "swap_closed_match",
     "warp_at",
     "warp_energy",
 ]

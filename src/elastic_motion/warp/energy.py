@@ -221,3 +221,48 @@ def srv_norm2(q: np.ndarray, t: np.ndarray) -> float:
 def check_finite_scalar(value: float, name: str) -> None:
     """Raise ``ValueError`` if ``value`` is not a finite number."""
     check_finite(np.asarray([value], dtype=np.float64), name)
+
+
+def swap_closed_match(vertices: Any, seed: float) -> tuple[float, np.ndarray]:
+    """Turn a match of q0 onto q1 into the same match of q1 onto q0.
+
+    A closed match ``(sigma, psi)`` of ``q_b`` onto ``q_a`` compares ``q_a`` with
+    ``shift_seed(q_b, sigma) * psi``.  The same correspondence seen from ``q_b`` is the
+    circle map ``x -> psi^{-1}((x - sigma) mod 1)``: the seed ``tau = psi^{-1}(1 - sigma)`` of
+    ``q_a`` and the warp ``phi(x) = (psi^{-1}((x - sigma) mod 1) - tau) mod 1``, with
+    ``||q_a - shift_seed(q_b, sigma) * psi|| = ||q_b - shift_seed(q_a, tau) * phi||`` exactly
+    (the action is an isometry).
+
+    Parameters
+    ----------
+    vertices : array_like, shape (K, 2)
+        ``psi``, strictly increasing (its inverse must be a function).
+    seed : float
+        ``sigma`` in [0, 1).
+
+    Returns
+    -------
+    tau : float
+    phi : ndarray, shape (K', 2)
+    """
+    v = check_vertices(vertices)
+    if (np.diff(v[:, 1]) <= 0).any():
+        raise ValueError("vertices: the warp has a flat piece; its inverse jumps (no swapped match)")
+    inv = v[:, ::-1]  # psi^{-1}: vertices (psi(x_k), x_k)
+    sigma = float(seed) % 1.0
+    if sigma == 0.0:
+        return 0.0, np.ascontiguousarray(inv)
+    cut = 1.0 - sigma
+    tau = float(np.interp(cut, inv[:, 0], inv[:, 1]))
+    s = np.union1d(inv[:, 0], [cut])
+    y = np.interp(s, inv[:, 0], inv[:, 1])
+    hi = s >= cut
+    lo = s <= cut
+    x = np.concatenate([s[hi] - cut, s[lo][1:] + sigma])
+    phi = np.concatenate([y[hi] - tau, y[lo][1:] + 1.0 - tau])
+    keep = np.concatenate([[True], np.diff(x) > 1e-15])
+    x, phi = x[keep], phi[keep]
+    x[0], x[-1] = 0.0, 1.0
+    phi = np.clip(np.maximum.accumulate(phi), 0.0, 1.0)
+    phi[0], phi[-1] = 0.0, 1.0
+    return tau, np.column_stack([x, phi])

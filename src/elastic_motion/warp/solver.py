@@ -15,7 +15,14 @@ from typing import Any, Literal
 import numpy as np
 
 from elastic_motion.warp import _dp
-from elastic_motion.warp.energy import check_pair, check_vertices, kernel_array, srv_norm2
+from elastic_motion.warp.energy import (
+    check_pair,
+    check_vertices,
+    kernel_array,
+    shift_seed,
+    srv_norm2,
+    swap_closed_match,
+)
 from elastic_motion.warp.landmarks import (
     _WINDOW_SLACK,
     Landmarks,
@@ -72,6 +79,10 @@ class WarpDiagnostics:
     refine_stop : str
     seeds_tried : int
         Closed curves: number of (shift, level) DP solves of the seed search.
+    seed_from : str
+        Closed curves: ``"q1"`` (the seed on q1's break points won) or ``"q0"`` (the search
+        of q0 against q1, seeds on q0's break points, turned into a seed of q1 by
+        :func:`swap_closed_match`); ``""`` for open curves.
     time_dp, time_refine, time_total : float
         Wall-clock seconds.
     """
@@ -90,6 +101,7 @@ class WarpDiagnostics:
     time_dp: float
     time_refine: float
     time_total: float
+    seed_from: str = ""
 
 
 @dataclass(frozen=True)
@@ -555,6 +567,7 @@ def optimal_warp(
     windows: float | Any | None = None,
     symmetric: bool = False,
     closed: bool = False,
+    seeds: Literal["both", "q1"] = "both",
     coarse_to_fine: bool | None = None,
     band: int | None = None,
     tol: float = 1e-7,
@@ -597,7 +610,15 @@ def optimal_warp(
         Symmetric feature term (paper 001, sec. 2.4): also ``FM(phi^{-1}(theta1_m), theta0_m)``.
     closed : bool
         Closed curves: also optimise the seed, a cyclic shift of q1's start by whole cells,
-        coarse to fine (see ``seed_shift`` of :class:`WarpResult`).
+        coarse to fine (see ``seed_shift`` of :class:`WarpResult`).  The energy stays the
+        open-curve (``L^2``) one; the closed-curve energy of paper 001 (eq. 22, closed
+        geodesic distance, seeds on both curves) is
+        :func:`elastic_motion.closed_curves.match_closed`.
+    seeds : {"both", "q1"}
+        Closed curves: ``"both"`` (default) searches seeds on the break points of both
+        curves (q1 against q0, and q0 against q1 turned into a seed and warp of q1 exactly
+        by :func:`elastic_motion.warp.swap_closed_match`) and keeps the lower objective, so
+        that swapping the curves gives the same energy up to the grid; ``"q1"``: only on q1's.
     coarse_to_fine : bool
         Banded DP for long curves: solve on merged cells (down to 100-200 cells), then only in a
         band of ``band`` range nodes around the upsampled warp.  Faster, not exact: the
@@ -655,10 +676,13 @@ def optimal_warp(
     spec = make_penalty(penalty, lam, windows, len(lm)) if lm is not None else None
     lmd = _LandmarkData(lm, spec, bool(symmetric))
 
+    if seeds not in ("both", "q1"):
+        raise ValueError(f"seeds: expected 'both' or 'q1'; got {seeds!r}")
+    lm_orig, q1_orig, t1_orig = lm, q1a, t1a
     seed_shift = 0.0
-    seeds = 0
+    n_seeds = 0
     if closed:
-        s, seeds = _seed_search(q0a, t0a, q1a, t1a, steps, lmd)
+        s, n_seeds = _seed_search(q0a, t0a, q1a, t1a, steps, lmd)
         seed_shift = float(t1a[s])
         q1a, t1a = _roll(q1a, t1a, s)
         shifted = _shifted_landmarks(lmd, seed_shift)
@@ -718,6 +742,34 @@ def optimal_warp(
         if el_r + lc_r <= el + lc:
             vertices, el, lc = ref.vertices, el_r, lc_r
         time_ref = time.perf_counter() - t
+    seed_from = "q1" if closed else ""
+    if closed and seeds == "both":
+        swapped = _swapped_seed_candidate(
+            q0a,
+            t0a,
+            q1_orig,
+            t1_orig,
+            lm_orig,
+            spec,
+            bool(symmetric),
+            dict(
+                method=method,
+                neighbourhood=neighbourhood,
+                lam=lam,
+                penalty=penalty,
+                windows=windows,
+                symmetric=symmetric,
+                coarse_to_fine=coarse_to_fine,
+                band=band,
+                tol=tol,
+                max_iter=max_iter,
+            ),
+        )
+        if swapped is not None:
+            n_seeds += swapped[4]
+            if swapped[2] + swapped[3] < el + lc:
+                seed_shift, vertices, el, lc = swapped[0], swapped[1], swapped[2], swapped[3]
+                seed_from = "q0"
     phi = np.interp(t0a, vertices[:, 0], vertices[:, 1])
     diag = WarpDiagnostics(
         method=method,
@@ -730,10 +782,11 @@ def optimal_warp(
         energy_dp=energy_dp,
         iterations=iterations,
         refine_stop=stop,
-        seeds_tried=seeds,
+        seeds_tried=n_seeds,
         time_dp=time_dp,
         time_refine=time_ref,
         time_total=time.perf_counter() - t_start,
+        seed_from=seed_from,
     )
     vertices = check_vertices(vertices)
     return WarpResult(
@@ -746,6 +799,30 @@ def optimal_warp(
         diagnostics=diag,
         seed_shift=seed_shift,
     )
+
+
+def _swapped_seed_candidate(q0, t0, q1, t1, lm, spec, symmetric, kw):
+    """Closed curves: solve q0 against q1 (seeds on q0's breaks) and express the match as a
+    seed and warp of q1 (:func:`swap_closed_match`), scored by the objective of q1 onto q0.
+
+    Returns ``(tau, vertices, elastic energy, landmark cost, seed solves)`` or None.
+    """
+    lm_sw = None if lm is None else lm.swapped()
+    try:
+        res = optimal_warp(q1, q0, t0=t1, t1=t0, landmarks=lm_sw, closed=True, seeds="q1", **kw)
+        tau, verts = swap_closed_match(res.vertices, res.seed_shift)
+    except ValueError:
+        return None  # a flat piece (no inverse) or landmarks no seed of q0 meets
+    lms = lm
+    if lm is not None and len(lm) and tau != 0.0:
+        try:
+            lms = Landmarks(lm.theta0.copy(), (lm.theta1 - tau) % 1.0)
+        except ValueError:
+            return None
+    q1s, t1s = shift_seed(q1, t1, tau)
+    el = float(_dp.energy_direct(q0, t0, q1s, t1s, kernel_array(verts[:, 0]), kernel_array(verts[:, 1])))
+    lc = _landmark_cost(verts, lms, spec, symmetric) if lms is not None and spec is not None else 0.0
+    return tau, verts, el, lc, res.diagnostics.seeds_tried
 
 
 def _resolve_options(
