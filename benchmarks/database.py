@@ -230,7 +230,13 @@ def extrapolate(per_pair: dict[int, float], workers: list[int]) -> list[dict]:
 
 
 def target_run(
-    cmu: Path, tmp: Path, m: int, n_samples: int, warp: str = "none", reps: tuple[str, ...] = ("lie", "euler")
+    cmu: Path,
+    tmp: Path,
+    m: int,
+    n_samples: int,
+    warp: str = "none",
+    reps: tuple[str, ...] = ("lie", "euler"),
+    neighbourhood: int = 6,
 ) -> dict:
     """Generate ``m`` files of exactly 200 frames (windows of the 120 Hz CMU clips at random
     starts) and run the whole pipeline (read, SRV, all pairs) with ``engine="local"`` (2 workers)."""
@@ -249,7 +255,7 @@ def target_run(
         n_samples=n_samples,
         tile_size=64,
         representations=reps,
-        warp=WarpOptions(method=warp, neighbourhood=6),
+        warp=WarpOptions(method=warp, neighbourhood=neighbourhood),
     )
     t0 = time.perf_counter()
     res = compute_matrix([src], tmp / f"target_out_{warp}_{n_samples}", s, engine="local", n_workers=2)
@@ -260,6 +266,7 @@ def target_run(
         "frames_per_input": 200,
         "n_samples": n_samples,
         "warp": warp,
+        "neighbourhood": neighbourhood,
         "representations": list(reps),
         "engine": "local (2 workers)",
         "complete": res.complete,
@@ -464,6 +471,510 @@ def markdown(r: dict) -> str:
     return "\n".join(lines)
 
 
+# --------------------------------------------------------------------------------------------
+# Issue 15: retrieval protocol, exact search with bounds, partial matching, PCA, scale
+# --------------------------------------------------------------------------------------------
+
+#: The candidate distances of the retrieval study, fixed before any accuracy was looked at
+#: (docs/database.md, "Retrieval quality"): Lie SRV variants (root, joint weights, a pose term)
+#: and the Euler SRV. Keys: rep (lie/euler), heading (heading-relative root), tscale (factor of
+#: the translation weight), jpow (joint weights ** jpow: 0 = uniform), pose (weight of the pose term).
+RETRIEVAL_CANDIDATES = {
+    "lie": {},
+    "lie, heading-relative root": {"heading": True},
+    "lie, translation weight / 4": {"tscale": 0.25},
+    "lie, uniform joint weights": {"jpow": 0.0},
+    "lie + pose 0.25": {"pose": 0.25},
+    "lie + pose 1": {"pose": 1.0},
+    "lie + pose 4": {"pose": 4.0},
+    "lie, uniform joints + pose 1": {"jpow": 0.0, "pose": 1.0},
+    "euler": {"rep": "euler"},
+}
+
+
+def _rotvec(r: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec().reshape(*r.shape[:-2], 3)
+
+
+def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
+    """SRV arrays of prepared windows for one candidate of :data:`RETRIEVAL_CANDIDATES`.
+
+    The pose term appends ``sqrt(pose) * w_j^(1/2) * rotvec(R_j)`` of the non-root joints at
+    the cell midpoints to the SRV array (the DP then warps it like an SRV component)."""
+    from elastic_motion.apps.database.preparation import heading_relative_root
+    from elastic_motion.curves import srv_transform
+    from elastic_motion.motion import group_weights, to_lie_curve
+
+    ms = [p.motion for p in prepared]
+    if spec.get("heading"):
+        ms = [heading_relative_root(m) for m in ms]
+    jw, tw = group_weights(ms)
+    jw = np.asarray(jw) ** spec.get("jpow", 1.0)
+    tw = tw * spec.get("tscale", 1.0)
+    out = []
+    for m in ms:
+        if spec.get("rep", "lie") == "lie":
+            q = srv_transform(to_lie_curve(m, jw, translation_weight=tw)).q
+        else:
+            q = srv_transform(to_euler_curve(m)).q
+        lam = spec.get("pose", 0.0)
+        if lam:
+            pose = _rotvec(m.rotations[:, 1:]) * np.sqrt(jw[1:])[None, :, None]
+            pose = 0.5 * (pose[1:] + pose[:-1]).reshape(len(q), -1)
+            q = np.concatenate([q, np.sqrt(lam) * pose], axis=1)
+        out.append(np.ascontiguousarray(q))
+    return out
+
+
+def retrieval(mocap: Path, n_samples: int = 32, max_windows: int = 6, neighbourhood: int = 6) -> dict:
+    """Cross-dataset protocol: pick the candidate with the best accuracy on one dataset (CMU:
+    category; Bandai: mean of content and style), report it on the other; DTW beside."""
+    data = {}
+    for which in ("cmu", "bandai"):
+        paths = (
+            sorted((mocap / "bandai").glob("*.bvh"))
+            if which == "bandai"
+            else [mocap / "cmu" / "bvh" / f"{c}.bvh" for c in CMU_CLIPS]
+        )
+        names, motions, clips = cut_windows(paths, 1.0, max_windows)
+        prep = [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, motions, strict=True)]
+        if which == "cmu":
+            tasks = {"category": [cmu_label(c) for c in clips]}
+        else:
+            lab = [bandai_labels(c) for c in clips]
+            tasks = {"content": [x[0] for x in lab], "style": [x[1] if x[0] == "walk" else None for x in lab]}
+        acc = {}
+        for name, spec in RETRIEVAL_CANDIDATES.items():
+            d = distance_matrix(candidate_srvs(prep, spec), WarpOptions("dp", neighbourhood))
+            acc[name] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
+        ef = [to_euler_curve(p.motion).values for p in prep]
+        d = dtw_matrix(ef, parallel=False)
+        acc["dtw (euler frames)"] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
+        data[which] = {"windows": len(prep), "accuracy": acc}
+
+    def score(which: str, name: str) -> float:
+        return float(np.mean(list(data[which]["accuracy"][name].values())))
+
+    cands = list(RETRIEVAL_CANDIDATES)  # ties: the first (simplest) candidate in this order
+    pick_cmu = max(cands, key=lambda c: (score("cmu", c), -cands.index(c)))
+    pick_bandai = max(cands, key=lambda c: (score("bandai", c), -cands.index(c)))
+    return {
+        "protocol": "tune on one dataset, report on the other (1-NN, leave-one-window-out, 1-s windows)",
+        "n_samples": n_samples,
+        "neighbourhood": neighbourhood,
+        "data": data,
+        "picked_on_cmu": pick_cmu,
+        "reported_on_bandai": data["bandai"]["accuracy"][pick_cmu],
+        "picked_on_bandai": pick_bandai,
+        "reported_on_cmu": data["cmu"]["accuracy"][pick_bandai],
+    }
+
+
+def search_bench(mocap: Path, tmp: Path, n_samples: int = 32, max_windows: int = 16) -> dict:
+    """Exact k-NN with bounds against brute force: every CMU + Bandai window as a query in turn
+    (an index of all windows), k = 1 and 5."""
+    from elastic_motion.apps.database import build_index, knn_search, query_distances
+
+    src = tmp / "search_windows"
+    src.mkdir()
+    paths = [mocap / "cmu" / "bvh" / f"{c}.bvh" for c in CMU_CLIPS] + sorted((mocap / "bandai").glob("*.bvh"))
+    names, motions, _ = cut_windows(paths, 1.0, max_windows)
+    files = []
+    for n, m in zip(names, motions, strict=True):
+        files.append(write_bvh(m, src / f"{n.replace('#', '_w')}.bvh"))
+    idx = tmp / "search_index"
+    s = DatabaseSettings(n_samples=n_samples, representations=("lie",), warp=WarpOptions("dp", 6))
+    t0 = time.perf_counter()
+    build_index([src], idx, s)
+    t_index = time.perf_counter() - t0
+    rows = []
+    for k in (1, 5):
+        same, pruned, t_knn, t_brute = 0, [], 0.0, 0.0
+        queries = files[:: max(1, len(files) // 40)]
+        for q in queries:
+            t0 = time.perf_counter()
+            r = knn_search(q, idx, k)
+            t_knn += time.perf_counter() - t0
+            t0 = time.perf_counter()
+            b = query_distances(q, idx)
+            t_brute += time.perf_counter() - t0
+            want = b.nearest(k)
+            same += int(
+                r.indices.tolist() == want.tolist() and r.distances.tolist() == b.distances[want].tolist()
+            )
+            pruned.append(r.fraction_pruned)
+        rows.append(
+            {
+                "k": k,
+                "queries": len(queries),
+                "database": len(files),
+                "equal_to_brute_force": same,
+                "fraction_pruned_mean": float(np.mean(pruned)),
+                "fraction_pruned_min": float(np.min(pruned)),
+                "seconds_per_query_knn": t_knn / len(queries),
+                "seconds_per_query_brute": t_brute / len(queries),
+            }
+        )
+    return {"n_samples": n_samples, "seconds_index": t_index, "rows": rows}
+
+
+def partial_bench(mocap: Path, tmp: Path) -> dict:
+    """Partial matching on the longest takes (01_01: 2752 frames, 55_01: 1807): queries cut
+    from them (found back?), the 49_08 cartwheel and a 107_02 turn against them."""
+    from elastic_motion.apps.database import find_within
+
+    cmu = mocap / "cmu" / "bvh"
+    takes = [cmu / "01_01.bvh", cmu / "55_01.bvh", cmu / "107_02_30hz.bvh", cmu / "49_08.bvh"]
+    queries = []
+    for clip, a, b in (
+        ("01_01", 1200, 1440),
+        ("55_01", 600, 900),
+        ("49_08", 100, 340),
+        ("107_02_30hz", 80, 120),
+    ):
+        m = drop_tpose(read_motion(cmu / f"{clip}.bvh"))
+        f = tmp / f"q_{clip}_{a}_{b}.bvh"
+        write_bvh(select_frames(m, slice(a, b + 1)), f)
+        queries.append((f, clip, a / m.fps, b / m.fps))
+    rows = []
+    for f, clip, a, b in queries:
+        t0 = time.perf_counter()
+        res = find_within(f, takes, n_samples=48, neighbourhood=4)
+        wall = time.perf_counter() - t0
+        best = res.matches[0]
+        rows.append(
+            {
+                "query": f.stem,
+                "cut_from": clip,
+                "cut_seconds": [round(a, 3), round(b, 3)],
+                "best": best.name,
+                "best_seconds": [round(best.start, 3), round(best.stop, 3)],
+                "best_distance": best.distance,
+                "second": res.matches[1].name,
+                "second_distance": res.matches[1].distance,
+                "seconds_total": wall,
+                "seconds_dp": res.seconds,
+            }
+        )
+    return {"takes": [t.name for t in takes], "rows": rows}
+
+
+def pca_bench(mocap: Path, tmp: Path) -> dict:
+    from elastic_motion.apps.pca import motion_pca, write_modes
+
+    out = {}
+    sets = {
+        "bandai styled walks": sorted((mocap / "bandai").glob("dataset-1_walk_*.bvh")),
+        "cmu walks": [
+            mocap / "cmu" / "bvh" / f"{c}.bvh" for c in ("07_01", "08_02", "107_02_30hz", "108_01_30hz")
+        ],
+    }
+    for name, files in sets.items():
+        t0 = time.perf_counter()
+        model = motion_pca(files, n_samples=48, warp=WarpOptions("dp", 6))
+        paths = write_modes(model, tmp / name.replace(" ", "_"), n_modes=2)
+        out[name] = {
+            "files": len(files),
+            "explained": model.explained.tolist(),
+            "sigmas": model.sigmas.tolist(),
+            "karcher_energies": model.karcher_energies.tolist(),
+            "seconds": time.perf_counter() - t0,
+            "bvh_written": len(paths),
+        }
+    return out
+
+
+def dask_scheduler_engine_speedup(cmu: Path, tmp: Path, m: int = 240, n_samples: int = 64) -> dict:
+    """All pairs of ``m`` 200-frame windows: serial (one numba thread) against a LocalCluster
+    (2 workers) and against a separately started ``dask scheduler`` + 2 ``dask worker``s."""
+    import subprocess
+    import sys
+
+    import numba
+
+    rng = np.random.default_rng(1)
+    clips = [drop_tpose(read_motion(cmu / f"{c}.bvh")) for c in CMU_CLIPS]
+    clips = [c for c in clips if c.fps == 120 and c.n_frames >= 200]
+    src = tmp / "speedup_inputs"
+    src.mkdir()
+    for k in range(m):
+        clip = clips[k % len(clips)]
+        s = int(rng.integers(0, clip.n_frames - 200 + 1))
+        write_bvh(select_frames(clip, slice(s, s + 200)), src / f"w{k:04d}.bvh")
+    s = DatabaseSettings(
+        n_samples=n_samples, tile_size=40, representations=("lie",), warp=WarpOptions("dp", 6)
+    )
+    rows = {}
+    default = numba.get_num_threads()
+    numba.set_num_threads(1)
+    t0 = time.perf_counter()
+    compute_matrix([src], tmp / "sp_serial", s)
+    rows["serial (1 thread)"] = time.perf_counter() - t0
+    numba.set_num_threads(default)
+    t0 = time.perf_counter()
+    compute_matrix([src], tmp / "sp_local", s, engine="local", n_workers=2)
+    rows["local (2 workers, incl. start-up)"] = time.perf_counter() - t0
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    port = 8786 + int(rng.integers(100, 900))
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "distributed.cli.dask_scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--dashboard-address",
+                ":0",
+            ],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
+    try:
+        time.sleep(4)
+        for _ in range(2):
+            procs.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "distributed.cli.dask_worker",
+                        f"tcp://127.0.0.1:{port}",
+                        "--nthreads",
+                        "1",
+                        "--nworkers",
+                        "1",
+                        "--no-dashboard",
+                    ],
+                    env=env,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
+        time.sleep(6)
+        t0 = time.perf_counter()
+        compute_matrix([src], tmp / "sp_dask", s, engine="dask", scheduler=f"tcp://127.0.0.1:{port}")
+        rows["dask scheduler + 2 workers (127.0.0.1)"] = time.perf_counter() - t0
+    finally:
+        for p in procs[::-1]:
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=30)
+    ref = np.load(tmp / "sp_serial" / "distances_lie.npy")
+    same = {
+        k: bool(np.load(tmp / d / "distances_lie.npy").tobytes() == ref.tobytes())
+        for k, d in (("local", "sp_local"), ("dask", "sp_dask"))
+    }
+    base = rows["serial (1 thread)"]
+    return {
+        "motions": m,
+        "pairs": m * (m - 1) // 2,
+        "n_samples": n_samples,
+        "seconds": rows,
+        "speedup": {k: base / v for k, v in rows.items()},
+        "identical_to_serial": same,
+    }
+
+
+def scale_quality(cmu: Path, tmp: Path, pairs: int = 200, n_samples: int = 64) -> dict:
+    """Energy of the scale run's pair distance (DP, neighbourhood 6, N = 64) above finer solves of
+    the same SRV arrays, on a sample of pairs of 200-frame windows: the DP with neighbourhood 10
+    (the library's default) and the DP refined off the grid (``dp+refine``)."""
+    rng = np.random.default_rng(2)
+    clips = [drop_tpose(read_motion(cmu / f"{c}.bvh")) for c in CMU_CLIPS]
+    clips = [c for c in clips if c.fps == 120 and c.n_frames >= 200]
+    names, motions = [], []
+    for k in range(2 * pairs):
+        clip = clips[k % len(clips)]
+        s = int(rng.integers(0, clip.n_frames - 200 + 1))
+        names.append(f"w{k}")
+        motions.append(select_frames(clip, slice(s, s + 200)))
+    cache = build_srv_cache(
+        names, DatabaseSettings(n_samples=n_samples, representations=("lie",)), motions=motions
+    )
+    q = cache.q["lie"]
+    from elastic_motion.warp import optimal_warp
+
+    excess: dict[str, list[float]] = {"dp, neighbourhood 10": [], "dp+refine, neighbourhood 6": []}
+    with single_threaded_blas():
+        for k in range(pairs):
+            a, b = q[2 * k], q[2 * k + 1]
+            e6 = optimal_warp(a, b, method="dp", neighbourhood=6).energy
+            e10 = optimal_warp(a, b, method="dp", neighbourhood=10).energy
+            er = optimal_warp(a, b, method="dp+refine", neighbourhood=6).energy
+            excess["dp, neighbourhood 10"].append(e6 / e10 - 1.0)
+            excess["dp+refine, neighbourhood 6"].append(e6 / er - 1.0)
+    return {
+        "pairs": pairs,
+        "n_samples": n_samples,
+        "energy_excess": {
+            k: {
+                "median": float(np.median(v)),
+                "p99": float(np.quantile(v, 0.99)),
+                "max": float(np.max(v)),
+                "share_over_0.1%": float(np.mean(np.array(v) > 1e-3)),
+            }
+            for k, v in excess.items()
+        },
+    }
+
+
+def issue15(args, cmu: Path) -> dict:
+    """The issue-15 sections (``--issue15 SECTION,...``)."""
+    out_path = args.out.with_name("database_issue15.json")
+    result = json.loads(out_path.read_text()) if out_path.exists() else {}
+    tmp = Path(tempfile.mkdtemp(prefix="em-db-15-"))
+    try:
+        for section in args.issue15.split(","):
+            t0 = time.perf_counter()
+            if section == "retrieval":
+                result["retrieval"] = retrieval(args.mocap)
+            elif section == "search":
+                result["search"] = search_bench(args.mocap, tmp)
+            elif section == "partial":
+                result["partial"] = partial_bench(args.mocap, tmp)
+            elif section == "pca":
+                result["pca"] = pca_bench(args.mocap, tmp)
+            elif section == "speedup":
+                result["speedup"] = dask_scheduler_engine_speedup(cmu, tmp)
+            elif section == "scale_quality":
+                result["scale_quality"] = scale_quality(cmu, tmp)
+            elif section == "scale10":
+                result["scale_1000x200_nb10"] = target_run(
+                    cmu, tmp, m=1000, n_samples=64, warp="dp", reps=("lie",), neighbourhood=10
+                )
+            elif section == "scale":
+                result["scale_1000x200"] = target_run(
+                    cmu, tmp, m=1000, n_samples=64, warp="dp", reps=("lie",)
+                )
+            else:
+                raise SystemExit(f"--issue15: unknown section {section!r}")
+            result.setdefault("meta", {})[section] = {
+                "seconds": round(time.perf_counter() - t0, 1),
+                "load_average_after": os.getloadavg(),
+                "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+            }
+            write_json(out_path, result)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(markdown15(result))
+    return result
+
+
+def markdown15(r: dict) -> str:
+    lines = []
+    if "retrieval" in r:
+        rt = r["retrieval"]
+        lines += [
+            f"### Retrieval (protocol: {rt['protocol']}; N = {rt['n_samples']}, "
+            f"DP neighbourhood {rt['neighbourhood']})",
+            "",
+            "| distance | CMU category | Bandai content | Bandai style (walks) |",
+            "|---|---|---|---|",
+        ]
+        for name in rt["data"]["cmu"]["accuracy"]:
+            c = rt["data"]["cmu"]["accuracy"][name]["category"]
+            b = rt["data"]["bandai"]["accuracy"][name]
+            lines.append(f"| {name} | {c:.3f} | {b['content']:.3f} | {b['style']:.3f} |")
+        lines.append(
+            f"\nPicked on CMU: **{rt['picked_on_cmu']}** -> Bandai content "
+            f"{rt['reported_on_bandai']['content']:.3f}, style {rt['reported_on_bandai']['style']:.3f}. "
+            f"Picked on Bandai: **{rt['picked_on_bandai']}** -> "
+            f"CMU {rt['reported_on_cmu']['category']:.3f}."
+        )
+    if "search" in r:
+        lines += [
+            "",
+            f"### Exact k-NN search with bounds (index build {r['search']['seconds_index']:.1f} s)",
+            "",
+            "| k | queries | database | = brute force | pruned (mean / min) | s/query k-NN | s/query brute |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for x in r["search"]["rows"]:
+            lines.append(
+                f"| {x['k']} | {x['queries']} | {x['database']} | "
+                f"{x['equal_to_brute_force']}/{x['queries']} | "
+                f"{x['fraction_pruned_mean']:.2f} / {x['fraction_pruned_min']:.2f} | "
+                f"{x['seconds_per_query_knn']:.3f} | "
+                f"{x['seconds_per_query_brute']:.3f} |"
+            )
+    if "partial" in r:
+        lines += [
+            "",
+            f"### Partial matching (takes: {', '.join(r['partial']['takes'])})",
+            "",
+            "| query (cut from, s) | best take (s) | distance | runner-up (distance) | s total (DP) |",
+            "|---|---|---|---|---|",
+        ]
+        for x in r["partial"]["rows"]:
+            lines.append(
+                f"| {x['cut_from']} {x['cut_seconds'][0]:.2f}-{x['cut_seconds'][1]:.2f} | {x['best']} "
+                f"{x['best_seconds'][0]:.2f}-{x['best_seconds'][1]:.2f} | {x['best_distance']:.3f} | "
+                f"{x['second']} ({x['second_distance']:.3f}) | "
+                f"{x['seconds_total']:.2f} ({x['seconds_dp']:.2f}) |"
+            )
+    if "pca" in r:
+        lines += [
+            "",
+            "### PCA of aligned motions (variance explained by the first modes)",
+            "",
+            "| set | files | mode 1 | mode 2 | mode 3 | Karcher energy first -> last |",
+            "|---|---|---|---|---|---|",
+        ]
+        for name, x in r["pca"].items():
+            e = x["explained"] + [float("nan")] * 3
+            lines.append(
+                f"| {name} | {x['files']} | {e[0]:.3f} | {e[1]:.3f} | {e[2]:.3f} | "
+                f"{x['karcher_energies'][0]:.3f} -> {x['karcher_energies'][-1]:.3f} |"
+            )
+    if "speedup" in r:
+        sp = r["speedup"]
+        lines += [
+            "",
+            f"### Dask speed-up ({sp['motions']} windows of 200 frames, {sp['pairs']} pairs, "
+            f"N = {sp['n_samples']})",
+            "",
+            "| engine | seconds | speed-up |",
+            "|---|---|---|",
+        ]
+        for k, v in sp["seconds"].items():
+            lines.append(f"| {k} | {v:.1f} | {sp['speedup'][k]:.2f} |")
+    if "scale_quality" in r:
+        sq = r["scale_quality"]
+        lines += [
+            "",
+            f"### Energy of the scale run's DP above finer solves ({sq['pairs']} pairs, "
+            f"N = {sq['n_samples']})",
+            "",
+            "| reference | median | p99 | max | share > 0.1 % |",
+            "|---|---|---|---|---|",
+        ]
+        for k, v in sq["energy_excess"].items():
+            lines.append(
+                f"| {k} | {100 * v['median']:.3f} % | {100 * v['p99']:.3f} % | {100 * v['max']:.3f} % | "
+                f"{100 * v['share_over_0.1%']:.1f} % |"
+            )
+    for key, sec in (("scale_1000x200", "scale"), ("scale_1000x200_nb10", "scale10")):
+        if key not in r:
+            continue
+        tr = r[key]
+        meta = r.get("meta", {}).get(sec, {})
+        lines.append(
+            f"\n1000 x 200 all pairs (measured, N = {tr['n_samples']}, DP neighbourhood "
+            f"{tr.get('neighbourhood', 6)}, Lie, {tr['engine']}): read + SRV "
+            f"{tr['seconds_read_and_srv']:.0f} s, tiles {tr['seconds_tiles']:.0f} s, "
+            f"total {tr['seconds_total']:.0f} s "
+            f"for {tr['pairs']} pairs (load average after: {meta.get('load_average_after')})."
+        )
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument(
@@ -478,6 +989,13 @@ def main() -> None:
         "--target-dp-run",
         action="store_true",
         help="only run the 1000-file DP run (Lie, N = 64, local) and add it to the existing JSON (~10 min)",
+    )
+    parser.add_argument(
+        "--issue15",
+        default=None,
+        metavar="SECTIONS",
+        help="only these issue-15 sections, comma-separated: retrieval, search, partial, pca, speedup, "
+        "scale, scale_quality (written to database_issue15.json beside --out)",
     )
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks" / "results" / "database.json")
     parser.add_argument("--plot", type=Path, default=REPO / "docs" / "images" / "database_dendrogram.png")
@@ -494,6 +1012,9 @@ def main() -> None:
     }
     if args.markdown:
         print(markdown(json.loads(args.out.read_text())))
+        return
+    if args.issue15:
+        issue15(args, cmu)
         return
     tmp = Path(tempfile.mkdtemp(prefix="em-db-bench-"))
     if args.target_dp_run:

@@ -38,6 +38,7 @@ from elastic_motion.closing import close_curve
 from elastic_motion.curves import DiscreteCurve
 from elastic_motion.groups import SO3
 from elastic_motion.motion import drop_tpose, forward_kinematics, read_motion
+from elastic_motion.motion.contacts import detect_contacts
 
 MOCAP = Path(os.environ.get("ELASTIC_MOTION_MOCAP", Path(__file__).resolve().parents[2] / "shared" / "mocap"))
 SO3G = SO3()
@@ -96,6 +97,14 @@ def plot_case(key: str, out: Path) -> dict:
     ]
     paths = side_view([trace(mm, spec) for _, mm in rows], up)
     f = m.n_frames
+    # the input's contacts of the traced joint (the end site's joint), frames of 3 cycles
+    contacts = detect_contacts(m)
+    joint = m.skeleton.names[point_index(m, spec)] if not spec.startswith("end:") else spec[4:]
+    planted = np.zeros(3 * (f - 1) + 1, dtype=bool)
+    if joint in contacts.joints:
+        col = contacts.mask[:, contacts.joints.index(joint)]
+        for k in range(3):
+            planted[k * (f - 1) : k * (f - 1) + f] |= col
     seams = [f - 1, 2 * (f - 1)]
     lo = np.min([p.min(axis=0) for p in paths], axis=0) - 0.1
     hi = np.max([p.max(axis=0) for p in paths], axis=0) + 0.1
@@ -103,6 +112,9 @@ def plot_case(key: str, out: Path) -> dict:
     fig, axes = plt.subplots(3, 1, figsize=(11, 3 * row_h + 0.6))
     for ax, (label, mm), p in zip(axes, rows, paths, strict=True):
         ax.plot(p[:, 0], p[:, 1], "C0", lw=1.2)
+        if planted.any():
+            ax.plot(p[planted, 0], p[planted, 1], ".", color="C1", ms=3, label="input's contacts (frames)")
+            ax.legend(loc="upper right", fontsize=8)
         for s in seams:
             ax.plot(p[s - 1 : s + 1, 0], p[s - 1 : s + 1, 1], "r-", lw=2.5)
             ax.plot(p[s, 0], p[s, 1], "o", mfc="none", mec="r", ms=10, mew=1.5)

@@ -14,7 +14,9 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -26,7 +28,9 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "check_not_input",
+    "read_bytes",
     "read_text",
+    "remove_stale_temporaries",
     "same_file",
 ]
 
@@ -38,14 +42,74 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
-def read_text(path: str | os.PathLike[str]) -> str:
-    """Return the text of ``path`` (UTF-8, else Latin-1); ``ParseError`` if unreadable."""
+def read_bytes(path: str | os.PathLike[str]) -> bytes:
+    """The bytes of the regular file ``path``; ``ParseError`` for anything else.
+
+    The file is opened non-blocking and checked with ``fstat`` before a byte is read: a FIFO,
+    socket or device (``mkfifo x.bvh``) is refused instead of blocking forever, a folder, a
+    dangling or looping symbolic link, a missing or unreadable file is a ``ParseError`` naming
+    the path, and a file larger than the ``max_file_bytes`` limit (:mod:`elastic_motion.limits`)
+    is refused before it is read.
+    """
+    from elastic_motion import limits
+
+    p = os.fspath(path)
     try:
-        data = Path(path).read_bytes()
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     except IsADirectoryError as exc:
-        raise ParseError(path, None, "expected a file, found a directory") from exc
+        raise ParseError(p, None, "expected a file, found a directory") from exc
     except OSError as exc:
-        raise ParseError(path, None, f"cannot read the file ({exc.strerror or exc})") from exc
+        if exc.errno == errno.ELOOP:
+            reason = "a symbolic link that points to itself (a loop)"
+        elif exc.errno == errno.ENOENT and os.path.islink(p):
+            reason = "a symbolic link whose target does not exist"
+        else:
+            reason = exc.strerror or str(exc)
+        raise ParseError(p, None, f"cannot read the file ({reason})") from exc
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise ParseError(p, None, "expected a file, found a directory")
+        if not stat.S_ISREG(st.st_mode):
+            kind = "a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else "a socket or device"
+            raise ParseError(p, None, f"expected a regular file, found {kind}")
+        lim = limits.current().max_file_bytes
+        if st.st_size > lim:
+            raise ParseError(
+                p, None, limits.limit_message("a file size (bytes) of", st.st_size, "max_file_bytes", lim)
+            )
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as fh:
+            fd = -1
+            # read(n) allocates n bytes up front: ask for the size fstat gave, then chunks if it grew
+            chunks = [fh.read(st.st_size + 1)]
+            total = len(chunks[0])
+            while total > st.st_size and total <= lim:
+                more = fh.read(1 << 20)
+                if not more:
+                    break
+                chunks.append(more)
+                total += len(more)
+            data = b"".join(chunks)
+    except OSError as exc:
+        raise ParseError(p, None, f"cannot read the file ({exc.strerror or exc})") from exc
+    finally:
+        if fd >= 0:
+            os.close(fd)
+    if len(data) > lim:  # grew while being read
+        raise ParseError(
+            p, None, limits.limit_message("a file size (bytes) of", len(data), "max_file_bytes", lim)
+        )
+    return data
+
+
+def read_text(path: str | os.PathLike[str]) -> str:
+    """Return the text of ``path`` (UTF-8, else Latin-1); ``ParseError`` if unreadable.
+
+    Only regular files are read (see :func:`read_bytes`).
+    """
+    data = read_bytes(path)
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -73,6 +137,67 @@ def check_not_input(path: str | os.PathLike[str], protected: Iterable[str | os.P
     return dest
 
 
+def _temp_prefix(dest: Path) -> str:
+    """``.<stem>.em<pid>-``: the temporaries of ``dest`` name the process that writes them."""
+    return f".{dest.stem}.em{os.getpid()}-"
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):  # another user's process: alive
+        return True
+    return True
+
+
+#: Temporaries of the earlier naming (``tempfile.mkstemp``, 8 random characters) older than this
+#: many seconds are taken as left by an interrupted run.
+STALE_SECONDS = 3600.0
+
+
+def remove_stale_temporaries(path: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporaries an interrupted write of ``path`` left beside it; return them.
+
+    A temporary of ``path`` is ``.<stem>.em<pid>-<random><suffix>`` in its folder
+    (:func:`atomic_path`); it is stale when process ``<pid>`` no longer runs (it was killed
+    mid-write). Temporaries of the earlier naming (``.<stem>.<8 random><suffix>``) are stale
+    after :data:`STALE_SECONDS`. Files that cannot be removed are left (never an error).
+    """
+    import re
+    import time
+
+    dest = Path(path)
+    folder = dest.parent if str(dest.parent) else Path(".")
+    suffix = dest.suffix or ".tmp"
+    ours = re.compile(rf"^\.{re.escape(dest.stem)}\.em(\d+)-[A-Za-z0-9_]+{re.escape(suffix)}$")
+    old = re.compile(rf"^\.{re.escape(dest.stem)}\.[A-Za-z0-9_]{{8}}{re.escape(suffix)}$")
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    now = time.time()
+    for e in entries:
+        m = ours.match(e.name)
+        try:
+            if m is not None:
+                stale = not _pid_alive(int(m.group(1)))
+            elif old.match(e.name):
+                stale = now - e.stat(follow_symlinks=False).st_mtime > STALE_SECONDS
+            else:
+                continue
+            if stale and e.is_file(follow_symlinks=False):
+                os.unlink(e.path)
+                removed.append(Path(e.path))
+        except OSError:
+            continue
+    return removed
+
+
 @contextlib.contextmanager
 def atomic_path(
     path: str | os.PathLike[str], *, protected: Iterable[str | os.PathLike[str]] = ()
@@ -89,7 +214,8 @@ def atomic_path(
     """
     dest = check_not_input(path, protected)
     folder = dest.parent if str(dest.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.stem}.", suffix=dest.suffix or ".tmp", dir=folder)
+    remove_stale_temporaries(dest)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(dest), suffix=dest.suffix or ".tmp", dir=folder)
     os.close(fd)
     tmp_path = Path(tmp)
     try:

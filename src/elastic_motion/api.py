@@ -26,8 +26,20 @@ from typing import Any
 
 from elastic_motion.apps.align import AlignResult, align_motions
 from elastic_motion.apps.blend import BlendMetrics, BlendResult, blend_metrics, blend_motions
+from elastic_motion.apps.blendspace import BlendSpace, blendspace
+from elastic_motion.apps.cleanup import CleanupResult, cleanup_footskate
+from elastic_motion.apps.cycles import gait_cycles
+from elastic_motion.apps.database import (  # motion databases (issue 15)
+    MotionIndex,
+    SearchResult,
+    WithinResult,
+    build_index,
+    find_within,
+    knn_search,
+)
 from elastic_motion.apps.distance import DistanceTable, distance_table
 from elastic_motion.apps.loop import LoopResult, SeamMetrics, loop_motion, repeat_motion, seam_metrics
+from elastic_motion.apps.pca import MotionPCA, motion_pca
 from elastic_motion.apps.prepare import (
     MotionPreparation,
     PreparedMotions,
@@ -38,6 +50,7 @@ from elastic_motion.apps.prepare import (
     prepare_motions,
 )
 from elastic_motion.apps.report import jsonable, report_json
+from elastic_motion.apps.viewer import ViewerPage, build_viewer
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, read_motion, write_bvh
 from elastic_motion.warp import WarpOptions
@@ -46,26 +59,41 @@ __all__ = [
     "AlignResult",
     "BlendMetrics",
     "BlendResult",
+    "BlendSpace",
+    "CleanupResult",
     "DistanceTable",
     "LoopResult",
     "Motion",
+    "MotionIndex",
+    "MotionPCA",
     "MotionPreparation",
     "PrepareOptions",
     "PreparedMotions",
     "SeamMetrics",
+    "SearchResult",
+    "ViewerPage",
     "WarpOptions",
+    "WithinResult",
     "align",
     "blend",
     "blend_metrics",
+    "blendspace",
+    "build_index",
+    "cleanup_footskate",
     "distance",
     "distances",
+    "find_within",
+    "gait_cycles",
     "load",
     "loop",
+    "pca",
     "prepare",
     "read",
     "repeat",
     "seam_metrics",
+    "search",
     "to_json",
+    "view",
     "write",
 ]
 
@@ -77,14 +105,28 @@ load = load_motion
 prepare = prepare_motions
 #: ``em.blend(motions, weights, method=, warp=, landmarks=, prepare=, metrics=)``.
 blend = blend_motions
-#: ``em.loop(motion, root=, c1=, method=, solver=, free_joints=, prepare=)``.
+#: ``em.blendspace(motions, params="speed", one_cycle=)``: motions placed by a parameter,
+#: aligned to one template; ``.at(p)`` blends any parameter (a BlendResult).
+#: ``em.cleanup_footskate(motion, contacts)``: plant contacts by leg IK (blends do it by default).
+#: ``em.gait_cycles(motion)``: heel strike to heel strike, from the contacts.
+#: ``em.loop(motion, root=, c1=, method=, solver=, free_joints=, prepare=, window=, min_length=,
+#: contacts=)``: ``window="auto"`` loops the best cycle, ``contacts="keep"`` plants contacts.
 loop = loop_motion
 #: ``em.align(a, b, method=, warp=, landmarks=, prepare=)``: the warp of B onto A.
 align = align_motions
 #: ``em.distances(motions, method=, warp=, prepare=)``: all pairwise distances (DistanceTable).
 distances = distance_table
+#: ``em.view(motions, reports=, layout=)``: the interactive 3D player (``.html``; ``em.write``
+#: does not take it: ``Path(...).write_text(page.html)``).
+view = build_viewer
 #: ``em.repeat(motion, cycles, root)``: a loop played several times.
 repeat = repeat_motion
+#: ``em.search(query, database, k=5, method="lie")``: the exact k nearest motions (bounds prune
+#: the DPs); ``database``: files/folders, a ``matrix`` folder or an index (``em.build_index``).
+search = knn_search
+#: ``em.pca(files, method=, warp=)``: mean and principal modes of aligned motions (MotionPCA:
+#: ``.motion_at(z)``, ``.sample(n)``, ``.explained``).
+pca = motion_pca
 
 
 def distance(

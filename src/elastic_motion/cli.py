@@ -46,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     from elastic_motion.cli_commands import (
         align,
         blend,
+        blender_addon,
         database,
         demo,
         distance,
@@ -53,11 +54,21 @@ def build_parser() -> argparse.ArgumentParser:
         landmarks,
         loop,
         render,
+        view,
     )
 
     # The README's first command first; then the motion commands; then the database ones.
     for module in (demo, info, blend, landmarks, loop, align, distance, render, database):
         module.register(subparsers)
+    from elastic_motion.cli_commands import index, pca  # database index, statistical model (issue 15)
+
+    for module in (index, pca):
+        module.register(subparsers)
+    from elastic_motion.cli_commands import blendspace  # blend spaces (issue 16)
+
+    blendspace.register(subparsers)
+    view.register(subparsers)
+    blender_addon.register(subparsers)
     return parser
 
 

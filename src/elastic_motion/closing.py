@@ -64,8 +64,9 @@ Methods
   line search. Each step is the least change *of that step* that solves the linearised
   conditions, so the result is closed but only closest to the original to first order (it
   is not the minimiser of ``||q - q_orig||``); it converges quadratically. The closed curve
-  nearest the original in SRV L2 is :func:`elastic_motion.closing_kkt.project_closed`. In ``R^d`` it is exactly the Newton projection
-  with the basis of paper 001, Thm. 2 (:func:`project_closed_rd`).
+  nearest the original in SRV L2 is :func:`elastic_motion.closing_kkt.project_closed`. In
+  ``R^d`` Gauss-Newton is exactly the Newton projection with the basis of paper 001,
+  Thm. 2 (:func:`project_closed_rd`).
 
 Cut locus: ``log`` is two-valued at angle ``pi``. A closed ``SO(3)`` block whose seam
 rotation (or swing) is within ``cut_locus_tol`` of ``pi`` raises ``ValueError`` naming the
@@ -74,8 +75,9 @@ copy; the line search never accepts a step that takes a block there. A single st
 179 degrees in one frame get pushed over): ``exp`` and the objective stay smooth up to
 ``2 pi`` (where ``dexp`` is singular; the line search stops short of it), the returned
 samples are exact, and :attr:`ClosingResult.srv` is the solver's own SRV function (not the
-SRVT of the returned curve, which would read such a step the short way round). Free copies may hold any steps (e.g. the 180-degree finger
-flips of the CMU data): they are integrated as they are and, with ``keep_free``, restored.
+SRVT of the returned curve, which would read such a step the short way round). Free copies
+may hold any steps (e.g. the 180-degree finger flips of the CMU data): they are integrated
+as they are and, with ``keep_free``, restored.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 Every limit is checked *before* the memory it guards is allocated, and a value beyond it is
 an error naming the file (or option), the value and the limit, e.g.::
 
-    walk.bvh:186: expected at most 1000000 frames (limit max_frames); got 1000000000000000
+    walk.bvh:186: expected a frame count of at most 1000000 (limit max_frames; change it with
+    ELASTIC_MOTION_LIMITS); got 1000000000000000
 
 The limits (field of :class:`Limits`, default, what it bounds):
 
@@ -11,6 +12,7 @@ The limits (field of :class:`Limits`, default, what it bounds):
 ``max_file_bytes``          4 GB          size of one motion file read
 ``max_frames``              1,000,000     frames of one clip, as declared by a file or
                                           produced by resampling (2.3 h at 120 fps)
+``max_joints``              2,000         joints of one skeleton (some steps are quadratic in it)
 ``max_duration``            86,400 s      duration of one clip (a day)
 ``min_fps``, ``max_fps``    0.1, 10,000   frame rate of a clip (from ``Frame Time``, frame
                                           durations, ``--fps``)
@@ -19,7 +21,7 @@ The limits (field of :class:`Limits`, default, what it bounds):
                                           times its file's frames (+ 1000)
 ``max_samples``             50,000,000    frames x joints of one clip or result (rotation
                                           matrices: 72 bytes each, 3.6 GB)
-``max_repeat``              1,000         repeats of a loop preview
+``max_repeat``              100           repeats of a loop preview (``--repeat``)
 ``max_render_size``         8,192 px      width and height of a picture or video
 ``min_render_fps``,         0.1, 1,000    frame rate of a rendered video
 ``max_render_fps``
@@ -30,8 +32,8 @@ Overriding: a user who needs more (a day-long capture, a 16k render) sets the en
 variable ``ELASTIC_MOTION_LIMITS`` (``"max_frames=5e6,max_duration=172800"``; read when this
 module is first imported, so it also reaches the command line and Dask workers started from
 that environment), or, in Python, ``with elastic_motion.limits.override(max_frames=5_000_000):``.
-Readers never open anything but regular files (:func:`check_regular_file`): a FIFO named
-``x.bvh`` is refused instead of blocking forever.
+Readers never open anything but regular files (:func:`elastic_motion._io.read_bytes`): a FIFO
+named ``x.bvh`` is refused instead of blocking forever.
 """
 
 from __future__ import annotations
@@ -40,7 +42,6 @@ import contextlib
 import dataclasses
 import math
 import os
-import stat
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -49,7 +50,6 @@ __all__ = [
     "Limits",
     "check_clip",
     "check_option",
-    "check_regular_file",
     "current",
     "limit_message",
     "override",
@@ -66,12 +66,13 @@ class Limits:
 
     max_file_bytes: int = 4_000_000_000
     max_frames: int = 1_000_000
+    max_joints: int = 2_000
     max_duration: float = 86_400.0
     min_fps: float = 0.1
     max_fps: float = 10_000.0
     max_resample_growth: float = 100.0
     max_samples: int = 50_000_000
-    max_repeat: int = 1_000
+    max_repeat: int = 100
     max_render_size: int = 8_192
     min_render_fps: float = 0.1
     max_render_fps: float = 1_000.0
@@ -174,6 +175,8 @@ def check_clip(
     from elastic_motion.errors import ParseError
 
     lim = _current
+    if joints is not None and joints > lim.max_joints:
+        raise ParseError(path, line, limit_message("a joint count of", joints, "max_joints", lim.max_joints))
     if fps is not None:
         if not (fps >= lim.min_fps):  # also NaN
             raise ParseError(
@@ -201,25 +204,3 @@ def check_option(option: str, what: str, value: float, name: str, *, at_least: b
     ok = value >= bound if at_least else value <= bound
     if not ok:  # NaN fails both
         raise OptionError(option, limit_message(what, value, name, bound, at_least=at_least))
-
-
-def check_regular_file(path: str | os.PathLike[str]) -> os.stat_result:
-    """``os.stat(path)`` of a regular file; ``OSError`` (``EISDIR``/``EINVAL``) for anything else.
-
-    FIFOs, sockets and devices are refused *without opening them* (opening a FIFO blocks until a
-    writer comes). Raises ``FileNotFoundError`` for a missing file or a dangling symbolic link,
-    ``OSError`` with ``ELOOP`` for a symbolic-link loop.
-    """
-    st = os.stat(path)
-    if stat.S_ISDIR(st.st_mode):
-        raise IsADirectoryError(21, "expected a file, found a directory", os.fspath(path))
-    if not stat.S_ISREG(st.st_mode):
-        kind = (
-            "a FIFO (named pipe)"
-            if stat.S_ISFIFO(st.st_mode)
-            else "a socket"
-            if stat.S_ISSOCK(st.st_mode)
-            else "a device"
-        )
-        raise OSError(22, f"expected a regular file, found {kind}", os.fspath(path))
-    return st

@@ -324,7 +324,7 @@ def test_query_result_is_a_named_frozen_result(serial_run, db_dir: Path) -> None
     s = DatabaseSettings(n_samples=12, representations=("euler",), warp=WarpOptions(method="none"))
     res = query_distances(db_dir / "k0_v0.bvh", files, "euler", s)
     assert res.names == ["k0_v1", "k1_v0"] and res.settings == s and np.isfinite(res.distances).all()
-    with pytest.raises(OptionError, match=r"representation: expected one of .*\['euler'\]; got 'lie'"):
+    with pytest.raises(OptionError, match=r"method: expected one of .*\['euler-elastic'\]; got 'lie'"):
         query_distances(db_dir / "k0_v0.bvh", files, "lie", s)
 
 
@@ -597,7 +597,8 @@ def test_cli_errors_name_the_option(serial_run, db_dir: Path, capsys) -> None:
     out = str(serial_run.out_dir)
     assert _cli(["cluster", out, "--method", "average"]) == 2
     assert capsys.readouterr().err.strip() == (
-        "elastic-motion cluster: error: --method: expected a curve representation, one of lie, euler; "
+        "elastic-motion cluster: error: --method: expected a curve representation, one of lie, "
+        "euler-elastic; "
         "got 'average', a linkage (use --linkage average)"
     )
     assert _cli(["cluster", out, "--linkage", "complete", "--clusters", "2", "--json"]) == 0
@@ -605,7 +606,7 @@ def test_cli_errors_name_the_option(serial_run, db_dir: Path, capsys) -> None:
     assert _cli(["classify", out, "--labels", "cmu", "--method", "lie,quaternion"]) == 2
     err = capsys.readouterr().err
     assert err.startswith(
-        "elastic-motion classify: error: --method: expected distinct entries of lie, euler;"
+        "elastic-motion classify: error: --method: expected distinct entries of lie, euler-elastic;"
     )
     assert _cli(["matrix", str(db_dir), "-o", out, "--neighbourhood", "0", "--quiet"]) == 2
     err = capsys.readouterr().err

@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from blend_testlib import walker
 
 from elastic_motion.apps.landmarks import (
+    GAIT_KINDS,
     Event,
     auto_landmarks,
+    contact_events,
     detect_events,
     find_leg_joints,
+    pair_by_phase,
     pair_events,
 )
 from elastic_motion.motion import Skeleton, drop_tpose, read_motion, trim
@@ -95,12 +100,64 @@ def test_pairing_in_order_and_dropping_crossings():
 def test_auto_landmarks_of_two_walks_with_different_rhythm():
     a = walker(duration=3.2, freq=1.0)
     b = walker(duration=3.2, freq=1.25, phase=0.3)
-    pairs = auto_landmarks(a, b)
-    # left knee passes at k / f - phase / (2 pi f)
+    pairs = auto_landmarks(a, b, ["left_knee_passes"])
+    # left knee passes at k / f - phase / (2 pi f); A has 3, B 4: the k-th meets the k-th, B's
+    # last has no partner (the prior warp maps A's 3 cycles onto B's first 3)
     tb = [(k - 0.3 / (2 * np.pi)) / 1.25 for k in (1, 2, 3, 4) if (k - 0.3 / (2 * np.pi)) / 1.25 < 3.2]
-    assert len(pairs) == min(3, len(tb))
-    np.testing.assert_allclose([p[0] for p in pairs], [1.0, 2.0, 3.0][: len(pairs)], atol=0.02)
-    np.testing.assert_allclose([p[1] for p in pairs], tb[: len(pairs)], atol=0.02)
+    assert len(pairs) == 3
+    np.testing.assert_allclose([p[0] for p in pairs], [1.0, 2.0, 3.0], atol=0.02)
+    np.testing.assert_allclose([p[1] for p in pairs], tb[:3], atol=0.02)
+
+
+def _ev(kind, times):
+    return [Event(kind, t, round(30 * t)) for t in times]
+
+
+def test_phase_pairing_skips_an_extra_step_that_in_order_pairing_gets_wrong():
+    # B starts a cycle earlier: its first strike has no partner in A. In order, A's first
+    # strike would meet B's first (a cycle apart); by phase it meets B's second.
+    ea = _ev("left_heel_strike", [0.5, 1.5, 2.5])
+    eb = _ev("left_heel_strike", [0.3, 1.3, 2.3, 3.3])
+    prior = np.array([[0.0, 0.0], [1.0, 1.0]])  # A 0..3 s -> B 0..4 s: t -> 4/3 t
+    in_order = pair_events(ea, eb, ["left_heel_strike"])
+    assert (in_order[0][0].time, in_order[0][1].time) == (0.5, 0.3)
+    pr = pair_by_phase(ea, eb, prior, 3.0, 4.0, ["left_heel_strike"])
+    # the identity prior predicts 0.67, 2.0, 3.33 s: only the last has a B strike within a
+    # sixth of a cycle (0.15 s); the others are left unpaired rather than paired wrongly
+    assert pr.times == [(2.5, 3.3)]
+    # with the right prior (B runs a cycle ahead), every A strike meets the B strike one cycle on
+    prior = np.array([[0.0, 0.0], [0.5 / 3, 1.3 / 4], [2.5 / 3, 3.3 / 4], [1.0, 1.0]])
+    pr = pair_by_phase(ea, eb, prior, 3.0, 4.0, ["left_heel_strike"])
+    assert pr.times == [(0.5, 1.3), (1.5, 2.3), (2.5, 3.3)]
+    assert [d["kind"] for d in pr.details] == ["left_heel_strike"] * 3
+    assert all(abs(d["offset_s"]) < 0.2 and "prediction" in d["why"] for d in pr.details)
+    assert [(s["motion"], s["time_s"]) for s in pr.skipped] == [("B", 0.3)]
+
+
+def test_phase_pairing_never_pairs_far_events_and_keeps_kinds_apart():
+    ea = _ev("left_heel_strike", [1.0, 2.0]) + _ev("right_heel_strike", [1.5])
+    eb = _ev("left_heel_strike", [1.05, 2.6]) + _ev("right_heel_strike", [1.45])
+    ident = np.array([[0.0, 0.0], [1.0, 1.0]])
+    pr = pair_by_phase(ea, eb, ident, 3.0, 3.0, ["left_heel_strike", "right_heel_strike"])
+    # 2.0 vs 2.6 is more than a third of the left period (1 s) off: not paired
+    assert pr.times == [(1.0, 1.05), (1.5, 1.45)]
+    assert {(s["motion"], s["time_s"]) for s in pr.skipped} == {("A", 2.0), ("B", 2.6)}
+    assert pr.tolerance_s["left_heel_strike"] == pytest.approx(0.15 * np.median([1.0, 1.55]))
+
+
+def test_pairs_of_different_kinds_that_cross_are_dropped():
+    ea = _ev("left_heel_strike", [1.0]) + _ev("left_toe_off", [1.2])
+    eb = _ev("left_heel_strike", [1.25]) + _ev("left_toe_off", [1.15])
+    ident = np.array([[0.0, 0.0], [1.0, 1.0]])
+    pr = pair_by_phase(ea, eb, ident, 3.0, 3.0, ["left_heel_strike", "left_toe_off"])
+    # (1.2, 1.15) is the closer pair; (1.0, 1.25) would cross it
+    assert pr.times == [(1.2, 1.15)]
+    assert any("crosses" in s["why"] for s in pr.skipped)
+
+
+def test_contact_events_are_gait_kinds():
+    ev = contact_events(walker(duration=2.0))
+    assert all(e.kind in GAIT_KINDS for e in ev)
 
 
 @pytest.mark.mocap
@@ -117,3 +174,15 @@ def test_events_on_real_walks(mocap_dir):
     dm = read_motion(mocap_dir / "deepmimic/humanoid3d_walk.txt")
     ev = detect_events(dm)
     assert {"left_knee_passes", "left_foot_contact", "right_knee_passes"} <= {e.kind for e in ev}
+
+
+@pytest.mark.mocap
+def test_gait_events_on_a_real_walk_alternate_feet(mocap_dir):
+    from elastic_motion.apps.prepare import prepare_motions
+
+    m = prepare_motions(
+        [trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/107_02_30hz.bvh")), 1.0, 3.4)]
+    ).motions[0]
+    ev = [e for e in contact_events(m) if e.kind.endswith("heel_strike")]
+    sides = [e.kind.split("_")[0] for e in ev]
+    assert len(ev) >= 3 and all(x != y for x, y in itertools.pairwise(sides))

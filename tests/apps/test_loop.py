@@ -85,7 +85,8 @@ def test_cmu_cartwheels_49_08_long_clip(mocap_dir):
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
     res = loop_motion(m)
     m = res.original  # prepared: metres, Y-up
-    assert res.closing.converged and res.closing.iterations <= 6
+    assert res.closing.converged and res.closing.iterations <= 15
+    assert res.closing.kkt_residual < 1e-8  # the default solver: the nearest closed curve
     assert set(res.free_joints) == set(finger_joints(m.skeleton))
     after = seam_metrics(res.motion, original=m, joints=res.closed_joints)
     assert after.seam_angle_max_deg < 1e-3
@@ -135,7 +136,7 @@ def test_euler_baseline_degrades_on_flips(mocap_dir, key):
     # started, and closing them undoes the flip (paper 000, sec. 5.4: the character floats)
     m = load(mocap_dir, key)
     lie = loop_motion(m)
-    eul = loop_motion(m, method="euler-elastic")
+    eul = loop_motion(m, method="euler-elastic", solver="gauss-newton")  # paper 001's projection
     assert lie.closing.converged and eul.closing.converged
     dl = seam_metrics(lie.motion, original=m)
     de = seam_metrics(eul.motion, original=m)

@@ -262,3 +262,86 @@ def test_reparametrize_helper_consistency() -> None:
     c = _r3_curve()
     phi = np.linspace(0, 1, 41) ** 1.5
     assert reparametrize_curve(c, phi).n_points == 41
+
+
+# --------------------------------------------------------------------------------------------
+# Re-centred warps and PCA (issue 15)
+# --------------------------------------------------------------------------------------------
+
+
+def test_recentred_warps_average_to_the_identity() -> None:
+    from elastic_motion.apps.statistics import mean_warp, recenter_warps
+
+    ws = [
+        np.array([[0, 0], [0.3, 0.5], [1, 1.0]]),
+        np.array([[0, 0], [0.6, 0.4], [0.8, 0.9], [1, 1.0]]),
+        np.array([[0, 0], [1, 1.0]]),
+    ]
+    w = [0.5, 0.3, 0.2]
+    x = np.linspace(0, 1, 1001)
+    g = mean_warp(ws, w)
+    # independent: the average of the interpolated functions
+    np.testing.assert_allclose(
+        np.interp(x, g[:, 0], g[:, 1]),
+        sum(a * np.interp(x, v[:, 0], v[:, 1]) for a, v in zip(w, ws, strict=True)),
+    )
+    r = recenter_warps(ws, w)
+    avg = sum(a * np.interp(x, v[:, 0], v[:, 1]) for a, v in zip(w, r, strict=True))
+    np.testing.assert_allclose(avg, x, atol=1e-14)
+
+
+def test_karcher_mean_recentred_keeps_the_energy_and_centres_the_warps() -> None:
+    c = _r3_curve()
+    curves = [reparametrize_curve(c, np.linspace(0, 1, 41) ** p) for p in (0.7, 1.0, 1.4)]
+    warp = WarpOptions(method="dp", neighbourhood=4)
+    plain = karcher_mean(curves, n_samples=40, warp=warp, max_iter=4)
+    cent = karcher_mean(curves, n_samples=40, warp=warp, max_iter=4, recenter=True)
+    x = np.linspace(0, 1, 501)
+    avg = np.mean([np.interp(x, v[:, 0], v[:, 1]) for v in cent.warps], axis=0)
+    assert np.abs(avg - x).max() < 1e-12
+    # the plain mean's warps are not centred (the first iterate's timing)
+    avg0 = np.mean([np.interp(x, v[:, 0], v[:, 1]) for v in plain.warps], axis=0)
+    assert np.abs(avg0 - x).max() > 1e-3
+    np.testing.assert_array_equal(cent.energies, plain.energies)
+
+
+def test_pca_reproduces_its_inputs_and_the_covariance(tmp_path: Path) -> None:
+    """warp='none': the PCA of the SRV arrays themselves, checked against numpy's covariance."""
+    from elastic_motion.apps.database import DatabaseSettings, build_srv_cache
+    from elastic_motion.apps.pca import motion_pca
+
+    files = [str(write_bvh(_walk(v), tmp_path / f"w{v}.bvh")) for v in range(4)]
+    model = motion_pca(files, n_samples=12, warp="none")
+    q = build_srv_cache(files, DatabaseSettings(n_samples=12, representations=("lie",))).q["lie"]
+    q = np.stack([q[[Path(f).stem for f in files].index(Path(p).stem)] for p in files])
+    n = q.shape[1]
+    np.testing.assert_allclose(model.mean_srv, q.mean(axis=0), atol=1e-12)
+    flat = q.reshape(len(files), -1) / np.sqrt(n)
+    eig = np.sort(np.linalg.eigvalsh(np.cov(flat, rowvar=False)))[::-1][: model.n_modes]
+    np.testing.assert_allclose(model.sigmas**2, eig, rtol=1e-8)
+    assert model.explained.sum() == pytest.approx(1.0) and model.n_modes == 3
+    for k in range(len(files)):  # every input is a point of the model
+        np.testing.assert_allclose(model.srv_at(model.scores[k] / model.sigmas), q[k], atol=1e-10)
+    json.dumps(model.summary(), allow_nan=False)
+
+
+def test_pca_writes_modes_as_bvh(tmp_path: Path) -> None:
+    from elastic_motion.apps.pca import motion_pca, write_modes
+
+    files = [str(write_bvh(_walk(v), tmp_path / f"w{v}.bvh")) for v in range(3)]
+    model = motion_pca(files, n_samples=16, warp=WarpOptions(method="dp", neighbourhood=4))
+    x = np.linspace(0, 1, 301)
+    avg = np.mean([np.interp(x, v[:, 0], v[:, 1]) for v in model.warps], axis=0)
+    assert np.abs(avg - x).max() < 1e-12  # re-centred
+    paths = write_modes(model, tmp_path / "modes", n_modes=1)
+    assert [p.name for p in paths] == ["mean.bvh", "mode1_minus2sd.bvh", "mode1_plus2sd.bvh"]
+    mean = read_bvh(paths[0])
+    assert mean.n_joints == 3 and mean.fps == pytest.approx(30.0)
+    # mean +- 2 sd differ from the mean, in opposite directions along mode 1
+    lo, hi = read_bvh(paths[1]), read_bvh(paths[2])
+    d_lo, d_hi = lo.rotations - mean.rotations, hi.rotations - mean.rotations
+    assert np.abs(d_lo).max() > 1e-3 and np.sum(d_lo * d_hi) < 0
+    samples = model.sample(2, seed=1)
+    assert samples[0].n_frames == mean.n_frames
+    with pytest.raises(ValueError, match="at least two"):
+        motion_pca(files[:1])

@@ -55,12 +55,14 @@ from elastic_motion.motion import (
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
 
 __all__ = [
+    "AUTO_LANDMARK_WEIGHT",
     "METHODS",
     "AlignResult",
+    "LandmarkPlan",
     "align_motions",
     "landmark_parameters",
     "motion_curves",
-    "resolve_landmarks",
+    "plan_landmarks",
     "solve_warp",
     "warp_options",
 ]
@@ -282,36 +284,99 @@ class AlignResult:
         return out
 
 
-def resolve_landmarks(
+#: Relative landmark weight at least used for automatic landmarks: pairs found by phase
+#: around the warp without landmarks are trusted, so the warp meets them closely.
+AUTO_LANDMARK_WEIGHT = 1000.0
+
+
+@dataclass(frozen=True)
+class LandmarkPlan:
+    """The landmarks a warp between two prepared motions will meet (:func:`plan_landmarks`).
+
+    Attributes
+    ----------
+    pairs : list of (float, float)
+        Seconds ``(tA, tB)``; empty without landmarks.
+    options : WarpOptions
+        The warp options to solve with (``"auto"`` raises the landmark weight to at least
+        :data:`AUTO_LANDMARK_WEIGHT`).
+    notes : tuple of str
+        How the pairs were found (``"auto"``: paired by phase, how many left unpaired).
+    """
+
+    pairs: list[tuple[float, float]]
+    options: WarpOptions
+    notes: tuple[str, ...] = ()
+
+
+def plan_landmarks(
     landmarks: Any,
     a: Motion,
     b: Motion,
+    srv_a: SRVFunction,
+    srv_b: SRVFunction,
+    options: WarpOptions,
     *,
     kinds: Sequence[str] | None = None,
     max_pairs: int | None = None,
-) -> list[tuple[float, float]]:
-    """Landmark pairs in seconds from ``None``, ``"auto"`` or pairs ``(tA, tB)``.
+) -> LandmarkPlan:
+    """Landmark pairs in seconds from ``None``, ``"auto"`` or pairs ``(tA, tB)``: the one
+    place where blend and align decide what their warp meets.
 
-    ``"auto"`` pairs the detected events of the two (prepared) motions in order
-    (:func:`elastic_motion.apps.landmarks.auto_landmarks`, default kind: the left knee passing
-    the right knee).
+    ``"auto"``: events of ``kinds`` (default
+    :data:`elastic_motion.apps.landmarks.DEFAULT_PAIR_KINDS`: knee crossings, foot strikes and
+    lift-offs) detected on the two prepared motions and paired by phase, with the warp
+    without landmarks as the prior (:func:`elastic_motion.apps.landmarks.phase_landmarks`);
+    the warp then meets them with a relative weight of at least
+    :data:`AUTO_LANDMARK_WEIGHT`.
+
+    Parameters
+    ----------
+    landmarks : None, "none", "auto" or array_like of shape (M, 2)
+    a, b : Motion
+        The prepared motions (times from their first frames).
+    srv_a, srv_b : SRVFunction
+        Their SRV functions, for the prior warp of ``"auto"``.
+    options : WarpOptions
+    kinds, max_pairs
+        For ``"auto"``.
     """
     if landmarks is None or (isinstance(landmarks, str) and landmarks == "none"):
-        return []
+        return LandmarkPlan([], options)
     if isinstance(landmarks, str):
         if landmarks != "auto":
-            raise ValueError(
-                f"landmarks: expected None, 'auto' or pairs (tA, tB) in seconds; got {landmarks!r}"
+            raise OptionError(
+                "landmarks", f"expected None, 'auto' or pairs (tA, tB) in seconds; got {landmarks!r}"
             )
-        from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, auto_landmarks
+        if options.method == "none":
+            raise OptionError("landmarks", "expected a time warp (warp 'dp' or 'dp+refine'); got warp 'none'")
+        from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, phase_landmarks
 
-        return auto_landmarks(a, b, tuple(kinds) if kinds else DEFAULT_PAIR_KINDS, max_pairs=max_pairs)
+        prior = solve_warp(srv_a, srv_b, options)
+        pairing = phase_landmarks(
+            a,
+            b,
+            tuple(kinds) if kinds else DEFAULT_PAIR_KINDS,
+            prior=np.asarray(prior.vertices),
+            max_pairs=max_pairs,
+        )
+        pairs = list(pairing.times)
+        if not pairs:
+            return LandmarkPlan([], options, ("landmarks auto: no events to pair; warp without landmarks",))
+        return LandmarkPlan(
+            pairs,
+            options.replace(landmark_weight=max(options.landmark_weight, AUTO_LANDMARK_WEIGHT)),
+            (
+                f"landmarks auto: {len(pairs)} events paired by phase (prior: the warp without "
+                f"landmarks), {len(pairing.skipped)} left unpaired",
+            ),
+        )
     arr = np.asarray(landmarks, dtype=np.float64)
     if arr.size == 0:
-        return []
+        return LandmarkPlan([], options)
     if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ValueError(f"landmarks: expected pairs (tA, tB) of shape (M, 2); got shape {arr.shape}")
-    return [(float(x), float(y)) for x, y in arr]
+        raise OptionError("landmarks", f"expected pairs (tA, tB) of shape (M, 2); got shape {arr.shape}")
+    return LandmarkPlan([(float(x), float(y)) for x, y in arr], options)
 
 
 def align_motions(
@@ -358,12 +423,12 @@ def align_motions(
             raise OptionError("motions", "expected two motions a and b; got b None")
         prep = prepare_motions([a, b], prepare)
     ma, mb = prep.motions
-    pairs = resolve_landmarks(landmarks, ma, mb, kinds=landmark_kinds, max_pairs=max_pairs)
-    theta = landmark_parameters(pairs, ma.duration, mb.duration, prep.labels[:2]) if pairs else None
-    if isinstance(landmarks, str) and landmarks == "auto" and not pairs and opts.method != "none":
-        prep = prep.with_notes("landmarks auto: no events to pair; warp without landmarks")
     ca, cb = motion_curves(prep, method, fps=opts.sample_fps)
     sa, sb = srv_transform(ca), srv_transform(cb)
+    plan = plan_landmarks(landmarks, ma, mb, sa, sb, opts, kinds=landmark_kinds, max_pairs=max_pairs)
+    pairs, opts = plan.pairs, plan.options
+    prep = prep.with_notes(*plan.notes)
+    theta = landmark_parameters(pairs, ma.duration, mb.duration, prep.labels[:2]) if pairs else None
     res = solve_warp(sa, sb, opts, landmarks=theta)
     identity = np.array([[0.0, 0.0], [1.0, 1.0]])
     unwarped = math.sqrt(max(warp_energy(sa.q, sb.q, identity, sa.t, sb.t), 0.0))

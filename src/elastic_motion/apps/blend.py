@@ -11,7 +11,8 @@ method             warp          landmarks    what it is
 ``euler-elastic``  ``none``      --           (b): SRV geodesic in ``R^d`` without warp
 ``euler-elastic``  ``dp``        --           (c): SRV geodesic in ``R^d`` with the optimal warp
 ``euler-elastic``  ``dp``        ``auto``     (d): with warp and feature points (the left
-                                              knee passing the right knee, paired in order)
+                                              knee passing the right knee, foot strikes and
+                                              toe-offs), paired by phase (:mod:`.landmarks`)
 ``lie``            ``none``      --           paper 000 Fig. 4, bottom left: SRV geodesic in
                                               ``R^3 x SO(3)^J`` without warp
 ``lie``            ``dp``        optional     paper 000 Fig. 4, bottom right: with the warp
@@ -28,7 +29,13 @@ What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s)
    translation fitted to A's root path: registration-curve style). Recorded in
    ``BlendResult.notes``.
 2. The warp ``phi`` of B onto A (``warp.method != "none"``), on the curves of the method
-   at most ``warp.sample_fps`` frames per second, with the landmarks (seconds, or ``"auto"``).
+   at most ``warp.sample_fps`` frames per second, with the landmarks (seconds, or ``"auto"``:
+   the warp without landmarks is solved first and is the prior that pairs the events of A
+   and B by phase, :func:`elastic_motion.apps.landmarks.pair_by_phase`; the pairs are then
+   met with a relative landmark weight of at least 1000). With ``cycles``,
+   the gait cycles of A and B are matched first (:mod:`.cycles`), both clips keep only the
+   matched cycles (B moved on the floor to start where A does), and the warp passes through
+   every cycle boundary and step (landmarks, relative weight at least 1000).
 3. The blend, on curves of all non-finger joints at the full frame rate:
    ``R^{-1}((1 - s) qA + s (qB * phi))`` started at the blended start point (paper 000,
    eq. 20; :func:`elastic_motion.curves.weighted_blend`), or for ``euler-linear``
@@ -44,6 +51,29 @@ What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s)
    (position channels), linear blends.
 6. The skeleton: ``skeleton="blend"`` (default) gives each bone the weighted mean of the
    inputs' offsets, so that leg length and root height blend together; ``"first"`` keeps A's.
+7. **Foot-skate clean-up** (``contacts="auto"``, the default): the inputs' contacts
+   (:func:`elastic_motion.motion.contacts.detect_contacts`) are carried through the warps to
+   the blend's frames and enforced by leg IK and a smooth root correction
+   (:mod:`.cleanup`, :mod:`elastic_motion.motion.ik`; bone lengths kept). The change is
+   smoothed in time by the largest of 0.1, 0.05, 0.025, 0 s that leaves the blend skating at
+   most 0.9 times the lesser input's skating (their own contacts): the smoothest change
+   that skates less than the inputs. Skipped, with a note, when the inputs have no contacts
+   or a weight is 1. ``BlendResult.cleanup`` reports skating before and after and the
+   largest pose change; ``before_cleanup`` keeps the blend before it.
+8. ``loop=True``: one matched cycle of each is blended (steps 1-6) and closed into a seamless
+   loop by :func:`elastic_motion.apps.loop.loop_motion` (root ``"travel"``); then the
+   clean-up (step 7) runs on the loop, and the small seam gap it leaves (it plants the
+   cycle's first and last contacts separately) is closed once more. The notes give the seam
+   and the skating after each step.
+
+Time-varying weights (``weight_curve``, two motions; paper 000 sec. 5.3)
+----------------------------------------------------------------------
+``s(u)`` piecewise linear in the result's normalised time ``u``: the poses are the frame-wise
+geodesics between ``cA(u)`` and ``cB(phi(u))`` at ``s(u)`` (a constant-weight SRV blend
+integrates blended velocities from a blended start, which would not end on B's pose), the
+root integrates the blended root velocities ``(1 - s) cA' + s (cB o phi)'`` from the
+blended start, and the clock runs at ``dT/du = (1 - s(u)) d_A + s(u) d_B phi'(u)``. So
+``0:0,1:1`` starts on A's first pose and ends on B's last, a transition.
 
 **Root translation.** The root position is a coordinate of the curve in both
 representations (``R^3`` factor of ``R^3 x SO(3)^J``; the first three coordinates of the
@@ -84,10 +114,11 @@ from elastic_motion.apps.align import (
     _check_method,
     landmark_parameters,
     motion_curves,
-    resolve_landmarks,
+    plan_landmarks,
     solve_warp,
     warp_options,
 )
+from elastic_motion.apps.cleanup import CleanupResult
 from elastic_motion.apps.metrics import BoneLengthError, FootSliding
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
@@ -95,6 +126,7 @@ from elastic_motion.curves import DiscreteCurve, srv_transform, weighted_blend
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, PowerGroup
 from elastic_motion.motion import Motion, Skeleton, from_euler_curve, from_lie_curve
+from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.warp import WarpOptions
 
 __all__ = ["BlendMetrics", "BlendResult", "blend_metrics", "blend_motions"]
@@ -129,6 +161,15 @@ class BlendResult:
         Quality metrics (module docstring); None unless asked for.
     notes : tuple of str
         What was done, in words (preparation, warps, timing).
+    cleanup : CleanupResult or None
+        The foot-skate clean-up (step 7): carried contacts, skating before and after, the
+        largest pose change; None when skipped (``contacts="off"``, a weight of 1).
+    before_cleanup : Motion or None
+        The blend before the clean-up (None when no clean-up was applied).
+    cycles : CycleMatch or None
+        How the gait cycles were matched (``cycles=True``); ``n == 0`` when they could not be.
+    loop : LoopResult or None
+        The closing of the blended cycle (``loop=True``): seam before and after.
     """
 
     motion: Motion
@@ -142,6 +183,10 @@ class BlendResult:
     warp_options: WarpOptions = field(default_factory=WarpOptions)
     metrics: BlendMetrics | None = None
     notes: tuple[str, ...] = ()
+    cleanup: CleanupResult | None = None
+    before_cleanup: Motion | None = None
+    cycles: Any = None
+    loop: Any = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -160,6 +205,9 @@ class BlendResult:
             "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
             "metrics": None if self.metrics is None else self.metrics.summary(),
             "notes": list(self.notes),
+            "cleanup": None if self.cleanup is None else self.cleanup.summary(),
+            "cycles": None if self.cycles is None else self.cycles.summary(),
+            "loop": None if self.loop is None else self.loop.summary(),
         }
 
 
@@ -226,6 +274,97 @@ def _blend_rotations(rots: list[np.ndarray], w: np.ndarray) -> np.ndarray:
     return g.weighted_mean(pts, w).reshape(shape)
 
 
+def parse_weight_curve(value: Any) -> np.ndarray:
+    """Knots ``(u, s)`` of a weight curve from ``"u:s,u:s,..."`` or an array ``(M, 2)``.
+
+    Raises
+    ------
+    OptionError
+        Not defined on [0, 1] (first ``u`` not 0, last not 1, not increasing), a weight
+        outside [0, 1], fewer than two knots, a malformed string.
+    """
+    if isinstance(value, str):
+        try:
+            arr = np.array([[float(x) for x in item.split(":")] for item in value.split(",") if item.strip()])
+        except ValueError:
+            arr = np.zeros((0, 1))
+        if arr.ndim != 2 or arr.shape[1:] != (2,):
+            raise OptionError("weight_curve", f"expected knots 'u:s,u:s,...' like '0:0,1:1'; got {value!r}")
+    else:
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.ndim != 2 or arr.shape[1] != 2:
+            raise OptionError("weight_curve", f"expected knots (u, s) of shape (M, 2); got shape {arr.shape}")
+    if arr.shape[0] < 2 or not np.isfinite(arr).all():
+        raise OptionError("weight_curve", f"expected at least two finite knots (u, s); got {arr.tolist()}")
+    u, s = arr[:, 0], arr[:, 1]
+    if abs(u[0]) > 1e-12 or abs(u[-1] - 1.0) > 1e-12 or not (np.diff(u) > 0).all():
+        raise OptionError(
+            "weight_curve",
+            f"expected a curve defined on [0, 1]: times u from 0 to 1, increasing; got u = {u.tolist()}",
+        )
+    if (s < 0).any() or (s > 1).any():
+        raise OptionError("weight_curve", f"expected weights s in [0, 1]; got s = {s.tolist()}")
+    return arr
+
+
+def _per_frame(wf: np.ndarray, k: int, n: int, ndim_extra: int) -> np.ndarray | float:
+    if wf.ndim == 1:
+        return float(wf[k])
+    return wf[:, k].reshape((n,) + (1,) * ndim_extra)
+
+
+def _blend_rotations_varying(rots: list[np.ndarray], s: np.ndarray) -> np.ndarray:
+    """Geodesic blend of two rotation stacks ``(N, k, 3, 3)`` at per-frame weights ``s (N,)``."""
+    rel = _SO3.log(np.swapaxes(rots[0], -1, -2) @ rots[1])
+    return rots[0] @ _SO3.exp(s[:, None, None] * rel)
+
+
+def _timing_varying(
+    warps: Sequence[np.ndarray], knots: np.ndarray, durations: np.ndarray, fps: float
+) -> np.ndarray:
+    """Curve parameters of the output frames with a weight curve: the clock runs at
+    ``dT/du = (1 - s(u)) d_A + s(u) d_B phi'(u)``."""
+    v = warps[1]
+    x = np.unique(np.concatenate([v[:, 0], knots[:, 0], np.linspace(0.0, 1.0, 1025)]))
+    mid = 0.5 * (x[1:] + x[:-1])
+    dphi = np.diff(np.interp(x, v[:, 0], v[:, 1])) / np.diff(x)
+    s = np.interp(mid, knots[:, 0], knots[:, 1])
+    rate = (1.0 - s) * durations[0] + s * durations[1] * dphi
+    total = np.concatenate([[0.0], np.cumsum(rate * np.diff(x))])
+    n = math.floor(total[-1] * fps + 1e-6) + 1
+    times = np.arange(n) / fps
+    u = np.interp(times, total, x)
+    u[0] = 0.0
+    if abs(times[-1] - total[-1]) < 1e-6:
+        u[-1] = 1.0
+    return u
+
+
+def _varying_blend(
+    curves: Sequence[DiscreteCurve], phi: np.ndarray, knots: np.ndarray, u: np.ndarray
+) -> DiscreteCurve:
+    """A transition at weights ``s(u)``: poses by frame-wise geodesics between ``cA(u)`` and
+    ``cB(phi(u))``, the root (the first three coordinates) by integrating the blended root
+    velocities ``(1 - s) cA' + s (cB o phi)'`` from the blended start."""
+    ca, cb = curves
+    g = ca.group
+    uu = np.clip(u, 0.0, 1.0)
+    s = np.interp(uu, knots[:, 0], knots[:, 1])
+    pa = ca.evaluate(uu)
+    pb = cb.evaluate(np.clip(np.interp(uu, phi[:, 0], phi[:, 1]), 0.0, 1.0))
+    values = g.interpolate(pa, pb, s)
+    # root: integrate the blended velocities on a fine grid
+    x = np.unique(np.concatenate([uu, np.linspace(0.0, 1.0, 2049), phi[:, 0]]))
+    ra = ca.evaluate(x)[:, :3]
+    rb = cb.evaluate(np.clip(np.interp(x, phi[:, 0], phi[:, 1]), 0.0, 1.0))[:, :3]
+    sm = np.interp(0.5 * (x[1:] + x[:-1]), knots[:, 0], knots[:, 1])[:, None]
+    steps = (1.0 - sm) * np.diff(ra, axis=0) + sm * np.diff(rb, axis=0)
+    root = (1.0 - s[0]) * ra[0] + s[0] * rb[0] + np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+    values = np.array(values)
+    values[:, :3] = np.column_stack([np.interp(uu, x, root[:, i]) for i in range(3)])
+    return DiscreteCurve(values, g)
+
+
 def _timing(
     warps: Sequence[np.ndarray], w: np.ndarray, durations: np.ndarray, fps: float
 ) -> tuple[np.ndarray, str]:
@@ -285,6 +424,11 @@ def blend_motions(
     max_pairs: int | None = None,
     metrics: bool = False,
     progress: Progress | None = None,
+    contacts: str | ContactOptions | None = "auto",
+    weight_curve: Any = None,
+    cycles: bool = False,
+    loop: bool = False,
+    template_warps: Sequence[np.ndarray] | None = None,
 ) -> BlendResult:
     """Blend two or more motions.
 
@@ -319,6 +463,27 @@ def blend_motions(
         solves).
     progress : callable, optional
         ``progress(stage, done, total)``.
+    contacts : "auto", "off" or ContactOptions, default "auto"
+        The foot-skate clean-up (step 7): ``"auto"`` detects the inputs' contacts with the
+        default :class:`~elastic_motion.motion.contacts.ContactOptions` (or the ones given),
+        carries them through the warps and enforces them by leg IK; ``"off"`` (or None)
+        skips it. Skipped (with a note) when the inputs have no contacts or a weight is 1.
+    weight_curve : str or array_like of shape (M, 2), optional
+        Two motions only, instead of ``weights``: the weight ``s`` of B as a piecewise linear
+        function of the result's normalised time ``u`` (knots ``(u, s)``, ``u`` from 0 to 1
+        increasing, ``s`` in [0, 1]; the string ``"0:0,1:1"`` is a transition from A into
+        B). See "Time-varying weights" in the module docstring.
+    cycles : bool, default False
+        Two motions: segment gait cycles from the contacts, match consecutive cycles of A and
+        B (:mod:`elastic_motion.apps.cycles`), keep only the matched spans and make the warp
+        pass through every cycle boundary and step (landmarks). When the cycles cannot be
+        matched, the global warp is used and a note says so.
+    loop : bool, default False
+        Blend one matched cycle of each (implies ``cycles``) and close the result into a
+        seamless loop with :func:`elastic_motion.apps.loop.loop_motion` (root "travel").
+    template_warps : sequence of ndarray of shape (V, 2), optional
+        Warps ``phi_k`` (a common template's parameter -> input ``k``'s) found before, e.g. by
+        a blend space (:mod:`elastic_motion.apps.blendspace`); no warp is solved then.
 
     Returns
     -------
@@ -332,6 +497,11 @@ def blend_motions(
         clips or out of order, landmarks with more than two motions or without a warp.
     """
     report = progress or null_progress
+    knots = None
+    if weight_curve is not None:
+        knots = parse_weight_curve(weight_curve)
+        if weights is not None:
+            raise OptionError("weight_curve", "expected weights or a weight curve, not both")
     if not isinstance(motions, PreparedMotions):
         motions = list(motions)
     k = len(motions.motions) if isinstance(motions, PreparedMotions) else len(motions)
@@ -341,6 +511,11 @@ def blend_motions(
     opts = warp_options(warp)
     if skeleton not in ("blend", "first"):
         raise OptionError("skeleton", f"expected 'blend' or 'first'; got {skeleton!r}")
+    if knots is not None:
+        if k != 2:
+            raise OptionError("weight_curve", f"expected two motions (a transition from A into B); got {k}")
+        mean_s = float(np.trapezoid(knots[:, 1], knots[:, 0]))
+        weights = np.array([1.0 - mean_s, mean_s])
     w = _check_weights(weights, k, extrapolate)
     has_landmarks = landmarks is not None and not (isinstance(landmarks, str) and landmarks == "none")
     if has_landmarks and k != 2:
@@ -351,22 +526,46 @@ def blend_motions(
     stages = 4 if metrics else 3
     report("prepare", 0, stages)
     prep = prepare_motions(motions, prepare)
-    ms = prep.motions
     notes = list(prep.notes)
+    match = None
+    if cycles or loop:
+        if k != 2:
+            raise OptionError("cycles", f"expected two motions (cycles of A against cycles of B); got {k}")
+        if has_landmarks:
+            raise OptionError("landmarks", "expected no landmarks with cycles (the cycles give them)")
+        prep, match = _cycle_span(prep, contacts, 1 if loop else None)
+        notes.append("cycles: " + match.why)
+        if match.n:
+            landmarks = list(match.landmarks)
+            has_landmarks = bool(landmarks)
+            if opts.method == "none":
+                opts = opts.replace(method="dp")
+            opts = opts.replace(landmark_weight=max(opts.landmark_weight, 1000.0))
+    ms = prep.motions
     durations = np.array([m.duration for m in ms])
     report("warp", 1, stages)
 
     # 2. warps, on curves of the method at warp_fps
     pairs: list[tuple[float, float]] = []
     warps: list[np.ndarray] = [_IDENTITY] * k
-    if opts.method != "none":
+    if template_warps is not None:
+        if len(template_warps) != k:
+            raise OptionError(
+                "template_warps", f"expected {k} warps (one per motion); got {len(template_warps)}"
+            )
+        warps = [np.asarray(v, dtype=np.float64) for v in template_warps]
+        notes.append("warps: given (a common template computed once)")
+    elif opts.method != "none":
         coarse = motion_curves(prep, method, fps=opts.sample_fps)
         if k == 2:
-            pairs = resolve_landmarks(landmarks, ms[0], ms[1], kinds=landmark_kinds, max_pairs=max_pairs)
-            if has_landmarks and not pairs:
-                notes.append("landmarks auto: no events to pair; warp without landmarks")
+            sa, sb = srv_transform(coarse[0]), srv_transform(coarse[1])
+            plan = plan_landmarks(
+                landmarks, ms[0], ms[1], sa, sb, opts, kinds=landmark_kinds, max_pairs=max_pairs
+            )
+            pairs, opts = plan.pairs, plan.options
+            notes.extend(plan.notes)
             theta = landmark_parameters(pairs, durations[0], durations[1], prep.labels[:2]) if pairs else None
-            res = solve_warp(srv_transform(coarse[0]), srv_transform(coarse[1]), opts, landmarks=theta)
+            res = solve_warp(sa, sb, opts, landmarks=theta)
             warps = [_IDENTITY, np.asarray(res.vertices)]
             notes.append(
                 f"warp ({opts.method}) of {prep.labels[1]} onto {prep.labels[0]}: distance {res.distance:.4g}"
@@ -387,11 +586,21 @@ def blend_motions(
 
     # 3-4. blend on the full-rate curves, sample on the blended clock
     full = motion_curves(prep, method)
-    u, tnote = _timing(warps, w, durations, prep.fps)
-    if tnote:
-        notes.append(tnote)
+    if knots is not None:
+        u = _timing_varying(warps, knots, durations, prep.fps)
+        notes.append(
+            "weight curve: s(u) = " + ", ".join(f"{a:g}:{b:g}" for a, b in knots) + " (u: normalised time); "
+            "poses interpolated frame by frame at s(u), root velocities blended at s(u)"
+        )
+    else:
+        u, tnote = _timing(warps, w, durations, prep.fps)
+        if tnote:
+            notes.append(tnote)
     local_u = [np.clip(np.interp(u, v[:, 0], v[:, 1]), 0.0, 1.0) for v in warps]
-    if method == "euler-linear":
+    s_u = None if knots is None else np.interp(u, knots[:, 0], knots[:, 1])
+    if knots is not None:
+        curve = _varying_blend(full, warps[1], knots, u)
+    elif method == "euler-linear":
         values = sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, full, local_u, strict=True))
         curve = DiscreteCurve(values, full[0].group)
     else:
@@ -410,13 +619,17 @@ def blend_motions(
     rotations[:, cj] = body.rotations
     extra = np.array([names.index(n) for n in prep.extra_joints], dtype=int)
     times = [lu * d for lu, d in zip(local_u, durations, strict=True)]
+    wf = w if s_u is None else np.column_stack([1.0 - s_u, s_u])  # (K,) or per frame (F, K)
     if extra.size:
         rots = [_sample_rotations(m, extra, t) for m, t in zip(ms, times, strict=True)]
-        rotations[:, extra] = _blend_rotations(rots, w)
+        rotations[:, extra] = (
+            _blend_rotations(rots, w) if s_u is None else _blend_rotations_varying(rots, s_u)
+        )
     jt = None
     if all(m.joint_translations is not None for m in ms):
         jt = sum(
-            wk * _sample_linear(m.joint_translations, m.fps, t) for wk, m, t in zip(w, ms, times, strict=True)
+            _per_frame(wf, i, u.shape[0], 2) * _sample_linear(m.joint_translations, m.fps, t)
+            for i, (m, t) in enumerate(zip(ms, times, strict=True))
         )
     elif ms[0].joint_translations is not None:
         jt = _sample_linear(ms[0].joint_translations, ms[0].fps, times[0])
@@ -431,6 +644,37 @@ def blend_motions(
         name=f"blend ({method}, warp {opts.method}): {label}",
     )
 
+    loop_res = None
+    if loop:
+        # close the blended cycle first, then plant the feet on the loop: the closing spreads
+        # the seam's gap over the cycle (and would bring the skating back after a clean-up)
+        from elastic_motion.apps.loop import loop_motion, seam_metrics
+
+        loop_res = loop_motion(result, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False))
+        result = loop_res.motion
+        what = "one matched cycle of each" if match is not None and match.n else "the whole clips (no cycles)"
+        notes.append(
+            f"loop: {what} blended and closed (seam {loop_res.seam_before.seam_position_max_m:.3g} m -> "
+            f"{loop_res.seam_after.seam_position_max_m:.3g} m)"
+        )
+    cleaned, before = _cleanup(result, prep, warps, u, wf, contacts, notes)
+    if cleaned is not None and cleaned.applied:
+        before, result = result, cleaned.motion
+        if loop_res is not None:
+            # the clean-up plants the first and the last contact of the cycle separately: close
+            # the small gap it leaves at the seam once more
+            seam = seam_metrics(result, joints=loop_res.closed_joints)
+            loop_res = loop_motion(result, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False))
+            result = loop_res.motion
+            from elastic_motion.apps.metrics import contact_skating
+
+            again = contact_skating(result, cleaned.contacts)
+            notes.append(
+                f"loop: the clean-up left a seam of {seam.seam_position_max_m:.3g} m, "
+                f"{seam.seam_angle_max_deg:.3g} deg; closed again: seam "
+                f"{loop_res.seam_after.seam_position_max_m:.3g} m, skating while in contact "
+                f"{again.mean_speed:.3g} m/s, below the floor {again.below_floor:.3g} m"
+            )
     out_metrics = None
     if metrics:
         report("metrics", 3, stages)
@@ -448,7 +692,109 @@ def blend_motions(
         warp_options=opts,
         metrics=out_metrics,
         notes=tuple(notes),
+        cleanup=cleaned,
+        before_cleanup=before,
+        cycles=match,
+        loop=loop_res,
     )
+
+
+def _cycle_span(prep: PreparedMotions, contacts: Any, max_cycles: int | None) -> tuple[PreparedMotions, Any]:
+    """Match the gait cycles of the two prepared motions and keep the matched spans; B is
+    moved on the floor so that its span starts where A's does."""
+    from elastic_motion.apps.cycles import gait_cycles, match_cycles
+    from elastic_motion.motion import trim
+
+    opts = _contact_options(contacts) or ContactOptions()
+    ma, mb = prep.motions
+    ca = gait_cycles(ma, opts)
+    cb = gait_cycles(mb, opts, foot=ca.foot or None)
+    if ca.n_cycles and not cb.n_cycles:
+        other = "right" if ca.foot == "left" else "left"
+        ca2, cb2 = gait_cycles(ma, opts, foot=other), gait_cycles(mb, opts, foot=other)
+        if ca2.n_cycles and cb2.n_cycles:
+            ca, cb = ca2, cb2
+    match = match_cycles(ca, cb, max_cycles=max_cycles)
+    if not match.n:
+        return prep, match
+    ta = trim(ma, *match.span_a)
+    tb = trim(mb, *match.span_b)
+    up = "xyz".index(tb.up_axis)
+    shift = ta.root_translation[0] - tb.root_translation[0]
+    shift[up] = 0.0
+    tb = tb.replace(root_translation=tb.root_translation + shift)
+    return dataclasses.replace(prep, motions=(ta, tb)), match
+
+
+#: The clean-up's smoothing of its change (s), tried in this order: the first whose skating is
+#: at most _SKATE_GOAL times the lesser input's is kept (0: the exact plants).
+_SMOOTHING = (0.1, 0.05, 0.025, 0.0)
+_SKATE_GOAL = 0.9
+
+
+def _contact_options(contacts: Any) -> ContactOptions | None:
+    if contacts is None or (isinstance(contacts, str) and contacts == "off"):
+        return None
+    if isinstance(contacts, ContactOptions):
+        return contacts
+    if isinstance(contacts, str) and contacts == "auto":
+        return ContactOptions()
+    raise OptionError("contacts", f"expected 'auto', 'off' or ContactOptions; got {contacts!r}")
+
+
+def _cleanup(
+    result: Motion,
+    prep: PreparedMotions,
+    warps: Sequence[np.ndarray],
+    u: np.ndarray,
+    w: np.ndarray,
+    contacts: Any,
+    notes: list[str],
+) -> tuple[CleanupResult | None, Motion | None]:
+    """Step 7: carry the inputs' contacts to the blend and enforce them (:mod:`.cleanup`)."""
+    from elastic_motion.apps.cleanup import carry_contacts, cleanup_footskate
+    from elastic_motion.motion.contacts import detect_contacts
+
+    opts = _contact_options(contacts)
+    if opts is None:
+        return None, None
+    if w.ndim == 1 and np.isclose(w, 1.0).any():
+        notes.append("clean-up: skipped, the result is one of the inputs (a weight of 1)")
+        return None, None
+    found = [detect_contacts(m, opts) for m in prep.motions]
+    if not any(c.any for c in found):
+        notes.append("clean-up: skipped, no contacts found in the inputs")
+        return None, None
+    carried = carry_contacts(
+        found,
+        warps,
+        u,
+        [m.duration for m in prep.motions],
+        w,
+        fps=result.fps,
+        joints=result.skeleton.names,
+        options=opts,
+    )
+    # the smoothest change (least change of velocities) that skates less than the inputs
+    from elastic_motion.apps.metrics import contact_skating
+
+    own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
+    goal = _SKATE_GOAL * min(own)
+    for smooth in _SMOOTHING:
+        res = cleanup_footskate(result, carried, smooth=smooth)
+        if not res.applied or res.skating_after.mean_speed <= goal:
+            break
+    if res.applied:
+        notes.append(
+            "clean-up: contacts carried through the warps and enforced by leg IK; skating "
+            f"{res.skating_before.mean_speed:.3g} -> {res.skating_after.mean_speed:.3g} m/s (inputs "
+            + ", ".join(f"{x:.3g}" for x in own)
+            + f"), change smoothed over {res.smooth:g} s; "
+            f"largest change {res.max_position_change:.3g} m, {res.max_rotation_change_deg:.3g} deg"
+        )
+    else:
+        notes += [f"clean-up: {n}" for n in res.notes]
+    return res, None
 
 
 @dataclass(frozen=True, eq=False)

@@ -344,6 +344,40 @@ def run_demo(
         report_cb("videos", len(jobs), len(jobs))
     timings["videos_s"] = time.perf_counter() - t0
 
+    # ---- the interactive 3D viewer (plotly.js beside the page; skipped without plotly) ---------
+    viewers: list[str] = []
+    try:
+        from elastic_motion._io import atomic_write_text as _write_text
+        from elastic_motion.apps.report import jsonable
+        from elastic_motion.apps.viewer import build_viewer, plotly_js
+
+        lib = out / "plotly.min.js"
+        _write_text(lib, plotly_js())
+        files.append(lib)
+        viewers.append(
+            build_viewer(
+                [pa, pb, lie.motion],
+                labels=["walk", "run", "Lie + warp (50 %)"],
+                reports=[False, False, jsonable(lie.summary())],
+                plotly_src=lib.name,
+                title="Walk, run and their Lie blend with the time warp",
+                element_id="viewer-blend",
+            ).fragment
+        )
+        key, label, m, res, _, _ = loops[0]
+        viewers.append(
+            build_viewer(
+                [repeat_motion(m, 2), repeat_motion(res.motion, 2)],
+                labels=[f"{label} x2, original", f"{label} x2, looped"],
+                reports=[False, jsonable(res.summary())],
+                plotly_src=lib.name,
+                title=f"The {label}, played twice: original and looped (seams and contacts marked)",
+                element_id="viewer-loop",
+            ).fragment
+        )
+    except ModuleNotFoundError:  # plotly is not installed: the page keeps its pictures only
+        viewers = []
+
     # ---- report and index -------------------------------------------------------------------
     rep = report_header("demo", [str(data)], [rel(p) for p in files])
     rep["data"] = str(data)
@@ -366,7 +400,9 @@ def run_demo(
     index = out / "index.html"
     from elastic_motion._io import atomic_write_text
 
-    atomic_write_text(index, _html(out, blends, loops, table, al, figs, videos, timings, bvh_files))
+    atomic_write_text(
+        index, _html(out, blends, loops, table, al, figs, videos, timings, bvh_files, viewers=viewers)
+    )
     write_report(out / "report.json", rep)
     files += [index, out / "report.json"]
     return DemoResult(out, index, tuple(files), rep, time.perf_counter() - t_start)
@@ -393,6 +429,12 @@ code { background: #f3f3f3; padding: 0 0.2em; } .note { color: #666; font-size: 
           margin-right: 0.3em; border: 1px solid #ccc; }
 .swatch.line { height: 0.22em; border: none; }
 """
+
+
+def _viewer_head() -> str:
+    from elastic_motion.apps.viewer.page import CSS
+
+    return f"<script src='plotly.min.js'></script><style>{CSS}</style>"
 
 
 def _img(out: Path, p: Path, caption: str) -> str:
@@ -512,7 +554,7 @@ def _legend() -> str:
     )
 
 
-def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=()) -> str:
+def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=(), viewers=()) -> str:
     e = html.escape
 
     def link(p: Path) -> str:
@@ -521,7 +563,9 @@ def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=()) ->
 
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'><title>elastic-motion demo</title>",
-        f"<style>{_CSS}</style></head><body>",
+        f"<style>{_CSS}</style>",
+        _viewer_head() if viewers else "",
+        "</head><body>",
         "<h1>elastic-motion demo</h1>",
         "<p>Everything on this page was computed on this machine from the DeepMimic motion clips that "
         "ship with the <code>pybullet</code> package (MIT licence). Motions are curves in "
@@ -530,6 +574,16 @@ def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=()) ->
         "straight lines and distances are L2 distances, after the optimal time warp. The BVH files beside "
         "this page open in Blender and three.js (<a href='#files'>list of files</a>).</p>",
         _legend(),
+        *(
+            [
+                "<h2>See it move</h2><p>Interactive 3D players (drag to orbit, scroll to zoom, play or "
+                "scrub with the slider, pick joints to draw their paths). The blend's time warp is "
+                "linked to the player; the loop's seams and the feet's contacts come from its report.</p>",
+                *viewers,
+            ]
+            if viewers
+            else []
+        ),
         "<h2>1. Blending a walk and a run</h2>",
         "<p>A walk (2 cycles, 2.5 s, 4 steps) and a run (3 cycles, 2.4 s, 6 steps) have different rhythms "
         "and numbers of steps, the hard case of paper 001 Fig. 5. Each blend is 50 % of each, computed by "

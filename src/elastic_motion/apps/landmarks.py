@@ -18,12 +18,32 @@ Event kinds
     counts once ``d`` has gone from below ``-eps`` to above ``+eps`` (hysteresis,
     ``eps = 2 %`` of the leg length), so jitter around 0 makes one event, not many; the
     event time is the zero crossing, linearly interpolated between frames.
+``"left_heel_strike"`` / ``"right_heel_strike"`` / ``"left_toe_off"`` / ``"right_toe_off"``
+    From the contacts of :func:`elastic_motion.motion.contacts.detect_contacts` (the one
+    home of contacts): a heel strike is the start of a contact of the ankle joint, a toe-off
+    the end of a contact of the toe joint (of the ankle when the skeleton has no toe joint).
+    Contacts cut by the clip's ends are no events.
 ``"left_foot_contact"`` / ``"right_foot_contact"``
     A foot touches down: the ankle or toe joint of that side comes within ``contact_height``
     (default 5 cm) of its lowest height in the clip while moving horizontally slower than
     ``contact_speed`` (default 0.5 m/s). The event is the first frame of a contact that
     lasts at least 0.06 s after at least 0.06 s off the floor (a contact already under way
     at frame 0 is not an event: its onset is not seen).
+
+Pairing by phase (:func:`pair_by_phase`, what ``landmarks="auto"`` does)
+------------------------------------------------------------------------
+Events are never paired blindly in order (A's first left step would meet B's second when the
+clips start in different phases). Instead, a **prior warp** (the optimal warp without
+landmarks) predicts, for each event of A at ``tA``, the time ``d_B phi(tA / d_A)`` where B
+should have the same event. For each kind separately, a dynamic programme over the two
+event sequences picks the increasing matching that maximises
+``sum (1 - (offset / tol)^2)`` over the pairs (offset: the B event's time minus the
+prediction; ``tol`` = 0.15 of the kind's median period, a sixth of a gait cycle, 0.4 s
+when unknown: landmarks refine a warp that is about right, they do not overrule it),
+skipping events freely and never pairing events more than ``tol`` apart. The pairs of all
+kinds are then merged best first, keeping those that stay increasing in both clips. Each
+pair records why it was kept (its offset from the prior) and each event left out why (no B
+event near the prediction, or a conflict with a better pair).
 
 Joints are found by name (:func:`find_leg_joints`): the side from a ``left``/``right``/``l``/
 ``r`` prefix or an ``_l``/``_r`` suffix, the part from the rest (``UpLeg``/``femur``/``hip``/
@@ -47,19 +67,35 @@ from elastic_motion.motion import Motion, Skeleton, forward_kinematics
 
 __all__ = [
     "EVENT_KINDS",
+    "GAIT_KINDS",
     "Event",
     "LegJoints",
+    "PhasePairing",
     "auto_landmarks",
+    "contact_events",
     "detect_events",
     "find_leg_joints",
+    "pair_by_phase",
     "pair_events",
+    "phase_landmarks",
+    "prior_warp",
 ]
 
-#: The event kinds :func:`detect_events` knows.
-EVENT_KINDS = ("left_knee_passes", "right_knee_passes", "left_foot_contact", "right_foot_contact")
+#: Event kinds from the contacts (:func:`contact_events`).
+GAIT_KINDS = ("left_heel_strike", "right_heel_strike", "left_toe_off", "right_toe_off")
 
-#: The paper's choice (paper 001, sec. 4.2), the default of ``--landmarks auto``.
-DEFAULT_PAIR_KINDS = ("left_knee_passes",)
+#: The event kinds :func:`detect_events` knows.
+EVENT_KINDS = (
+    "left_knee_passes",
+    "right_knee_passes",
+    "left_foot_contact",
+    "right_foot_contact",
+    *GAIT_KINDS,
+)
+
+#: The default of ``landmarks="auto"``: foot strikes and toe-offs of both feet and the
+#: paper's knee crossings (paper 001, sec. 4.2), all paired by phase.
+DEFAULT_PAIR_KINDS = ("left_knee_passes", "right_knee_passes", *GAIT_KINDS)
 
 _AXES = "xyz"
 _PARTS = {
@@ -73,6 +109,7 @@ _PREFIXES = (("left", "left"), ("right", "right"), ("l", "left"), ("r", "right")
 _SUFFIXES = (("left", "left"), ("right", "right"), ("l", "left"), ("r", "right"))
 
 _MIN_RUN = 0.06  # seconds: shortest contact / shortest gap that counts
+_TOL_FRACTION = 0.15  # pairing by phase: largest offset from the prior, fraction of the period
 _KNEE_EPS = 0.02  # hysteresis, fraction of the leg length
 
 
@@ -290,6 +327,12 @@ def detect_events(
             for f in _crossings(d, eps, upward=False):
                 add("right_knee_passes", f)
 
+    gait = [k for k in kinds if k in GAIT_KINDS]
+    if gait:
+        for e in contact_events(motion, legs=legs):
+            if e.kind in gait:
+                events.append(e)
+
     n_run = max(1, math.ceil(_MIN_RUN * fps))
     for side in ("left", "right"):
         kind = f"{side}_foot_contact"
@@ -325,7 +368,8 @@ def pair_events(
     *,
     max_pairs: int | None = None,
 ) -> list[tuple[Event, Event]]:
-    """Pair the events of two motions in order, kind by kind.
+    """Pair the events of two motions in order, kind by kind (the old rule; wrong when the
+    clips start in different phases: use :func:`pair_by_phase`).
 
     The ``k``-th event of a kind in A is paired with the ``k``-th of that kind in B, for
     ``k`` up to the smaller count (and ``max_pairs``). Pairs of different kinds are merged
@@ -369,22 +413,286 @@ def auto_landmarks(
     kinds: Sequence[str] = DEFAULT_PAIR_KINDS,
     *,
     max_pairs: int | None = None,
+    prior: np.ndarray | None = None,
 ) -> list[tuple[float, float]]:
-    """Landmark pairs ``(time in a, time in b)`` in seconds from paired events.
+    """Landmark pairs ``(time in a, time in b)`` in seconds, events paired by phase.
 
-    Detects ``kinds`` on both motions (:func:`detect_events`) and pairs them in order
-    (:func:`pair_events`). Pairs at the very first or last frame are dropped (the warp
-    fixes its ends anyway).
+    Detects ``kinds`` on both motions and pairs them by phase (:func:`phase_landmarks`:
+    the warp without landmarks predicts where each event of A falls in B). Events at the
+    very first or last frame are dropped (the warp fixes its ends anyway).
 
     Returns
     -------
     list of (float, float)
-        Possibly empty (e.g. a motion without knee crossings).
+        Possibly empty (e.g. a motion without knee crossings or contacts).
     """
-    ev_a = detect_events(a, kinds)
-    ev_b = detect_events(b, kinds)
-    out = []
-    for pa, pb in pair_events(ev_a, ev_b, kinds, max_pairs=max_pairs):
-        if 0.0 < pa.time < a.duration and 0.0 < pb.time < b.duration:
-            out.append((pa.time, pb.time))
+    return phase_landmarks(a, b, kinds, prior=prior, max_pairs=max_pairs).times
+
+
+def contact_events(motion: Motion, *, legs: LegJoints | None = None, options=None) -> list[Event]:
+    """Heel strikes and toe-offs of both feet from the contacts (module docstring).
+
+    Parameters
+    ----------
+    motion : Motion
+    legs : LegJoints, optional
+        Default :func:`find_leg_joints`.
+    options : ContactOptions, optional
+        Thresholds of :func:`elastic_motion.motion.contacts.detect_contacts`.
+
+    Returns
+    -------
+    list of Event
+        Kinds in :data:`GAIT_KINDS`, sorted by time; empty without contacts.
+    """
+    from elastic_motion.motion.contacts import detect_contacts
+
+    legs = find_leg_joints(motion.skeleton) if legs is None else legs
+    contacts = detect_contacts(motion, options)
+    runs = contacts.all_intervals()
+    f = motion.n_frames
+    out: list[Event] = []
+    for side in ("left", "right"):
+        parts = legs.side(side)
+        ankle, toe = parts["ankle"], parts["toe"]
+        if ankle in runs:
+            out += [Event(f"{side}_heel_strike", a / motion.fps, a) for a, _ in runs[ankle] if a > 0]
+        lift = toe if toe in runs else ankle if ankle in runs else None
+        if lift is not None:
+            out += [Event(f"{side}_toe_off", b / motion.fps, b) for _, b in runs[lift] if b < f]
+    out.sort(key=lambda e: (e.time, e.kind))
     return out
+
+
+@dataclass(frozen=True)
+class PhasePairing:
+    """Events of two motions paired by phase (:func:`pair_by_phase`).
+
+    Attributes
+    ----------
+    pairs : tuple of (Event, Event)
+        Increasing in both times.
+    details : tuple of dict
+        One per pair: ``kind``, ``time_a_s``, ``time_b_s``, ``predicted_b_s`` (by the prior
+        warp), ``offset_s`` and ``why``.
+    skipped : tuple of dict
+        Events of A or B left unpaired: ``motion`` ("A" or "B"), ``kind``, ``time_s``, ``why``.
+    tolerance_s : dict of str to float
+        Largest offset accepted, per kind.
+    """
+
+    pairs: tuple[tuple[Event, Event], ...]
+    details: tuple[dict, ...]
+    skipped: tuple[dict, ...]
+    tolerance_s: dict
+
+    @property
+    def times(self) -> list[tuple[float, float]]:
+        """The pairs as landmarks ``(tA, tB)`` in seconds."""
+        return [(a.time, b.time) for a, b in self.pairs]
+
+    def summary(self) -> dict:
+        """JSON-ready: pairs with their reasons, skipped events, tolerances."""
+        return {
+            "rule": "paired by phase: the warp without landmarks predicts each event of A in B; "
+            "a DP per kind keeps the increasing matching closest to the prediction",
+            "pairs": [dict(d) for d in self.details],
+            "skipped": [dict(d) for d in self.skipped],
+            "tolerance_s": dict(self.tolerance_s),
+        }
+
+
+def _kind_tolerance(ta: np.ndarray, tb: np.ndarray) -> float:
+    gaps = [np.diff(t) for t in (ta, tb) if t.size >= 2]
+    if not gaps:
+        return 0.4
+    return float(_TOL_FRACTION * np.median(np.concatenate(gaps)))
+
+
+def _dp_match(pred: np.ndarray, tb: np.ndarray, tol: float) -> list[tuple[int, int]]:
+    """Increasing matching of predictions to B times maximising sum(1 - (off/tol)^2)."""
+    n, m = pred.shape[0], tb.shape[0]
+    score = np.zeros((n + 1, m + 1))
+    move = np.zeros((n + 1, m + 1), dtype=np.int8)  # 0: skip A, 1: skip B, 2: match
+    for i in range(1, n + 1):
+        for j in range(1, m + 1):
+            best, how = score[i - 1, j], 0
+            if score[i, j - 1] > best:
+                best, how = score[i, j - 1], 1
+            off = abs(tb[j - 1] - pred[i - 1])
+            if off < tol:
+                gain = score[i - 1, j - 1] + 1.0 - (off / tol) ** 2
+                if gain > best:
+                    best, how = gain, 2
+            score[i, j], move[i, j] = best, how
+    out = []
+    i, j = n, m
+    while i > 0 and j > 0:
+        if move[i, j] == 2:
+            out.append((i - 1, j - 1))
+            i, j = i - 1, j - 1
+        elif move[i, j] == 1:
+            j -= 1
+        else:
+            i -= 1
+    return out[::-1]
+
+
+def pair_by_phase(
+    events_a: Sequence[Event],
+    events_b: Sequence[Event],
+    prior: np.ndarray,
+    duration_a: float,
+    duration_b: float,
+    kinds: Sequence[str] = DEFAULT_PAIR_KINDS,
+    *,
+    max_pairs: int | None = None,
+) -> PhasePairing:
+    """Pair the events of two motions by phase (module docstring).
+
+    Parameters
+    ----------
+    events_a, events_b : sequence of Event
+    prior : ndarray, shape (V, 2)
+        Vertices of the warp without landmarks (A's curve parameter -> B's).
+    duration_a, duration_b : float
+        Seconds.
+    kinds : sequence of str
+    max_pairs : int, optional
+        At most this many pairs per kind (the earliest in A).
+
+    Returns
+    -------
+    PhasePairing
+    """
+    prior = np.asarray(prior, dtype=np.float64)
+
+    def predict(t: float) -> float:
+        return float(np.interp(t / duration_a, prior[:, 0], prior[:, 1]) * duration_b)
+
+    cands: list[tuple[float, Event, Event, float, float]] = []
+    skipped: list[dict] = []
+    tols = {}
+    for kind in kinds:
+        ea = sorted((e for e in events_a if e.kind == kind and 0 < e.time < duration_a), key=lambda e: e.time)
+        eb = sorted((e for e in events_b if e.kind == kind and 0 < e.time < duration_b), key=lambda e: e.time)
+        if not ea and not eb:
+            continue
+        ta = np.array([e.time for e in ea])
+        tb = np.array([e.time for e in eb])
+        tol = _kind_tolerance(ta, tb)
+        tols[kind] = tol
+        pred = np.array([predict(t) for t in ta])
+        match = _dp_match(pred, tb, tol) if ea and eb else []
+        if max_pairs is not None:
+            match = match[: max(0, int(max_pairs))]
+        used_a = {i for i, _ in match}
+        used_b = {j for _, j in match}
+        for i, j in match:
+            off = float(tb[j] - pred[i])
+            cands.append((1.0 - (off / tol) ** 2, ea[i], eb[j], float(pred[i]), off))
+        for i, e in enumerate(ea):
+            if i not in used_a:
+                why = (
+                    f"no {kind} of B within {tol:.2f} s of the prior's {pred[i]:.2f} s"
+                    if max_pairs is None
+                    else f"not paired (no B event within {tol:.2f} s of {pred[i]:.2f} s, or beyond max_pairs)"
+                )
+                skipped.append({"motion": "A", "kind": kind, "time_s": e.time, "why": why})
+        for j, e in enumerate(eb):
+            if j not in used_b:
+                skipped.append(
+                    {
+                        "motion": "B",
+                        "kind": kind,
+                        "time_s": e.time,
+                        "why": f"no {kind} of A predicted near it",
+                    }
+                )
+    cands.sort(key=lambda c: -c[0])
+    kept: list[tuple[float, Event, Event, float, float]] = []
+    for c in cands:
+        _, a, b, pred, off = c
+        ok = all((a.time - k[1].time) * (b.time - k[2].time) > 0 for k in kept)
+        if ok:
+            kept.append(c)
+        else:
+            skipped.append(
+                {
+                    "motion": "A",
+                    "kind": a.kind,
+                    "time_s": a.time,
+                    "why": f"pair {a.time:.2f}:{b.time:.2f} s crosses a closer pair of another kind",
+                }
+            )
+    kept.sort(key=lambda c: c[1].time)
+    details = tuple(
+        {
+            "kind": a.kind,
+            "time_a_s": a.time,
+            "time_b_s": b.time,
+            "predicted_b_s": pred,
+            "offset_s": off,
+            "why": f"the nearest {a.kind} of B to the prior's prediction ({off:+.3f} s)",
+        }
+        for _, a, b, pred, off in kept
+    )
+    return PhasePairing(tuple((a, b) for _, a, b, _, _ in kept), details, tuple(skipped), tols)
+
+
+def prior_warp(a: Motion, b: Motion) -> np.ndarray:
+    """The warp without landmarks of two prepared motions (Lie curves, the default
+    :class:`~elastic_motion.warp.WarpOptions`, as ``blend`` and ``align`` find it), vertices
+    ``(V, 2)``."""
+    from elastic_motion.apps.align import align_motions
+    from elastic_motion.apps.prepare import PrepareOptions
+
+    res = align_motions(a, b, method="lie", prepare=PrepareOptions(joints="common", drop_tpose=False))
+    return np.asarray(res.vertices)
+
+
+def phase_landmarks(
+    a: Motion,
+    b: Motion,
+    kinds: Sequence[str] = DEFAULT_PAIR_KINDS,
+    *,
+    prior: np.ndarray | None = None,
+    max_pairs: int | None = None,
+) -> PhasePairing:
+    """Detect ``kinds`` on both motions and pair them by phase (:func:`pair_by_phase`).
+
+    Parameters
+    ----------
+    a, b : Motion
+        Prepared (metres, Y-up; times from the first frame).
+    kinds : sequence of str
+    prior : ndarray, shape (V, 2), optional
+        The warp without landmarks (default: :func:`prior_warp`, one DP solve).
+    max_pairs : int, optional
+
+    Returns
+    -------
+    PhasePairing
+    """
+    kinds = tuple(kinds)
+    ev_a = _safe_events(a, kinds)
+    ev_b = _safe_events(b, kinds)
+    if prior is None:
+        prior = prior_warp(a, b)
+    return pair_by_phase(ev_a, ev_b, prior, a.duration, b.duration, kinds, max_pairs=max_pairs)
+
+
+def _safe_events(m: Motion, kinds: tuple[str, ...]) -> list[Event]:
+    """Events of the kinds whose joints exist (a skeleton without knees gives no knee events)."""
+    legs = find_leg_joints(m.skeleton)
+    usable = []
+    for k in kinds:
+        if k.endswith("knee_passes"):
+            if None in (legs.left_hip, legs.right_hip, legs.left_knee, legs.right_knee):
+                continue
+        elif k.endswith("foot_contact"):
+            side = k.split("_")[0]
+            if legs.side(side)["ankle"] is None and legs.side(side)["toe"] is None:
+                continue
+        usable.append(k)
+    return detect_events(m, usable) if usable else []

@@ -51,9 +51,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion._validation import check_finite
-from elastic_motion.apps.metrics import foot_sliding
+from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
+from elastic_motion.apps.loop_contacts import ContactConstraints
+from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sliding
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
+from elastic_motion.closing_kkt import project_closed
 from elastic_motion.curves import DiscreteCurve
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, Euclidean
@@ -66,10 +69,12 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
+from elastic_motion.motion.contacts import ContactOptions, Contacts, detect_contacts
 from elastic_motion.motion.rotations import axis_rotation
 
 __all__ = [
     "CLOSING_SOLVERS",
+    "LOOP_CONTACTS",
     "LOOP_METHODS",
     "LoopResult",
     "SeamMetrics",
@@ -84,8 +89,13 @@ _AXES = "xyz"
 _ROOT_MODES = ("travel", "inplace")
 #: What is closed: the Lie group curve (the method) or the Euler-angle curve (the baseline).
 LOOP_METHODS = ("lie", "euler-elastic")
-#: Closing solvers (:func:`elastic_motion.closing.close_curve`).
-CLOSING_SOLVERS = ("gauss-newton", "gradient")
+#: Closing solvers: ``"kkt"`` the closed curve nearest the input
+#: (:func:`elastic_motion.closing_kkt.project_closed`), ``"gauss-newton"`` / ``"gradient"``
+#: the flows of :func:`elastic_motion.closing.close_curve` (closed, nearest to first order).
+CLOSING_SOLVERS = ("kkt", "gauss-newton", "gradient")
+#: What the loop does with contacts: keep them (constraints of the projection), report
+#: them, or ignore them.
+LOOP_CONTACTS = ("keep", "report", "off")
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,6 +143,11 @@ class LoopResult:
     seam_after: SeamMetrics
     prepared: PreparedMotions
     notes: tuple[str, ...] = ()
+    window: CycleWindow | None = None
+    contacts: Contacts | None = None
+    skating_before: ContactSkating | None = None
+    skating_after: ContactSkating | None = None
+    contacts_kept: dict | None = None
 
     def summary(self) -> dict:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -148,6 +163,9 @@ class LoopResult:
             "heading_change_deg": math.degrees(self.heading_change),
             "displacement_m": self.displacement.tolist(),
             "closing": {
+                "solver": c.method,
+                "change_srv_l2": c.change,
+                "kkt_residual": c.kkt_residual,
                 "gap_initial": c.gap_initial,
                 "gap": c.gap,
                 "velocity_gap_initial": c.velocity_gap_initial,
@@ -159,6 +177,11 @@ class LoopResult:
             },
             "seam_before": self.seam_before.summary(),
             "seam_after": self.seam_after.summary(),
+            "window": self.window.summary() if self.window is not None else None,
+            "contacts": self.contacts.summary() if self.contacts is not None else None,
+            "skating_before": self.skating_before.summary() if self.skating_before is not None else None,
+            "skating_after": self.skating_after.summary() if self.skating_after is not None else None,
+            "contacts_kept": self.contacts_kept,
             "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
             "notes": list(self.notes),
         }
@@ -296,19 +319,231 @@ def _free(motion: Motion, free: str | Sequence[str] | None) -> list[str]:
 # ------------------------------------------------------------------------------------------
 
 
+def _close_clip(
+    motion: Motion,
+    closed_joint: np.ndarray,
+    *,
+    root: str,
+    c1: bool,
+    method: str,
+    solver: str,
+    tol: float,
+    max_iter: int,
+    joint_weights: np.ndarray | None,
+    translation_weight: float | None,
+    contacts: str = "report",
+    contact_options: ContactOptions | None = None,
+    contact_step: float = 0.034,
+) -> tuple[Motion, ClosingResult, dict | None]:
+    """Close one prepared clip (module docstring): the looped motion, the curve result and,
+    with ``contacts="keep"``, what became of the contacts (rows, which gave way)."""
+    names = motion.skeleton.names
+    j = motion.n_joints
+    up = _AXES.index(motion.up_axis)
+    lie = to_lie_curve(motion, joint_weights, translation_weight=translation_weight)
+    # per-joint closing mask (3 coordinates each), root first
+    rot_mask = np.repeat(closed_joint, 3).reshape(j, 3)
+    pos_mask = np.ones(3, dtype=bool)
+    if root == "travel":
+        pos_mask[:] = False
+        pos_mask[up] = True
+    kept = None
+    if contacts == "keep" and (method != "lie" or solver != "kkt"):
+        raise OptionError(
+            "contacts",
+            f"'keep' needs method='lie' and solver='kkt'; got method={method!r}, solver={solver!r}",
+        )
+    if method == "lie":
+        if root == "travel" and closed_joint[0]:
+            rot_mask[0, up] = False  # root: swing about the up axis (heading free)
+        mask = np.concatenate([pos_mask, rot_mask.ravel()])
+        found = detect_contacts(motion, contact_options) if contacts == "keep" else None
+        if found is not None and found.any:
+            extra = ContactConstraints(motion, found, contact_step)
+            res = project_closed(
+                lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                rotation_names=list(names), extra=extra,
+            )  # fmt: skip
+            vals = np.asarray(res.curve.values)
+            kept = {
+                "rows": len(extra),
+                "step_s": contact_step,
+                "converged": res.converged,
+                "gave_way": extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3]),
+            }
+            if not res.converged:  # contacts and closure do not fit together: close without them
+                kept["dropped"] = f"contacts dropped ({res.message}); closed without them"
+                res = project_closed(
+                    lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                    rotation_names=list(names),
+                )  # fmt: skip
+        elif solver == "kkt":
+            res = project_closed(
+                lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                rotation_names=list(names),
+            )  # fmt: skip
+        else:
+            res = close_curve(
+                lie, method=solver, tol=tol, max_iter=max_iter, factors=mask, c1=c1,
+                rotation_names=list(names),
+            )  # fmt: skip
+        out = from_lie_curve(res.curve, motion)
+    else:
+        euler = to_euler_curve(motion)
+        weights = lie.group.weights  # same layout: root position, then 3 per joint
+        curve = DiscreteCurve(euler.values, Euclidean(3 + 3 * j, weight=weights), euler.t)
+        if (
+            root == "travel"
+            and closed_joint[0]
+            and motion.skeleton.euler_orders[0][0].lower() == motion.up_axis
+        ):
+            rot_mask[0, 0] = False  # outermost root angle is the heading
+        mask = np.concatenate([pos_mask, rot_mask.ravel()])
+        if solver == "kkt":
+            res = project_closed(curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1))
+        elif c1:
+            res = close_curve(curve, method=solver, tol=tol, max_iter=max_iter, factors=mask, c1=True)
+        else:
+            res = project_closed_rd(curve, factors=mask, tol=tol, max_iter=max_iter)
+        out = from_euler_curve(res.curve, motion)
+    return out.replace(name=motion.name, source=()), res, kept
+
+
+def _frames(motion: Motion, start: int, stop: int) -> Motion:
+    jt = motion.joint_translations
+    return motion.replace(
+        root_translation=motion.root_translation[start:stop],
+        rotations=motion.rotations[start:stop],
+        joint_translations=jt[start:stop] if jt is not None else None,
+    )
+
+
+def _window(
+    motion: Motion,
+    window: object,
+    closed_joint: np.ndarray,
+    closed: list[str],
+    min_length: float | None,
+    candidates: int,
+    close,
+    root: str,
+) -> tuple[CycleWindow, Motion, ClosingResult]:
+    """Choose the window (``"auto"`` or ``(start, stop)``), close it; also the whole clip for the report."""
+    f = motion.n_frames
+    fps = motion.fps
+    cand = None
+    if isinstance(window, str):
+        if window != "auto":
+            raise OptionError("window", f"expected 'auto', None or (start, stop) frames; got {window!r}")
+        cand = cycle_candidates(
+            motion, root=root, closed=closed_joint, min_length=min_length, count=candidates
+        )
+        windows = list(cand.windows)
+        if (0, f) not in windows:
+            windows.append((0, f))  # the whole clip competes too (and is reported)
+    else:
+        try:
+            a, b = (int(v) for v in window)  # type: ignore[union-attr]
+        except (TypeError, ValueError):
+            raise OptionError(
+                "window", f"expected 'auto', None or (start, stop) frames; got {window!r}"
+            ) from None
+        if not 0 <= a < b <= f or b - a < 3:
+            raise OptionError(
+                "window", f"expected 0 <= start < stop <= {f} frames, at least 3 frames; got ({a}, {b})"
+            )
+        windows = [(a, b)]
+    trials = []
+    best = None
+    for a, b in windows:
+        sub = _frames(motion, a, b)
+        try:
+            out, res, kept = close(sub)
+        except ValueError as exc:  # e.g. a seam at the cut locus: try the next candidate
+            trials.append({"start": a, "stop": b, "error": str(exc)})
+            continue
+        sm = seam_metrics(out, original=sub, root=root, joints=closed)
+        trials.append(
+            {
+                "start": a,
+                "stop": b,
+                "deviation_max_m": sm.deviation_max_m,
+                "deviation_mean_m": sm.deviation_mean_m,
+                "change_srv_l2": res.change,
+                "converged": res.converged,
+            }
+        )
+        key = (not res.converged, sm.deviation_max_m)
+        if best is None or key < best[0]:
+            best = (key, a, b, out, res, sm, kept)
+    if best is None:
+        raise OptionError("window", f"no candidate window could be closed: {trials}")
+    _, a, b, out, res, sm, kept = best
+    whole: dict = {}
+    done = [t for t in trials if (t["start"], t["stop"]) == (0, f)]
+    if done:
+        whole = {k: v for k, v in done[0].items() if k not in ("start", "stop", "converged")}
+    elif (a, b) != (0, f):
+        try:
+            w_out, w_res, _ = close(motion)
+            w_sm = seam_metrics(w_out, original=motion, root=root, joints=closed)
+            whole = {
+                "deviation_max_m": w_sm.deviation_max_m,
+                "deviation_mean_m": w_sm.deviation_mean_m,
+                "change_srv_l2": w_res.change,
+            }
+        except ValueError as exc:
+            whole = {"error": str(exc)}
+    else:
+        whole = {"deviation_max_m": sm.deviation_max_m, "deviation_mean_m": sm.deviation_mean_m,
+                 "change_srv_l2": res.change}  # fmt: skip
+    cw = CycleWindow(
+        start=a,
+        stop=b,
+        fps=fps,
+        deviation_max_m=float(sm.deviation_max_m),
+        deviation_mean_m=float(sm.deviation_mean_m),
+        change=res.change,
+        whole=whole,
+        candidates=tuple(trials),
+        min_length=cand.min_length if cand is not None else None,
+        min_length_default=cand.min_length_default if cand is not None else False,
+        period=cand.period if cand is not None else None,
+    )
+    return cw, out, res, kept
+
+
+def _contacts(motion: Motion, mode: str, options: ContactOptions | None) -> tuple[Contacts | None, list[str]]:
+    if mode == "off":
+        return None, []
+    c = detect_contacts(motion, options)
+    notes = []
+    if not c.joints:
+        notes.append("contacts skipped: no joint that can touch the floor (feet, toes, hands)")
+    elif not c.any:
+        notes.append("contacts: no joint is planted in this clip")
+    return c, notes
+
+
 def loop_motion(
     motion: Source | PreparedMotions,
     *,
     root: str = "travel",
     c1: bool = False,
     method: str = "lie",
-    solver: str = "gauss-newton",
+    solver: str = "kkt",
     tol: float = 1e-6,
     max_iter: int = 100,
     free_joints: str | Sequence[str] | None = "fingers",
     prepare: PrepareOptions | None = None,
     joint_weights: np.ndarray | None = None,
     translation_weight: float | None = None,
+    window: str | tuple[int, int] | None = None,
+    min_length: float | None = None,
+    candidates: int = 5,
+    contacts: str = "report",
+    contact_options: ContactOptions | None = None,
+    contact_step: float = 0.034,
 ) -> LoopResult:
     """Make a motion loop seamlessly by closing its curve (paper 000, sec. 4 and 5.4).
 
@@ -323,9 +558,12 @@ def loop_motion(
         Also match the velocities at the seam (:func:`elastic_motion.closing.close_curve`).
     method : {"lie", "euler-elastic"}
         Close the Lie curve (the method) or the Euler-angle curve (the baseline).
-    solver : {"gauss-newton", "gradient"}
-        Closing solver of :func:`~elastic_motion.closing.close_curve` (Lie, and Euler with
-        C1); the Euler C0 projection uses Newton.
+    solver : {"kkt", "gauss-newton", "gradient"}
+        ``"kkt"`` (default): the closed curve nearest the input in SRV L2
+        (:func:`elastic_motion.closing_kkt.project_closed`, to a KKT point; ``tol`` is
+        capped at 1e-9). ``"gauss-newton"`` / ``"gradient"``: the closing flows of
+        :func:`~elastic_motion.closing.close_curve` (the Euler C0 baseline then uses the
+        Newton projection of paper 001, Thm. 2).
     tol : float, default 1e-6
         Stop when the seam gap (weighted norm of the closing residual: radians for joint
         rotations, weighted metres for the root) is below this.
@@ -336,6 +574,31 @@ def loop_motion(
         The preparation step (:mod:`elastic_motion.apps.prepare`).
     joint_weights, translation_weight
         Inner-product weights (default: those of :func:`elastic_motion.motion.to_lie_curve`).
+    window : None, "auto" or (start, stop)
+        Loop the whole clip (default), the best cycle (``"auto"``: the window
+        ``[start, stop)`` of frames whose loop changes the motion least, see
+        :mod:`elastic_motion.apps.loop_window`; the whole clip is closed too, for the report) or
+        the given frames.
+    min_length : float, optional
+        Shortest window for ``"auto"``, seconds (default: 90 % of the clip's period, or
+        half the clip when it does not repeat).
+    candidates : int, default 5
+        Windows closed exactly by ``"auto"`` (the best of the cheap pose/velocity match).
+    contacts : {"keep", "report", "off"}
+        ``"keep"``: the input's contacts are constraints of the same projection
+        (:mod:`elastic_motion.apps.loop_contacts`: a planted joint stays where the input had
+        it, a contact across the seam moves as one piece; needs ``method="lie"`` and
+        ``solver="kkt"``); the report says which contact gave way and by how much, and when
+        contacts and closure could not be solved together the clip is closed without them
+        (a note says so). ``"report"``: detect the input's contacts
+        (:func:`elastic_motion.motion.contacts.detect_contacts`) and measure skating and
+        depth below the floor of input and loop during them
+        (:func:`elastic_motion.apps.metrics.contact_skating`); ``"keep"`` does this too.
+        ``"off"``: skip.
+    contact_options : ContactOptions, optional
+        Thresholds of contact detection.
+    contact_step : float, default 0.1
+        With ``contacts="keep"``: seconds between the constrained frames of a contact.
 
     Returns
     -------
@@ -346,63 +609,58 @@ def loop_motion(
     OptionError
         Fewer than 3 frames; NaN/inf in the motion; a closed joint whose seam rotation is
         at log's cut locus (angle pi: the error names the joint; leave it free with
-        ``free_joints`` to loop anyway); bad option values.
+        ``free_joints`` to loop anyway); a ``min_length`` longer than the clip; bad option
+        values.
     """
     if method not in LOOP_METHODS:
         raise OptionError("method", f"expected one of {list(LOOP_METHODS)}; got {method!r}")
     if solver not in CLOSING_SOLVERS:
         raise OptionError("solver", f"expected one of {list(CLOSING_SOLVERS)}; got {solver!r}")
+    if contacts not in LOOP_CONTACTS:
+        raise OptionError("contacts", f"expected one of {list(LOOP_CONTACTS)}; got {contacts!r}")
+    if int(candidates) != candidates or candidates < 1:
+        raise OptionError("candidates", f"expected a positive integer; got {candidates!r}")
     _check_root(root)
     prepared = prepare_motions(motion if isinstance(motion, PreparedMotions) else [motion], prepare)
     if len(prepared.motions) != 1:
         raise OptionError("motion", f"expected one motion to loop; got {len(prepared.motions)}")
     motion = _check_motion(prepared.motions[0])
     names = motion.skeleton.names
-    j = motion.n_joints
     up = _AXES.index(motion.up_axis)
     free = set(_free(motion, free_joints))
     closed_joint = np.array([n not in free for n in names])
-    lie = to_lie_curve(motion, joint_weights, translation_weight=translation_weight)
-    # per-joint closing mask (3 coordinates each), root first
-    rot_mask = np.repeat(closed_joint, 3).reshape(j, 3)
-    pos_mask = np.ones(3, dtype=bool)
-    if root == "travel":
-        pos_mask[:] = False
-        pos_mask[up] = True
-    if method == "lie":
-        if root == "travel" and closed_joint[0]:
-            rot_mask[0, up] = False  # root: swing about the up axis (heading free)
-        mask = np.concatenate([pos_mask, rot_mask.ravel()])
-        res = close_curve(
-            lie,
-            method=solver,
-            tol=tol,
-            max_iter=max_iter,
-            factors=mask,
-            c1=c1,
-            rotation_names=list(names),
-        )
-        out = from_lie_curve(res.curve, motion)
+    closed = [n for n, c in zip(names, closed_joint, strict=True) if c]
+
+    def close(clip: Motion) -> tuple[Motion, ClosingResult, dict | None]:
+        return _close_clip(
+            clip, closed_joint, root=root, c1=c1, method=method, solver=solver, tol=tol,
+            max_iter=max_iter, joint_weights=joint_weights, translation_weight=translation_weight,
+            contacts=contacts, contact_options=contact_options, contact_step=contact_step,
+        )  # fmt: skip
+
+    cw = None
+    if window is None:
+        out, res, kept = close(motion)
     else:
-        euler = to_euler_curve(motion)
-        weights = lie.group.weights  # same layout: root position, then 3 per joint
-        curve = DiscreteCurve(euler.values, Euclidean(3 + 3 * j, weight=weights), euler.t)
-        if (
-            root == "travel"
-            and closed_joint[0]
-            and motion.skeleton.euler_orders[0][0].lower() == motion.up_axis
-        ):
-            rot_mask[0, 0] = False  # outermost root angle is the heading
-        mask = np.concatenate([pos_mask, rot_mask.ravel()])
-        if c1:
-            res = close_curve(curve, method=solver, tol=tol, max_iter=max_iter, factors=mask, c1=True)
-        else:
-            res = project_closed_rd(curve, factors=mask, tol=tol, max_iter=max_iter)
-        out = from_euler_curve(res.curve, motion)
-    out = out.replace(name=motion.name, source=())
+        cw, out, res, kept = _window(
+            motion, window, closed_joint, closed, min_length, candidates, close, root
+        )
+        motion = _frames(motion, cw.start, cw.stop)
     rot, _ = cycle_transform(out, root)
     heading = _twist_angle(rot, up) if root == "travel" else 0.0
-    closed = [n for n, c in zip(names, closed_joint, strict=True) if c]
+    found, contact_notes = _contacts(motion, contacts, contact_options)
+    if kept is not None:
+        if "dropped" in kept:
+            contact_notes.append(kept["dropped"])
+        for g in kept["gave_way"]:
+            contact_notes.append(
+                f"contact gave way: {g['joint']} frames {g['frames'][0]}..{g['frames'][1] - 1} missed by "
+                f"{g['largest_miss_m']:.4f} m"
+            )
+    sk_before = sk_after = None
+    if found is not None and found.joints:
+        sk_before = contact_skating(motion, found)
+        sk_after = contact_skating(out, found)
     return LoopResult(
         motion=out,
         original=motion,
@@ -410,14 +668,19 @@ def loop_motion(
         method=method,
         root=root,
         c1=bool(c1),
-        closed_joints=tuple(n for n, c in zip(names, closed_joint, strict=True) if c),
+        closed_joints=tuple(closed),
         free_joints=tuple(n for n, c in zip(names, closed_joint, strict=True) if not c),
         heading_change=float(heading),
         displacement=out.root_translation[-1] - out.root_translation[0] if root == "travel" else np.zeros(3),
         seam_before=seam_metrics(motion, root=root, joints=closed),
         seam_after=seam_metrics(out, original=motion, root=root, joints=closed),
         prepared=prepared,
-        notes=prepared.notes,
+        notes=(*prepared.notes, *contact_notes),
+        window=cw,
+        contacts=found,
+        skating_before=sk_before,
+        skating_after=sk_after,
+        contacts_kept=kept,
     )
 
 

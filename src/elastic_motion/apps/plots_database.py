@@ -120,3 +120,22 @@ def plot_energies(
     if title:
         ax.set_title(title)
     return _save(plt, fig, path, dpi)
+
+
+def plot_variance_explained(
+    explained: Sequence[float], path: str | os.PathLike[str], *, title: str = "", dpi: int = 120
+) -> Path:
+    """Share of the variance per principal mode (bars) and cumulative (line), in percent."""
+    plt, fig = _figure(4.5, 3.0)
+    ax = fig.add_subplot(1, 1, 1)
+    e = 100 * np.asarray(explained, dtype=float)
+    k = np.arange(1, len(e) + 1)
+    ax.bar(k, e, color="#4c72b0", label="mode")
+    ax.plot(k, np.cumsum(e), "o-", color="#dd8452", label="cumulative")
+    ax.set_xlabel("mode")
+    ax.set_ylabel("variance explained (%)")
+    ax.set_ylim(0, 100)
+    ax.legend(loc="center right")
+    if title:
+        ax.set_title(title)
+    return _save(plt, fig, path, dpi)

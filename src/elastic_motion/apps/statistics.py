@@ -353,6 +353,7 @@ def karcher_mean(
     max_iter: int = 20,
     tol: float = 1e-4,
     progress: Progress | None = None,
+    recenter: bool = False,
 ) -> KarcherMeanResult:
     """Karcher mean of curves: align all to the current mean, average the SRVs, repeat.
 
@@ -377,6 +378,14 @@ def karcher_mean(
         Stop when ``(E_{i-1} - E_i) / E_{i-1} < tol`` (relative, dimensionless).
     progress : callable, optional
         ``progress("mean", iteration, max_iter)``.
+    recenter : bool, default False
+        Re-centre the warps: the mean is only defined up to a warp ``h`` (``mu * h`` with the
+        warps ``phi_k o h`` has the same energy); choose ``h`` so that the weighted mean of
+        the warps is the identity: ``h = gbar^{-1}`` with ``gbar = sum_k w_k phi_k`` (the
+        pointwise average of the warp functions, increasing, exact for piecewise linear
+        warps at the union of their vertices). Then ``sum_k w_k (phi_k o h) = gbar o h = id``;
+        the mean is re-averaged from the re-aligned inputs and its timing is the inputs'
+        average timing instead of the first iterate's.
 
     Returns
     -------
@@ -445,6 +454,10 @@ def karcher_mean(
             if e == 0.0:
                 converged = True
                 break
+        if recenter:
+            warps = recenter_warps(warps, w)
+            aligned = [reparametrize_srv(srvs[k], warps[k]).on_grid(t).q for k in range(kk)]
+            mu = np.einsum("k,kij->ij", w, np.stack(aligned))
     mean_curve = weighted_blend(uniform, w, warps if opts.method != "none" else None, t_out=t)
     return KarcherMeanResult(
         mean=mean_curve,
@@ -455,6 +468,46 @@ def karcher_mean(
         iterations=iterations,
         converged=converged,
     )
+
+
+def mean_warp(warps: Sequence[np.ndarray], weights: Sequence[float] | None = None) -> np.ndarray:
+    """Pointwise weighted average ``gbar = sum_k w_k phi_k`` of piecewise linear warps.
+
+    Parameters
+    ----------
+    warps : sequence of ndarray, shapes (K_k, 2)
+        Vertices ``(x, phi(x))`` from ``(0, 0)`` to ``(1, 1)``.
+    weights : array_like, shape (K,), optional
+        Summing to 1 (default equal).
+
+    Returns
+    -------
+    ndarray, shape (V, 2)
+        Vertices at the union of the inputs' ``x`` (exact: an average of piecewise linear
+        functions is linear between their break points); increasing.
+    """
+    warps = [np.asarray(v, dtype=np.float64) for v in warps]
+    w = np.full(len(warps), 1.0 / len(warps)) if weights is None else np.asarray(weights, dtype=np.float64)
+    x = np.unique(np.concatenate([v[:, 0] for v in warps]))
+    y = sum(wk * np.interp(x, v[:, 0], v[:, 1]) for wk, v in zip(w, warps, strict=True))
+    y = np.asarray(y)
+    y[0], y[-1] = 0.0, 1.0
+    return np.column_stack([x, y])
+
+
+def recenter_warps(warps: Sequence[np.ndarray], weights: Sequence[float] | None = None) -> list[np.ndarray]:
+    """Warps ``phi_k o gbar^{-1}`` whose weighted average is the identity (:func:`mean_warp`).
+
+    Returns
+    -------
+    list of ndarray, shapes (K'_k, 2)
+        ``sum_k w_k (phi_k o h)(x) = x`` for every ``x`` (``h = gbar^{-1}``), up to rounding.
+    """
+    from elastic_motion.warp import compose_warps
+
+    g = mean_warp(warps, weights)
+    h = g[:, ::-1].copy()  # the inverse of an increasing piecewise linear map: swap the columns
+    return [compose_warps(v, h) for v in warps]
 
 
 @dataclass(frozen=True, eq=False)
@@ -509,6 +562,7 @@ class MeanMotionResult:
             {
                 "inputs": self.inputs,
                 "representation": self.representation,
+                "method": "euler-elastic" if self.representation == "euler" else self.representation,
                 "n_samples": self.n_samples,
                 "energies": self.karcher.energies,
                 "iterations": self.karcher.iterations,
@@ -526,7 +580,8 @@ def mean_motion(
     files: Sequence[str | os.PathLike[str]],
     *,
     n_samples: int = 64,
-    representation: str = "lie",
+    method: str = "lie",
+    representation: str | None = None,
     joints: str | Sequence[str] = "all",
     drop_fingers: bool = True,
     align_heading: bool = True,
@@ -549,7 +604,10 @@ def mean_motion(
     files : sequence of paths
         At least one motion file, of one skeleton (or ``joints="common"``).
     n_samples : int, default 64
-    representation : {"lie", "euler"}, default "lie"
+    method : {"lie", "euler-elastic"}, default "lie"
+        The curve representation (``"euler"`` is accepted for ``"euler-elastic"``).
+    representation : str, optional
+        The name of ``method`` in earlier releases (``"lie"`` / ``"euler"``); overrides it.
     joints : "all", "common" or sequence of str, default "all"
     drop_fingers, align_heading : bool, default True
         As in :class:`elastic_motion.apps.database.DatabaseSettings`.
@@ -575,9 +633,12 @@ def mean_motion(
     """
     from elastic_motion import motion as mm
     from elastic_motion.apps.database import prepare_motion, restrict_to_common_joints
+    from elastic_motion.apps.database.settings import canonical_method
 
-    if representation not in ("lie", "euler"):
-        raise OptionError("representation", f"expected 'lie' or 'euler'; got {representation!r}")
+    if representation is not None:
+        representation = canonical_method(representation, "representation")
+    else:
+        representation = canonical_method(method)
     opts = _warp_options(warp)
     files = [os.fspath(f) for f in files]
     if not files:
@@ -586,7 +647,7 @@ def mean_motion(
         prepare_motion(
             f,
             n_samples,
-            joints=joints if not isinstance(joints, str) else "all",
+            joints=joints if joints == "map" or not isinstance(joints, str) else "all",
             drop_fingers=drop_fingers,
             align_heading=align_heading,
         )

@@ -62,7 +62,8 @@ exit codes:
   1  the run did not complete: interrupted (Ctrl-C), a matrix left incomplete
      (run the same command again to resume), or an internal error (a bug;
      ELASTIC_MOTION_DEBUG=1 shows its traceback)
-  2  bad input: an unreadable or malformed file, a wrong option value
+  2  bad input: an unreadable or malformed file, a wrong option value, a
+     value beyond a resource limit (ELASTIC_MOTION_LIMITS raises them)
   3  environment: cluster unreachable, read-only or full disk, permission
      denied, out of memory, a missing optional package
 
@@ -87,6 +88,8 @@ _INPUT_ERRNOS = {
     errno.ENOTDIR: "a folder in the path; got a file",
     errno.EEXIST: "a path that does not exist yet; got an existing one",
     errno.ENAMETOOLONG: "a shorter path; got a name too long for the file system",
+    errno.ELOOP: "a path without a symbolic-link loop; got too many levels of symbolic links",
+    errno.EINVAL: "a valid path or value; got an invalid argument",
 }
 
 
@@ -145,7 +148,7 @@ def exit_code_for(exc: BaseException) -> int:
     being unreachable and OS errors other than a wrong path (read-only or full disk,
     permission denied); :data:`EXIT_BAD_INPUT` for wrong paths and user errors (the CLI's
     ``CommandError``, :class:`~elastic_motion.errors.ParseError`, ``ValueError``,
-    ``KeyError``).
+    ``KeyError``, ``OverflowError`` and ``RecursionError``: a value or nesting too large).
 
     Parameters
     ----------
@@ -162,6 +165,8 @@ def exit_code_for(exc: BaseException) -> int:
         return EXIT_INCOMPLETE
     if isinstance(exc, MemoryError | ModuleNotFoundError):
         return EXIT_ENVIRONMENT
+    if isinstance(exc, RecursionError):
+        return EXIT_BAD_INPUT
     if isinstance(exc, OSError):
         if isinstance(exc, FileNotFoundError | IsADirectoryError | NotADirectoryError | FileExistsError):
             return EXIT_BAD_INPUT
@@ -175,7 +180,7 @@ def exit_code_for(exc: BaseException) -> int:
 
 
 def _is_user_error(exc: BaseException) -> bool:
-    if isinstance(exc, ValueError | KeyError):
+    if isinstance(exc, ValueError | KeyError | OverflowError):  # overflow: a number too large was given
         return True
     try:
         from elastic_motion.cli_commands._common import CommandError  # the sub-commands' user error
@@ -218,6 +223,13 @@ def describe_error(exc: BaseException) -> str:
         return f"{where}: expected {what}" if where is not None else f"expected {what}"
     if isinstance(exc, KeyError) and exc.args:
         return str(exc.args[0])
+    if isinstance(exc, OverflowError):
+        return (
+            f"value: expected numbers within the floating-point range and the resource limits; "
+            f"got one too large ({exc}){_where(exc)}"
+        )
+    if isinstance(exc, RecursionError):
+        return "input: expected a nesting depth Python can follow; got one too deep"
     if isinstance(exc, OptionError):  # an API argument name: say the command-line flag instead
         return _option_message(exc)
     if _is_user_error(exc) or getattr(exc, "exit_code", None) is not None:
@@ -285,7 +297,7 @@ def format_default(value: Any) -> str:
     return str(value)
 
 
-_NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\w.])")
+_NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?(?![\w.])")
 
 
 def mentions_default(text: str, default: Any) -> bool:
@@ -396,6 +408,27 @@ def _rewrite_argparse_message(message: str) -> str:
     return message
 
 
+def _guarded(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    """``func`` preceded by the outputs-vs-inputs safety net (``_common.check_paths``)."""
+    if getattr(func, "_paths_checked", False):
+        return func
+
+    def run(args: argparse.Namespace) -> int:
+        from elastic_motion.cli_commands._common import CommandError, check_option_limits, check_paths
+
+        try:
+            check_paths(args)  # before anything is read or written
+            check_option_limits(args)
+        except CommandError as exc:
+            print_error(getattr(args, "command", None), str(exc))
+            return EXIT_BAD_INPUT
+        return func(args)
+
+    run._paths_checked = True  # type: ignore[attr-defined]
+    run.__wrapped__ = func  # type: ignore[attr-defined]
+    return run
+
+
 class CliParser(argparse.ArgumentParser):
     """``ArgumentParser`` with :class:`DefaultsHelpFormatter` and the package's error format.
 
@@ -420,10 +453,14 @@ class CliParser(argparse.ArgumentParser):
         for target in given:  # argparse only counts the option's own action as "seen"
             target.required = False
         try:
-            return super().parse_known_args(argv, namespace)
+            parsed, extras = super().parse_known_args(argv, namespace)
         finally:
             for target in given:
                 target.required = True
+        func = getattr(parsed, "func", None)
+        if namespace is None and func is not None and getattr(parsed, "command", None):
+            parsed.func = _guarded(func)  # the top-level parse of a command line: the outputs' safety net
+        return parsed, extras
 
     def error(self, message: str) -> NoReturn:
         """Print the usage and ``PROG: error: OPTION: expected ...; got ...``; exit with code 2."""

@@ -249,16 +249,83 @@ def _parse_range(text: str) -> tuple[float | None, float | None] | None:
 # ------------------------------------------------------------------------------------------
 
 
+def protected_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
+    """Every file a command reads for ``inputs``: the inputs and the ``.asf`` found beside an ``.amc``."""
+    out: list[str] = []
+    for p in inputs:
+        out.append(os.fspath(p))
+        if Path(p).suffix.lower() == ".amc":
+            try:
+                from elastic_motion.motion import find_asf
+
+                out.append(os.fspath(find_asf(p)))
+            except (ValueError, OSError):  # no skeleton found: reading the AMC will say so
+                pass
+    return out
+
+
+def _inside(path: Path, folder: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is ``folder`` or lies below it (symbolic links resolved)."""
+    try:
+        f = Path(folder).resolve()
+        p = path.resolve()
+    except (OSError, RuntimeError):
+        return False
+    return p == f or f in p.parents
+
+
 def check_output(
-    path: str, inputs: Sequence[str], *, suffixes: Sequence[str] | None = None, what: str = "-o"
+    path: str,
+    inputs: Sequence[str],
+    *,
+    suffixes: Sequence[str] | None = None,
+    what: str = "-o",
+    outputs: Sequence[str] = (),
 ) -> Path:
-    """Refuse an output path that is one of the inputs or has the wrong extension."""
+    """The safety net for one output path: refuse anything that would overwrite what is read.
+
+    Refused: an output that is one of the ``inputs`` or a file read for them (the ``.asf``
+    beside an ``.amc``) -- by name, through ``../``, a symbolic or a hard link --, an output
+    inside an input folder (a ``matrix`` folder's own files), one of the other ``outputs``
+    of the command, an existing folder, a missing parent folder, a wrong extension.
+
+    Parameters
+    ----------
+    path : str
+        The output path.
+    inputs : sequence of str
+        Files and folders the command reads (``.amc`` files are expanded with their ``.asf``).
+    suffixes : sequence of str, optional
+        Accepted extensions (lower case, with the dot).
+    what : str, default "-o"
+        The option named in the error.
+    outputs : sequence of str, optional
+        The command's other outputs.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    CommandError
+    """
     from elastic_motion._io import same_file
 
     out = Path(path)
-    for p in inputs:
+    for p in protected_inputs(inputs):
         if same_file(out, p):
             raise CommandError(f"{what}: {path!r} is the input file {p!r}; refusing to overwrite an input")
+        if os.path.isdir(p) and _inside(out, p):
+            raise CommandError(
+                f"{what}: expected a path outside the input folder {p!r}; got {path!r}, which would "
+                "write into it"
+            )
+    for o in outputs:
+        if same_file(out, o):
+            raise CommandError(f"{what}: {path!r} is also another output of this command ({o!r})")
+    if out.is_dir():
+        raise CommandError(f"{what}: expected a file path; got the folder {path!r}")
     if suffixes is not None and out.suffix.lower() not in suffixes:
         raise CommandError(f"{what}: expected a {' or '.join(suffixes)} file; got {path!r}")
     if out.parent and not out.parent.exists():
@@ -266,10 +333,104 @@ def check_output(
     return out
 
 
+#: Namespace attributes that are files or folders a command reads, and those it writes.
+_INPUT_ATTRS = (
+    "inputs",
+    "input",
+    "file",
+    "files",
+    "a",
+    "b",
+    "query",
+    "database",
+    "matrix_dir",
+    "asf",
+    "labels",
+    "landmarks",
+)
+_OUTPUT_ATTRS = {"output": "-o", "json": "--json", "preview": "--preview", "plot": "--plot"}
+#: Commands whose ``-o`` is a folder that must neither hold nor lie inside an input (a rerun
+#: reads the folder again), and other commands whose ``-o`` is a folder they manage themselves.
+_FOLDER_OUTPUTS = {"matrix"}
+_OWN_FOLDER_OUTPUTS = {"demo", "index", "pca"}
+
+
+def check_paths(args: argparse.Namespace) -> None:
+    """The shared safety net, run on every parsed command line before the command starts.
+
+    Every path the command writes (``-o``, ``--json PATH``, ``--preview``, ``--plot``) is
+    checked against every path it reads (with the ``.asf`` beside an ``.amc``) and against
+    the other outputs (:func:`check_output`); a folder output (``matrix -o``) must neither
+    hold nor lie inside an input. Refusals are :class:`CommandError` (exit code 2).
+    """
+    command = getattr(args, "command", None)
+    inputs: list[str] = []
+    for attr in _INPUT_ATTRS:
+        v = getattr(args, attr, None)
+        for item in v if isinstance(v, list | tuple) else [v]:
+            if isinstance(item, str) and item not in ("", "-") and os.path.lexists(item):
+                inputs.append(item)
+    outputs: list[tuple[str, str]] = []
+    for attr, flag in _OUTPUT_ATTRS.items():
+        v = getattr(args, attr, None)
+        if isinstance(v, str) and v not in ("", "-"):
+            outputs.append((flag, v))
+    if command in _OWN_FOLDER_OUTPUTS:  # the command checks its folder; its files are checked here
+        outputs = [(f, o) for f, o in outputs if f != "-o"]
+    for k, (flag, path) in enumerate(outputs):
+        others = [o for i, (_, o) in enumerate(outputs) if i != k]
+        if command in _FOLDER_OUTPUTS and flag == "-o":
+            folder = Path(path)
+            for p in protected_inputs(inputs):
+                if same_path(folder, p) or _inside(folder, p) or _inside(Path(p), folder):
+                    raise CommandError(
+                        f"{flag}: expected an output folder that neither holds nor lies inside an input; "
+                        f"got {path!r} and the input {p!r}"
+                    )
+            if folder.exists() and not folder.is_dir():
+                raise CommandError(f"{flag}: expected a folder; got the file {path!r}")
+            continue
+        folder_outputs = [o for f, o in outputs if f == "-o" and command in _FOLDER_OUTPUTS]
+        for fo in folder_outputs:
+            if _inside(Path(path), fo):
+                raise CommandError(
+                    f"{flag}: expected a path outside the output folder {fo!r} (it holds the run's own "
+                    f"files); got {path!r}"
+                )
+        check_output(path, inputs, what=flag, outputs=[o for o in others if o not in folder_outputs])
+
+
+def check_option_limits(args: argparse.Namespace) -> None:
+    """Options bounded by :mod:`elastic_motion.limits`, checked before a command reads anything.
+
+    ``--repeat`` (loop previews, seam renders) against ``max_repeat``; other commands check
+    their own sizes where they know them (render sizes, frame counts in the readers).
+    """
+    from elastic_motion import limits
+
+    repeat = getattr(args, "repeat", None)
+    if isinstance(repeat, int) and not isinstance(repeat, bool):
+        try:
+            limits.check_option("repeat", "a repeat count of", repeat, "max_repeat")
+        except OptionError as exc:
+            raise CommandError(option_message(exc)) from None
+
+
+def same_path(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether ``a`` and ``b`` name the same file or folder."""
+    from elastic_motion._io import same_file
+
+    return same_file(a, b)
+
+
 def emit_report(
     args: argparse.Namespace, report: dict[str, Any], inputs: Sequence[str], summary: str
 ) -> None:
-    """Print the human summary (or the JSON on stdout) and write ``--json PATH``."""
+    """Print the human summary (or the JSON on stdout) and write ``--json PATH``.
+
+    ``PATH`` goes through the safety net (:func:`check_output`) against ``inputs`` -- pass
+    the command's inputs *and* the outputs it wrote -- and the ``.asf`` files beside them.
+    """
     from elastic_motion.apps.report import report_json, write_report
 
     target = getattr(args, "json", None)
@@ -280,7 +441,7 @@ def emit_report(
         print(summary)
     if target:
         check_output(target, inputs, what="--json")
-        write_report(target, report, protected=inputs)
+        write_report(target, report, protected=protected_inputs(inputs))
         print(f"report: {target}")
 
 
@@ -374,7 +535,7 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--landmarks",
         default=None,
-        help="'auto' (pair the events of A and B in order: the left knee passing the right knee), "
+        help="'auto' (events of A and B paired by phase around the warp without landmarks), "
         "'none', a file, or pairs 'tA:tB,...' (times in --landmark-units, or suffixed s/f) "
         "(default: none)",
     )
@@ -387,9 +548,10 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--landmark-kinds",
-        default="left_knee_passes",
-        help="events paired by --landmarks auto, comma-separated: left_knee_passes, right_knee_passes, "
-        "left_foot_contact, right_foot_contact (default left_knee_passes, the papers' choice)",
+        default=None,
+        help="events paired by phase by --landmarks auto, comma-separated: left_knee_passes, "
+        "right_knee_passes, left_heel_strike, right_heel_strike, left_toe_off, right_toe_off, "
+        "left_foot_contact, right_foot_contact (default: the knee crossings, heel strikes and toe-offs)",
     )
     p.add_argument(
         "--max-pairs", type=int, default=None, help="--landmarks auto: at most this many pairs per kind"
@@ -408,9 +570,12 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     add_alias(p, "--lambda", "--landmark-weight")
 
 
-def landmark_kinds(value: str) -> list[str]:
+def landmark_kinds(value: str | None) -> list[str] | None:
+    """``--landmark-kinds`` -> event kinds (None: the library's default kinds)."""
     from elastic_motion.apps.landmarks import EVENT_KINDS
 
+    if value is None:
+        return None
     kinds = [k.strip() for k in value.split(",") if k.strip()]
     bad = [k for k in kinds if k not in EVENT_KINDS]
     if bad or not kinds:

@@ -77,6 +77,34 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="bone offsets of the result: weighted mean of the inputs' (default) or A's",
     )
     p.add_argument(
+        "--weight-curve",
+        default=None,
+        metavar="U:S,...",
+        help="two motions: the weight s of B as a piecewise linear function of the result's normalised "
+        "time u in [0, 1], knots u:s from 0 to 1 (e.g. 0:0,1:1, a transition from A into B; "
+        "default: none, the constant --weight)",
+    )
+    p.add_argument(
+        "--contacts",
+        choices=("auto", "off"),
+        default="auto",
+        help="foot-skate clean-up: auto (default) carries the inputs' foot contacts through the warp "
+        "and enforces them by leg IK (bone lengths kept) when contacts are found; off skips it",
+    )
+    p.add_argument(
+        "--cycles",
+        action="store_true",
+        help="two motions: segment gait cycles from the foot contacts, match consecutive cycles of A "
+        "and B and warp within each (steps matched one by one); falls back to the global warp, "
+        "with a note, when the cycles cannot be matched (default: off)",
+    )
+    p.add_argument(
+        "--loop",
+        action="store_true",
+        help="two motions: blend one matched cycle of each and close it into a seamless loop "
+        "(implies --cycles; the loop command's closing, root 'travel') (default: off)",
+    )
+    p.add_argument(
         "--no-metrics",
         action="store_true",
         help="skip the quality metrics in the report (saves three or more DP solves)",
@@ -98,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
     out = check_output(args.output, inputs, suffixes=(".bvh",))
     if args.weight is not None and args.weights is not None:
         raise CommandError("--weight: expected --weight (two motions) or --weights, not both")
+    if args.weight_curve is not None and (args.weight is not None or args.weights is not None):
+        raise CommandError("--weight-curve: expected --weight-curve or --weight/--weights, not both")
     weights = args.weight if args.weight is not None else args.weights
     if args.weight is not None and len(inputs) != 2:
         raise CommandError(
@@ -120,6 +150,10 @@ def run(args: argparse.Namespace) -> int:
             max_pairs=args.max_pairs,
             metrics=not args.no_metrics,
             progress=bar,
+            contacts=args.contacts,
+            weight_curve=args.weight_curve,
+            cycles=args.cycles,
+            loop=args.loop,
         )
     finally:
         bar.close()
@@ -139,6 +173,15 @@ def _summary(res, out, notes) -> str:
     ]
     if res.landmarks:
         lines.append("landmarks (s): " + ", ".join(f"{a:.2f}:{b:.2f}" for a, b in res.landmarks))
+    if res.cleanup is not None and res.cleanup.applied:
+        c = res.cleanup
+        lines.append(
+            f"clean-up: skating while in contact {fmt_float(c.skating_before.mean_speed)} -> "
+            f"{fmt_float(c.skating_after.mean_speed)} m/s, below the floor "
+            f"{fmt_float(c.skating_before.below_floor)} -> {fmt_float(c.skating_after.below_floor)} m; "
+            f"largest change {fmt_float(c.max_position_change)} m, "
+            f"{fmt_float(c.max_rotation_change_deg)} deg"
+        )
     met = res.metrics.summary() if res.metrics is not None else None
     if met:
         fs = met["foot_sliding"]

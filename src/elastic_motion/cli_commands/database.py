@@ -36,8 +36,10 @@ from elastic_motion.cli_commands._common import (
 )
 from elastic_motion.errors import OptionError, ParseError
 
-#: Curve representations (``--method``) of the database commands.
-METHODS = ("lie", "euler")
+#: Curve representations (``--method``) of the database commands (``euler`` is accepted for
+#: ``euler-elastic``, the name of the other commands).
+METHODS = ("lie", "euler-elastic")
+_METHOD_KEYS = {"lie": "lie", "euler-elastic": "euler", "euler": "euler"}
 #: Linkages of ``cluster --linkage``.
 LINKAGES = ("average", "complete", "single", "weighted")
 #: Removed in this release (shown in the deprecation notes of the old spellings).
@@ -56,7 +58,8 @@ _FLAGS: dict[str, str | None] = {
     "out_dir": "--output",
     "k": "-k",
     "n_clusters": "--clusters",
-    "method": "--linkage",
+    "method": "--method",
+    "linkage": "--linkage",
     "labels": "--labels",
     "scheduler": "--scheduler",
     "engine": "--engine",
@@ -94,7 +97,8 @@ def _add_preparation(p: argparse.ArgumentParser) -> None:
         "--joints",
         default="all",
         help="'all' (every joint: matrix groups motions by skeleton, mean needs one skeleton), 'common' "
-        "(the joints all motions share) or a comma-separated list of joint names (default: all)",
+        "(the joints all motions share), 'map' (every skeleton on a 13-joint common body through joint-name "
+        "maps: CMU BVH/ASF, Bandai, DeepMimic) or a comma-separated list of joint names (default: all)",
     )
     p.add_argument("--keep-fingers", action="store_true", help="keep finger/thumb joints (default: dropped)")
     p.add_argument(
@@ -106,11 +110,11 @@ def _add_preparation(p: argparse.ArgumentParser) -> None:
 
 
 def _joints(value: str) -> str | tuple[str, ...]:
-    if value in ("all", "common"):
+    if value in ("all", "common", "map"):
         return value
     names = tuple(v.strip() for v in value.split(",") if v.strip())
     if not names:
-        raise CommandError(f"--joints: expected 'all', 'common' or joint names; got {value!r}")
+        raise CommandError(f"--joints: expected 'all', 'common', 'map' or joint names; got {value!r}")
     return names
 
 
@@ -145,23 +149,26 @@ def _add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
         p.add_argument(
             "--method",
             default="lie,euler",
-            metavar="{lie,euler}[,...]",
-            help="curve representations, comma-separated: lie (R^3 x SO(3)^J) and/or euler (Euler angles, "
-            "radians) (default: lie,euler)",
+            metavar="{lie,euler-elastic}[,...]",
+            help="curve representations, comma-separated: lie (R^3 x SO(3)^J) and/or euler-elastic (Euler "
+            "angles, radians; 'euler' also accepted) (default: lie,euler)",
         )
     else:
         p.add_argument(
             "--method",
             default="lie",
-            metavar="{lie,euler}",
-            help="curve representation: lie (R^3 x SO(3)^J) or euler (Euler angles, radians) (default: lie)",
+            metavar="{lie,euler-elastic}",
+            help="curve representation: lie (R^3 x SO(3)^J) or euler-elastic (Euler angles, radians; 'euler' "
+            "also accepted) (default: lie)",
         )
     _alias(p, "--repr", "--method")
 
 
 def _methods(value: str, *, several: bool) -> tuple[str, ...]:
+    """The stored keys (``lie``, ``euler``) of ``--method``'s value."""
     got = tuple(v.strip() for v in value.split(",") if v.strip()) if several else (value,)
-    if not got or any(m not in METHODS for m in got) or len(set(got)) != len(got):
+    keys = tuple(_METHOD_KEYS.get(m, m) for m in got)
+    if not got or any(m not in _METHOD_KEYS for m in got) or len(set(keys)) != len(keys):
         if not several and value in LINKAGES:
             raise CommandError(
                 f"--method: expected a curve representation, one of {', '.join(METHODS)}; got {value!r}, a "
@@ -169,7 +176,7 @@ def _methods(value: str, *, several: bool) -> tuple[str, ...]:
             )
         what = "distinct entries of" if several else "one of"
         raise CommandError(f"--method: expected {what} {', '.join(METHODS)}; got {value!r}")
-    return got
+    return keys
 
 
 def _settings(args: argparse.Namespace, reps: tuple[str, ...]):
@@ -252,7 +259,9 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
         type=float,
         default=10.0,
         metavar="SECONDS",
-        help="seconds to wait for the scheduler (default: 10)",
+        help="seconds to wait for the Dask scheduler to answer (connection and handshake; something "
+        "else at the address is an error within this time) and, mid-run, for a worker when none is "
+        "left (default: 10)",
     )
     _add_method(p, several=True)
     p.add_argument(
@@ -320,15 +329,25 @@ def run_matrix(args: argparse.Namespace) -> int:
 def _register_search(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "search",
-        help="nearest motions of a query by elastic distance",
+        help="nearest motions of a query by elastic distance (exact, pruned by bounds), or --within "
+        "long takes",
         description=(
-            "Rank the motions of DATABASE (a `matrix` output folder, whose SRV cache and settings are "
-            "used, or motion files/folders, read with the options below) by elastic distance to QUERY."
+            "Rank the motions of DATABASE (an `index` or `matrix` output folder, whose SRV arrays and "
+            "settings are used, or motion files/folders, read with the options below) by elastic distance "
+            "to QUERY. The k nearest are exact: cheap lower bounds skip the DP of motions that cannot be "
+            "among them (the report gives the fraction pruned). With --within, find where QUERY happens "
+            "inside each motion of DATABASE (long takes): the segment (start, stop) and its distance."
         ),
     )
     p.add_argument("query", help="a motion file")
-    p.add_argument("database", nargs="+", help="a matrix output folder, or motion files/folders")
+    p.add_argument("database", nargs="+", help="an index or matrix output folder, or motion files/folders")
     p.add_argument("-k", type=int, default=5, help="number of results (default: 5)")
+    p.add_argument(
+        "--within",
+        action="store_true",
+        help="partial matching: best segment of each DATABASE motion (free start and end; segments last "
+        "1/N to N times the query, N = --neighbourhood) (default: off)",
+    )
     _add_method(p, several=False)
     add_quiet_option(p)
     add_json_option(p)
@@ -337,31 +356,73 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_search)
 
 
-def run_search(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.database import query_distances
+def _run_within(args: argparse.Namespace) -> int:
+    from elastic_motion.apps.database import find_within
 
-    db = args.database[0] if len(args.database) == 1 else args.database
     bar = progress_for("search", args)
     try:
         (method,) = _methods(args.method, several=False)
-        res = query_distances(args.query, db, method, _settings(args, (method,)), progress=bar)
-        idx = res.nearest(args.k)
+        res = find_within(
+            args.query,
+            args.database,
+            method,
+            n_samples=args.samples,
+            neighbourhood=args.neighbourhood,
+            drop_fingers=not args.keep_fingers,
+        )
     except _USER_ERRORS as exc:
         return _fail("search", exc)
     finally:
         bar.close()
-    results = [
-        {"rank": r + 1, "name": res.names[k], "path": res.paths[k], "distance": float(res.distances[k])}
-        for r, k in enumerate(idx)
-    ]
-    lines = [f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}" for r in results] or [
-        "no comparable motion (different skeletons? try --joints common)"
-    ]
     s = res.summary()
+    matches = s["matches"][: args.k]
+    lines = [
+        f"{r + 1:3d}  {m['distance']:10.4f}  {m['name']}  {m['start']:.2f}-{m['stop']:.2f} s "
+        f"(frames {m['start_frame']}-{m['stop_frame']})"
+        for r, m in enumerate(matches)
+    ]
+    lines += [f"skipped {sk['path']}: {sk['reason']}" for sk in res.skipped]
+    body = {**s, "matches": matches, "within": True}
+    _emit(args, "search", body, [args.query, *args.database], [], lines)
+    return 0
+
+
+def run_search(args: argparse.Namespace) -> int:
+    from elastic_motion.apps.database import knn_search
+
+    if args.within:
+        return _run_within(args)
+    db = args.database[0] if len(args.database) == 1 else args.database
+    bar = progress_for("search", args)
+    try:
+        (method,) = _methods(args.method, several=False)
+        res = knn_search(args.query, db, args.k, method, _settings(args, (method,)), progress=bar)
+    except _USER_ERRORS as exc:
+        return _fail("search", exc)
+    finally:
+        bar.close()
+    s = res.summary()
+    results = s["results"]
+    lines = [f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}" for r in results]
+    if not results:
+        lines = [
+            res.notes[-1]
+            if res.group < 0
+            else "no comparable motion (different skeletons? try --joints common)"
+        ]
+    else:
+        lines.append(
+            f"exact {args.k} nearest: full DP on {s['computed']} of {s['candidates']} motions "
+            f"({100 * s['fraction_pruned']:.0f}% pruned by the bounds)"
+        )
     body = {
         "query": args.query,
         "representation": method,
+        "method": res.method,
         "results": results,
+        "candidates": s["candidates"],
+        "computed": s["computed"],
+        "fraction_pruned": s["fraction_pruned"],
         "group": s["group"],
         "settings": s["settings"],
         "skipped": s["skipped"],
@@ -497,7 +558,7 @@ def run_mean(args: argparse.Namespace) -> int:
         res = mean_motion(
             args.files,
             n_samples=args.samples,
-            representation=method,
+            method=method,
             joints=_joints(args.joints),
             drop_fingers=not args.keep_fingers,
             align_heading=not args.no_align,

@@ -20,23 +20,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``landmarks`` sub-command."""
     p = subparsers.add_parser(
         "landmarks",
-        help="detect events (knee crossings, foot contacts); pair those of two motions",
+        help="detect events (knee crossings, foot strikes and toe-offs); pair those of two motions by phase",
         description=(
-            "Detect the times when the left (right) knee passes the other one moving forward and when "
-            "a foot touches down. With two files, pair the events in order as `blend --landmarks auto` "
-            "does; `--json PAIRS.json` writes a file that `--landmarks PAIRS.json` reads."
+            "Detect the times when the left (right) knee passes the other one moving forward, when a "
+            "foot touches down, heel strikes and toe-offs (from the contacts). With two files, pair "
+            "the events by phase as `blend --landmarks auto` does: the warp without landmarks "
+            "predicts where each event of A falls in B, and the nearest event of the same kind is "
+            "taken (events without a partner are skipped, with the reason); `--json PAIRS.json` "
+            "writes a file that `--landmarks PAIRS.json` reads."
         ),
     )
     p.add_argument("inputs", nargs="+", metavar="FILE", help="one motion file, or two to pair")
     p.add_argument(
         "--kinds",
-        default="left_knee_passes,right_knee_passes,left_foot_contact,right_foot_contact",
-        help="event kinds to detect (comma-separated)",
+        default="left_knee_passes,right_knee_passes,left_heel_strike,right_heel_strike,left_toe_off,right_toe_off",
+        help="event kinds to detect (comma-separated; also left_foot_contact, right_foot_contact) "
+        "(default: knee crossings, heel strikes and toe-offs)",
     )
     p.add_argument(
         "--landmark-kinds",
-        default="left_knee_passes",
-        help="kinds to pair for two files, as `blend --landmarks auto --landmark-kinds` pairs them",
+        default="left_knee_passes,right_knee_passes,left_heel_strike,right_heel_strike,left_toe_off,right_toe_off",
+        help="kinds to pair for two files, as `blend --landmarks auto --landmark-kinds` pairs them "
+        "(default: knee crossings, heel strikes and toe-offs)",
     )
     add_alias(p, "--pair-kinds", "--landmark-kinds")
     p.add_argument(
@@ -48,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.landmarks import detect_events, pair_events
+    from elastic_motion.apps.landmarks import detect_events, phase_landmarks
     from elastic_motion.apps.prepare import prepare_motions
     from elastic_motion.apps.report import report_header
 
@@ -73,15 +78,24 @@ def run(args: argparse.Namespace) -> int:
         lines += [f"  {e.time:7.3f} s  frame {e.frame:5d}  {e.kind}" for e in ev]
     if len(inputs) == 2:
         pk = landmark_kinds(args.landmark_kinds)
-        ev_a, ev_b = (detect_events(m, pk) for m in motions)
-        pairs = pair_events(ev_a, ev_b, pk, max_pairs=args.max_pairs)
+        pairing = phase_landmarks(motions[0], motions[1], pk, max_pairs=args.max_pairs)
+        pairs = pairing.pairs
         report["pairs_s"] = [[a.time, b.time] for a, b in pairs]
-        report["pairs"] = [{"kind": a.kind, "time_a_s": a.time, "time_b_s": b.time} for a, b in pairs]
+        report["pairs"] = [dict(d) for d in pairing.details]
+        report["skipped"] = [dict(d) for d in pairing.skipped]
+        report["pairing"] = pairing.summary()["rule"]
         report["units"] = "seconds"
         lines.append(
-            f"pairs ({', '.join(pk)}), seconds A:B: "
+            f"pairs by phase ({', '.join(pk)}), seconds A:B: "
             + (", ".join(f"{a.time:.3f}:{b.time:.3f}" for a, b in pairs) or "none")
         )
+        lines += [
+            f"  {d['kind']}: {d['time_a_s']:.3f}:{d['time_b_s']:.3f} ({d['offset_s']:+.3f} s from the prior)"
+            for d in pairing.details
+        ]
+        lines += [
+            f"  skipped {s['motion']} {s['kind']} {s['time_s']:.3f} s: {s['why']}" for s in pairing.skipped
+        ]
     lines += [f"note: {n}" for n in notes]
     emit_report(args, report, inputs, "\n".join(lines))
     return 0

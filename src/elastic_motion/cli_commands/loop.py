@@ -64,7 +64,34 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_alias(p, "--representation", "--method", convert=_representation)
     p.add_argument(
-        "--solver", choices=("gauss-newton", "gradient"), default="gauss-newton", help="closing solver"
+        "--solver",
+        choices=("kkt", "gauss-newton", "gradient"),
+        default="kkt",
+        help="closing solver: 'kkt' the closed curve nearest the input in SRV L2 (a KKT point of the "
+        "projection); 'gauss-newton' / 'gradient' the closing flows (closed, nearest only to first order)",
+    )
+    p.add_argument(
+        "--window",
+        choices=("whole", "auto"),
+        default="whole",
+        help="loop the whole clip, or 'auto': the sub-clip (start and end frame) that closes with the "
+        "least change (the whole clip is closed too, for the report)",
+    )
+    p.add_argument(
+        "--min-length",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="shortest window for --window auto, seconds (default: 90%% of the clip's period, or half "
+        "the clip when it does not repeat)",
+    )
+    p.add_argument(
+        "--contacts",
+        choices=("keep", "report", "off"),
+        default="report",
+        help="'report': detect the input's foot/toe/hand contacts and report skating and depth below "
+        "the floor of input and loop during them; 'keep': also plant them, as constraints of the same "
+        "projection (slow on long clips; the report says which contact gave way); 'off': skip",
     )
     p.add_argument(
         "--tol",
@@ -121,6 +148,9 @@ def run(args: argparse.Namespace) -> int:
         tol=args.tol,
         max_iter=args.max_iter,
         free_joints=_free(args.free_joints),
+        window="auto" if args.window == "auto" else None,
+        min_length=args.min_length,
+        contacts=args.contacts,
     )
     write_motion(res.motion, res.prepared, out, inputs)
     outputs = [str(out)]
@@ -144,6 +174,20 @@ def run(args: argparse.Namespace) -> int:
         f"closing: {c.iterations} iterations, gap {fmt_float(c.gap_initial)} -> {fmt_float(c.gap)}"
         + ("" if c.converged else f" (not converged: {c.message})"),
     ]
+    if res.window is not None:
+        w = res.window
+        whole = w.whole.get("deviation_max_m")
+        lines.append(
+            f"window: frames {w.start}..{w.stop - 1} ({w.start / w.fps:.3f}-{(w.stop - 1) / w.fps:.3f} s, "
+            f"{w.length:.3f} s) changes at most {fmt_float(w.deviation_max_m)} m"
+            + (f" (whole clip: {fmt_float(whole)} m)" if whole is not None else "")
+        )
+    if res.skating_before is not None and res.skating_after is not None and res.contacts.any:
+        lines.append(
+            f"contacts: skating {fmt_float(res.skating_before.mean_speed)} -> "
+            f"{fmt_float(res.skating_after.mean_speed)} m/s, below the floor "
+            f"{fmt_float(res.skating_before.below_floor)} -> {fmt_float(res.skating_after.below_floor)} m"
+        )
     if preview is not None:
         lines.append(f"wrote {preview}: the loop played {args.repeat} times")
     lines += [f"note: {n}" for n in res.notes]

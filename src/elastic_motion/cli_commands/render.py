@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from elastic_motion import limits
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
@@ -142,7 +143,32 @@ def _size(text: str) -> tuple[int, int]:
         raise CommandError(f"--size: expected WxH in pixels, e.g. 320x320; got {text!r}") from None
     if w < 16 or h < 16:
         raise CommandError(f"--size: expected at least 16x16 pixels; got {text!r}")
+    limits.check_option("size", "a width and height (pixels) of", max(w, h), "max_render_size")
     return w, h
+
+
+def _check_limits(args: argparse.Namespace) -> None:
+    """The render options against :mod:`elastic_motion.limits`, before any motion is read."""
+    import math
+
+    if args.fps is not None:
+        if not math.isfinite(args.fps):
+            raise CommandError(f"--fps: expected a finite frame rate; got {args.fps!r}")
+        limits.check_option("fps", "a video frame rate (fps) of", args.fps, "min_render_fps", at_least=True)
+        limits.check_option("fps", "a video frame rate (fps) of", args.fps, "max_render_fps")
+    for attr in ("seconds", "trail"):
+        v = getattr(args, attr)
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            raise CommandError(f"--{attr}: expected a non-negative finite number of seconds; got {v!r}")
+    if args.seconds is not None:
+        fps = args.fps if args.fps is not None else 30.0
+        limits.check_option(
+            "seconds", "a video of frames (--seconds x --fps)", args.seconds * fps, "max_render_frames"
+        )
+    if args.repeat is not None:
+        limits.check_option("repeat", "a repeat count of", args.repeat, "max_repeat")
+    if args.size is not None:
+        _size(args.size)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -151,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
     from elastic_motion.cli_commands._common import parse_landmarks
 
     inputs = list(args.inputs)
+    _check_limits(args)
     out = check_output(args.output, inputs, suffixes=(".gif", ".mp4", ".png", ".svg", ".pdf"))
     kind = render_kind(args.kind, out)
     for option, (attr, kinds) in _KIND_OPTIONS.items():

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from elastic_motion import limits as _limits
 from elastic_motion._io import read_text
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.rotations import euler_to_matrix
@@ -47,7 +48,7 @@ from elastic_motion.motion.skeleton import Motion, Skeleton
 
 __all__ = ["AsfSkeleton", "read_amc", "read_asf", "read_asf_amc"]
 
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _ROT_DOF = {"rx": "X", "ry": "Y", "rz": "Z"}
 _ROOT_ORDER = {"TX", "TY", "TZ", "RX", "RY", "RZ"}
 _BVH_ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
@@ -344,6 +345,7 @@ def read_asf(path: str | os.PathLike[str]) -> AsfSkeleton:
 
     index = {n: k for k, n in enumerate(order_names)}
     n = len(order_names)
+    _limits.check_clip(p, h_line, joints=n)
     parents = np.full(n, -1)
     offsets = np.zeros((n, 3))
     axis = np.empty((n, 3, 3))
@@ -408,6 +410,8 @@ def read_amc(
     fps = float(fps)
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
+    _limits.check_option("fps", "a frame rate (fps) of", fps, "max_fps")
+    _limits.check_option("fps", "a frame rate (fps) of", fps, "min_fps", at_least=True)
     text = read_text(path).replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
     sk = asf.skeleton
@@ -445,6 +449,10 @@ def read_amc(
             continue
         toks = s.split()
         if len(toks) == 1 and toks[0].isascii() and toks[0].isdigit():
+            if len(toks[0]) > 18:  # int() of thousands of digits is refused (and no clip is that long)
+                raise ParseError(
+                    p, i, f"expected a frame number, found {toks[0][:20]!r}... ({len(toks[0])} digits)"
+                )
             number = int(toks[0])
             if last_number is not None and number != last_number + 1:
                 raise ParseError(p, i, f"expected frame number {last_number + 1}, found {number}")
@@ -474,6 +482,7 @@ def read_amc(
     close_frame()
 
     f, j = len(frames), sk.n_joints
+    _limits.check_clip(p, len(lines), frames=f, duration=f / fps, joints=j)
     # Gather per-joint value arrays (F, n_vals[k]).
     values = [np.array([fr[k] for fr in frames]) if n_vals[k] else np.zeros((f, 0)) for k in range(j)]
     rotations = np.empty((f, j, 3, 3))

@@ -18,7 +18,8 @@ What the reader accepts
 What it rejects, with a :class:`~elastic_motion.errors.ParseError` naming file, line and
 expectation: a truncated file, a frame with the wrong number of values, a non-numeric or
 non-finite value, a frame count different from ``Frames:``, zero frames, a repeated joint
-name, an unknown channel.
+name, an unknown channel; a declared frame count, frame rate or duration beyond the
+resource limits (:mod:`elastic_motion.limits`), checked before anything is allocated.
 
 Lengths are in the file's unit, which BVH does not record: pass ``units=`` to the reader
 or let it guess from the rest-pose size of the skeleton (:func:`guess_units`).
@@ -43,6 +44,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from elastic_motion import limits
 from elastic_motion._io import atomic_write_text, read_text
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.axes import detect_up_axis
@@ -57,7 +59,7 @@ from elastic_motion.motion.skeleton import (
 
 __all__ = ["guess_units", "read_bvh", "snap_fps", "write_bvh"]
 
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _MAX_CHANNELS = 6
 _TYPICAL_HEIGHT_M = 1.7
 
@@ -209,6 +211,8 @@ def _parse_hierarchy(tokens: _Tokens) -> tuple[Skeleton, int]:
                 kind_line, f"joint name {name!r} is used twice (first on line {name_lines[name]})"
             )
         name_lines[name] = kind_line
+        if len(names) >= limits.current().max_joints:
+            limits.check_clip(tokens.path, kind_line, joints=len(names) + 1)
         b, bline = tokens.next("'{'")
         if b != "{":
             raise tokens.error(bline, f"expected '{{' to open joint {name!r}, found {b!r}")
@@ -426,7 +430,7 @@ def _scan_values(path: str, lines: list[str], first: int, rows: list[int], n_ch:
 def _parse_frames(path: str, text: str, lines: list[str], first: int, n_frames: int, n_ch: int) -> np.ndarray:
     """Values of the frame lines ``lines[first:]``, shape ``(n_frames, n_ch)``."""
     offset = sum(len(line) + 1 for line in lines[:first])
-    if n_ch > 0:
+    if n_ch > 0 and n_frames <= len(lines) - first:  # a frame takes a line: no more frames than lines
         # Fast path (numba, one pass): plain ASCII decimals with the right counts.
         block = text[offset:]
         if block.isascii():
@@ -538,15 +542,28 @@ def read_bvh(
     frames_tok, i = _header_value(path_s, lines, motion_line, _FRAMES, "Frames:")
     if not (frames_tok.isascii() and frames_tok.isdigit()):
         raise ParseError(path_s, i + 1, f"expected the number of frames (an integer), found {frames_tok!r}")
+    if len(frames_tok) > 30:  # int() of a long digit string is slow (and pointless: over every limit)
+        frames_tok = frames_tok[:30] + "..."
+        raise ParseError(
+            path_s,
+            i + 1,
+            f"expected a frame count of at most {limits.current().max_frames} "
+            f"(limit max_frames), found {frames_tok!r}",
+        )
     n_frames = int(frames_tok)
     if n_frames == 0:
         raise ParseError(path_s, i + 1, "expected at least one frame, found 'Frames: 0'")
+    # before anything is allocated: the declared count against the limits
+    limits.check_clip(path_s, i + 1, frames=n_frames, joints=skeleton.n_joints)
+    frames_line = i + 1
     ft_tok, i = _header_value(path_s, lines, i + 1, _FRAME_TIME, "Frame Time:")
     if not _NUMBER.fullmatch(ft_tok) or not (0 < float(ft_tok) < math.inf):
         raise ParseError(path_s, i + 1, f"expected a positive frame time in seconds, found {ft_tok!r}")
     fps = snap_fps(float(ft_tok))
     if not math.isfinite(fps):
         raise ParseError(path_s, i + 1, f"expected a frame time of at least 1e-300 s, found {ft_tok!r}")
+    limits.check_clip(path_s, i + 1, fps=fps)
+    limits.check_clip(path_s, frames_line, duration=n_frames / fps)
     values = _parse_frames(path_s, text, lines, i + 1, n_frames, skeleton.n_channels)
     motion = _motion_from_values(skeleton, values, fps, units, up_axis or "y", path_s)
     if up_axis is None:

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from elastic_motion import limits
 from elastic_motion._io import read_text
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.bvh import snap_fps
@@ -280,7 +281,9 @@ def read_deepmimic(
     ------
     ParseError
         Invalid JSON, missing ``Frames``, a frame with the wrong count of values or a
-        non-numeric value, a negative duration, an all-zero quaternion.
+        non-numeric value, a negative duration, an all-zero quaternion; a frame rate, duration
+        or resampled size beyond the resource limits (:mod:`elastic_motion.limits`), checked
+        before the resampled clip is allocated.
     """
     p = os.fspath(path)
     text = read_text(path)
@@ -290,6 +293,8 @@ def read_deepmimic(
         raise ParseError(p, exc.lineno, f"expected JSON ({exc.msg})") from exc
     except RecursionError as exc:
         raise ParseError(p, None, "expected JSON (nesting too deep)") from exc
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise ParseError(p, None, f"expected JSON numbers of usual size ({exc})") from exc
     if not isinstance(data, dict) or "Frames" not in data:
         raise ParseError(p, 1, "expected a JSON object with a 'Frames' list (a DeepMimic clip)")
     values = _check_frames(p, text, data["Frames"])
@@ -331,6 +336,9 @@ def read_deepmimic(
         )
     dt = float(np.median(positive))
     fps = snap_fps(dt)
+    with np.errstate(over="ignore"):  # an overflowing sum is inf, refused by the duration limit
+        duration = float(np.sum(steps)) if f > 1 else dt
+    limits.check_clip(p, _frame_line(text, 0), frames=f, fps=fps, duration=duration, joints=skeleton.n_joints)
 
     rotations = np.empty((f, skeleton.n_joints, 3, 3))
     col = 4
@@ -340,6 +348,8 @@ def read_deepmimic(
             col += 1
             continue
         q = values[:, col : col + 4]
+        scale = np.abs(q).max(axis=1, keepdims=True)  # rescaled first: |q| of 1e308 values overflows
+        q = q / np.where(scale > 0, scale, 1.0)
         norms = np.linalg.norm(q, axis=1)
         if not (norms > 1e-12).all():
             k = int(np.argmax(~(norms > 1e-12)))
@@ -362,6 +372,29 @@ def read_deepmimic(
         from elastic_motion.motion.edit import resample_at_times
 
         times = np.concatenate([[0.0], np.cumsum(steps)])
-        n_out = math.floor(times[-1] * fps + 1e-6) + 1
+        if not (np.diff(times) > 0).all():  # a duration too small to advance the clock (1e-320 after 2 s)
+            k = int(np.argmax(~(np.diff(times) > 0)))
+            raise ParseError(
+                p,
+                _frame_line(text, k),
+                f"expected a duration that advances the time in frame {k}, found {steps[k]}",
+            )
+        n_out = math.floor(times[-1] * fps + 1e-6) + 1  # finite: duration and fps within the limits
+        lim = limits.current()
+        grown = lim.max_resample_growth * f + 1000
+        if n_out > grown:
+            k = int(np.argmax(steps))
+            raise ParseError(
+                p,
+                _frame_line(text, k),
+                limits.limit_message(
+                    f"a uniform resampling at {fps:g} fps of {f} frames (frame {k} lasts {steps[k]:g} s) "
+                    "to give a number of frames",
+                    n_out,
+                    "max_resample_growth",
+                    f"{lim.max_resample_growth:g} x {f} + 1000 = {grown:g}",
+                ),
+            )
+        limits.check_clip(p, _frame_line(text, 0), frames=n_out, joints=skeleton.n_joints)
         motion = resample_at_times(motion, times, np.arange(n_out) / fps, fps=fps)
     return motion

@@ -14,7 +14,12 @@ compute_matrix``); each submodule does one job:
 ``storage``    the output folder: file names, atomic writes, ``names.csv``
 ``matrix``     the resumable run (:func:`compute_matrix`)
 ``results``    reading a matrix back (:func:`load_matrix`)
-``query``      one motion against a database (:func:`query_distances`)
+``query``      one motion against a database (:func:`query_distances`), exact k nearest
+               with pruning (:func:`knn_search`)
+``bounds``     cheap lower/upper bounds of the elastic distance (:func:`lower_bounds`)
+``index``      an on-disk index of SRV arrays and bounds (:func:`build_index`)
+``partial``    where a short query happens inside long takes (:func:`find_within`)
+``jointmap``   joint-name maps onto a common body (:func:`map_to_common_body`, ``joints="map"``)
 ============== ===========================================================================
 
 Conventions
@@ -38,18 +43,29 @@ total)`` callback.
 
 from __future__ import annotations
 
+from elastic_motion.apps.database.bounds import lower_bounds, part_norms, upper_bound
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
 from elastic_motion.apps.database.engines import ClusterUnavailableError
 from elastic_motion.apps.database.files import MOTION_EXTENSIONS, find_motion_files
+from elastic_motion.apps.database.index import MotionIndex, build_index, load_index
+from elastic_motion.apps.database.jointmap import COMMON_JOINTS, detect_convention, map_to_common_body
 from elastic_motion.apps.database.matrix import MatrixResult, compute_matrix, remove_run
+from elastic_motion.apps.database.partial import PartialMatch, WithinResult, find_within
 from elastic_motion.apps.database.preparation import (
     PreparedMotion,
     prepare_motion,
     restrict_to_common_joints,
 )
-from elastic_motion.apps.database.query import QueryResult, query_distances
+from elastic_motion.apps.database.query import QueryResult, SearchResult, knn_search, query_distances
 from elastic_motion.apps.database.results import DistanceMatrix, load_matrix
-from elastic_motion.apps.database.settings import DEFAULT_WARP, REPRESENTATIONS, DatabaseSettings
+from elastic_motion.apps.database.settings import (
+    DEFAULT_WARP,
+    METHODS,
+    REPRESENTATIONS,
+    DatabaseSettings,
+    canonical_method,
+    public_method,
+)
 from elastic_motion.apps.database.tiles import (
     compute_tile,
     distance_matrix,
@@ -61,30 +77,47 @@ from elastic_motion.apps.progress import Progress
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
+    "COMMON_JOINTS",
     "DEFAULT_WARP",
+    "METHODS",
     "MOTION_EXTENSIONS",
     "REPRESENTATIONS",
     "ClusterUnavailableError",
     "DatabaseSettings",
     "DistanceMatrix",
     "MatrixResult",
+    "MotionIndex",
+    "PartialMatch",
     "PreparedMotion",
     "Progress",
     "QueryResult",
     "SRVCache",
+    "SearchResult",
     "WarpOptions",
+    "WithinResult",
+    "build_index",
     "build_srv_cache",
+    "canonical_method",
     "compute_matrix",
     "compute_tile",
+    "detect_convention",
     "distance_matrix",
     "find_motion_files",
+    "find_within",
+    "knn_search",
+    "load_index",
     "load_matrix",
+    "lower_bounds",
+    "map_to_common_body",
     "pair_distance",
+    "part_norms",
     "prepare_motion",
+    "public_method",
     "query_distances",
     "remove_run",
     "restrict_to_common_joints",
     "single_threaded_blas",
     "srv_arrays",
     "tile_blocks",
+    "upper_bound",
 ]

@@ -213,7 +213,7 @@ def build_srv_cache(
         raise OptionError("motions", f"expected one motion per file ({len(files)}); got {len(motions)}")
     prepared: list[PreparedMotion] = []
     skipped: list[dict[str, str]] = []
-    select = settings.joints if not isinstance(settings.joints, str) else "all"
+    select = settings.joints if settings.joints == "map" or not isinstance(settings.joints, str) else "all"
     for k, f in enumerate(files):
         try:
             prepared.append(

@@ -132,51 +132,123 @@ class DaskEngine:
                 raise ValueError(
                     "scheduler: expected a Dask scheduler address for engine 'dask' (tcp://host:8786)"
                 )
+            self.client = _connect(Client, scheduler, timeout)
+        self.timeout = float(timeout)
+        info = _bounded(self.client.scheduler_info, self.timeout, scheduler or "the local cluster")
+        if not info.get("workers"):  # a scheduler without workers: wait for one, within the timeout
             try:
-                self.client = Client(scheduler, timeout=timeout)
-            except (OSError, TimeoutError) as exc:
+                self.client.wait_for_workers(1, timeout=self.timeout)
+            except Exception as exc:
+                where = scheduler or "the local cluster"
+                self.close()
                 raise ClusterUnavailableError(
-                    f"scheduler: could not reach the Dask scheduler at {scheduler!r} within {timeout:g} s "
-                    f"({exc}). Check the address and that `dask scheduler` is running there, or use "
-                    "--engine local"
+                    f"scheduler: the Dask scheduler at {where!r} has no worker "
+                    f"(none joined within {self.timeout:g} s, --timeout); start `dask worker ADDRESS`"
                 ) from exc
-        info = self.client.scheduler_info()
+            info = self.client.scheduler_info()
         self.n_workers = max(1, len(info.get("workers", {})))
         self.scheduler = self.client.scheduler.address
         # load the compiled kernels on every worker once, before any tile is timed
         self.client.run(_warm_up)
+        self._arrays: dict[str, np.ndarray] = {}
 
     def share(self, arrays: list[np.ndarray]) -> list[Any]:
-        """Scatter the SRV arrays once; tasks get futures, so each array travels to a worker at
-        most once instead of once per tile (no shared file system needed)."""
-        return self.client.scatter(arrays, hash=False)
+        """Scatter the SRV arrays once, to every worker (``broadcast``): tasks get futures, so an
+        array travels to each worker once instead of once per tile (no shared file system
+        needed), and a worker lost mid-run loses no data the others need. The driver keeps the
+        arrays too, so a task whose data is gone all the same is resubmitted with its arrays."""
+        futures = self.client.scatter(arrays, hash=False, broadcast=True)
+        for f, a in zip(futures, arrays, strict=True):
+            self._arrays[f.key] = a
+        return futures
+
+    def _with_arrays(self, args: tuple) -> tuple:
+        """``args`` with every scattered future replaced by the driver's own array."""
+
+        def own(x: Any) -> Any:
+            key = getattr(x, "key", None)
+            if isinstance(key, str) and key in self._arrays:
+                return self._arrays[key]
+            if isinstance(x, list):
+                return [own(v) for v in x]
+            return x
+
+        return tuple(own(a) for a in args)
 
     def run(
         self, tasks: list[Task], args_of: Callable[[Task], tuple]
     ) -> Iterator[tuple[Task, np.ndarray, float]]:
-        """Yield ``(task, tile, seconds)`` as tasks complete (at most ``4 * workers`` in flight)."""
+        """Yield ``(task, tile, seconds)`` as tasks complete (at most ``4 * workers`` in flight).
+
+        A lost worker does not end the run: Dask reruns its tasks elsewhere (the data is on
+        every worker), and a task that fails because its data or its worker is gone is
+        resubmitted with the arrays themselves (:data:`MAX_RESUBMITS` times). With no worker
+        left for ``timeout`` seconds the run stops with :class:`ClusterUnavailableError`
+        (finished tiles are kept; run again to resume).
+        """
         from distributed import as_completed
 
         window = max(2, 4 * self.n_workers)  # tasks in flight: bounded memory on the driver
         pending = iter(tasks)
-        task_of: dict[str, Task] = {}
+        task_of: dict[str, tuple[Task, int]] = {}
 
-        def submit(t: Task):
+        def submit(t: Task, attempt: int = 0):
+            args = args_of(t) if attempt == 0 else self._with_arrays(args_of(t))
             fut = self.client.submit(
-                _timed_tile, *args_of(t), key=f"elastic-tile-{t.key}-{uuid.uuid4().hex}", pure=False
+                _timed_tile,
+                *args,
+                key=f"elastic-tile-{t.key}-{uuid.uuid4().hex}",
+                pure=False,
+                retries=2,
             )
-            task_of[fut.key] = t
+            task_of[fut.key] = (t, attempt)
             return fut
 
         ac = as_completed([submit(t) for t in itertools.islice(pending, window)])
-        for fut in ac:
-            res, secs = fut.result()
-            task = task_of.pop(fut.key)
-            fut.release()
-            nxt = next(pending, None)
-            if nxt is not None:
-                ac.add(submit(nxt))
-            yield task, res, secs
+        idle_since: float | None = None
+        while not ac.is_empty():
+            batch = ac.next_batch(block=False)
+            if not batch:
+                idle_since = self._watchdog(idle_since)
+                time.sleep(0.02)
+                continue
+            idle_since = None
+            for fut in batch:
+                task, attempt = task_of.pop(fut.key)
+                try:
+                    res, secs = fut.result()
+                except Exception as exc:
+                    if not _lost(exc) or attempt >= MAX_RESUBMITS:
+                        raise
+                    fut.release()
+                    ac.add(submit(task, attempt + 1))
+                    continue
+                fut.release()
+                nxt = next(pending, None)
+                if nxt is not None:
+                    ac.add(submit(nxt))
+                yield task, res, secs
+
+    def _watchdog(self, idle_since: float | None) -> float | None:
+        """Raise when the cluster has had no worker for ``timeout`` seconds; else the idle start."""
+        now = time.monotonic()
+        if idle_since is None:
+            return now
+        if now - idle_since < max(self.timeout, 1.0):
+            return idle_since
+        try:
+            workers = _bounded(self.client.scheduler_info, self.timeout, self.scheduler).get("workers", {})
+        except Exception as exc:  # the scheduler itself is gone
+            raise ClusterUnavailableError(
+                f"scheduler: lost the Dask scheduler mid-run ({exc}); finished tiles are kept, "
+                "run the same command again to resume"
+            ) from exc
+        if workers:
+            return now  # working (long tiles): look again later
+        raise ClusterUnavailableError(
+            f"scheduler: the Dask cluster has had no worker for {self.timeout:g} s (--timeout); finished "
+            "tiles are kept, run the same command again (with workers) to resume"
+        )
 
     def close(self) -> None:
         """Close the client (and the cluster started here)."""
@@ -185,6 +257,69 @@ class DaskEngine:
         if self.cluster is not None:
             with contextlib.suppress(Exception):
                 self.cluster.close()
+
+
+#: Times a tile whose worker or data was lost is resubmitted by the driver (with its arrays).
+MAX_RESUBMITS = 3
+
+
+def _lost(exc: BaseException) -> bool:
+    """Whether ``exc`` says a task's worker or input data went away (not an error of the task)."""
+    import asyncio
+    import concurrent.futures
+
+    names = {"KilledWorker", "FutureCancelledError", "CancelledError", "CommClosedError"}
+    if isinstance(exc, asyncio.CancelledError | concurrent.futures.CancelledError):
+        return True
+    text = str(exc).lower()
+    return type(exc).__name__ in names or "forgotten" in text or "lost" in text
+
+
+def _bounded(fn: Callable[[], Any], timeout: float, where: str | None) -> Any:
+    """``fn()`` in a helper thread; ``ClusterUnavailableError`` if it has not returned in ``timeout`` s."""
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            box["value"] = fn()
+        except BaseException as exc:  # handed to the caller
+            box["error"] = exc
+
+    th = threading.Thread(target=target, name="elastic-motion-connect", daemon=True)
+    th.start()
+    th.join(max(timeout, 0.1) + 0.25)
+    if th.is_alive():
+        raise ClusterUnavailableError(
+            f"scheduler: could not reach the Dask scheduler at {where!r} within {timeout:g} s (--timeout): "
+            "nothing answered as Dask does; check the address (is something else listening there?) "
+            "and that `dask scheduler` is running there, or use --engine local"
+        )
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
+def _connect(client_cls: Any, scheduler: str, timeout: float) -> Any:
+    """A ``Client`` of ``scheduler``, connected (and handshaken) within ``timeout`` seconds."""
+    try:
+        return _bounded(lambda: client_cls(scheduler, timeout=timeout), timeout, scheduler)
+    except ClusterUnavailableError:
+        raise
+    except (OSError, TimeoutError) as exc:
+        raise ClusterUnavailableError(
+            f"scheduler: could not reach the Dask scheduler at {scheduler!r} within {timeout:g} s "
+            f"({exc}). Check the address and that `dask scheduler` is running there, or use "
+            "--engine local"
+        ) from exc
+    except ValueError:  # a malformed address: the user's option
+        raise
+    except Exception as exc:  # a server that is not Dask: garbled handshake
+        raise ClusterUnavailableError(
+            f"scheduler: expected a Dask scheduler at {scheduler!r}; got an answer that is not Dask's "
+            f"({type(exc).__name__}: {exc})"
+        ) from exc
 
 
 def open_engine(engine: str, scheduler: str | None, n_workers: int, timeout: float) -> Engine:
@@ -207,6 +342,14 @@ def open_engine(engine: str, scheduler: str | None, n_workers: int, timeout: flo
     ValueError
         An unknown engine name.
     """
+    import math
+
+    from elastic_motion.errors import OptionError
+
+    if not (isinstance(timeout, int | float) and math.isfinite(timeout) and timeout > 0):
+        raise OptionError("timeout", f"expected a positive number of seconds; got {timeout!r}")
+    if engine == "local" and not (isinstance(n_workers, int) and 1 <= n_workers <= 1024):
+        raise OptionError("workers", f"expected 1 to 1024 worker processes; got {n_workers!r}")
     if engine == "serial":
         return SerialEngine()
     if engine in ("local", "dask"):

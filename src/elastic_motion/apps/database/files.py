@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -13,8 +14,28 @@ __all__ = ["MOTION_EXTENSIONS", "find_motion_files"]
 MOTION_EXTENSIONS = (".bvh", ".amc", ".txt", ".json")
 
 
+def _is_regular(path: Path) -> bool:
+    """A regular file (symbolic links followed); False for FIFOs, folders, dangling links, loops."""
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        return False
+
+
+def _absolute(path: Path) -> Path:
+    """``path`` resolved; a dangling link or a link loop made absolute only (named as given)."""
+    if os.path.islink(path) and not os.path.exists(path):  # dangling or a loop: name the link itself
+        return Path(os.path.abspath(path))
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):
+        return Path(os.path.abspath(path))
+
+
 def _looks_like_motion(path: Path) -> bool:
     if path.suffix.lower() not in (".txt", ".json"):
+        return True
+    if not _is_regular(path):  # never open a FIFO (it would block): the reader refuses it, listed
         return True
     try:
         with open(path, "rb") as fh:
@@ -35,6 +56,9 @@ def find_motion_files(
         Files are taken as given (whatever their extension; an unreadable one is reported
         later); folders contribute their ``.bvh``, ``.amc``, and DeepMimic ``.txt`` /
         ``.json`` files (text files not starting with ``{`` are ignored), sorted by name.
+        Entries with those extensions that are not regular files (FIFOs, folders named
+        ``*.bvh``, dangling symbolic links, link loops) are returned too, never opened here:
+        reading refuses them and the run lists them as skipped.
     recursive : bool, default False
         Descend into sub-folders.
 
@@ -57,13 +81,13 @@ def find_motion_files(
         p = Path(item)
         if p.is_dir():
             pattern = "**/*" if recursive else "*"
-            cands = sorted(
-                c for c in p.glob(pattern) if c.is_file() and c.suffix.lower() in MOTION_EXTENSIONS
-            )
+            # every entry with a motion extension: regular files, and also FIFOs, folders named
+            # *.bvh, dangling links and link loops, which reading refuses and the run lists as skipped
+            cands = sorted(c for c in p.glob(pattern) if c.suffix.lower() in MOTION_EXTENSIONS)
         else:
             cands = [p]
         for c in cands:
-            c = c.resolve()
+            c = _absolute(c)
             if c in seen:
                 continue
             seen.add(c)

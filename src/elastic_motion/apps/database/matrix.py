@@ -132,7 +132,9 @@ def compute_matrix(
     n_workers : int, default 2
         Worker processes of the ``"local"`` cluster.
     connect_timeout : float, default 10
-        Seconds to wait for the scheduler (``"dask"``).
+        Seconds to wait for the scheduler to answer (``"dask"``: connection and handshake; a
+        server that is not Dask's is an error within this time) and, mid-run, for a worker when
+        the cluster has none left. A worker lost mid-run costs nothing: its tiles run elsewhere.
     recursive : bool, default False
         Search folders recursively.
     overwrite : bool, default False
@@ -150,7 +152,10 @@ def compute_matrix(
         The scheduler cannot be reached (checked before anything is written).
     OptionError
         ``out_dir`` holding another run (the message says how to resume or restart it) or
-        an input; no readable motion.
+        an input, or inside an input folder (or holding one); no readable motion; ``n_workers``
+        below 1 or a non-positive ``connect_timeout``. A file that cannot be read (malformed,
+        beyond a resource limit, not a regular file) is never an error: it is skipped and
+        listed in the report.
     ValueError
         Bad settings.
     """
@@ -163,6 +168,18 @@ def compute_matrix(
             "out_dir",
             f"expected a folder that holds no input; got {os.fspath(out)!r}, which would overwrite one",
         )
+    for item in inputs:  # the folder and the inputs never overlap (else a rerun reads its own files)
+        if Path(item).is_dir():
+            folder = Path(item).resolve()
+            o = out.resolve()
+            if o == folder or folder in o.parents or o in folder.parents:
+                raise OptionError(
+                    "out_dir",
+                    f"expected a folder that neither holds nor lies inside an input folder; got "
+                    f"{os.fspath(out)!r} and the input folder {os.fspath(item)!r}",
+                )
+    if out.exists() and not out.is_dir():
+        raise OptionError("out_dir", f"expected a folder; got the file {os.fspath(out)!r}")
     ident = _identity(settings, files)
     manifest_path = out / storage.MANIFEST
     if manifest_path.exists():

@@ -28,7 +28,7 @@ from elastic_motion.apps.prepare import MotionPreparation, PrepareOptions, close
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 
-__all__ = ["PreparedMotion", "prepare_motion", "restrict_to_common_joints"]
+__all__ = ["PreparedMotion", "heading_relative_root", "prepare_motion", "restrict_to_common_joints"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,10 +82,11 @@ def prepare_motion(
         The motion file (``.bvh``, ``.amc``, DeepMimic ``.txt`` / ``.json``).
     n_samples : int
         Cells of the common grid: the result has ``n_samples + 1`` frames.
-    joints : "all", "common" or sequence of str, default "all"
+    joints : "all", "common", "map" or sequence of str, default "all"
         ``"all"`` and ``"common"`` keep every joint here (``"common"`` is applied to a set by
-        :func:`restrict_to_common_joints`); a sequence keeps those joints and their chains to
-        the root.
+        :func:`restrict_to_common_joints`); ``"map"`` maps the motion onto the common body
+        model (:func:`~elastic_motion.apps.database.jointmap.map_to_common_body`); a sequence
+        keeps those joints and their chains to the root.
     drop_fingers, align_heading : bool, default True
     motion : Motion, optional
         Use this motion instead of reading ``path`` (``path`` then only names it).
@@ -114,6 +115,11 @@ def prepare_motion(
         if fingers:
             m = mm.drop_joints(m, fingers)
             notes.append(f"{label}: dropped {len(fingers)} finger joints")
+    if joints == "map":
+        from elastic_motion.apps.database.jointmap import map_to_common_body
+
+        m = map_to_common_body(m.replace(name=m.name or label))
+        notes.append(f"{label}: mapped onto the 13-joint common body model")
     if align_heading:
         m = mm.align_heading(m)
     if not isinstance(joints, str):
@@ -170,3 +176,51 @@ def restrict_to_common_joints(prepared: Sequence[PreparedMotion]) -> list[Prepar
         note = f"{Path(p.path).stem}: kept the {len(keep)} joints shared by all motions"
         out.append(replace(p, motion=mm.select_joints(p.motion, keep), notes=(*p.notes, note)))
     return out
+
+
+def heading_relative_root(motion: Motion) -> Motion:
+    """The motion with its root moving in its own heading frame: a heading-invariant curve.
+
+    The Lie curve's SRV sees the root through its world-frame velocity and its right-trivialised
+    angular velocity ``log(R_{f+1} R_f^T)``; both turn with the heading. Here each frame's
+    increments are expressed in the heading frame ``Y_f`` of that frame (the yaw of the root,
+    :func:`elastic_motion.motion.edit.heading_angle`) and integrated again::
+
+        p~_0 = Y_0^T p_0 (floor part 0),   p~_{f+1} = p~_f + Y_f^T (p_{f+1} - p_f)
+        R~_0 = Y_0^T R_0,                  R~_{f+1} = Y_f^T (R_{f+1} R_f^T) Y_f R~_f
+
+    so that rotating the whole motion about the up axis (or a turn happening later in a take)
+    leaves the SRV unchanged, while speed, height, turning rate and the other joints stay.
+    The result is a curve for comparisons, not a pose to show (its root path is straightened).
+
+    Parameters
+    ----------
+    motion : Motion
+        Any up axis.
+
+    Returns
+    -------
+    Motion
+        Same skeleton, frames and joint rotations; new root translation and root rotation.
+    """
+    from elastic_motion.motion.edit import heading_angle
+    from elastic_motion.motion.rotations import axis_rotation
+
+    up = "xyz".index(motion.up_axis.lower())
+    rot = np.array(motion.rotations, dtype=np.float64)
+    root = rot[:, 0]
+    y = axis_rotation(heading_angle(root, up), "XYZ"[up])  # (F, 3, 3)
+    yt = np.swapaxes(y, -1, -2)
+    p = np.asarray(motion.root_translation, dtype=np.float64)
+    dp = np.einsum("fij,fj->fi", yt[:-1], np.diff(p, axis=0))
+    p0 = yt[0] @ p[0]
+    p0[[a for a in range(3) if a != up]] = 0.0
+    pn = np.concatenate([p0[None], p0 + np.cumsum(dp, axis=0)])
+    inc = np.einsum("fij,fjk,flk->fil", yt[:-1], root[1:], root[:-1])  # Y^T R_{f+1} R_f^T
+    inc = np.einsum("fij,fjk->fik", inc, y[:-1])
+    rn = np.empty_like(root)
+    rn[0] = yt[0] @ root[0]
+    for f in range(len(inc)):
+        rn[f + 1] = inc[f] @ rn[f]
+    rot[:, 0] = rn
+    return replace(motion, root_translation=pn, rotations=rot)

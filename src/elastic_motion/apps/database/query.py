@@ -1,8 +1,11 @@
-"""One motion against a database: :func:`query_distances` -> :class:`QueryResult`."""
+"""One motion against a database: :func:`query_distances` -> :class:`QueryResult` (every
+distance), :func:`knn_search` -> :class:`SearchResult` (exact k nearest, pruned by the
+bounds of :mod:`.bounds`)."""
 
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,14 +17,14 @@ from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.preparation import prepare_motion
-from elastic_motion.apps.database.settings import DatabaseSettings
+from elastic_motion.apps.database.settings import DatabaseSettings, canonical_method, public_method
 from elastic_motion.apps.database.tiles import pair_distance, single_threaded_blas
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import group_weights
 
-__all__ = ["QueryResult", "query_distances"]
+__all__ = ["QueryResult", "SearchResult", "knn_search", "query_distances"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,6 +36,7 @@ class QueryResult:
     query : str
         The query file.
     representation : {"lie", "euler"}
+        The stored key of the curve representation (:attr:`method` is its public name).
     names : list of str
         Database motion names, in database order (length ``M``).
     paths : list of str
@@ -62,6 +66,11 @@ class QueryResult:
     skipped: list[dict[str, str]]
     notes: tuple[str, ...] = ()
 
+    @property
+    def method(self) -> str:
+        """The curve representation's public name: ``"lie"`` or ``"euler-elastic"``."""
+        return public_method(self.representation)
+
     def nearest(self, k: int = 5, *, exclude_query: bool = True) -> np.ndarray:
         """Indices of the ``k`` nearest motions (finite distances), nearest first.
 
@@ -87,60 +96,43 @@ class QueryResult:
         return jsonable(self)
 
 
-def query_distances(
-    query: str | os.PathLike[str],
+def _open_database(
     database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
-    representation: str = "lie",
-    settings: DatabaseSettings | None = None,
-    *,
-    progress: Progress | None = None,
-) -> QueryResult:
-    """Distances from one motion to every motion of a database.
+    key: str,
+    settings: DatabaseSettings | None,
+    progress: Progress | None,
+) -> SRVCache:
+    """The SRV cache of a matrix folder, an index (:mod:`.index`) or files read now."""
+    from elastic_motion.apps.database.index import is_index, load_index
 
-    Parameters
-    ----------
-    query : path
-        A motion file.
-    database : path or sequence of paths
-        A matrix output folder (its ``srv_cache.npz`` and settings are used; ``settings`` is
-        then ignored and nothing is written), or motion files / folders (read now, nothing
-        cached).
-    representation : {"lie", "euler"}, default "lie"
-    settings : DatabaseSettings, optional
-        For a database of files (default ``DatabaseSettings(representations=(representation,))``).
-    progress : callable, optional
-        ``progress(stage, done, total)``: ``"read"`` (database files), ``"query"`` (pairs).
-
-    Returns
-    -------
-    QueryResult
-
-    Raises
-    ------
-    ParseError
-        Unreadable query.
-    OptionError
-        A representation the database does not hold; a query missing the joints asked for.
-    """
     db = [database] if isinstance(database, str | os.PathLike) else list(database)
-    if len(db) == 1 and (Path(db[0]) / storage.CACHE).exists():
+    if len(db) == 1 and is_index(db[0]):
+        cache = load_index(db[0]).cache
+    elif len(db) == 1 and (Path(db[0]) / storage.CACHE).exists():
         cache = SRVCache.load(Path(db[0]) / storage.CACHE)
     else:
         if settings is None:
-            settings = DatabaseSettings(representations=(representation,))
+            settings = DatabaseSettings(representations=(key,))
         files, ignored = find_motion_files(db)
         cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
-    settings = cache.settings
-    if representation not in settings.representations:
+    if key not in cache.settings.representations:
         raise OptionError(
-            "representation",
-            f"expected one of the representations of the database {list(settings.representations)}; "
-            f"got {representation!r}",
+            "method",
+            "expected one of the representations of the database "
+            f"{[public_method(r) for r in cache.settings.representations]}; got {public_method(key)!r}",
         )
+    return cache
+
+
+def _query_srv(
+    query: str | os.PathLike[str], cache: SRVCache, key: str
+) -> tuple[np.ndarray, int, tuple, tuple]:
+    """The query's SRV array in its group's metric, its group (-1: none), notes and joint names."""
+    settings = cache.settings
     select: str | Sequence[str] = "all"
     if settings.joints == "common" and cache.group_joints:
         select = cache.group_joints[0]
-    elif not isinstance(settings.joints, str):
+    elif settings.joints == "map" or not isinstance(settings.joints, str):
         select = settings.joints
     p = prepare_motion(
         query,
@@ -153,27 +145,273 @@ def query_distances(
         g = [tuple(j) for j in cache.group_joints].index(p.joint_names)
     except ValueError:
         g = -1
-    members = [k for k in range(len(cache)) if cache.groups[k] == g]
     if g >= 0:  # the query is measured in its group's shared metric
         jw, tw = cache.group_weights[g]
         weights = (np.asarray(jw), float(tw))
     else:
         weights = group_weights([p.motion])
-    qq = srv_arrays(p, [representation], weights)[representation]
+    qq = srv_arrays(p, [key], weights)[key]
+    return qq, g, p.notes, p.joint_names
+
+
+def _method_key(method: str, representation: str | None) -> str:
+    if representation is not None:  # the name of earlier releases
+        return canonical_method(representation, "representation")
+    return canonical_method(method)
+
+
+def query_distances(
+    query: str | os.PathLike[str],
+    database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    method: str = "lie",
+    settings: DatabaseSettings | None = None,
+    *,
+    progress: Progress | None = None,
+    representation: str | None = None,
+) -> QueryResult:
+    """Distances from one motion to every motion of a database.
+
+    Parameters
+    ----------
+    query : path
+        A motion file.
+    database : path or sequence of paths
+        A matrix output folder (its ``srv_cache.npz`` and settings are used; ``settings`` is
+        then ignored and nothing is written), an index (:func:`~elastic_motion.apps.database.build_index`),
+        or motion files / folders (read now, nothing cached).
+    method : {"lie", "euler-elastic"}, default "lie"
+        The curve representation; ``"euler"`` is accepted for ``"euler-elastic"``.
+    settings : DatabaseSettings, optional
+        For a database of files (default ``DatabaseSettings(representations=(method,))``).
+    progress : callable, optional
+        ``progress(stage, done, total)``: ``"read"`` (database files), ``"query"`` (pairs).
+    representation : str, optional
+        The name of ``method`` in earlier releases (same values); overrides ``method``.
+
+    Returns
+    -------
+    QueryResult
+
+    Raises
+    ------
+    ParseError
+        Unreadable query.
+    OptionError
+        A representation the database does not hold; a query missing the joints asked for.
+    """
+    key = _method_key(method, representation)
+    cache = _open_database(database, key, settings, progress)
+    qq, g, notes, _ = _query_srv(query, cache, key)
+    members = [k for k in range(len(cache)) if cache.groups[k] == g]
     out = np.full(len(cache), np.inf)
     with single_threaded_blas():
         for n, k in enumerate(members):
-            out[k] = pair_distance(qq, cache.q[representation][k], settings.warp)
+            out[k] = pair_distance(qq, cache.q[key][k], cache.settings.warp)
             if progress is not None:
                 progress("query", n + 1, len(members))
     return QueryResult(
         query=os.fspath(query),
-        representation=representation,
+        representation=key,
         names=list(cache.names),
         paths=list(cache.paths),
         distances=out,
         group=g,
-        settings=settings,
+        settings=cache.settings,
         skipped=list(cache.skipped),
-        notes=p.notes,
+        notes=notes,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class SearchResult:
+    """The exact k nearest motions of a query (:func:`knn_search`).
+
+    Attributes
+    ----------
+    query : str
+    method : {"lie", "euler-elastic"}
+    indices : ndarray of int, shape (<= k,)
+        Database indices of the nearest motions, nearest first (ties by index): the same as
+        ranking every exact distance (``query_distances(...).nearest(k)``).
+    distances : ndarray, shape (<= k,)
+        Their elastic distances (bit-identical to :func:`query_distances`'s).
+    names, paths : list of str
+        Of the whole database (length ``M``).
+    lower_bounds : ndarray, shape (M,)
+        The bound of :func:`~elastic_motion.apps.database.bounds.lower_bounds` for each entry
+        (``+inf`` outside the query's skeleton group).
+    computed : ndarray of bool, shape (M,)
+        Entries whose full DP distance was computed.
+    candidates : int
+        Entries of the query's group (less the query itself when excluded).
+    group : int
+        Skeleton group of the query; -1 if the database holds no motion of its skeleton.
+    settings : DatabaseSettings
+    skipped : list of dict
+    notes : tuple of str
+        The query's preparation; with ``group == -1`` also which joints differ from the
+        nearest group of the database.
+    seconds : float
+        Wall time of the search (bounds and DPs, not reading).
+    """
+
+    query: str
+    method: str
+    indices: np.ndarray
+    distances: np.ndarray
+    names: list[str]
+    paths: list[str]
+    lower_bounds: np.ndarray
+    computed: np.ndarray
+    candidates: int
+    group: int
+    settings: DatabaseSettings
+    skipped: list[dict[str, str]]
+    notes: tuple[str, ...] = ()
+    seconds: float = 0.0
+
+    @property
+    def n_computed(self) -> int:
+        """Full DP solves made."""
+        return int(self.computed.sum())
+
+    @property
+    def fraction_pruned(self) -> float:
+        """Share of the candidates whose DP the bounds made unnecessary (0 with no candidate)."""
+        return 1.0 - self.n_computed / self.candidates if self.candidates else 0.0
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready fields: the results, the pruning and the settings."""
+        return jsonable(
+            {
+                "query": self.query,
+                "method": self.method,
+                "results": [
+                    {"rank": r + 1, "name": self.names[i], "path": self.paths[i], "distance": float(d)}
+                    for r, (i, d) in enumerate(zip(self.indices, self.distances, strict=True))
+                ],
+                "candidates": self.candidates,
+                "computed": self.n_computed,
+                "fraction_pruned": self.fraction_pruned,
+                "seconds": self.seconds,
+                "group": self.group,
+                "settings": self.settings,
+                "skipped": self.skipped,
+                "notes": self.notes,
+            }
+        )
+
+
+def _skeleton_difference(joints: Sequence[str], cache: SRVCache) -> str:
+    """Which joints differ between a query's skeleton and the nearest group of a database."""
+    if not cache.group_joints:
+        return "the database holds no motion"
+    mine = set(joints)
+    best = min(range(len(cache.group_joints)), key=lambda g: len(mine ^ set(cache.group_joints[g])))
+    theirs = set(cache.group_joints[best])
+    missing = sorted(theirs - mine)
+    extra = sorted(mine - theirs)
+    return (
+        f"the database holds no motion of the query's skeleton ({len(joints)} joints); nearest group "
+        f"{best} ({len(theirs)} joints): the query lacks {missing or 'nothing'}, "
+        f"has extra {extra or 'nothing'}"
+        + ("" if missing or extra else " (same names, another order)")
+        + "; compare on shared joints with joints='common' (--joints common)"
+    )
+
+
+def knn_search(
+    query: str | os.PathLike[str],
+    database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    k: int = 5,
+    method: str = "lie",
+    settings: DatabaseSettings | None = None,
+    *,
+    exclude_query: bool = True,
+    progress: Progress | None = None,
+) -> SearchResult:
+    """Exact k nearest motions of a query, computing the full DP only where the bounds cannot
+    exclude an entry.
+
+    Entries are visited by increasing lower bound (:mod:`.bounds`: the norms of the positive
+    and negative parts of each SRV coordinate, which a warp keeps); the search stops when the
+    next lower bound exceeds the current k-th distance. The result equals ranking every
+    exact distance (same pair function, same tie rule).
+
+    Parameters
+    ----------
+    query : path
+    database : path or sequence of paths
+        As in :func:`query_distances` (an index built by ``elastic-motion index`` avoids
+        reading the database files).
+    k : int, default 5
+    method : {"lie", "euler-elastic"}, default "lie"
+    settings : DatabaseSettings, optional
+        For a database of files.
+    exclude_query : bool, default True
+        Leave out entries that are the query file itself.
+    progress : callable, optional
+        ``progress("read", done, total)`` while files are read.
+
+    Returns
+    -------
+    SearchResult
+
+    Raises
+    ------
+    OptionError
+        ``k < 1``; a representation the database does not hold.
+    """
+    if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
+        raise OptionError("k", f"expected an integer >= 1; got {k!r}")
+    from elastic_motion.apps.database.bounds import lower_bounds, part_norms
+    from elastic_motion.apps.database.index import cache_norms
+
+    key = canonical_method(method)
+    cache = _open_database(database, key, settings, progress)
+    qq, g, notes, joints = _query_srv(query, cache, key)
+    t0 = time.perf_counter()
+    m = len(cache)
+    lb = np.full(m, np.inf)
+    computed = np.zeros(m, dtype=bool)
+    qpath = os.path.realpath(query)
+    members = np.array(
+        [
+            i
+            for i in range(m)
+            if cache.groups[i] == g and not (exclude_query and os.path.realpath(cache.paths[i]) == qpath)
+        ],
+        dtype=np.int64,
+    )
+    found: list[tuple[float, int]] = []
+    if g < 0:
+        notes = (*notes, _skeleton_difference(joints, cache))
+    elif len(members):
+        norms = cache_norms(cache, key)
+        lb[members] = lower_bounds(part_norms(qq), norms[members][:, :, : qq.shape[1]])  # one group: one D
+        order = members[np.lexsort((members, lb[members]))]
+        with single_threaded_blas():
+            for i in order:
+                if len(found) >= k and lb[i] > found[k - 1][0]:
+                    break
+                d = pair_distance(qq, cache.q[key][i], cache.settings.warp)
+                computed[i] = True
+                found.append((d, int(i)))
+                found.sort()
+    top = found[:k]
+    return SearchResult(
+        query=os.fspath(query),
+        method=public_method(key),
+        indices=np.array([i for _, i in top], dtype=np.int64),
+        distances=np.array([d for d, _ in top]),
+        names=list(cache.names),
+        paths=list(cache.paths),
+        lower_bounds=lb,
+        computed=computed,
+        candidates=len(members),
+        group=g,
+        settings=cache.settings,
+        skipped=list(cache.skipped),
+        notes=tuple(notes),
+        seconds=time.perf_counter() - t0,
     )

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.database import storage
-from elastic_motion.apps.database.settings import REPRESENTATIONS
+from elastic_motion.apps.database.settings import REPRESENTATIONS, canonical_method, public_method
 from elastic_motion.errors import OptionError
 
 __all__ = ["DistanceMatrix", "load_matrix"]
@@ -44,7 +44,11 @@ class DistanceMatrix:
 
 
 def load_matrix(
-    out_dir: str | os.PathLike[str], representation: str = "lie", *, require_complete: bool = True
+    out_dir: str | os.PathLike[str],
+    method: str = "lie",
+    *,
+    require_complete: bool = True,
+    representation: str | None = None,
 ) -> DistanceMatrix:
     """Read ``distances_<representation>.npy``, ``names.csv`` and ``report.json`` of a run.
 
@@ -52,9 +56,12 @@ def load_matrix(
     ----------
     out_dir : path
         Output folder of :func:`compute_matrix` (``elastic-motion matrix``).
-    representation : {"lie", "euler"}, default "lie"
+    method : {"lie", "euler-elastic"}, default "lie"
+        The curve representation (``"euler"`` is accepted for ``"euler-elastic"``).
     require_complete : bool, default True
         Refuse a run that is not complete.
+    representation : str, optional
+        The name of ``method`` in earlier releases; overrides it.
 
     Returns
     -------
@@ -69,18 +76,16 @@ def load_matrix(
         a run that is not complete while ``require_complete`` (resume it first).
     """
     out = Path(out_dir)
-    if representation not in REPRESENTATIONS:
-        raise OptionError(
-            "representation", f"expected one of {list(REPRESENTATIONS)}; got {representation!r}"
-        )
+    option = "representation" if representation is not None else "method"
+    representation = canonical_method(representation if representation is not None else method, option)
     path = out / storage.matrix_name(representation)
     if not path.exists():
-        held = [r for r in REPRESENTATIONS if (out / storage.matrix_name(r)).exists()]
+        held = [public_method(r) for r in REPRESENTATIONS if (out / storage.matrix_name(r)).exists()]
         if held:
             raise OptionError(
-                "representation",
+                option,
                 f"{os.fspath(out)}: expected one of the representations this run computed {held}; "
-                f"got {representation!r}",
+                f"got {public_method(representation)!r}",
             )
         name = storage.matrix_name(representation)
         raise FileNotFoundError(

@@ -60,12 +60,15 @@ def canonical_method(value: Any, option: str = "method") -> str:
     """
     if isinstance(value, str) and value in _METHOD_KEYS:
         return _METHOD_KEYS[value]
-    raise OptionError(option, f"expected one of {list(METHODS)} ('euler' is accepted for 'euler-elastic'); got {value!r}")
+    raise OptionError(
+        option, f"expected one of {list(METHODS)} ('euler' is accepted for 'euler-elastic'); got {value!r}"
+    )
 
 
 def public_method(key: str) -> str:
     """The public name (``"lie"`` / ``"euler-elastic"``) of a stored key (``"lie"`` / ``"euler"``)."""
     return "euler-elastic" if key == "euler" else key
+
 
 #: Version of the files of an output folder. 1: settings with ``"pair"``; 2: with ``"warp"``
 #: (:class:`~elastic_motion.warp.WarpOptions`). Tiles and SRV arrays are the same in both.
@@ -107,11 +110,14 @@ class DatabaseSettings:
         the parametrised curves), the DP ``neighbourhood`` (default 10), ``coarse_to_fine``.
         A method name is accepted for ``WarpOptions(method=name)``. ``sample_fps`` and
         ``landmark_weight`` are not used here (the grid is ``n_samples``; no landmarks).
-    joints : "all", "common" or tuple of str, default "all"
+    joints : "all", "common", "map" or tuple of str, default "all"
         ``"all"``: every joint of each file; motions with different joint names form
         separate groups (entries between groups are ``+inf``). ``"common"``: the joints
-        every readable motion has (one group). A tuple: exactly these joints (files
-        lacking one are skipped with the reason).
+        every readable motion has (one group). ``"map"``: every motion on the 13-joint
+        common body model through the joint-name maps of
+        :mod:`~elastic_motion.apps.database.jointmap` (CMU BVH/ASF, Bandai, DeepMimic: one
+        group; a skeleton no map fits is skipped, naming the joints it lacks). A tuple:
+        exactly these joints (files lacking one are skipped with the reason).
     drop_fingers : bool, default True
         Remove finger/thumb/hand-index joints (CMU's 180-degree flips).
     align_heading : bool, default True
@@ -149,9 +155,9 @@ class DatabaseSettings:
         object.__setattr__(self, "representations", reps)
         object.__setattr__(self, "warp", _warp_options(self.warp))
         if isinstance(self.joints, str):
-            if self.joints not in ("all", "common"):
+            if self.joints not in ("all", "common", "map"):
                 raise OptionError(
-                    "joints", f"expected 'all', 'common' or a list of joint names; got {self.joints!r}"
+                    "joints", f"expected 'all', 'common', 'map' or a list of joint names; got {self.joints!r}"
                 )
         else:
             names = tuple(str(n) for n in self.joints)

@@ -20,7 +20,15 @@ from elastic_motion.apps.database.settings import DEFAULT_WARP
 from elastic_motion.apps.progress import Progress
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["compute_tile", "distance_matrix", "pair_distance", "single_threaded_blas", "tile_blocks"]
+__all__ = [
+    "cluster_worth_it",
+    "compute_tile",
+    "distance_matrix",
+    "estimated_serial_seconds",
+    "pair_distance",
+    "single_threaded_blas",
+    "tile_blocks",
+]
 
 
 def pair_distance(q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WARP) -> float:
@@ -165,3 +173,50 @@ def tile_blocks(n_motions: int, tile_size: int) -> list[tuple[int, int]]:
 def block(i: int, tile_size: int, n_motions: int) -> np.ndarray:
     """Motion indices of block ``i`` (shape ``(<= tile_size,)``)."""
     return np.arange(i * tile_size, min((i + 1) * tile_size, n_motions))
+
+
+#: Seconds to start a 2-worker Dask ``LocalCluster`` and load the kernels on it, measured on the
+#: 2-core reference machine (38 clips: 10.1 s with ``--engine local`` against 4.0 s serial).
+LOCAL_CLUSTER_STARTUP = 6.0
+#: Seconds per DP pair at 64 cells with neighbourhood 6 on one core (``benchmarks/database.py``).
+SECONDS_PER_PAIR_64 = 0.9e-3
+
+
+def estimated_serial_seconds(n_pairs: int, n_samples: int, warp: WarpOptions = DEFAULT_WARP) -> float:
+    """A rough serial cost of ``n_pairs`` pair distances (for the engine choice, not a promise).
+
+    ``SECONDS_PER_PAIR_64 * (n / 64)^1.5 * K(m) / K(6)`` per DP pair (``K(m)``: the number of
+    coprime steps up to ``m``; the exponent 1.5 is the measured growth of the pruned DP between
+    64 and 200 cells); the no-warp distance costs ``1e-6 * n / 64`` s.
+    """
+    from elastic_motion.warp import coprime_steps
+
+    if warp.method == "none":
+        return n_pairs * 1e-6 * n_samples / 64
+    steps = len(coprime_steps(int(warp.neighbourhood))) / len(coprime_steps(6))
+    return n_pairs * SECONDS_PER_PAIR_64 * (n_samples / 64) ** 1.5 * steps
+
+
+def cluster_worth_it(
+    n_pairs: int, n_samples: int, warp: WarpOptions = DEFAULT_WARP, *, n_workers: int = 2
+) -> tuple[bool, str]:
+    """Whether a local Dask cluster would finish before a serial run; and the sentence to report.
+
+    With ``W`` workers the cluster takes about ``startup + serial / W``; it wins when
+    ``serial > startup * W / (W - 1)`` (``startup``: :data:`LOCAL_CLUSTER_STARTUP`). For the
+    engine of a matrix run (``engine="local"``): when this is False, run serially and report
+    the sentence, so ``--engine local`` never loses to serial on small inputs.
+
+    Returns
+    -------
+    (bool, str)
+    """
+    serial = estimated_serial_seconds(n_pairs, n_samples, warp)
+    w = max(2, int(n_workers))
+    limit = LOCAL_CLUSTER_STARTUP * w / (w - 1)
+    if serial > limit:
+        return True, f"local cluster of {w} workers: about {serial:.0f} s of pair work serially"
+    return False, (
+        f"local cluster not started: {n_pairs} pairs take about {serial:.1f} s serially, less than "
+        f"the {LOCAL_CLUSTER_STARTUP:g} s a cluster needs to start (ran serially)"
+    )

@@ -1,0 +1,171 @@
+"""Benchmark of loop quality (issue 11): what an animator judges, measured on the written BVH.
+
+Rows: every real clip a user would loop (CMU 49_08, 09_11, 07_01, 55_01, the CMU backflip
+ASF/AMC; DeepMimic cartwheel, backflip, run, walk, jump, spinkick), each looped twice with
+:func:`elastic_motion.apps.loop.loop_motion` (``root="travel"``, finger joints free, the
+default solver ``"kkt"``): the whole clip and ``window="auto"``. Each loop is written with
+:func:`elastic_motion.write` (the command line's writer, the input's unit), **read back**, and
+measured by forward kinematics against the prepared input's frames of the same window:
+
+* ``change max / mean`` (m): FK positions of the closed joints and their end sites, loop
+  against input, over all frames (:func:`~elastic_motion.apps.loop.seam_metrics`).
+* ``seam`` (rad, m): the largest joint angle across the seam (closed joints, root relative
+  to heading) and the largest FK position jump.
+* ``skating in / loop`` (m/s): mean horizontal speed of the contact joints during the
+  *input's* contacts (:func:`elastic_motion.motion.contacts.detect_contacts` on the input
+  window; :func:`elastic_motion.apps.metrics.contact_skating`), of the input and of the
+  read-back loop; ``ratio`` = loop / input.
+* ``below floor in / loop`` (m): how far the lowest joint or end site goes below the
+  input's floor.
+* ``solve`` (s): the closing solver's time of the chosen loop; ``total`` the whole call
+  (candidates and the whole-clip closing of ``"auto"`` included).
+
+The short DeepMimic clips are also looped with ``contacts="keep"`` (mode ``whole, contacts
+keep``: the input's contacts are constraints of the projection).
+
+Targets (issue 11): seam below 1e-3 rad; skating ratio at most 1.1; no point more than
+1 cm below the input's floor; on 49_08 the auto window's change at most a third of the
+whole clip's; closing a 600-frame, 31-joint clip with contacts under 1 s.
+
+Usage: ``python benchmarks/loop_quality.py [--out PATH] [--only NAME ...]``
+Real data from ``$ELASTIC_MOTION_MOCAP`` or ``../shared/mocap``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import elastic_motion as em
+from _common import RESULTS, machine_info, write_json
+from elastic_motion.apps.loop import loop_motion, seam_metrics
+from elastic_motion.apps.metrics import contact_skating
+from elastic_motion.motion import read_motion, to_metres
+from elastic_motion.motion.contacts import detect_contacts
+
+CLIPS = {
+    "cmu_49_08": "cmu/bvh/49_08.bvh",
+    "cmu_09_11": "cmu/bvh/09_11.bvh",
+    "cmu_07_01": "cmu/bvh/07_01.bvh",
+    "cmu_55_01": "cmu/bvh/55_01.bvh",
+    "cmu_backflip": "cmu/asfamc/backflip.amc",
+    "dm_cartwheel": "deepmimic/humanoid3d_cartwheel.txt",
+    "dm_backflip": "deepmimic/humanoid3d_backflip.txt",
+    "dm_run": "deepmimic/humanoid3d_run.txt",
+    "dm_walk": "deepmimic/humanoid3d_walk.txt",
+    "dm_jump": "deepmimic/humanoid3d_jump.txt",
+    "dm_spinkick": "deepmimic/humanoid3d_spinkick.txt",
+}
+
+
+#: Clips also looped with ``contacts="keep"`` (the dense constraint Jacobian makes it slow on
+#: long clips: about a minute for the 165-frame CMU 09_11).
+KEEP_CLIPS = ("dm_run", "dm_walk", "dm_backflip", "dm_jump", "dm_spinkick")
+
+
+def mocap_dir() -> Path:
+    env = os.environ.get("ELASTIC_MOTION_MOCAP")
+    return Path(env) if env else Path(__file__).resolve().parents[2] / "shared" / "mocap"
+
+
+def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report") -> dict:
+    t0 = time.perf_counter()
+    res = loop_motion(path, window=window, contacts=contacts)
+    total = time.perf_counter() - t0
+    out = em.write(res, tmp / f"{path.stem}.{window or 'whole'}.{contacts}.bvh")
+    back = read_motion(out)
+    mpu = res.prepared.units_out
+    if mpu is not None:
+        back = to_metres(back.replace(metres_per_unit=mpu))  # the input's unit, back to metres
+    inp = res.original  # the prepared input window (metres, Y-up)
+    sm = seam_metrics(back, original=inp, joints=res.closed_joints)
+    contacts = detect_contacts(inp)
+    sk_in = contact_skating(inp, contacts)
+    sk_out = contact_skating(back, contacts)
+    w = res.window
+    return {
+        "start": w.start if w else 0,
+        "stop": w.stop if w else inp.n_frames,
+        "frames": inp.n_frames,
+        "joints": inp.n_joints,
+        "change_max_m": sm.deviation_max_m,
+        "change_mean_m": sm.deviation_mean_m,
+        "seam_rad": math.radians(sm.seam_angle_max_deg),
+        "seam_m": sm.seam_position_max_m,
+        "skating_in_m_s": sk_in.mean_speed,
+        "skating_loop_m_s": sk_out.mean_speed,
+        "skating_ratio": sk_out.mean_speed / sk_in.mean_speed if sk_in.mean_speed > 0 else None,
+        "below_floor_in_m": sk_in.below_floor,
+        "below_floor_loop_m": sk_out.below_floor,
+        "contact_joints": sorted(contacts.all_intervals()),
+        "solve_s": res.closing.time,
+        "total_s": total,
+        "kkt_residual": res.closing.kkt_residual,
+        "converged": res.closing.converged,
+        "contacts_kept": res.contacts_kept,
+    }
+
+
+def fmt(v: object, spec: str = ".3g") -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return format(v, spec)
+    return str(v)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default=str(RESULTS / "loop_quality.json"))
+    ap.add_argument("--only", nargs="*", default=None, help="clip names (default: all)")
+    args = ap.parse_args()
+    root = mocap_dir()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmpd:
+        tmp = Path(tmpd)
+        for name, rel in CLIPS.items():
+            if args.only and name not in args.only:
+                continue
+            path = root / rel
+            if not path.exists():
+                print(f"skip {name}: {path} not found")
+                continue
+            modes = [(None, "report"), ("auto", "report")]
+            if name in KEEP_CLIPS:
+                modes.append((None, "keep"))
+            for window, contacts in modes:
+                try:
+                    r = measure(path, window, tmp, contacts)
+                except Exception as exc:  # a row that fails is reported, not fatal
+                    r = {"error": f"{type(exc).__name__}: {exc}"}
+                r.update(
+                    clip=name, mode=(window or "whole") + (", contacts keep" if contacts == "keep" else "")
+                )
+                rows.append(r)
+    head = (
+        "| clip | mode | start | stop | change max m | change mean m | seam rad | seam m | skating in m/s "
+        "| skating loop m/s | ratio | below floor in m | below floor loop m | solve s | total s |"
+    )
+    print(head)
+    print("|" + "---|" * (head.count("|") - 1))
+    for r in rows:
+        if "error" in r:
+            print(f"| {r['clip']} | {r['mode']} | error: {r['error']} |")
+            continue
+        print(
+            f"| {r['clip']} | {r['mode']} | {r['start']} | {r['stop']} | {fmt(r['change_max_m'])} "
+            f"| {fmt(r['change_mean_m'])} | {fmt(r['seam_rad'], '.2e')} | {fmt(r['seam_m'], '.2e')} "
+            f"| {fmt(r['skating_in_m_s'])} | {fmt(r['skating_loop_m_s'])} | {fmt(r['skating_ratio'])} "
+            f"| {fmt(r['below_floor_in_m'])} | {fmt(r['below_floor_loop_m'])} | {fmt(r['solve_s'])} "
+            f"| {fmt(r['total_s'])} |"
+        )
+    write_json(args.out, {"machine": machine_info(), "rows": rows})
+    print(f"\nwrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

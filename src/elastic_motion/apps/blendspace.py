@@ -1,0 +1,262 @@
+"""Blend spaces: N >= 3 motions placed by a parameter (e.g. walk, jog, run by speed), all
+aligned to a common template once, so that any parameter gives a consistent motion.
+
+Paper 000, sec. 5.3 (future work). What happens:
+
+1. :func:`elastic_motion.apps.prepare.prepare_motions` prepares the motions together (the
+   first one sets the frame rate and placement). They must share one skeleton (the same
+   joint names in the same order): a blend space of different skeletons is refused.
+2. **Parameters**: given (one number per motion), or ``"speed"``: the mean horizontal speed
+   of the root (m/s) of each prepared motion. They must differ.
+3. **One alignment**: the Karcher mean of the motions' curves
+   (:func:`elastic_motion.apps.statistics.karcher_mean`, equal weights, DP) is the common
+   template; its warps ``phi_k`` (template parameter -> motion ``k``'s) are kept.
+4. **Any parameter** ``p`` (:meth:`BlendSpace.at`): the motions sorted by parameter, ``p``
+   between neighbours ``p_i <= p <= p_{i+1}`` gets weights ``(1 - t, t)`` on them
+   (``t = (p - p_i) / (p_{i+1} - p_i)``, 0 elsewhere; for ``"speed"``, ``t`` is then found by
+   bisection so that the blend's root speed is ``p``); the blend is
+   :func:`elastic_motion.apps.blend.blend_motions` with these weights and the template's
+   warps. Every parameter uses the same warps, so neighbouring parameters give neighbouring
+   motions (the template's timing), and a motion's own parameter gives that motion at the
+   template's timing. ``p`` outside the range is refused.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.apps.blend import BlendResult, blend_motions
+from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import Motion
+
+__all__ = ["BlendSpace", "blendspace", "motion_speed"]
+
+
+def motion_speed(motion: Motion) -> float:
+    """Mean horizontal speed of the root, m/s (the motion's unit per second if unknown)."""
+    up = "xyz".index(motion.up_axis)
+    p = np.array(motion.root_translation, dtype=np.float64)
+    p[:, up] = 0.0
+    scale = motion.metres_per_unit or 1.0
+    if motion.n_frames < 2:
+        return 0.0
+    return float(np.linalg.norm(p[-1] - p[0]) * scale / motion.duration)
+
+
+@dataclass(frozen=True, eq=False)
+class BlendSpace:
+    """Motions placed by a parameter and aligned to a common template (:func:`blendspace`).
+
+    Attributes
+    ----------
+    prepared : PreparedMotions
+        The motions, sorted by parameter.
+    params : ndarray, shape (N,)
+        Increasing.
+    param_name : str
+    warps : tuple of ndarray
+        ``phi_k``: template parameter -> motion ``k``'s (vertices).
+    method : str
+    notes : tuple of str
+    """
+
+    prepared: PreparedMotions
+    params: np.ndarray
+    param_name: str
+    warps: tuple[np.ndarray, ...]
+    method: str = "lie"
+    contacts: Any = "auto"
+    notes: tuple[str, ...] = field(default=())
+
+    def weights(self, p: float) -> np.ndarray:
+        """Weights ``(N,)`` of parameter ``p`` (module docstring, step 4)."""
+        x = self.params
+        p = float(p)
+        if not np.isfinite(p) or p < x[0] - 1e-12 or p > x[-1] + 1e-12:
+            raise OptionError(
+                "at", f"expected a parameter in [{x[0]:g}, {x[-1]:g}] ({self.param_name}); got {p:g}"
+            )
+        i = int(np.clip(np.searchsorted(x, p, side="right") - 1, 0, len(x) - 2))
+        t = (p - x[i]) / (x[i + 1] - x[i])
+        w = np.zeros(len(x))
+        w[i], w[i + 1] = 1.0 - t, t
+        return w
+
+    def at(self, p: float, *, metrics: bool = False) -> BlendResult:
+        """The motion at parameter ``p`` (:func:`~elastic_motion.apps.blend.blend_motions`
+        with the template's warps). For ``params="speed"`` the weight between the two
+        neighbours is found by bisection so that the blend's root speed is ``p`` (the speed of
+        a blend is not linear in its weight, its clock is blended too; the frame count and
+        the clean-up make it jump by a few per cent, so ``p`` is met to about 3 %)."""
+        w = self.weights(p)
+        if self.param_name == "speed_m_s" and 0 < w.max() < 1:
+            w = self._speed_weights(float(p), w)
+        res = blend_motions(
+            self.prepared,
+            w,
+            method=self.method,
+            template_warps=self.warps,
+            contacts=self.contacts,
+            metrics=metrics,
+        )
+        return res
+
+    def _speed_weights(self, p: float, w: np.ndarray) -> np.ndarray:
+        i = int(np.flatnonzero(w > 0)[0])
+        lo, hi = 0.0, 1.0
+        t = w[i + 1] if i + 1 < len(w) else 0.0
+        for _ in range(12):
+            trial = np.zeros_like(w)
+            trial[i], trial[i + 1] = 1.0 - t, t
+            m = blend_motions(
+                self.prepared, trial, method=self.method, template_warps=self.warps, contacts=self.contacts
+            ).motion
+            v = motion_speed(m)
+            if abs(v - p) <= 0.005 * p:
+                break
+            lo, hi = (t, hi) if v < p else (lo, t)
+            t = 0.5 * (lo + hi)
+        out = np.zeros_like(w)
+        out[i], out[i + 1] = 1.0 - t, t
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return {
+            "param": self.param_name,
+            "motions": list(self.prepared.labels),
+            "params": self.params.tolist(),
+            "method": self.method,
+            "template_warps": [v.tolist() for v in self.warps],
+            "notes": list(self.notes),
+        }
+
+
+def blendspace(
+    motions: Sequence[Source],
+    params: str | Sequence[float] = "speed",
+    *,
+    method: str = "lie",
+    prepare: PrepareOptions | None = None,
+    contacts: Any = "auto",
+    one_cycle: bool = False,
+) -> BlendSpace:
+    """Build a blend space (module docstring).
+
+    Parameters
+    ----------
+    motions : sequence of path or Motion
+        ``N >= 3`` motions of one skeleton.
+    params : "speed" or sequence of float
+        One parameter per motion, all different, or ``"speed"`` (m/s of the root).
+    method : {"lie", "euler-elastic"}
+    prepare : PrepareOptions, optional
+    contacts : "auto", "off" or ContactOptions
+        The foot-skate clean-up of each blend (:func:`~elastic_motion.apps.blend.blend_motions`).
+    one_cycle : bool, default False
+        Keep one gait cycle of each motion (:func:`elastic_motion.apps.cycles.gait_cycles`:
+        the cycle whose duration is the clip's median, from heel strike to heel strike of the
+        same foot); a motion without a full cycle is kept whole (a note says so).
+
+    Returns
+    -------
+    BlendSpace
+
+    Raises
+    ------
+    OptionError
+        Fewer than 3 motions, different skeletons, parameters not one per motion or not all
+        different.
+    """
+    from elastic_motion.apps.align import motion_curves
+    from elastic_motion.apps.statistics import karcher_mean
+    from elastic_motion.warp import WarpOptions
+
+    motions = list(motions)
+    if len(motions) < 3:
+        raise OptionError("motions", f"expected at least 3 motions for a blend space; got {len(motions)}")
+    prep = prepare_motions(motions, prepare)
+    names = [m.skeleton.names for m in prep.motions]
+    for lab, n in zip(prep.labels[1:], names[1:], strict=True):
+        if n != names[0]:
+            diff = sorted(set(n) ^ set(names[0]))[:6]
+            raise OptionError(
+                "motions",
+                f"expected motions of one skeleton (the same joints); {lab} differs from {prep.labels[0]}"
+                + (f" in {diff}" if diff else " in the joint order"),
+            )
+    extra_notes: list[str] = []
+    if one_cycle:
+        prep, extra_notes = _one_cycle_each(prep)
+    if isinstance(params, str):
+        if params != "speed":
+            raise OptionError("params", f"expected 'speed' or one number per motion; got {params!r}")
+        x = np.array([motion_speed(m) for m in prep.motions])
+        name = "speed_m_s"
+    else:
+        x = np.asarray(params, dtype=np.float64).reshape(-1)
+        if x.shape != (len(motions),) or not np.isfinite(x).all():
+            raise OptionError(
+                "params", f"expected {len(motions)} finite numbers (one per motion); got {list(params)}"
+            )
+        name = "param"
+    order = np.argsort(x, kind="stable")
+    if (np.diff(x[order]) <= 1e-9 * max(1.0, np.abs(x).max())).any():
+        raise OptionError("params", f"expected different parameters for the motions; got {x.tolist()}")
+    import dataclasses
+
+    sorted_prep = dataclasses.replace(
+        prep,
+        motions=tuple(prep.motions[i] for i in order),
+        labels=tuple(prep.labels[i] for i in order),
+        inputs=tuple(prep.inputs[i] for i in order) if prep.inputs else prep.inputs,
+    )
+    opts = WarpOptions(method="dp")
+    coarse = motion_curves(sorted_prep, method, fps=opts.sample_fps)
+    n = max(c.n_points for c in coarse) - 1
+    km = karcher_mean(coarse, n_samples=n, warp=opts)
+    notes = (
+        f"one alignment: Karcher mean template of {len(motions)} motions, {km.iterations} iterations, "
+        f"{'converged' if km.converged else 'not converged'}",
+    )
+    return BlendSpace(
+        prepared=sorted_prep,
+        params=x[order],
+        param_name=name,
+        warps=tuple(np.asarray(v) for v in km.warps),
+        method=method,
+        contacts=contacts,
+        notes=prep.notes + tuple(extra_notes) + notes,
+    )
+
+
+def _one_cycle_each(prep: PreparedMotions) -> tuple[PreparedMotions, list[str]]:
+    import dataclasses
+
+    from elastic_motion.apps.cycles import gait_cycles
+    from elastic_motion.motion import trim
+
+    out, notes = [], []
+    first = gait_cycles(prep.motions[0])
+    for lab, m in zip(prep.labels, prep.motions, strict=True):
+        c = gait_cycles(m, foot=first.foot or None)
+        if not c.n_cycles:
+            c = gait_cycles(m)
+        if not c.n_cycles:
+            notes.append(f"{lab}: no full gait cycle (a foot must strike twice); kept whole")
+            out.append(m)
+            continue
+        d = np.diff(c.strikes)
+        i = int(np.argsort(d)[len(d) // 2])
+        a, b = c.cycle(i)
+        out.append(trim(m, a, b))
+        notes.append(
+            f"{lab}: one gait cycle kept, {c.foot} heel strikes {a:.2f}-{b:.2f} s "
+            f"(cycle {i + 1} of {c.n_cycles})"
+        )
+    return dataclasses.replace(prep, motions=tuple(out)), notes

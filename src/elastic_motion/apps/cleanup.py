@@ -1,0 +1,449 @@
+"""Foot-skate clean-up of a blend: the inputs' contacts carried through the warps, then
+enforced by inverse kinematics.
+
+In the spirit of Kovar, Schreiner and Gleicher (2002):
+
+1. **Carried contacts** (:func:`carry_contacts`). Output frame ``f`` of a blend has curve
+   parameter ``u_f`` (:attr:`BlendResult.timing`), i.e. time ``d_k phi_k(u_f)`` in input
+   ``k``; the input's contact mask at its nearest frame *votes* with the input's weight.
+   A joint is planted in ``f`` when the inputs planted there hold more than half of the
+   weight (two inputs at 50 %: both must agree). Runs shorter than the contact options'
+   ``min_duration`` are dropped. The floor and each joint's ground height are the weighted
+   means of the inputs'.
+2. **Plants** (:func:`cleanup_footskate`). Each contact run of an ankle (toe) joint gets one
+   plant position: the mean of the joint's positions in the blend over the run. The ankle's
+   correction ``delta(f)`` is ``plant - ankle`` where the ankle is planted, ``plant_toe -
+   toe`` where only the toe is (the foot moves rigidly, heel off), and eases to 0 within
+   ``blend_time`` (default 0.15 s) outside the contacts (smoothstep weights; two nearby
+   contacts share the gap). A plant below the floor plus the joint's ground height is
+   raised to it.
+3. **IK** (:mod:`elastic_motion.motion.ik`): a smooth root offset brings every target
+   within reach, two-bone leg IK moves the ankles to ``ankle + delta`` (the foot keeps its
+   global orientation), and where ankle and toe are both planted the foot turns about the
+   ankle to put the toe on its plant (the turn also eased in and out). Bone lengths are
+   kept: only rotations of hip, knee and ankle joints and the root translation change.
+
+Legs are found by name (:func:`elastic_motion.apps.landmarks.find_leg_joints`); contacts of
+other joints (hands) are measured but not enforced (a note says so). Lengths are in the
+motion's unit (metres after :mod:`elastic_motion.apps.prepare`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.apps.metrics import ContactSkating, contact_skating
+from elastic_motion.groups import SO3
+from elastic_motion.motion import Motion
+from elastic_motion.motion.contacts import ContactOptions, Contacts, _clean_runs, _runs
+from elastic_motion.motion.ik import (
+    LegChain,
+    leg_chain,
+    root_correction,
+    rotation_between,
+    solve_legs,
+    turn_joint,
+)
+from elastic_motion.motion.kinematics import forward_kinematics, joint_positions_and_rotations
+
+__all__ = ["CleanupResult", "carry_contacts", "cleanup_footskate", "find_legs"]
+
+_SO3 = SO3()
+_AXES = "xyz"
+
+
+def carry_contacts(
+    contacts: Sequence[Contacts],
+    warps: Sequence[np.ndarray],
+    timing: np.ndarray,
+    durations: Sequence[float],
+    weights: Sequence[float],
+    *,
+    fps: float,
+    joints: Sequence[str] | None = None,
+    options: ContactOptions | None = None,
+) -> Contacts:
+    """The inputs' contacts carried to a blend's frames (module docstring, step 1).
+
+    Parameters
+    ----------
+    contacts : sequence of Contacts
+        One per input (each on its input's frames).
+    warps : sequence of ndarray, shape (V, 2)
+        ``phi_k``: the result's parameter -> input ``k``'s (vertices).
+    timing : ndarray, shape (F,)
+        Curve parameter of each output frame.
+    durations : sequence of float
+        Inputs' durations (s).
+    weights : array_like, shape (K,) or (F, K)
+        Blend weights (sum 1), or per output frame (a weight curve).
+    fps : float
+        The output's frame rate.
+    joints : sequence of str, optional
+        Joints of the result (default: every joint in any input's contacts).
+    options : ContactOptions, optional
+        ``min_duration`` and ``min_gap`` of the carried runs (default the first input's).
+
+    Returns
+    -------
+    Contacts
+        On the output frames.
+    """
+    u = np.asarray(timing, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    wf = np.broadcast_to(w, (u.shape[0], len(contacts))) if w.ndim == 1 else w
+    names: list[str] = []
+    for c in contacts:
+        for n in c.joints:
+            if n not in names and (joints is None or n in joints):
+                names.append(n)
+    f = u.shape[0]
+    vote = np.zeros((f, len(names)))
+    ground = np.zeros(len(names))
+    gw = np.zeros(len(names))
+    for i, (c, v, d) in enumerate(zip(contacts, warps, durations, strict=True)):
+        wk = wf[:, i]
+        t = np.interp(u, v[:, 0], v[:, 1]) * d
+        idx = np.clip(np.rint(t * c.fps).astype(int), 0, c.n_frames - 1)
+        for j, n in enumerate(names):
+            if n in c.joints:
+                k = c.joints.index(n)
+                vote[:, j] += wk * c.mask[idx, k]
+                if np.isfinite(c.ground_height[k]):
+                    ground[j] += wk.mean() * c.ground_height[k]
+                    gw[j] += wk.mean()
+    mask = vote > 0.5 + 1e-9
+    opts = options or contacts[0].options
+    min_len = max(1, math.ceil(opts.min_duration * fps - 1e-9))
+    min_gap = max(1, math.ceil(opts.min_gap * fps - 1e-9))
+    for j in range(mask.shape[1]):
+        mask[:, j] = _clean_runs(mask[:, j], min_len, min_gap)
+    floor = float(np.dot(wf.mean(axis=0), [c.floor for c in contacts]))
+    ground_out = np.where(gw > 0, ground / np.where(gw > 0, gw, 1.0), np.nan)
+    return Contacts(
+        tuple(names),
+        np.zeros(len(names), dtype=np.int64) - 1,
+        mask,
+        floor,
+        ground_out,
+        float(fps),
+        contacts[0].up_axis,
+        opts,
+        ("carried from the inputs through the warps (weighted vote > 1/2)",),
+    )
+
+
+def find_legs(motion: Motion) -> tuple[list[LegChain], list[str]]:
+    """The two legs of a skeleton by name (:func:`~elastic_motion.apps.landmarks.find_leg_joints`).
+
+    Returns
+    -------
+    legs : list of LegChain
+        Zero, one or two.
+    notes : list of str
+        Legs that could not be used, and why.
+    """
+    from elastic_motion.apps.landmarks import find_leg_joints
+
+    sk = motion.skeleton
+    lj = find_leg_joints(sk)
+    legs, notes = [], []
+    for side in ("left", "right"):
+        p = lj.side(side)
+        if p["hip"] is None or p["knee"] is None or p["ankle"] is None:
+            notes.append(f"{side} leg: no hip, knee and ankle joints found by name")
+            continue
+        toe = (
+            p["toe"]
+            if p["toe"] is not None and sk.parents[sk.index(p["toe"])] == sk.index(p["ankle"])
+            else None
+        )
+        try:
+            legs.append(leg_chain(sk, p["hip"], p["knee"], p["ankle"], toe))
+        except ValueError as e:
+            notes.append(f"{side} leg: {e}")
+    return legs, notes
+
+
+@dataclass(frozen=True, eq=False)
+class CleanupResult:
+    """The outcome of :func:`cleanup_footskate`.
+
+    Attributes
+    ----------
+    motion : Motion
+        The cleaned motion (the input unchanged when nothing was done).
+    contacts : Contacts
+        What was enforced.
+    skating_before, skating_after : ContactSkating
+        :func:`~elastic_motion.apps.metrics.contact_skating` of the motion before and after,
+        against ``contacts``.
+    max_position_change : float
+        Largest displacement of a joint or end site over frames (metres, or the motion's unit).
+    max_rotation_change_deg : float
+        Largest change of a joint's local rotation (degrees).
+    max_root_offset : float
+        Largest root correction (metres, or the motion's unit).
+    legs : tuple of str
+        The ankle joints of the legs used.
+    applied : bool
+        False when there was nothing to enforce (no contacts, no legs).
+    notes : tuple of str
+    smooth : float
+        The smoothing of the change used (seconds, :func:`cleanup_footskate`).
+    """
+
+    motion: Motion
+    contacts: Contacts
+    skating_before: ContactSkating
+    skating_after: ContactSkating
+    max_position_change: float
+    max_rotation_change_deg: float
+    max_root_offset: float
+    legs: tuple[str, ...]
+    applied: bool
+    notes: tuple[str, ...] = field(default=())
+    smooth: float = 0.0
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready (speeds in m/s, lengths in m)."""
+        return {
+            "applied": self.applied,
+            "legs": list(self.legs),
+            "skating_before": self.skating_before.summary(),
+            "skating_after": self.skating_after.summary(),
+            "max_position_change_m": self.max_position_change,
+            "max_rotation_change_deg": self.max_rotation_change_deg,
+            "max_root_offset_m": self.max_root_offset,
+            "smooth_s": self.smooth,
+            "contacts": self.contacts.summary(),
+            "notes": list(self.notes),
+        }
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _ease(values: np.ndarray, known: np.ndarray, width: int) -> np.ndarray:
+    """``values`` where ``known``; elsewhere eased to 0 within ``width`` frames of the nearest
+    known frames on either side (smoothstep weights, normalised when they sum above 1)."""
+    f = known.shape[0]
+    out = np.zeros_like(values)
+    if not known.any():
+        return out
+    idx = np.arange(f)
+    prev = np.maximum.accumulate(np.where(known, idx, -1))
+    nxt = np.minimum.accumulate(np.where(known, idx, f)[::-1])[::-1]
+    wl = np.where(prev >= 0, _smoothstep(1.0 - (idx - prev) / (width + 1.0)), 0.0)
+    wr = np.where(nxt < f, _smoothstep(1.0 - (nxt - idx) / (width + 1.0)), 0.0)
+    vl = values[np.clip(prev, 0, f - 1)]
+    vr = values[np.clip(nxt, 0, f - 1)]
+    s = wl + wr
+    scale = np.where(s > 1.0, 1.0 / np.where(s > 0, s, 1.0), 1.0)
+    shape = (-1,) + (1,) * (values.ndim - 1)
+    eased = (wl.reshape(shape) * vl + wr.reshape(shape) * vr) * scale.reshape(shape)
+    out = np.where(known.reshape(shape), values, eased)
+    return out
+
+
+def _smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion:
+    """``after`` with its change from ``before`` (root offset, rotation logs) smoothed in time."""
+    from scipy.ndimage import gaussian_filter1d
+
+    if before.n_frames < 2:
+        return after
+    rel = _SO3.log(np.swapaxes(before.rotations, -1, -2) @ after.rotations)
+    rel = gaussian_filter1d(rel, sigma_frames, axis=0, mode="nearest")
+    off = gaussian_filter1d(
+        after.root_translation - before.root_translation, sigma_frames, axis=0, mode="nearest"
+    )
+    return after.replace(
+        rotations=before.rotations @ _SO3.exp(rel), root_translation=before.root_translation + off
+    )
+
+
+def _foot_low(pos_all: np.ndarray, sk, ankle: int, up: int) -> np.ndarray:
+    """Lowest height per frame of the ankle, the joints under it and their end sites ``(F,)``."""
+    sub = sk.subtree(ankle)
+    sites = [sk.n_joints + e for e, p in enumerate(sk.end_site_parents) if p in sub]
+    return pos_all[:, sub + sites, up].min(axis=1)
+
+
+def _plants(p: np.ndarray, mask: np.ndarray, min_height: float | None, up: int) -> np.ndarray:
+    """Per frame, the plant of the run it is in: the mean floor position over the run, the
+    joint's own height (at least ``min_height``); NaN elsewhere."""
+    out = np.full_like(p, np.nan)
+    for a, b in _runs(mask):
+        plant = p[a:b].mean(axis=0)
+        out[a:b] = plant
+        # the height is the joint's own (a heel rises before the toe lifts): only the floor
+        # position is planted, and the height kept at least the joint's ground height
+        h = p[a:b, up]
+        out[a:b, up] = h if min_height is None else np.maximum(h, min_height)
+    return out
+
+
+def cleanup_footskate(
+    motion: Motion,
+    contacts: Contacts,
+    *,
+    blend_time: float = 0.15,
+    smooth: float = 0.05,
+    legs: Sequence[LegChain] | None = None,
+) -> CleanupResult:
+    """Enforce contacts on a motion by leg IK and a root correction (module docstring).
+
+    Parameters
+    ----------
+    motion : Motion
+        Lengths in metres (or consistent with ``contacts.floor``).
+    contacts : Contacts
+        On the motion's frames (e.g. :func:`carry_contacts`).
+    blend_time : float, default 0.15
+        Seconds over which a correction eases in before and out after a contact.
+    smooth : float, default 0.05
+        Standard deviation (seconds) of a Gaussian that smooths the change the clean-up
+        makes (the root offset and each joint's rotation change ``log(R^T R')``) in time;
+        0 keeps the exact plants. Smoothing trades a little skating for a smaller change of
+        the motion's velocities (which the elastic distance measures).
+    legs : sequence of LegChain, optional
+        Default :func:`find_legs`.
+
+    Returns
+    -------
+    CleanupResult
+        ``applied=False`` (and the motion unchanged) when no leg joint has a contact.
+    """
+    if contacts.n_frames != motion.n_frames:
+        raise ValueError(
+            f"contacts: expected {motion.n_frames} frames like the motion; got {contacts.n_frames}"
+        )
+    notes: list[str] = []
+    if legs is None:
+        found, leg_notes = find_legs(motion)
+        notes += leg_notes
+    else:
+        found = list(legs)
+    before = contact_skating(motion, contacts)
+    sk = motion.skeleton
+    up = _AXES.index(motion.up_axis)
+    width = max(1, round(blend_time * motion.fps))
+    parents = sk.parents
+    pos, _ = joint_positions_and_rotations(parents, motion.local_translations(), motion.rotations)
+    pos_all = forward_kinematics(motion, end_sites=True)
+
+    def col(j: int) -> tuple[np.ndarray, float | None]:
+        name = sk.names[j]
+        if j < 0 or name not in contacts.joints:
+            return np.zeros(motion.n_frames, dtype=bool), None
+        k = contacts.joints.index(name)
+        g = contacts.ground_height[k]
+        return contacts.mask[:, k], (contacts.floor + g) if np.isfinite(g) else None
+
+    used, targets, turns = [], [], []
+    for leg in found:
+        ma, ha = col(leg.ankle)
+        mt, ht = col(leg.toe) if leg.toe >= 0 else (np.zeros(motion.n_frames, dtype=bool), None)
+        if not (ma.any() or mt.any()):
+            # no contact: only keep the foot out of the floor
+            under = contacts.floor - _foot_low(pos_all, sk, leg.ankle, up)
+            if (under > 0).any():
+                tgt = np.full((motion.n_frames, 3), np.nan)
+                tgt[under > 0] = pos[under > 0, leg.ankle]
+                tgt[under > 0, up] += under[under > 0]
+                targets.append(tgt)
+                used.append(sk.names[leg.ankle])
+            else:
+                targets.append(None)
+            turns.append(None)
+            continue
+        used.append(sk.names[leg.ankle])
+        pa = pos[:, leg.ankle]
+        plant_a = _plants(pa, ma, ha, up)
+        delta = np.zeros_like(pa)
+        delta[ma] = plant_a[ma] - pa[ma]
+        turn = None
+        if mt.any():
+            pt = pos[:, leg.toe]
+            plant_t = _plants(pt, mt, ht, up)
+            # the foot's turn about the ankle: where both are planted it takes toe - ankle to
+            # plant_toe - plant_ankle; eased into the heel-off (toe only) and swing frames
+            both = ma & mt
+            vec = np.zeros_like(pa)
+            if both.any():
+                vec[both] = _SO3.log(rotation_between(pt[both] - pa[both], plant_t[both] - plant_a[both]))
+            vec = _ease(vec, both, width)
+            turn = _SO3.exp(vec)
+            # heel off: the ankle goes where the turned foot puts the toe on its plant
+            only_toe = mt & ~ma
+            foot = np.einsum("fij,fj->fi", turn[only_toe], pt[only_toe] - pa[only_toe])
+            delta[only_toe] = plant_t[only_toe] - foot - pa[only_toe]
+        known = ma | mt
+        delta = _ease(delta, known, width)
+        # no point of the foot below the floor: raise the ankle where the foot would go under
+        low = _foot_low(pos_all, sk, leg.ankle, up)
+        delta[:, up] = np.maximum(delta[:, up], contacts.floor - low)
+        moved = np.linalg.norm(delta, axis=1) > 0
+        tgt = np.where(moved[:, None], pa + delta, np.nan)
+        targets.append(tgt)
+        turns.append(turn)
+    other = [n for n in contacts.joints if contacts.mask[:, contacts.joints.index(n)].any()]
+    other = [
+        n for n in other if n not in {sk.names[j] for leg in found for j in (leg.ankle, leg.toe) if j >= 0}
+    ]
+    if other:
+        notes.append(f"contacts of {other} are measured, not enforced (no IK for them)")
+    if not used:
+        notes.append("clean-up skipped: no contacts of the legs' ankle or toe joints")
+        return CleanupResult(motion, contacts, before, before, 0.0, 0.0, 0.0, (), False, tuple(notes))
+
+    # 1. root correction, 2. leg IK, 3. toe turns
+    offset = root_correction(motion, found, targets, sigma=blend_time / 2)
+    out = motion.replace(root_translation=motion.root_translation + offset) if offset.any() else motion
+    out = solve_legs(out, found, targets)
+    for leg, turn in zip(found, turns, strict=True):
+        if turn is not None:
+            out = turn_joint(out, leg.ankle, turn)
+    if smooth > 0:
+        out = _smooth_change(motion, out, smooth * motion.fps)
+    # last, exactly: no point of a foot below the floor (the smoothing may have lowered one)
+    p_out = forward_kinematics(out, end_sites=True)
+    lift = []
+    for leg in found:
+        low = _foot_low(p_out, sk, leg.ankle, up)
+        under = low < contacts.floor
+        if not under.any():
+            lift.append(None)
+            continue
+        t = np.full((motion.n_frames, 3), np.nan)
+        t[under] = p_out[under, leg.ankle]
+        t[under, up] += contacts.floor - low[under]
+        lift.append(t)
+    if any(t is not None for t in lift):
+        out = solve_legs(out, found, lift)
+    after = contact_skating(out, contacts)
+    p0 = pos_all
+    p1 = forward_kinematics(out, end_sites=True)
+    dpos = float(np.linalg.norm(p1 - p0, axis=-1).max())
+    rel = np.swapaxes(motion.rotations, -1, -2) @ out.rotations
+    drot = float(np.degrees(np.linalg.norm(_SO3.log(rel), axis=-1).max()))
+    return CleanupResult(
+        motion=out,
+        contacts=contacts,
+        skating_before=before,
+        skating_after=after,
+        max_position_change=dpos,
+        max_rotation_change_deg=drot,
+        max_root_offset=float(np.linalg.norm(offset, axis=1).max()),
+        legs=tuple(used),
+        applied=True,
+        notes=tuple(notes),
+        smooth=float(smooth),
+    )

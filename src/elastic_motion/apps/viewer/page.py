@@ -1,0 +1,392 @@
+# ruff: noqa: E501  (the embedded JavaScript keeps its own line lengths)
+"""The viewer's HTML and JavaScript (drawing by plotly.js; no numerics).
+
+:func:`viewer_fragment` turns the data of :func:`elastic_motion.apps.viewer.build_viewer`
+into a ``<div>`` with controls, a ``<script type="application/json">`` holding the data and
+a script that draws it; :func:`page_html` wraps fragments into a page with plotly.js.
+
+The script keeps one viewer object per fragment in ``window.emViewers[id]`` (used by the
+tests and by anyone scripting the page): ``setFrame(i)``, ``frame()``, ``count``,
+``setLayout("side" | "overlay")``, ``showTrajectories([names])``, ``pose(k)`` (the points
+drawn for clip ``k``: plotly coordinates, metres) and ``ready``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from typing import Any
+
+__all__ = ["page_html", "viewer_fragment"]
+
+_LEFT = "#1f77b4"
+_RIGHT = "#ff7f0e"
+
+CSS = """
+.emv{font-family:system-ui,sans-serif;font-size:14px;margin:1em 0;border:1px solid #ddd;padding:.5em}
+.emv-title{font-weight:600;margin-bottom:.3em}
+.emv-controls{display:flex;flex-wrap:wrap;gap:.6em;align-items:center;margin:.3em 0}
+.emv-slider{flex:1 1 300px;min-width:200px}
+.emv-time{font-variant-numeric:tabular-nums;min-width:9em}
+.emv-scene{width:100%;height:520px}
+.emv-notes{color:#555;font-size:13px;margin:.3em 0 0 1.2em;padding:0}
+.emv-key{color:#555;font-size:13px}
+.emv-key span{display:inline-block;width:1.6em;height:.5em;margin:0 .3em 0 .8em;vertical-align:middle}
+"""
+
+_JS = r"""
+(function () {
+  "use strict";
+  var ID = __ID__;
+  var LEFT = "__LEFT__", RIGHT = "__RIGHT__", PLANTED = "#d62728";
+  var root = document.getElementById(ID);
+  var spec = JSON.parse(document.getElementById(ID + "-data").textContent);
+  function q(sel) { return root.querySelector(sel); }
+  function bytes(b64) {
+    var s = atob(b64), u = new Uint8Array(s.length);
+    for (var i = 0; i < s.length; i++) u[i] = s.charCodeAt(i);
+    return u;
+  }
+  var clips = spec.clips;
+  clips.forEach(function (c) {
+    c.p = new Float32Array(bytes(c.pos).buffer);
+    if (c.contacts) c.mask = bytes(c.contacts.mask);
+  });
+  var dt = 1 / Math.max.apply(null, clips.map(function (c) { return c.fps; }));
+  var total = Math.max.apply(null, clips.map(function (c) { return c.duration; }));
+  var count = Math.floor(total / dt + 1e-6) + 1;
+  var state = { i: 0, playing: false, layout: spec.layout, traj: [], last: null, busy: false, pending: null };
+  var scene = q(".emv-scene"), timeline = q(".emv-timeline"), warpDiv = q(".emv-warp");
+  var slider = q(".emv-slider"), timeLabel = q(".emv-time"), playBtn = q(".emv-play");
+  slider.max = String(count - 1);
+
+  function offset(c) { return state.layout === "side" ? c.offset : [0, 0, 0]; }
+  function clipFrame(c, i) { return Math.min(Math.round(i * dt * c.fps), c.n - 1); }
+  function pt(c, f, j, off) {
+    var o = (f * c.P + j) * 3;
+    return [c.p[o] + off[0], c.p[o + 1] + off[1], c.p[o + 2] + off[2]];
+  }
+  function segments(c, f, segs, off) {
+    var x = [], y = [], z = [];
+    segs.forEach(function (s) {
+      for (var e = 0; e < 2; e++) {
+        var v = pt(c, f, s[e], off);
+        x.push(v[0]); y.push(v[1]); z.push(v[2]);
+      }
+      x.push(null); y.push(null); z.push(null);
+    });
+    return [x, y, z];
+  }
+
+  // ---- the 3D scene ---------------------------------------------------------------------
+  var traces = [], dynamic = [];
+  function floorTrace() {
+    var r = spec.ranges.side, s = spec.ranges.overlay;
+    var x0 = Math.min(r[0][0], s[0][0]), x1 = Math.max(r[0][1], s[0][1]);
+    var y0 = Math.min(r[1][0], s[1][0]), y1 = Math.max(r[1][1], s[1][1]);
+    return { type: "mesh3d", x: [x0, x1, x1, x0], y: [y0, y0, y1, y1], z: [spec.floor, spec.floor, spec.floor, spec.floor],
+             i: [0, 0], j: [1, 2], k: [2, 3], color: "#cccccc", opacity: 0.35, hoverinfo: "skip",
+             name: "floor", showlegend: false, flatshading: true };
+  }
+  traces.push(floorTrace());
+  clips.forEach(function (c, k) {
+    c.tr = traces.length;
+    [["C", c.colour, c.label], ["L", LEFT, c.label + ": left"], ["R", RIGHT, c.label + ": right"]].forEach(function (s) {
+      traces.push({ type: "scatter3d", mode: "lines", x: [], y: [], z: [], name: s[2], legendgroup: "clip" + k,
+                    showlegend: s[0] === "C", line: { color: s[1], width: 6 }, hoverinfo: "skip" });
+    });
+    traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.label + ": planted",
+                  legendgroup: "clip" + k, showlegend: !!c.contacts,
+                  marker: { color: PLANTED, size: 6, symbol: "diamond" }, hoverinfo: "skip" });
+    traces.push({ type: "scatter3d", mode: "text", x: [], y: [], z: [], text: [c.label], name: c.label,
+                  showlegend: false, textfont: { color: c.colour, size: 13 }, hoverinfo: "skip" });
+    traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.label + ": contact starts",
+                  legendgroup: "clip" + k, showlegend: c.footprints.length > 0,
+                  marker: { color: PLANTED, size: 3, symbol: "x", opacity: 0.6 }, hoverinfo: "skip" });
+    for (var t = 0; t < 6; t++) dynamic.push(c.tr + t);
+  });
+  var nFixed = traces.length;
+
+  function sceneLayout() {
+    var r = spec.ranges[state.layout];
+    var d = r.map(function (a) { return a[1] - a[0]; }), m = Math.max(d[0], d[1], d[2]);
+    return {
+      "scene.xaxis.range": r[0], "scene.yaxis.range": r[1], "scene.zaxis.range": r[2],
+      "scene.aspectratio": { x: d[0] / m, y: d[1] / m, z: d[2] / m }
+    };
+  }
+  var layout3d = {
+    margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: true, legend: { x: 0, y: 1 }, uirevision: "keep",
+    scene: { aspectmode: "manual", xaxis: { title: { text: "x (m)" } }, yaxis: { title: { text: "-z (m)" } },
+             zaxis: { title: { text: "up: y (m)" } }, camera: { eye: { x: 0.15, y: -1.25, z: 0.45 } } }
+  };
+  var sl = sceneLayout();
+  layout3d.scene.xaxis.range = sl["scene.xaxis.range"]; layout3d.scene.yaxis.range = sl["scene.yaxis.range"];
+  layout3d.scene.zaxis.range = sl["scene.zaxis.range"]; layout3d.scene.aspectratio = sl["scene.aspectratio"];
+  var config = { responsive: true, displaylogo: false };
+
+  function poseUpdate(i) {
+    var X = [], Y = [], Z = [];
+    clips.forEach(function (c) {
+      var f = clipFrame(c, i), off = offset(c);
+      ["C", "L", "R"].forEach(function (s) {
+        var a = segments(c, f, c.segs[s], off); X.push(a[0]); Y.push(a[1]); Z.push(a[2]);
+      });
+      var px = [], py = [], pz = [];
+      if (c.contacts) {
+        var K = c.contacts.idx.length;
+        for (var k = 0; k < K; k++) {
+          if (c.mask[f * K + k]) { var v = pt(c, f, c.contacts.idx[k], off); px.push(v[0]); py.push(v[1]); pz.push(v[2]); }
+        }
+      }
+      X.push(px); Y.push(py); Z.push(pz);
+      var top = -Infinity;
+      for (var j = 0; j < c.P; j++) top = Math.max(top, c.p[(f * c.P + j) * 3 + 2]);
+      var r0 = pt(c, f, 0, off);
+      X.push([r0[0]]); Y.push([r0[1]]); Z.push([top + off[2] + 0.15]);
+      X.push(c.footprints.map(function (p) { return p[0] + off[0]; }));
+      Y.push(c.footprints.map(function (p) { return p[1] + off[1]; }));
+      Z.push(c.footprints.map(function (p) { return p[2] + off[2]; }));
+    });
+    return { x: X, y: Y, z: Z };
+  }
+
+  // ---- the timeline and the warp plot --------------------------------------------------
+  var rows = [], tl = [], shapes = [], annotations = [];
+  clips.forEach(function (c, k) {
+    rows.push(c.label);
+    tl.push({ type: "scatter", mode: "lines", x: [0, c.duration], y: [c.label, c.label], line: { color: c.colour, width: 6 },
+              name: c.label, showlegend: false, hoverinfo: "x+y" });
+    if (c.contacts) {
+      c.contacts.joints.forEach(function (jn) {
+        var row = c.label + ": " + jn, x = [], y = [];
+        rows.push(row);
+        c.contacts.intervals[jn].forEach(function (r) {
+          x.push(r[0] / c.fileFps, (r[1] - 1) / c.fileFps, null); y.push(row, row, null);
+        });
+        tl.push({ type: "scatter", mode: "lines", x: x, y: y, line: { color: PLANTED, width: 6 }, name: row,
+                  showlegend: false, hoverinfo: "x+y" });
+      });
+    }
+    c.firstRow = rows.indexOf(c.label); c.lastRow = rows.length - 1;
+  });
+  clips.forEach(function (c) {  // a seam spans its clip's rows (category k sits at position n - 1 - k)
+    var n = rows.length;
+    c.seams.forEach(function (t) {
+      shapes.push({ type: "line", xref: "x", yref: "y", x0: t, x1: t, y0: n - 1 - c.lastRow - 0.45,
+                    y1: n - 1 - c.firstRow + 0.45, line: { color: "#000", width: 2, dash: "dash" } });
+      annotations.push({ x: t, y: n - 1 - c.firstRow + 0.45, xref: "x", yref: "y", text: "seam", showarrow: false,
+                         xanchor: "right", yanchor: "top", font: { size: 11 } });
+    });
+  });
+  var cursorIndex = tl.length;
+  tl.push({ type: "scatter", mode: "lines", x: [0, 0], y: [rows[0], rows[rows.length - 1]], line: { color: "#000", width: 2 },
+            name: "now", showlegend: false, hoverinfo: "skip" });
+  timeline.style.height = (70 + 20 * rows.length) + "px";
+  var layoutTl = { margin: { l: 200, r: 20, t: 20, b: 35 }, xaxis: { title: { text: "time (s)" }, range: [0, total] },
+                   yaxis: { type: "category", categoryorder: "array", categoryarray: rows.slice().reverse(), automargin: true },
+                   shapes: shapes, annotations: annotations, showlegend: false };
+
+  var warpClips = clips.filter(function (c) { return c.warp; });
+  var wtr = [], warpCursor = null;
+  warpClips.forEach(function (c) {
+    var x = []; for (var i = 0; i < c.n; i++) x.push(i / c.fps);
+    c.warp.curves.forEach(function (y, k) {
+      wtr.push({ type: "scatter", mode: "lines", x: x, y: y, name: c.label + " <- " + c.warp.inputs[k] });
+    });
+  });
+  if (warpClips.length) {
+    warpCursor = wtr.length;
+    wtr.push({ type: "scatter", mode: "markers", x: [], y: [], marker: { color: "#000", size: 9 }, name: "now", showlegend: false });
+  }
+  var layoutWarp = { margin: { l: 60, r: 20, t: 30, b: 40 }, title: { text: "time warp: where each input is at this moment", font: { size: 13 } },
+                     xaxis: { title: { text: "time in the result (s)" } },
+                     yaxis: { title: { text: warpClips.length && warpClips[0].warp.seconds.every(Boolean) ? "time in the input (s)" : "input curve parameter" } },
+                     shapes: [{ type: "line", xref: "x", yref: "paper", x0: 0, x1: 0, y0: 0, y1: 1, line: { color: "#000", width: 1.5 } }] };
+
+  function timeOf(i) { return i * dt; }
+  function render(i) {
+    var t = timeOf(i);
+    var upd = poseUpdate(i);
+    var jobs = [Plotly.restyle(scene, upd, dynamic),
+                Plotly.restyle(timeline, { x: [[t, t]] }, [cursorIndex])];
+    if (warpDiv && warpClips.length) {
+      var mx = [], my = [];
+      warpClips.forEach(function (c) {
+        var f = clipFrame(c, i);
+        c.warp.curves.forEach(function (y) { mx.push(f / c.fps); my.push(y[f]); });
+      });
+      jobs.push(Plotly.restyle(warpDiv, { x: [mx], y: [my] }, [warpCursor]));
+      jobs.push(Plotly.relayout(warpDiv, { "shapes[0].x0": t, "shapes[0].x1": t }));
+    }
+    slider.value = String(i);
+    timeLabel.textContent = t.toFixed(2) + " s / " + total.toFixed(2) + " s";
+    return Promise.all(jobs);
+  }
+  function setFrame(i) {
+    i = Math.max(0, Math.min(count - 1, Math.round(i)));
+    state.i = i;
+    if (state.busy) { state.pending = i; return Promise.resolve(); }
+    state.busy = true;
+    return render(i).then(function () {
+      state.busy = false;
+      if (state.pending !== null) { var p = state.pending; state.pending = null; if (p !== i) return setFrame(p); }
+    });
+  }
+  function trajectoryTraces() {
+    var out = [];
+    state.traj.forEach(function (name) {
+      clips.forEach(function (c) {
+        var j = c.names.indexOf(name); if (j < 0) return;
+        var off = offset(c), x = [], y = [], z = [];
+        for (var f = 0; f < c.n; f++) { var v = pt(c, f, j, off); x.push(v[0]); y.push(v[1]); z.push(v[2]); }
+        out.push({ type: "scatter3d", mode: "lines", x: x, y: y, z: z, name: c.label + ": " + name + " path",
+                   line: { color: c.colour, width: 2, dash: "dot" }, hoverinfo: "skip" });
+      });
+    });
+    return out;
+  }
+  function showTrajectories(names) {
+    state.traj = names.slice();
+    var n = scene.data.length, old = [];
+    for (var t = nFixed; t < n; t++) old.push(t);
+    var p = old.length ? Plotly.deleteTraces(scene, old) : Promise.resolve();
+    return p.then(function () { var tr = trajectoryTraces(); return tr.length ? Plotly.addTraces(scene, tr) : null; });
+  }
+  function setLayout(mode) {
+    state.layout = mode;
+    q(".emv-layout").value = mode;
+    return Plotly.relayout(scene, sceneLayout()).then(function () { return showTrajectories(state.traj); })
+      .then(function () { return setFrame(state.i); });
+  }
+  function tick(ts) {
+    if (!state.playing) return;
+    if (state.last === null) state.last = ts;
+    var speed = parseFloat(q(".emv-speed").value), adv = (ts - state.last) / 1000 * speed;
+    if (adv >= dt) {
+      var steps = Math.floor(adv / dt), i = state.i + steps;
+      state.last += steps * dt * 1000 / speed;
+      if (i >= count) {
+        if (q(".emv-loop").checked) i = i % count; else { i = count - 1; play(false); }
+      }
+      setFrame(i);
+    }
+    requestAnimationFrame(tick);
+  }
+  function play(on) {
+    state.playing = on; state.last = null;
+    playBtn.textContent = on ? "Pause" : "Play";
+    if (on) requestAnimationFrame(tick);
+  }
+  function clickToTime(div, ev) {
+    try {
+      var xa = div._fullLayout.xaxis, box = div.getBoundingClientRect();
+      var t = xa.p2c(ev.clientX - box.left - xa._offset);
+      if (isFinite(t)) setFrame(t / dt);
+    } catch (e) { /* a click outside the axes */ }
+  }
+
+  var init = [Plotly.newPlot(scene, traces, layout3d, config), Plotly.newPlot(timeline, tl, layoutTl, config)];
+  if (warpDiv && warpClips.length) init.push(Plotly.newPlot(warpDiv, wtr, layoutWarp, config));
+  var api = { count: count, dt: dt, ready: false, setFrame: setFrame, frame: function () { return state.i; },
+              setLayout: setLayout, showTrajectories: showTrajectories, play: play,
+              pose: function (k) { var c = clips[k], f = clipFrame(c, state.i), off = offset(c), out = [];
+                                   for (var j = 0; j < c.P; j++) out.push(pt(c, f, j, off)); return out; } };
+  window.emViewers = window.emViewers || {};
+  window.emViewers[ID] = api;
+  Promise.all(init).then(function () { return setFrame(0); }).then(function () {
+    slider.addEventListener("input", function () { play(false); setFrame(parseInt(slider.value, 10)); });
+    playBtn.addEventListener("click", function () { play(!state.playing); });
+    q(".emv-layout").addEventListener("change", function (ev) { setLayout(ev.target.value); });
+    q(".emv-traj").addEventListener("change", function (ev) {
+      var names = Array.prototype.filter.call(ev.target.options, function (o) { return o.selected; })
+        .map(function (o) { return o.value; });
+      showTrajectories(names);
+    });
+    timeline.addEventListener("click", function (ev) { clickToTime(timeline, ev); });
+    if (warpDiv && warpClips.length) warpDiv.addEventListener("click", function (ev) { clickToTime(warpDiv, ev); });
+    api.ready = true;
+    root.setAttribute("data-ready", "1");
+  });
+})();
+"""
+
+
+def _json_for_script(data: Any) -> str:
+    return json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+
+
+def viewer_fragment(spec: dict[str, Any]) -> str:
+    """The viewer's ``<div>``, data and script (module docstring).
+
+    Parameters
+    ----------
+    spec : dict
+        As made by :func:`elastic_motion.apps.viewer.build_viewer`: ``id``, ``title``,
+        ``clips`` (each with its display data), ``floor``, ``layout``, ``ranges``, ``notes``.
+
+    Returns
+    -------
+    str
+    """
+    e = html.escape
+    vid = spec["id"]
+    names: list[str] = []
+    for c in spec["clips"]:
+        names += [n for n in c["names"] if n not in names]
+    options = "".join(f"<option value='{e(n)}'>{e(n)}</option>" for n in names)
+    has_warp = any(c["warp"] for c in spec["clips"])
+    notes = "".join(f"<li>{e(n)}</li>" for n in spec["notes"])
+    clips = "; ".join(f"{e(c['label'])}: {e(c['info'])}" for c in spec["clips"])
+    layout_opts = "".join(
+        f"<option value='{v}'{' selected' if v == spec['layout'] else ''}>{lab}</option>"
+        for v, lab in (("side", "side by side"), ("overlay", "overlaid"))
+    )
+    speeds = "".join(
+        f"<option value='{s}'{' selected' if s == '1' else ''}>{s}x</option>"
+        for s in ("0.1", "0.25", "0.5", "1", "2")
+    )
+    parts = [
+        f"<div class='emv' id='{e(vid)}'>",
+        f"<div class='emv-title'>{e(spec['title'])}</div>",
+        "<div class='emv-controls'>",
+        "<button type='button' class='emv-play'>Play</button>",
+        "<input class='emv-slider' type='range' min='0' max='0' step='1' value='0' aria-label='frame'>",
+        "<span class='emv-time'>0.00 s</span>",
+        f"<label>speed <select class='emv-speed'>{speeds}</select></label>",
+        "<label><input type='checkbox' class='emv-loop' checked> loop</label>",
+        f"<label>clips <select class='emv-layout'>{layout_opts}</select></label>",
+        f"<label>joint paths <select class='emv-traj' multiple size='3'>{options}</select></label>",
+        "</div>",
+        "<div class='emv-scene'></div>",
+        "<div class='emv-key'>"
+        f"<span style='background:{_LEFT}'></span>left limbs<span style='background:{_RIGHT}'></span>right "
+        "limbs<span style='background:#d62728'></span>planted (contacts from the report) and where each contact "
+        "starts. Drag to orbit, scroll to zoom; click the timeline"
+        + (" or the warp plot" if has_warp else "")
+        + " to jump there.</div>",
+        "<div class='emv-timeline'></div>",
+        "<div class='emv-warp' style='height:280px'></div>" if has_warp else "",
+        f"<ul class='emv-notes'><li>{clips}</li>{notes}</ul>",
+        "</div>",
+        f"<script type='application/json' id='{e(vid)}-data'>{_json_for_script(spec)}</script>",
+        "<script>"
+        + _JS.replace("__ID__", json.dumps(vid)).replace("__LEFT__", _LEFT).replace("__RIGHT__", _RIGHT)
+        + "</script>",
+    ]
+    return "\n".join(p for p in parts if p)
+
+
+def page_html(title: str, fragments: str, *, plotly_src: str | None = None) -> str:
+    """A whole page: plotly.js (inline, or from ``plotly_src``), the viewer's style, ``fragments``."""
+    if plotly_src is None:
+        from elastic_motion.apps.viewer import plotly_js
+
+        lib = "<script>" + plotly_js().replace("</script", "<\\/script") + "</script>"
+    else:
+        lib = f"<script src='{html.escape(plotly_src)}'></script>"
+    return (
+        "<!doctype html>\n<html><head><meta charset='utf-8'>"
+        f"<title>{html.escape(title)}</title>\n{lib}\n<style>{CSS}</style></head>\n<body>\n"
+        f"{fragments}\n</body></html>\n"
+    )

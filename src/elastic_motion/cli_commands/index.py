@@ -1,0 +1,77 @@
+"""``elastic-motion index DIR... -o INDEX``: an on-disk index of SRV arrays for ``search``.
+
+Thin wrapper over :func:`elastic_motion.apps.database.build_index`; ``search QUERY INDEX``
+then reads one file instead of every motion.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from elastic_motion.cli_commands._common import add_json_option, add_quiet_option, progress_for
+from elastic_motion.cli_commands.database import (
+    _USER_ERRORS,
+    _add_method,
+    _add_preparation,
+    _add_warp,
+    _emit,
+    _fail,
+    _methods,
+    _settings,
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``index`` sub-command."""
+    p = subparsers.add_parser(
+        "index",
+        help="build an on-disk index of a motion database for fast exact search",
+        description=(
+            "Read every motion of the files/folders once and write their SRV arrays and search bounds "
+            "into the folder OUTPUT; `elastic-motion search QUERY OUTPUT` then needs no motion file. An "
+            "index built by another version of elastic-motion is refused (rebuild it with --overwrite)."
+        ),
+    )
+    p.add_argument("inputs", nargs="+", help="motion files and/or folders")
+    p.add_argument("-o", "--output", required=True, help="index folder (created; required)")
+    p.add_argument("--recursive", action="store_true", help="search folders recursively (default: off)")
+    p.add_argument(
+        "--overwrite", action="store_true", help="rebuild an index found in OUTPUT (default: refuse)"
+    )
+    _add_method(p, several=True)
+    add_quiet_option(p)
+    add_json_option(p)
+    _add_preparation(p)
+    _add_warp(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the index; print a summary (or the ``--json`` report)."""
+    from elastic_motion.apps.database import build_index
+
+    bar = progress_for("index", args)
+    try:
+        settings = _settings(args, _methods(args.method, several=True))
+        idx = build_index(
+            args.inputs,
+            args.output,
+            settings,
+            recursive=args.recursive,
+            overwrite=args.overwrite,
+            progress=bar,
+        )
+    except _USER_ERRORS as exc:
+        return _fail("index", exc)
+    finally:
+        bar.close()
+    meta = idx.meta
+    lines = [f"{meta['n_motions']} motions -> {idx.path} ({len(meta['groups'])} skeleton groups)"]
+    if len(meta["groups"]) > 1:
+        lines.append(
+            "several skeletons: a query is compared with the motions of its own skeleton only "
+            "(use --joints common to compare on shared joints)"
+        )
+    lines += [f"skipped {sk['path']}: {sk['reason']}" for sk in meta["skipped"]]
+    _emit(args, "index", idx.summary(), args.inputs, [idx.path], lines)
+    return 0

@@ -1,0 +1,108 @@
+"""The command line of issue 16: blend --contacts / --weight-curve / --cycles / --loop, the
+blendspace command, landmarks paired by phase; reports and bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from blend_testlib import walker
+
+from elastic_motion.cli import main
+from elastic_motion.motion import read_bvh, write_bvh
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli16")
+    out = {}
+    for name, kw in {
+        "a": {"duration": 1.5},
+        "b": {"duration": 1.8, "freq": 1.2, "speed": 1.3, "phase": 0.3},
+        "c": {"duration": 1.6, "freq": 1.1, "speed": 1.6},
+    }.items():
+        out[name] = str(write_bvh(walker(name=name, **kw), d / f"{name}.bvh"))
+    return out
+
+
+def run(capsys, *argv):
+    code = main([str(x) for x in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_blend_reports_the_cleanup_and_weight_curve(files, capsys, tmp_path):
+    out, rep = tmp_path / "ab.bvh", tmp_path / "ab.json"
+    code, _, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", out, "--weight-curve", "0:0,1:1", "--json", rep, "-q",
+        "--no-metrics",
+    )  # fmt: skip
+    assert code == 0, err
+    report = json.loads(rep.read_text())
+    assert "cleanup" in report and "cycles" in report and report["weights"] == pytest.approx([0.5, 0.5])
+    assert any("weight curve" in n for n in report["notes"])
+    assert read_bvh(out).n_frames > 10
+    code, _, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", tmp_path / "off.bvh", "--contacts", "off", "--json",
+        tmp_path / "off.json", "-q", "--no-metrics",
+    )  # fmt: skip
+    assert code == 0, err
+    assert json.loads((tmp_path / "off.json").read_text())["cleanup"] is None
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--weight-curve", "0:0,1:2"], "--weight-curve: expected weights s in [0, 1]"),
+        (["--weight-curve", "0.2:0,1:1"], "--weight-curve: expected a curve defined on [0, 1]"),
+        (["--weight-curve", "0:0,1:1", "--weight", "0.3"], "--weight-curve: expected --weight-curve or"),
+    ],
+)
+def test_blend_bad_options(files, capsys, tmp_path, args, message):
+    code, _, err = run(capsys, "blend", files["a"], files["b"], "-o", tmp_path / "x.bvh", "-q", *args)
+    assert code == 2 and message in err
+
+
+def test_blend_cycles_fall_back_with_a_note(files, capsys, tmp_path):
+    rep = tmp_path / "cyc.json"
+    code, _, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", tmp_path / "cyc.bvh", "--cycles", "--json", rep, "-q",
+        "--no-metrics",
+    )  # fmt: skip
+    assert code == 0, err
+    report = json.loads(rep.read_text())
+    assert report["cycles"]["matched_cycles"] == 0 and "fall back" in report["cycles"]["why"]
+
+
+def test_blendspace_command(files, capsys, tmp_path):
+    out, rep = tmp_path / "bs.bvh", tmp_path / "bs.json"
+    code, _, err = run(
+        capsys, "blendspace", files["a"], files["b"], files["c"], "--at", "1.2", "-o", out, "--json", rep,
+        "--contacts", "off",
+    )  # fmt: skip
+    assert code == 0, err
+    report = json.loads(rep.read_text())
+    assert report["blendspace"]["param"] == "speed_m_s" and len(report["blendspace"]["params"]) == 3
+    assert report["at"] == 1.2 and sum(w > 0 for w in report["weights"]) <= 2
+    code, _, err = run(
+        capsys, "blendspace", files["a"], files["b"], files["c"], "--at", "9", "-o", tmp_path / "y.bvh"
+    )
+    assert code == 2 and "--at: expected a parameter in" in err
+    code, _, err = run(capsys, "blendspace", files["a"], files["b"], "--at", "1", "-o", tmp_path / "z.bvh")
+    assert code == 2 and "at least three" in err
+    code, _, err = run(
+        capsys, "blendspace", files["a"], files["b"], files["c"], "--params", "1,1,2", "--at", "1", "-o",
+        tmp_path / "w.bvh",
+    )  # fmt: skip
+    assert code == 2 and "--params: expected different parameters" in err
+
+
+def test_landmarks_command_pairs_by_phase(files, capsys, tmp_path):
+    rep = tmp_path / "lm.json"
+    code, _, err = run(
+        capsys, "landmarks", files["a"], files["b"], "--landmark-kinds", "left_knee_passes", "--json", rep
+    )
+    assert code == 0, err
+    report = json.loads(rep.read_text())
+    assert "phase" in report["pairing"] and all("offset_s" in p for p in report["pairs"])
+    assert len(report["pairs_s"]) == len(report["pairs"])

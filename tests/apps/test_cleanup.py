@@ -1,0 +1,132 @@
+"""Foot-skate clean-up: carried contacts, plants enforced by IK, bone lengths kept, the
+blend's report; real walks skate no more than their inputs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from blend_testlib import walker
+
+from elastic_motion.apps.blend import blend_motions
+from elastic_motion.apps.cleanup import _ease, carry_contacts, cleanup_footskate
+from elastic_motion.apps.metrics import bone_length_error, contact_skating
+from elastic_motion.motion import drop_tpose, forward_kinematics, read_motion, trim
+from elastic_motion.motion.contacts import ContactOptions, Contacts, detect_contacts
+
+IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
+
+
+def _contacts(names, mask, fps=30.0, floor=0.0):
+    mask = np.asarray(mask, dtype=bool)
+    return Contacts(
+        tuple(names), np.zeros(len(names), dtype=np.int64), mask, floor, np.zeros(len(names)), fps, "y"
+    )
+
+
+def test_carried_contacts_vote_with_the_weights():
+    f = 31
+    ma = np.zeros((f, 1), dtype=bool)
+    mb = np.zeros((f, 1), dtype=bool)
+    ma[5:20] = True
+    mb[10:25] = True
+    ca, cb = _contacts(["LeftFoot"], ma), _contacts(["LeftFoot"], mb)
+    u = np.linspace(0.0, 1.0, f)
+    half = carry_contacts([ca, cb], [IDENTITY, IDENTITY], u, [1.0, 1.0], [0.5, 0.5], fps=30.0)
+    np.testing.assert_array_equal(np.flatnonzero(half.mask[:, 0]), np.arange(10, 20))  # both agree
+    mostly_a = carry_contacts([ca, cb], [IDENTITY, IDENTITY], u, [1.0, 1.0], [0.7, 0.3], fps=30.0)
+    np.testing.assert_array_equal(mostly_a.mask[:, 0], ma[:, 0])
+    # a warp carries B's contact: B's frames 10..25 are A's 5..20 under phi(u) = u + 1/6
+    shift = np.array([[0.0, 0.0], [0.1, 0.1 + 5 / 30], [0.9, 0.9 + 2 / 30], [1.0, 1.0]])
+    carried = carry_contacts([ca, cb], [IDENTITY, shift], u, [1.0, 1.0], [0.5, 0.5], fps=30.0)
+    assert carried.mask[6:19, 0].all() and not carried.mask[:3, 0].any()
+
+
+def test_ease_keeps_known_values_and_fades_out_continuously():
+    v = np.zeros((40, 1))
+    known = np.zeros(40, dtype=bool)
+    known[10:20] = True
+    v[10:20] = 1.0
+    out = _ease(v, known, 5)[:, 0]
+    np.testing.assert_array_equal(out[10:20], 1.0)
+    assert out[4] == 0.0 and out[25] == 0.0 and 0 < out[7] < out[8] < out[9] < 1
+    assert np.abs(np.diff(out)).max() < 0.35
+
+
+def test_cleanup_plants_the_foot_and_keeps_bone_lengths():
+    m = walker(duration=1.5)  # the synthetic walker's feet slide all the time
+    names = ("LeftFoot", "RightFoot")
+    mask = np.zeros((m.n_frames, 2), dtype=bool)
+    mask[8:20, 0] = True
+    mask[24:38, 1] = True
+    c = _contacts(names, mask, floor=float(forward_kinematics(m, end_sites=True)[..., 1].min()) - 0.05)
+    before = contact_skating(m, c)
+    res = cleanup_footskate(m, c, smooth=0.0)
+    assert res.applied and set(res.legs) == set(names)
+    assert before.mean_speed > 0.3
+    assert res.skating_after.mean_speed < 1e-6 * max(before.mean_speed, 1.0)
+    assert bone_length_error(res.motion).max_relative < 1e-9
+    assert res.max_position_change > 0.01 and res.max_rotation_change_deg > 1
+    # smoothing the change trades a little skating for smaller velocity changes
+    smooth = cleanup_footskate(m, c, smooth=0.05)
+    assert 0 < smooth.skating_after.mean_speed < 0.5 * before.mean_speed
+
+
+def test_cleanup_lifts_a_foot_out_of_the_floor():
+    m = walker(duration=1.0)
+    low = float(forward_kinematics(m, end_sites=True)[..., 1].min())
+    c = _contacts(("LeftFoot",), np.zeros((m.n_frames, 1), dtype=bool), floor=low + 0.03)
+    c = Contacts(c.joints, c.joint_indices, c.mask, c.floor, c.ground_height, c.fps, "y")
+    # no contact at all and nothing below the floor: nothing to enforce
+    c_low = _contacts(("LeftFoot",), np.zeros((m.n_frames, 1), dtype=bool), floor=low - 0.01)
+    assert not cleanup_footskate(m, c_low).applied
+    # no contact, feet below the floor: they are lifted out of it
+    lifted = cleanup_footskate(m, c, smooth=0.0)
+    assert lifted.applied and lifted.skating_after.below_floor < 1e-6 < lifted.skating_before.below_floor
+    mask = np.zeros((m.n_frames, 1), dtype=bool)
+    mask[3:8] = True
+    c = _contacts(("LeftFoot",), mask, floor=low + 0.03)
+    res = cleanup_footskate(m, c, smooth=0.0)
+    sub = m.skeleton.subtree(m.skeleton.index("LeftFoot"))
+    left = sub + [m.n_joints + e for e, p in enumerate(m.skeleton.end_site_parents) if p in sub]
+    assert forward_kinematics(res.motion, end_sites=True)[:, left, 1].min() > low + 0.03 - 1e-6
+
+
+def test_blend_cleans_up_by_default_and_says_so():
+    a = walker(duration=2.0, name="A")
+    b = walker(duration=2.4, freq=1.2, speed=1.3, phase=0.3, name="B")
+    opts = ContactOptions(speed_enter=3.0, speed_exit=4.0, height_enter=0.1, height_exit=0.15)
+    res = blend_motions([a, b], 0.5, contacts=opts)
+    assert res.cleanup is not None and res.cleanup.applied and res.before_cleanup is not None
+    s = res.summary()["cleanup"]
+    assert s["skating_after"]["skating_mean_m_s"] < s["skating_before"]["skating_mean_m_s"]
+    assert any(n.startswith("clean-up:") for n in res.notes)
+    off = blend_motions([a, b], 0.5, contacts="off")
+    assert off.cleanup is None and off.summary()["cleanup"] is None
+    np.testing.assert_allclose(off.motion.rotations, res.before_cleanup.rotations)
+    one = blend_motions([a, b], 1.0)
+    assert one.cleanup is None and any("weight of 1" in n for n in one.notes)
+    with pytest.raises(ValueError, match="contacts"):
+        blend_motions([a, b], 0.5, contacts="sometimes")
+
+
+def test_blend_without_contacts_skips_the_cleanup():
+    a = walker(duration=1.0, name="A")
+    b = walker(duration=1.2, freq=1.2, name="B")
+    res = blend_motions([a, b], 0.5, contacts=ContactOptions(max_ground_offset=0.0, height_enter=0.0))
+    assert res.cleanup is None and any("no contacts found" in n for n in res.notes)
+
+
+@pytest.mark.mocap
+def test_real_walks_skate_no_more_than_their_inputs(mocap_dir):
+    a = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/107_02_30hz.bvh")), 1.0, 3.4)
+    b = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/108_01_30hz.bvh")), 1.3, 4.8)
+    res = blend_motions([a, b], 0.5, method="lie", warp="dp")
+    cl = res.cleanup
+    assert cl is not None and cl.applied
+    inputs = [contact_skating(m, detect_contacts(m)).mean_speed for m in res.prepared.motions]
+    assert cl.skating_after.mean_speed <= 1.1 * min(inputs)
+    assert cl.skating_after.mean_speed < 0.75 * cl.skating_before.mean_speed
+    # the smoothest change that skates less than 0.9x the lesser input (apps.blend._SMOOTHING)
+    assert cl.skating_after.mean_speed <= 0.9 * min(inputs) and cl.smooth > 0
+    assert cl.skating_after.below_floor <= 0.01
+    assert bone_length_error(res.motion).max_relative < 1e-9

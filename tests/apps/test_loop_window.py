@@ -1,0 +1,221 @@
+"""Tests of the best-cycle search (apps.loop_window + loop_motion(window=...)): the dissimilarity,
+the period, the candidates, the chosen window on real cartwheels, the contacts report and the
+bad inputs of issue 11."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from elastic_motion.apps.loop_window import cycle_candidates, estimate_period, pose_dissimilarity
+from elastic_motion.apps.loop import loop_motion, seam_metrics
+from elastic_motion.errors import OptionError
+from elastic_motion.groups import SO3
+from elastic_motion.motion import Motion, Skeleton, drop_tpose, read_motion
+
+SO3G = SO3()
+
+
+def skeleton(names=("root", "hip", "knee", "foot")):
+    return Skeleton(
+        names=names,
+        parents=[-1, 0, 1, 2],
+        offsets=[[0, 0, 0], [0.1, -0.1, 0], [0, -0.4, 0], [0, -0.4, 0]],
+        channels=(
+            ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+        ),
+        end_site_parents=[3],
+        end_site_offsets=[[0, 0, 0.15]],
+    )
+
+
+def periodic(f=150, period=40, fps=30.0, lead=17, names=("root", "hip", "knee", "foot")):
+    """A gait-like clip of period ``period`` frames after a non-periodic lead-in of ``lead`` frames."""
+    k = np.arange(f, dtype=float)
+    ph = 2 * np.pi * (k - lead) / period
+    ramp = np.clip((k - lead) / 5.0, -1.0, 0.0)  # lead-in: amplitude grows, then steady
+    amp = 1.0 + 0.8 * ramp
+    rv = np.zeros((f, 4, 3))
+    rv[:, 0] = np.outer(amp * np.sin(ph), [0.05, 0.0, 0.05])
+    rv[:, 1] = np.outer(amp * np.sin(ph), [0.7, 0, 0.1])
+    rv[:, 2] = np.outer(amp * (1 - np.cos(ph)), [0.5, 0, 0])
+    rv[:, 3] = np.outer(amp * np.sin(2 * ph), [0.2, 0.1, 0])
+    root = np.stack([0.02 * k, 0.9 + 0.03 * amp * np.sin(2 * ph), 0 * k], 1)
+    return Motion(skeleton(names), fps, root, SO3G.exp(rv), metres_per_unit=1.0, name="periodic")
+
+
+def test_dissimilarity_is_a_squared_distance_of_pose_and_velocity():
+    m = periodic()
+    d = pose_dissimilarity(m)
+    assert d.shape == (m.n_frames, m.n_frames)
+    np.testing.assert_allclose(d, d.T, atol=1e-9)
+    assert np.all(np.diag(d) == 0) and d.min() >= 0
+    # independent: chordal distances of the rotations + tilt + height, velocity term tau = 0.1 s
+    a, b = 30, 95
+    r = m.rotations
+    pose = np.sum((r[a, 1:] - r[b, 1:]) ** 2) + np.sum((r[a, 0, 1] - r[b, 0, 1]) ** 2)
+    pose += (m.root_translation[a, 1] - m.root_translation[b, 1]) ** 2
+
+    def vel(i):
+        x = np.concatenate([r[:, 1:].reshape(m.n_frames, -1), r[:, 0, 1], m.root_translation[:, 1:2]], 1)
+        return (x[i + 1] - x[i - 1]) / 2 * m.fps
+
+    expect = pose + 0.1**2 * np.sum((vel(a) - vel(b)) ** 2)
+    assert d[a, b] == pytest.approx(expect, rel=1e-9)
+    # heading-blind in "travel": turning the whole clip about the up axis changes nothing
+    turn = SO3G.exp(np.array([0.0, 0.7, 0.0]))
+    rot = m.rotations.copy()
+    rot[:, 0] = turn @ rot[:, 0]
+    np.testing.assert_allclose(pose_dissimilarity(m.replace(rotations=rot)), d, atol=1e-9)
+    assert not np.allclose(pose_dissimilarity(m.replace(rotations=rot), root="inplace"), d)
+
+
+def test_period_and_candidates_of_a_periodic_clip():
+    m = periodic(period=40)
+    d = pose_dissimilarity(m)
+    assert estimate_period(d, m.fps) == pytest.approx(40 / m.fps)
+    c = cycle_candidates(m)
+    assert c.min_length_default and c.min_length == pytest.approx(0.9 * 40 / m.fps)
+    a, b = c.windows[0]
+    assert (b - 1 - a) % 40 == 0 and a >= 17  # a whole number of periods, after the lead-in
+    assert c.scores[0] < 1e-9
+    # a clip that does not repeat has no period: default half the clip
+    one = periodic(f=30, period=200, lead=0)
+    assert estimate_period(pose_dissimilarity(one), one.fps) is None
+    assert cycle_candidates(one).min_length == pytest.approx(0.5 * 29 / one.fps)
+
+
+def test_auto_window_loops_one_period_with_almost_no_change():
+    m = periodic()
+    whole = loop_motion(m)
+    res = loop_motion(m, window="auto")
+    w = res.window
+    assert (w.stop - 1 - w.start) % 40 == 0 and w.start >= 17
+    assert res.motion.n_frames == w.stop - w.start
+    assert w.deviation_max_m < 1e-6 < whole.seam_after.deviation_max_m
+    assert w.whole["deviation_max_m"] == pytest.approx(whole.seam_after.deviation_max_m, rel=1e-6)
+    s = res.summary()
+    json.dumps(s)
+    assert s["window"]["start_frame"] == w.start and s["window"]["length_s"] == pytest.approx(w.length)
+    # an explicit window
+    res2 = loop_motion(m, window=(20, 100))
+    assert res2.motion.n_frames == 80 and res2.window.start == 20
+    np.testing.assert_allclose(res2.motion.rotations[0], m.rotations[20], atol=1e-12)
+
+
+def test_bad_windows_give_clear_errors():
+    m = periodic(f=40, period=200, lead=0)
+    with pytest.raises(OptionError, match=r"no longer than the clip \(1\.300 s, 40 frames\); got 5\.000 s"):
+        loop_motion(m, window="auto", min_length=5.0)
+    with pytest.raises(OptionError, match="min_length"):
+        loop_motion(m, window="auto", min_length=-1.0)
+    with pytest.raises(OptionError, match="window"):
+        loop_motion(m, window="best")
+    with pytest.raises(OptionError, match="window"):
+        loop_motion(m, window=(30, 20))
+    with pytest.raises(OptionError, match="contacts"):
+        loop_motion(m, contacts="plant")
+
+
+def test_contacts_reported_or_skipped():
+    m = periodic()
+    res = loop_motion(m)
+    assert res.contacts is not None and res.contacts.joints == ("foot",)
+    assert res.skating_before is not None and res.skating_after is not None
+    assert res.summary()["skating_after"]["skating_mean_m_s"] == res.skating_after.mean_speed
+    # no joint that can touch the floor: skipped, and the report says so
+    bare = periodic(names=("root", "a", "b", "c"))
+    res = loop_motion(bare)
+    assert res.skating_before is None
+    assert any("contacts skipped" in n for n in res.notes)
+    assert loop_motion(m, contacts="off").contacts is None
+
+
+@pytest.mark.mocap
+def test_auto_window_of_cmu_cartwheels_changes_a_third_of_the_whole_clip(mocap_dir):
+    m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
+    res = loop_motion(m, window="auto", candidates=2)
+    w = res.window
+    assert res.closing.converged and res.closing.kkt_residual < 1e-8
+    assert w.deviation_max_m <= w.whole["deviation_max_m"] / 3
+    assert w.length >= w.min_length - 1e-9
+    after = seam_metrics(res.motion, original=res.original, joints=res.closed_joints)
+    assert after.seam_angle_max_deg < 1e-3
+    assert after.deviation_max_m == pytest.approx(w.deviation_max_m)
+
+
+def test_contact_rows_jacobian_matches_central_differences():
+    from elastic_motion.apps.loop_contacts import ContactConstraints
+    from elastic_motion.motion.contacts import Contacts
+
+    m = periodic(f=50)
+    mask = np.zeros((50, 1), dtype=bool)
+    mask[10:25] = True  # an interior contact
+    mask[40:] = True  # a contact reaching the last frame: rows relative to it
+    contacts = Contacts(("foot",), np.array([3]), mask, 0.0, np.array([0.0]), m.fps, "y")
+    cc = ContactConstraints(m, contacts, step=0.1)
+    rng = np.random.default_rng(1)
+    rot = m.rotations @ SO3G.exp(rng.normal(size=(m.n_frames, 4, 3)) * 0.1)
+    eu = m.root_translation + rng.normal(size=(m.n_frames, 3)) * 0.01
+    g, frames, d_rot, d_eu = cc.evaluate(rot, eu)
+    assert (frames[:, 1] == 49).any() and (frames[:, 1] == -1).any()
+    np.testing.assert_allclose(g, cc.residual(rot, eu), atol=1e-12)
+    eps = 1e-6
+    for r in range(0, len(cc), 5):
+        for s_ in range(2):
+            f = frames[r, s_]
+            if f < 0:
+                continue
+            for b in range(4):
+                for k in range(3):
+                    w = np.zeros(3)
+                    w[k] = eps
+                    rp, rm = rot.copy(), rot.copy()
+                    rp[f, b] = SO3G.exp(w) @ rot[f, b]
+                    rm[f, b] = SO3G.exp(-w) @ rot[f, b]
+                    fd = (cc.residual(rp, eu)[r] - cc.residual(rm, eu)[r]) / (2 * eps)
+                    assert d_rot[r, s_, b, k] == pytest.approx(fd, abs=1e-7)
+            for k in range(3):
+                ep, em_ = eu.copy(), eu.copy()
+                ep[f, k] += eps
+                em_[f, k] -= eps
+                fd = (cc.residual(rot, ep)[r] - cc.residual(rot, em_)[r]) / (2 * eps)
+                assert d_eu[r, s_, k] == pytest.approx(fd, abs=1e-7)
+
+
+@pytest.mark.mocap
+def test_contacts_kept_plant_the_deepmimic_run(mocap_dir):
+    path = mocap_dir / "deepmimic/humanoid3d_run.txt"
+    plain = loop_motion(path)
+    kept = loop_motion(path, contacts="keep")
+    assert kept.closing.converged and kept.closing.kkt_residual < 1e-8
+    assert kept.contacts_kept["rows"] > 0 and "dropped" not in kept.contacts_kept
+    assert kept.seam_after.seam_angle_max_deg < 1e-3
+    # skating during the input's contacts: the plain loop slides, the kept one as the input
+    assert plain.skating_after.mean_speed > 1.5 * plain.skating_before.mean_speed
+    assert kept.skating_after.mean_speed <= 1.1 * kept.skating_before.mean_speed
+    assert kept.summary()["contacts_kept"]["gave_way"] == []
+    with pytest.raises(OptionError, match="contacts"):
+        loop_motion(path, contacts="keep", solver="gauss-newton")
+
+
+def test_contacts_that_give_way_are_reported():
+    from elastic_motion.apps.loop_contacts import ContactConstraints
+    from elastic_motion.motion.contacts import Contacts
+
+    m = periodic(f=50)
+    mask = np.zeros((50, 1), dtype=bool)
+    mask[10:25] = True
+    contacts = Contacts(("foot",), np.array([3]), mask, 0.0, np.array([0.0]), m.fps, "y")
+    cc = ContactConstraints(m, contacts, step=0.1)
+    assert cc.gave_way(m.rotations, m.root_translation) == []  # the input meets its own contacts
+    rot = m.rotations.copy()
+    rot[22, 1] = SO3G.exp(np.array([0.0, 0.0, 0.1])) @ rot[22, 1]  # the hip moves in a sampled frame
+    (miss,) = cc.gave_way(rot, m.root_translation)
+    assert miss["joint"] == "foot" and miss["frames"] == [10, 25]
+    assert 0.05 < miss["largest_miss_m"] < 0.1  # about 0.1 rad times the 0.8 m leg

@@ -1,0 +1,240 @@
+"""The command line's safety net and error path under hostile use (issue 14).
+
+Outputs never overwrite what a command reads (``--json`` onto the ASF found beside an AMC,
+onto the BVH just written, into a matrix folder), limits are checked before any work, stale
+temporaries of a killed write are removed by the next write, and OS errors, overflow and
+FIFOs end as one error line with exit code 2 or 3.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from elastic_motion._io import atomic_write_text, remove_stale_temporaries
+from elastic_motion.cli import main
+from elastic_motion.cli_commands._argparse import (
+    EXIT_BAD_INPUT,
+    EXIT_ENVIRONMENT,
+    describe_error,
+    exit_code_for,
+)
+
+CLI = [sys.executable, "-m", "elastic_motion.cli"]
+
+
+def _bvh(path: Path, n_frames: int = 4) -> Path:
+    lines = ["HIERARCHY", "ROOT Hips", "{", "  OFFSET 0 0 0"]
+    lines.append("  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation")
+    for k in range(2):
+        lines += [f"  JOINT J{k}", "  {", "    OFFSET 0 10 0", "    CHANNELS 3 Zrotation Xrotation Yrotation"]
+        lines += ["    End Site", "    {", "      OFFSET 0 5 0", "    }", "  }"]
+    lines += ["}", "MOTION", f"Frames: {n_frames}", "Frame Time: 0.0333333"]
+    for f in range(n_frames):
+        lines.append(" ".join(["0", "90", str(f)] + ["0"] * 9))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _refused(argv: list[str], capsys, *needles: str) -> str:
+    assert main([str(a) for a in argv]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for n in needles:
+        assert n in err, err
+    return err
+
+
+# ------------------------------------------------------------------------------------------
+# Outputs against inputs
+# ------------------------------------------------------------------------------------------
+
+
+def test_json_onto_the_asf_found_beside_the_amc_is_refused(tmp_path: Path, capsys) -> None:
+    asf, amc = tmp_path / "02.asf", tmp_path / "02_01.amc"
+    asf.write_text(":version 1.10\n")
+    amc.write_text(":FULLY-SPECIFIED\n")
+    before = asf.read_bytes()
+    _refused(["blend", amc, amc, "-o", tmp_path / "o.bvh", "--json", asf], capsys, "--json", "02.asf")
+    assert asf.read_bytes() == before and not (tmp_path / "o.bvh").exists()
+
+
+def test_json_onto_the_written_bvh_is_refused_before_writing(tmp_path: Path, capsys) -> None:
+    a, b = _bvh(tmp_path / "a.bvh"), _bvh(tmp_path / "b.bvh")
+    out = tmp_path / "o.bvh"
+    _refused(["blend", a, b, "-o", out, "--json", out], capsys, "another output")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("how", ["dotdot", "symlink", "hardlink"])
+def test_outputs_reaching_an_input_by_another_name_are_refused(tmp_path: Path, capsys, how: str) -> None:
+    a, b = _bvh(tmp_path / "a.bvh"), _bvh(tmp_path / "b.bvh")
+    (tmp_path / "sub").mkdir()
+    if how == "dotdot":
+        out = tmp_path / "sub" / ".." / "a.bvh"
+    elif how == "symlink":
+        out = tmp_path / "link.bvh"
+        out.symlink_to(a)
+    else:
+        out = tmp_path / "hard.bvh"
+        os.link(a, out)
+    before = a.read_bytes()
+    _refused(["distance", a, b, "--json", out], capsys, "refusing to overwrite an input")
+    assert a.read_bytes() == before
+
+
+def test_matrix_folder_files_are_never_report_targets(tmp_path: Path, capsys) -> None:
+    m = tmp_path / "M"
+    m.mkdir()
+    (m / "report.json").write_text("{}")
+    (m / "distances_lie.npy").write_bytes(b"x")
+    labels = tmp_path / "labels.csv"
+    labels.write_text("a,x\n")
+    _refused(["classify", m, "--labels", labels, "--json", m / "report.json"], capsys, "input folder")
+    _refused(["cluster", m, "--json", m / "distances_lie.npy"], capsys, "input folder")
+    assert (m / "report.json").read_text() == "{}" and (m / "distances_lie.npy").read_bytes() == b"x"
+
+
+def test_matrix_into_its_own_input_folder_is_refused(tmp_path: Path, capsys) -> None:
+    db = tmp_path / "db"
+    db.mkdir()
+    _bvh(db / "a.bvh")
+    _refused(["matrix", db, "-o", db / "M"], capsys, "-o", "neither holds nor lies inside")
+    _refused(["matrix", db, "-o", tmp_path], capsys, "-o")
+    _refused(["matrix", db, "-o", tmp_path / "M", "--json", tmp_path / "M" / "report.json"], capsys, "--json")
+    assert not (db / "M").exists() and not (tmp_path / "M").exists()
+
+
+def test_mean_and_search_json_onto_an_input(tmp_path: Path, capsys) -> None:
+    a, b = _bvh(tmp_path / "a.bvh"), _bvh(tmp_path / "b.bvh")
+    _refused(["mean", a, b, "-o", tmp_path / "m.bvh", "--json", b], capsys, "--json")
+    _refused(["search", a, b, "--json", a], capsys, "--json")
+
+
+# ------------------------------------------------------------------------------------------
+# Limits before work
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["render", "{a}", "-o", "{t}/x.gif", "--size", "0x0"], "--size"),
+        (["render", "{a}", "-o", "{t}/x.gif", "--size", "100000x100"], "max_render_size"),
+        (["render", "{a}", "-o", "{t}/x.gif", "--fps", "1e-9"], "min_render_fps"),
+        (["render", "{a}", "-o", "{t}/x.gif", "--fps", "1e300"], "max_render_fps"),
+        (["render", "{a}", "-o", "{t}/x.gif", "--fps", "nan"], "--fps"),
+        (["render", "{a}", "-o", "{t}/x.gif", "--seconds", "1e9"], "max_render_frames"),
+        (["render", "{a}", "-o", "{t}/x.png", "--kind", "seam", "--repeat", "100000"], "max_repeat"),
+        (["loop", "{a}", "-o", "{t}/l.bvh", "--repeat", "100000"], "max_repeat"),
+        (["matrix", "{a}", "-o", "{t}/M", "--engine", "local", "--workers", "0"], "--workers"),
+    ],
+)
+def test_limits_are_checked_before_any_work(tmp_path: Path, capsys, argv: list[str], needle: str) -> None:
+    a = _bvh(tmp_path / "a.bvh")
+    t0 = time.perf_counter()
+    _refused([x.format(a=a, t=tmp_path) for x in argv], capsys, needle)
+    assert time.perf_counter() - t0 < 10.0
+
+
+# ------------------------------------------------------------------------------------------
+# The error path
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("exc", "code", "needle"),
+    [
+        (OSError(errno.EROFS, "Read-only file system", "/ro/o.bvh"), EXIT_ENVIRONMENT, "read-only"),
+        (OSError(errno.EACCES, "Permission denied", "/x/o.bvh"), EXIT_ENVIRONMENT, "permission denied"),
+        (OSError(errno.ENOSPC, "No space left on device", "/f/o.bvh"), EXIT_ENVIRONMENT, "no space left"),
+        (IsADirectoryError(errno.EISDIR, "Is a directory", "/d"), EXIT_BAD_INPUT, "got a folder"),
+        (
+            OSError(errno.ELOOP, "Too many levels of symbolic links", "/l"),
+            EXIT_BAD_INPUT,
+            "symbolic-link loop",
+        ),
+        (MemoryError(), EXIT_ENVIRONMENT, "out of memory"),
+        (OverflowError("cannot convert float infinity to integer"), EXIT_BAD_INPUT, "too large"),
+        (RecursionError("maximum recursion depth exceeded"), EXIT_BAD_INPUT, "too deep"),
+    ],
+)
+def test_error_kinds_map_to_exit_codes(exc: BaseException, code: int, needle: str) -> None:
+    assert exit_code_for(exc) == code
+    assert needle in describe_error(exc) and "internal error" not in describe_error(exc)
+
+
+def test_a_full_disk_on_a_real_report_write_is_one_line_exit_3(tmp_path: Path, capsys, monkeypatch) -> None:
+    a, b = _bvh(tmp_path / "a.bvh"), _bvh(tmp_path / "b.bvh")
+    out = tmp_path / "r.json"
+
+    def full(src, dst):
+        raise OSError(errno.ENOSPC, "No space left on device", str(dst))
+
+    monkeypatch.setattr("elastic_motion._io.os.replace", full)
+    assert main(["distance", str(a), str(b), "--json", str(out), "--warp", "none"]) == EXIT_ENVIRONMENT
+    err = capsys.readouterr().err
+    assert (
+        err
+        == f"elastic-motion distance: error: {out}: expected free disk space; got no space left on device\n"
+    )
+    assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name.startswith(".r.")]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_info_on_a_fifo_returns_at_once(tmp_path: Path) -> None:
+    fifo = tmp_path / "x.bvh"
+    os.mkfifo(fifo)
+    res = subprocess.run([*CLI, "info", str(fifo)], capture_output=True, text=True, timeout=60, check=False)
+    assert res.returncode == EXIT_BAD_INPUT
+    assert res.stderr.endswith("x.bvh: expected a regular file, found a FIFO (named pipe)\n"), res.stderr
+
+
+# ------------------------------------------------------------------------------------------
+# Temporaries of a killed write
+# ------------------------------------------------------------------------------------------
+
+
+def test_a_write_killed_midway_leaves_a_temporary_the_next_write_removes(tmp_path: Path) -> None:
+    out = tmp_path / "out.bvh"
+    code = (
+        "import sys, time\n"
+        "from elastic_motion._io import atomic_path\n"
+        "with atomic_path(sys.argv[1]) as tmp:\n"
+        "    open(tmp, 'w').write('partial' * 1000)\n"
+        "    print(tmp, flush=True)\n"
+        "    time.sleep(60)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code, str(out)], stdout=subprocess.PIPE, text=True)
+    try:
+        tmp = Path(proc.stdout.readline().strip())
+        assert tmp.exists() and tmp.name.startswith(".out.em")
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+        proc.stdout.close()
+    assert tmp.exists() and not out.exists()  # SIGKILL: nothing could clean up
+    atomic_write_text(out, "done\n")  # the next write of the same path
+    assert out.read_text() == "done\n" and not tmp.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["out.bvh"]
+
+
+def test_live_and_foreign_temporaries_are_kept(tmp_path: Path) -> None:
+    out = tmp_path / "out.bvh"
+    live = tmp_path / f".out.em{os.getpid()}-abc.bvh"  # this process: still writing
+    other = tmp_path / ".other.em999999999-abc.bvh"  # another output
+    old_style = tmp_path / ".out.abcd1234.bvh"  # the earlier naming, fresh: kept
+    stale_old = tmp_path / ".out.zzzz9999.bvh"  # the earlier naming, a day old: removed
+    for p in (live, other, old_style, stale_old):
+        p.write_text("x")
+    os.utime(stale_old, (time.time() - 86400, time.time() - 86400))
+    removed = remove_stale_temporaries(out)
+    assert removed == [stale_old]
+    assert live.exists() and other.exists() and old_style.exists()

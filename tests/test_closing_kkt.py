@@ -1,0 +1,227 @@
+"""Tests of the constrained projection (closing_kkt): the result is a KKT point of
+min ||q - q_orig||^2 subject to closure, no nearby closed curve is nearer the original, it is
+at least as near as the Gauss-Newton and R^d Newton projections, and ClosingResult.srv is the
+solver's SRV function."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from elastic_motion.closing import close_curve, closing_gap, project_closed_rd
+from elastic_motion.closing_kkt import ExtraConstraints, kkt_residual, project_closed
+from elastic_motion.curves import SRVFunction, inverse_srv_transform, srv_transform
+from elastic_motion.groups import SO3, Euclidean, PowerGroup, ProductGroup
+
+
+def smooth_curve(group, n, seed=0, scale=1.0):
+    """A smooth open curve: SRV = a few random cosines, integrated from a random start."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, n + 1)
+    mid = 0.5 * (t[:-1] + t[1:])
+    q = sum(
+        np.outer(np.cos((k + 1) * np.pi * mid + rng.uniform(0, 6)), rng.normal(size=group.dim))
+        for k in range(3)
+    )
+    start = group.exp(rng.normal(size=group.dim) * 0.5)
+    return inverse_srv_transform(SRVFunction(scale * q, t, start, group))
+
+
+def l2(a, b, dt):
+    d = np.asarray(a) - np.asarray(b)
+    return float(np.sqrt(np.einsum("i,ij,ij->", dt, d, d)))
+
+
+def lie_group():
+    return ProductGroup([Euclidean(3, weight=[0.5, 2.0, 1.0]), PowerGroup(SO3(), 3, [1.0, 2.0, 0.5])])
+
+
+CASES = {
+    # group, closing mask (None: everything), c1
+    "lie": (lie_group, None, False),
+    "lie-swing-mask": (lie_group, np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 0, 0, 0], dtype=bool), False),
+    "lie-c1": (lie_group, None, True),
+    "rd": (lambda: Euclidean(4, weight=[1.0, 2.0, 0.5, 1.0]), None, False),
+}
+
+
+def closed_perturbation(res, orig_srv, mask, c1, rng, scale):
+    """A random closed curve near the result: perturb its SRV, close again by Gauss-Newton."""
+    q = np.array(res.srv.q)
+    dq = rng.normal(size=q.shape) * scale
+    pert = SRVFunction(q + dq, orig_srv.t, orig_srv.start, orig_srv.group)
+    other = close_curve(pert, factors=mask, c1=c1, tol=1e-12, max_iter=50, keep_free=False)
+    assert other.converged
+    return other.srv
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_projection_is_a_kkt_point_and_no_nearby_closed_curve_is_nearer(case):
+    make, mask, c1 = CASES[case]
+    curve = smooth_curve(make(), 60, seed=3, scale=1.2)
+    srv0 = srv_transform(curve)
+    res = project_closed(curve, factors=mask, c1=c1, keep_free=False)
+    assert res.converged, res.message
+    assert res.gap < 1e-9 and (not c1 or res.velocity_gap < 1e-9)
+    assert res.kkt_residual < 1e-8
+    # the KKT residual measured independently of the solver's bookkeeping
+    k, gap = kkt_residual(res.srv, srv0, factors=mask, c1=c1)
+    assert k < 1e-8 and gap < 1e-9
+    assert res.change == pytest.approx(l2(res.srv.q, srv0.q, srv0.dt), rel=1e-12)
+    # random closed curves near the result are never nearer the original
+    rng = np.random.default_rng(7)
+    for scale in (1e-1, 3e-2, 1e-2):
+        for _ in range(4):
+            other = closed_perturbation(res, srv0, mask, c1, rng, scale)
+            assert l2(other.q, srv0.q, srv0.dt) >= res.change * (1 - 1e-12)
+    # and the Gauss-Newton flow's closed curve is farther (it is nearest only to first order)
+    gn = close_curve(curve, factors=mask, c1=c1, tol=1e-12, keep_free=False)
+    assert gn.change > res.change
+    assert kkt_residual(gn.srv, srv0, factors=mask, c1=c1)[0] > 1e-4
+
+
+def test_kkt_residual_is_not_small_away_from_the_optimum():
+    # guards the residual itself: a closed curve that is not the nearest has a large one
+    curve = smooth_curve(lie_group(), 40, seed=1, scale=1.0)
+    srv0 = srv_transform(curve)
+    res = project_closed(curve)
+    rng = np.random.default_rng(0)
+    other = closed_perturbation(res, srv0, None, False, rng, 0.05)
+    assert kkt_residual(other, srv0)[0] > 1e-3
+
+
+def test_rd_projection_is_nearer_than_paper_001_newton_projection():
+    curve = smooth_curve(Euclidean(2), 80, seed=5, scale=2.0)
+    srv0 = srv_transform(curve)
+    newton = project_closed_rd(curve, tol=1e-12)
+    kkt = project_closed(curve)
+    assert kkt.converged and newton.converged
+    assert kkt.change < newton.change
+    assert np.abs(kkt.curve.values[-1] - kkt.curve.values[0]).max() < 1e-9
+    # paper 001, Thm. 2: at the optimum q - q_orig lies in the span of U_k(q) = (q_k q + |q|^2 e_k)/|q|
+    q = np.array(kkt.srv.q)
+    qn = np.linalg.norm(q, axis=1)
+    basis = [(q[:, [k]] * q + np.outer(qn**2, np.eye(2)[k])) / qn[:, None] for k in range(2)]
+    a = np.stack([b.ravel() * np.repeat(np.sqrt(srv0.dt), 2) for b in basis], axis=1)
+    e = (q - srv0.q).ravel() * np.repeat(np.sqrt(srv0.dt), 2)
+    coef, *_ = np.linalg.lstsq(a, e, rcond=None)
+    assert np.linalg.norm(e - a @ coef) < 1e-8 * np.linalg.norm(e)
+
+
+def test_closed_curve_is_returned_unchanged():
+    curve = smooth_curve(lie_group(), 30, seed=2)
+    closed = project_closed(curve, keep_free=False).curve
+    again = project_closed(closed)
+    assert again.iterations == 0 and again.change == 0.0 and again.kkt_residual == 0.0
+
+
+def test_closing_result_srv_is_the_solvers():
+    # a closed copy whose steps end past pi: the SRVT of the returned curve would read them the
+    # short way round; the result's srv is the solver's own, so every number measured through it
+    # equals the solver's
+    g = PowerGroup(SO3(), 2)
+    n = 20
+    rng = np.random.default_rng(4)
+    q = rng.normal(size=(n, 6)) * 0.3
+    q[:, 0] += 9.0  # |u_i| = |q_i|^2 / n: about 4.1 rad per step, past pi and below 2 pi
+    srv0 = SRVFunction(q, np.linspace(0, 1, n + 1), g.identity(), g)
+    for solve in (
+        lambda c: close_curve(c, keep_free=False, tol=1e-10),
+        lambda c: project_closed(c, keep_free=False),
+    ):
+        res = solve(srv0)
+        assert res.converged
+        assert res.change == pytest.approx(l2(res.srv.q, srv0.q, srv0.dt), rel=1e-12)
+        assert closing_gap(res.srv).gap == pytest.approx(res.gap, abs=1e-9)
+        reread = srv_transform(res.curve)
+        assert l2(reread.q, srv0.q, srv0.dt) > 2 * res.change  # what the old srv measured
+        np.testing.assert_allclose(inverse_srv_transform(res.srv).values, res.curve.values, atol=1e-9)
+
+
+def test_bad_options():
+    curve = smooth_curve(lie_group(), 10)
+    with pytest.raises(ValueError, match="kkt_tol"):
+        project_closed(curve, kkt_tol=-1)
+    with pytest.raises(ValueError, match="max_iter"):
+        project_closed(curve, max_iter=1.5)
+    with pytest.raises(ValueError, match="at least 3 samples"):
+        project_closed(SRVFunction(np.ones((1, 12)), [0.0, 1.0], lie_group().identity(), lie_group()))
+
+
+class PinConstraints(ExtraConstraints):
+    """Test constraints: a direction carried by copy ``b`` at sample ``f`` and one Euclidean
+    coordinate at another sample take given values."""
+
+    def __init__(self, f, b, a, target_dir, f_eu, c, target_eu):
+        self.f, self.b, self.a = f, b, np.asarray(a, float)
+        self.target_dir, self.f_eu, self.c, self.target_eu = target_dir, f_eu, c, target_eu
+
+    def evaluate(self, rot, eu):
+        v = rot[self.f, self.b] @ self.a
+        g = np.concatenate([v[:2] - self.target_dir, [eu[self.f_eu, self.c] - self.target_eu]])
+        frames = np.array([[self.f], [self.f], [self.f_eu]])
+        d_rot = np.zeros((3, 1, rot.shape[1], 3))
+        # delta (R a) = omega x (R a) = -hat(R a) omega
+        hv = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        d_rot[:2, 0, self.b] = -hv[:2]
+        d_eu = np.zeros((3, 1, eu.shape[1]))
+        d_eu[2, 0, self.c] = 1.0
+        return g, frames, d_rot, d_eu
+
+
+def test_extra_constraint_jacobian_matches_central_differences():
+    from elastic_motion.closing import _problem
+    from elastic_motion.closing_kkt import _DenseLinear, _eu_samples
+
+    g = lie_group()
+    curve = smooth_curve(g, 12, seed=9, scale=1.0)
+    mask = np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 0, 0, 0], dtype=bool)  # x, z free: kept as original
+    extra = PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5)
+    for c1 in (False, True):
+        srv, prob = _problem(curve, mask, c1, 1.0, 1e-9, None)
+        q = prob.to_internal(srv.q)
+        s = prob.evaluate(q)
+        eu0 = _eu_samples(prob, s)
+        lin = _DenseLinear(prob, s, extra, eu0)
+
+        def rows(qq, prob=prob, eu0=eu0):
+            st = prob.evaluate(qq)
+            eu = np.where(prob.spec.eu_closed, _eu_samples(prob, st), eu0)
+            return np.concatenate([prob.residual(st)[prob.sel], extra.evaluate(st.rot, eu)[0]])
+
+        eps = 1e-6
+        fd = np.zeros_like(lin.jac)
+        for i in range(q.shape[0]):
+            for k in range(q.shape[1]):
+                dq = np.zeros_like(q)
+                dq[i, k] = eps
+                fd[:, i, k] = (rows(q + dq) - rows(q - dq)) / (2 * eps)
+        np.testing.assert_allclose(lin.jac, fd, atol=1e-7 * np.abs(fd).max())
+        assert lin.n_extra == 3
+
+
+def test_projection_with_extra_constraints_is_a_kkt_point():
+    g = lie_group()
+    curve = smooth_curve(g, 40, seed=2, scale=1.0)
+    srv0 = srv_transform(curve)
+    mask = np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    v0 = curve.values
+    extra = PinConstraints(25, 2, [1.0, 0.0, 0.0], [0.8, 0.1], 30, 1, float(v0[30, 1]) + 0.05)
+    res = project_closed(curve, factors=mask, extra=extra, keep_free=True)
+    assert res.converged, res.message
+    assert res.kkt_residual < 1e-8 and res.gap < 1e-9
+    rot = g.split_points(res.curve.values)[1]
+    np.testing.assert_allclose((rot[25, 2] @ [1.0, 0, 0])[:2], [0.8, 0.1], atol=1e-9)
+    assert res.curve.values[30, 1] == pytest.approx(float(v0[30, 1]) + 0.05, abs=1e-9)
+    assert res.multipliers.shape == (int(mask.sum()) + 3,)  # closing rows, then the extra rows
+    # nearby curves that meet all the constraints are never nearer the original
+    rng = np.random.default_rng(3)
+    plain = project_closed(curve, factors=mask)
+    assert res.change > plain.change  # the extra constraints cost something
+    for _ in range(4):
+        q = np.array(res.srv.q) + rng.normal(size=res.srv.q.shape) * 1e-2
+        other = project_closed(
+            SRVFunction(q, srv0.t, srv0.start, srv0.group), factors=mask, extra=extra, kkt_tol=1.0
+        )
+        assert other.gap < 1e-9
+        assert l2(other.srv.q, srv0.q, srv0.dt) >= res.change * (1 - 1e-9)
