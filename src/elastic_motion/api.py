@@ -39,6 +39,7 @@ from elastic_motion.apps.database import (  # motion databases (issue 15)
 )
 from elastic_motion.apps.distance import DistanceTable, distance_table
 from elastic_motion.apps.loop import LoopResult, SeamMetrics, loop_motion, repeat_motion, seam_metrics
+from elastic_motion.apps.loop_limits import joint_limit_report
 from elastic_motion.apps.pca import MotionPCA, motion_pca
 from elastic_motion.apps.prepare import (
     MotionPreparation,
@@ -84,6 +85,7 @@ __all__ = [
     "distances",
     "find_within",
     "gait_cycles",
+    "joint_limits",
     "load",
     "loop",
     "pca",
@@ -112,6 +114,9 @@ blend = blend_motions
 #: ``em.loop(motion, root=, c1=, method=, solver=, free_joints=, prepare=, window=, min_length=,
 #: contacts=)``: ``window="auto"`` loops the best cycle, ``contacts="keep"`` plants contacts.
 loop = loop_motion
+#: ``em.joint_limits(motion, limits=None)``: DOF angles beyond / at their ASF limits
+#: (``loop(joint_limits="keep")`` keeps the loop within the limits the input respects).
+joint_limits = joint_limit_report
 #: ``em.align(a, b, method=, warp=, landmarks=, prepare=)``: the warp of B onto A.
 align = align_motions
 #: ``em.distances(motions, method=, warp=, prepare=)``: all pairwise distances (DistanceTable).

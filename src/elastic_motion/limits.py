@@ -26,6 +26,9 @@ The limits (field of :class:`Limits`, default, what it bounds):
 ``min_render_fps``,         0.1, 1,000    frame rate of a rendered video
 ``max_render_fps``
 ``max_render_frames``       100,000       frames of a rendered video
+``max_dp_nodes``            50,000,000    nodes of one dynamic-programming table of a time
+                                          warp (about 20 bytes each: 1 GB; two clips of
+                                          7,000 samples each, 4 min at 30 fps)
 ==========================  ============  ===============================================
 
 Overriding: a user who needs more (a day-long capture, a 16k render) sets the environment
@@ -77,6 +80,7 @@ class Limits:
     min_render_fps: float = 0.1
     max_render_fps: float = 1_000.0
     max_render_frames: int = 100_000
+    max_dp_nodes: int = 50_000_000
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

@@ -264,3 +264,14 @@ def test_bad_input_gives_clear_errors():
         loop_motion(m, free_joints=["nose"])
     with pytest.raises(ValueError, match="original"):
         seam_metrics(m, original=synthetic(f=30))
+
+
+def test_repeat_is_bounded_before_allocation():
+    """loop --repeat 100000 asked for 10 GB; repeat_motion checks the result's size first."""
+    from elastic_motion import limits
+
+    m = synthetic()
+    with limits.override(max_frames=10 * (m.n_frames - 1) + 1):
+        assert repeat_motion(m, 10).n_frames == 10 * (m.n_frames - 1) + 1
+        with pytest.raises(ValueError, match=r"^cycles: expected a repeated clip of frames at most"):
+            repeat_motion(m, 11)

@@ -189,8 +189,7 @@ def motion_pca(
     OptionError
         Fewer than two files, different skeletons, a bad method.
     """
-    from elastic_motion import motion as mm
-    from elastic_motion.apps.database import prepare_motion, restrict_to_common_joints
+    from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
     from elastic_motion.apps.database.settings import canonical_method, public_method
     from elastic_motion.apps.statistics import _warp_options, karcher_mean
     from elastic_motion.curves import reparametrize_srv, srv_transform
@@ -200,32 +199,10 @@ def motion_pca(
     if len(files) < 2:
         raise OptionError("files", f"expected at least two motion files; got {len(files)}")
     opts = _warp_options(warp)
-    prepared = [
-        prepare_motion(
-            f,
-            n_samples,
-            joints=joints if joints == "map" or not isinstance(joints, str) else "all",
-            drop_fingers=drop_fingers,
-            align_heading=align_heading,
-        )
-        for f in files
-    ]
-    if joints == "common":
-        prepared = restrict_to_common_joints(prepared)
-    names0 = prepared[0].joint_names
-    for f, p in zip(files, prepared, strict=True):
-        if p.joint_names != names0:
-            a, b = set(names0), set(p.joint_names)
-            raise OptionError(
-                "joints",
-                f"{f}: expected the skeleton of {files[0]} ({len(a)} joints); got {len(b)} joints (lacks "
-                f"{sorted(a - b) or 'nothing'}, extra {sorted(b - a) or 'nothing'}): pass joints='common'",
-            )
-    if key == "lie":
-        jw, tw = mm.group_weights([p.motion for p in prepared])
-        curves = [mm.to_lie_curve(p.motion, jw, translation_weight=tw) for p in prepared]
-    else:
-        curves = [mm.to_euler_curve(p.motion) for p in prepared]
+    prepared = prepare_same_skeleton(
+        files, n_samples, joints=joints, drop_fingers=drop_fingers, align_heading=align_heading
+    )
+    curves = database_curves(prepared, key)
     km = karcher_mean(
         curves, n_samples=n_samples, warp=opts, max_iter=max_iter, tol=tol, progress=progress, recenter=True
     )

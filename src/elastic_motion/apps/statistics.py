@@ -632,7 +632,7 @@ def mean_motion(
         A malformed file.
     """
     from elastic_motion import motion as mm
-    from elastic_motion.apps.database import prepare_motion, restrict_to_common_joints
+    from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
     from elastic_motion.apps.database.settings import canonical_method
 
     if representation is not None:
@@ -643,31 +643,10 @@ def mean_motion(
     files = [os.fspath(f) for f in files]
     if not files:
         raise OptionError("files", "expected at least one motion file; got none")
-    prepared = [
-        prepare_motion(
-            f,
-            n_samples,
-            joints=joints if joints == "map" or not isinstance(joints, str) else "all",
-            drop_fingers=drop_fingers,
-            align_heading=align_heading,
-        )
-        for f in files
-    ]
-    if joints == "common":
-        prepared = restrict_to_common_joints(prepared)
-    names0 = prepared[0].joint_names
-    for f, p in zip(files, prepared, strict=True):
-        if p.joint_names != names0:
-            raise OptionError(
-                "joints",
-                f"{f}: expected the skeleton of {files[0]} ({len(names0)} joints); got a different skeleton "
-                f"({len(p.joint_names)} joints): average motions of one skeleton, or pass joints='common'",
-            )
-    if representation == "lie":
-        jw, tw = mm.group_weights([p.motion for p in prepared])
-        curves = [mm.to_lie_curve(p.motion, jw, translation_weight=tw) for p in prepared]
-    else:
-        curves = [mm.to_euler_curve(p.motion) for p in prepared]
+    prepared = prepare_same_skeleton(
+        files, n_samples, joints=joints, drop_fingers=drop_fingers, align_heading=align_heading
+    )
+    curves = database_curves(prepared, representation)
     res = karcher_mean(curves, n_samples=n_samples, warp=opts, max_iter=max_iter, tol=tol, progress=progress)
     duration = float(np.mean([p.duration for p in prepared]))
     like = prepared[0].motion

@@ -94,6 +94,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "projection (slow on long clips; the report says which contact gave way); 'off': skip",
     )
     p.add_argument(
+        "--joint-limits",
+        choices=("keep", "report", "off"),
+        default="report",
+        help="limits of the joints' DOF angles, from the ASF file of an .amc input (none: nothing "
+        "happens): 'keep': the loop stays within every limit the input respects (DOFs pinned at "
+        "their limit in the same projection; 16-110 s on CMU clips); 'report': only measured; "
+        "'off': skip. Limits the input itself violates are reported, never enforced",
+    )
+    p.add_argument(
         "--tol",
         type=float,
         default=1e-6,
@@ -151,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
         window="auto" if args.window == "auto" else None,
         min_length=args.min_length,
         contacts=args.contacts,
+        joint_limits=args.joint_limits,
     )
     write_motion(res.motion, res.prepared, out, inputs)
     outputs = [str(out)]
@@ -187,6 +197,12 @@ def run(args: argparse.Namespace) -> int:
             f"contacts: skating {fmt_float(res.skating_before.mean_speed)} -> "
             f"{fmt_float(res.skating_after.mean_speed)} m/s, below the floor "
             f"{fmt_float(res.skating_before.below_floor)} -> {fmt_float(res.skating_after.below_floor)} m"
+        )
+    if res.joint_limits is not None:
+        jl = res.joint_limits
+        lines.append(
+            f"joint limits ({jl.mode}): input beyond {len(jl.before.violations)} dof limits, loop beyond "
+            f"{len(jl.after.violations)}; {len(jl.new_violations)} newly crossed; {jl.pinned} frames pinned"
         )
     if preview is not None:
         lines.append(f"wrote {preview}: the loop played {args.repeat} times")

@@ -43,10 +43,11 @@ import numpy as np
 from elastic_motion import limits as _limits
 from elastic_motion._io import read_text
 from elastic_motion.errors import ParseError
+from elastic_motion.motion.joint_limits import JointLimits
 from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
-__all__ = ["AsfSkeleton", "read_amc", "read_asf", "read_asf_amc"]
+__all__ = ["AsfSkeleton", "asf_joint_limits", "read_amc", "read_asf", "read_asf_amc", "read_joint_limits"]
 
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _ROT_DOF = {"rx": "X", "ry": "Y", "rz": "Z"}
@@ -69,8 +70,9 @@ class AsfSkeleton:
     axis : ndarray, shape (J, 3, 3)
         Rest-pose frame ``C_b`` of each bone (root: its ``orientation``).
     limits : list of list of tuple of float
-        Per joint, the ``limits`` pairs of its dofs (empty when not given); kept for
-        information, not enforced.
+        Per joint, the ``limits`` pairs of its dofs (empty when not given), in
+        ``angle_unit``; as :class:`~.joint_limits.JointLimits` (radians) from
+        :func:`asf_joint_limits` / :func:`read_joint_limits` (kept by ``loop``).
     angle_unit : {"deg", "rad"}
     metres_per_unit : float or None
     path : str
@@ -542,3 +544,52 @@ def read_asf_amc(
         ``:units length`` (0.0564 for CMU), every AMC frame.
     """
     return read_amc(read_asf(asf_path), amc_path, fps=fps, up_axis=up_axis)
+
+
+def asf_joint_limits(asf: AsfSkeleton) -> JointLimits:
+    """The ``limits`` of an ASF skeleton's bones as :class:`~.joint_limits.JointLimits`.
+
+    Bones with rotation dofs and a ``limits`` block are kept (the root's ``order`` channels
+    are not limited); a dof with ``(-inf inf)`` is unlimited. Bounds are converted from the
+    ASF angle unit to radians; the dof angles are those of the AMC reader
+    (``R = C M C^T``, :func:`elastic_motion.motion.joint_limits.dof_angles`).
+    """
+    to_rad = math.pi / 180.0 if asf.angle_unit == "deg" else 1.0
+    joints, axes, frames, lower, upper = [], [], [], [], []
+    for k in range(1, asf.skeleton.n_joints):
+        lim, dof = asf.limits[k], asf.dof[k]
+        if not lim or not dof or len(lim) != len(dof):
+            continue
+        pairs = np.array(lim, dtype=np.float64) * to_rad
+        if not np.isfinite(pairs).any():
+            continue
+        joints.append(asf.skeleton.names[k])
+        axes.append("".join(_ROT_DOF[d] for d in dof))
+        frames.append(asf.axis[k])
+        lower.append(np.minimum(pairs[:, 0], pairs[:, 1]))
+        upper.append(np.maximum(pairs[:, 0], pairs[:, 1]))
+    return JointLimits(
+        tuple(joints), tuple(axes), np.array(frames).reshape(-1, 3, 3), tuple(lower), tuple(upper), asf.path
+    )
+
+
+def read_joint_limits(source: Motion | str | os.PathLike[str]) -> JointLimits | None:
+    """The joint limits of an ASF file, or of the ASF a motion was read from.
+
+    Parameters
+    ----------
+    source : Motion or path
+        A ``.asf`` path, or a motion whose ``source`` starts with one (what
+        :func:`read_asf_amc` returns, kept by the preparation step).
+
+    Returns
+    -------
+    JointLimits or None
+        ``None`` when the motion was not read from an ASF file or the file has no limits.
+    """
+    if isinstance(source, Motion):
+        if not source.source or not str(source.source[0]).lower().endswith(".asf"):
+            return None
+        source = source.source[0]
+    lim = asf_joint_limits(read_asf(source))
+    return lim if lim.joints else None

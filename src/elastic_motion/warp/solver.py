@@ -14,6 +14,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from elastic_motion import limits
 from elastic_motion.warp import _dp
 from elastic_motion.warp.energy import (
     check_pair,
@@ -191,6 +192,31 @@ def _check_grid(grid: Any, t0: np.ndarray, t1: np.ndarray) -> tuple[np.ndarray, 
     from elastic_motion._validation import check_parameters
 
     return check_parameters(gu, "grid[0]"), check_parameters(gv, "grid[1]")
+
+
+def _reachable_grid(t0: np.ndarray, t1: np.ndarray, max_step: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """DP nodes on which a warp with slopes in ``[1/max_step, max_step]`` reaches ``(1, 1)``.
+
+    The default grid is the two curves' break points; when one curve has many times more
+    cells than the other (a short clip against a long take), no path of DP steps joins the
+    corners. Subdividing each cell of the coarser curve into ``r`` equal parts keeps the
+    edge costs exact (the SRV functions stay piecewise constant on the finer nodes) and
+    brings the cell counts within ``max_step / 2`` of each other. Returns None when the
+    break points already do.
+    """
+    n0, n1 = len(t0) - 1, len(t1) - 1
+    ratio = max(n0, n1) / min(n0, n1)
+    limit = max(1.0, max_step / 2.0)
+    if ratio <= limit:
+        return None
+    r = int(np.ceil(ratio / limit))
+
+    def refine(t: np.ndarray) -> np.ndarray:
+        frac = np.arange(r) / r
+        inner = (t[:-1, None] + np.diff(t)[:, None] * frac[None, :]).ravel()
+        return np.concatenate([inner, t[-1:]])
+
+    return (refine(t0), t1) if n0 < n1 else (t0, refine(t1))
 
 
 @dataclass
@@ -691,8 +717,19 @@ def optimal_warp(
         lmd = shifted
         lm = lmd.lm
 
+    if grid_a is None and not closed and not coarse_to_fine:
+        grid_a = _reachable_grid(t0a, t1a, max_step)
     nu = len(t0a) - 1 if grid_a is None else len(grid_a[0]) - 1
     nv = len(t1a) - 1 if grid_a is None else len(grid_a[1]) - 1
+    if method in ("dp", "dp+refine") and not coarse_to_fine:
+        # bounded before allocation (the DP table holds (nu + 1) (nv + 1) nodes)
+        limits.check_option(
+            "sample_fps",
+            f"a time-warp table of {nu + 1} x {nv + 1} nodes (lower the frame rate of the curves, or "
+            "use the coarse-to-fine DP) of",
+            (nu + 1) * (nv + 1),
+            "max_dp_nodes",
+        )
     energy_dp = float("nan")
     nodes = 0
     levels = 0
@@ -702,6 +739,12 @@ def optimal_warp(
         out = _solve_dp(q0a, t0a, q1a, t1a, grid_a, steps, lmd, bool(coarse_to_fine), band_w)
         time_dp = time.perf_counter() - t
         if not np.isfinite(out.value):
+            if lm is None:
+                raise ValueError(
+                    f"neighbourhood: no increasing warp on the DP grid of {nu} x {nv} cells reaches (1, 1) "
+                    f"with slopes between 1/{max_step} and {max_step}; give a finer grid or a richer "
+                    "neighbourhood"
+                )
             raise ValueError(
                 "landmarks: no warp on the DP grid meets the hard windows; widen `windows`, "
                 "use a finer grid or a richer neighbourhood"

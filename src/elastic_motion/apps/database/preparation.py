@@ -224,3 +224,58 @@ def heading_relative_root(motion: Motion) -> Motion:
         rn[f + 1] = inc[f] @ rn[f]
     rot[:, 0] = rn
     return replace(motion, root_translation=pn, rotations=rot)
+
+
+def prepare_same_skeleton(
+    files: Sequence[str | os.PathLike[str]],
+    n_samples: int,
+    *,
+    joints: str | Sequence[str] = "all",
+    drop_fingers: bool = True,
+    align_heading: bool = True,
+) -> list[PreparedMotion]:
+    """Prepare files that must share one skeleton (a mean, a statistical model).
+
+    :func:`prepare_motion` for each file; ``joints="common"`` then keeps the joints all
+    share (:func:`restrict_to_common_joints`), ``"map"`` maps every skeleton onto the common
+    body model, a list keeps those joints.
+
+    Raises
+    ------
+    OptionError
+        A file whose skeleton differs from the first's (naming the joints it lacks and has
+        extra; ``joints='common'`` or ``'map'`` compare such files).
+    """
+    files = [os.fspath(f) for f in files]
+    prepared = [
+        prepare_motion(
+            f,
+            n_samples,
+            joints=joints if joints == "map" or not isinstance(joints, str) else "all",
+            drop_fingers=drop_fingers,
+            align_heading=align_heading,
+        )
+        for f in files
+    ]
+    if joints == "common":
+        prepared = restrict_to_common_joints(prepared)
+    names0 = prepared[0].joint_names
+    for f, p in zip(files, prepared, strict=True):
+        if p.joint_names != names0:
+            a, b = set(names0), set(p.joint_names)
+            raise OptionError(
+                "joints",
+                f"{f}: expected the skeleton of {files[0]} ({len(a)} joints); got {len(b)} joints (lacks "
+                f"{sorted(a - b) or 'nothing'}, extra {sorted(b - a) or 'nothing'}): pass joints='common' "
+                "or joints='map'",
+            )
+    return prepared
+
+
+def database_curves(prepared: Sequence[PreparedMotion], method: str) -> list:
+    """The curves of prepared motions of one skeleton: ``"lie"`` with weights shared by all
+    (:func:`elastic_motion.motion.group_weights`), else the Euler-angle curves."""
+    if method == "lie":
+        jw, tw = mm.group_weights([p.motion for p in prepared])
+        return [mm.to_lie_curve(p.motion, jw, translation_weight=tw) for p in prepared]
+    return [mm.to_euler_curve(p.motion) for p in prepared]

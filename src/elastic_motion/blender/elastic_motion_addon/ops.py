@@ -269,6 +269,33 @@ class _Run:
         self.report({"ERROR"}, "elastic-motion: " + message)
         return {"CANCELLED"}
 
+    def _run_and_import(self, context, command, build, target, action_name):
+        """Run ``elastic-motion COMMAND`` and import its result as a new action on ``target``.
+
+        ``build(work, help_text) -> (args, warnings, out_path, report_path)`` exports what the
+        command reads into the folder ``work`` and makes its command line.
+        """
+        prefs = _prefs(context)
+        work, temporary = self._work_dir(context)
+        try:
+            args, warnings, out, rep = build(work, runner.command_help(prefs.executable, command))
+            res = runner.run_cli(prefs.executable, args, report_path=rep, timeout=prefs.timeout)
+            if not res.ok:
+                return self._fail(context, res.message)
+            _, _, msg = _import_action(context, target, out, action_name)
+        except runner.CliNotFound as exc:
+            return self._fail(context, str(exc))
+        except RuntimeError as exc:
+            return self._fail(context, str(exc))
+        finally:
+            if temporary:
+                shutil.rmtree(work, ignore_errors=True)
+        for w in warnings:
+            self.report({"WARNING"}, w)
+        _show_report(context, res.report, msg)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
 
 class EM_OT_blend(bpy.types.Operator, _Run):
     """Blend the actions of the active armature (A) and one other selected armature (B)"""
@@ -282,14 +309,12 @@ class EM_OT_blend(bpy.types.Operator, _Run):
         if len(arms) != 2:
             return self._fail(context, f"select two armatures with actions (A active); got {len(arms)}")
         s = context.scene.elastic_motion
-        prefs = _prefs(context)
-        work, temporary = self._work_dir(context)
-        try:
+
+        def build(work, help_text):
             a, b = (os.path.join(work, f"{k}.bvh") for k in ("A", "B"))
             _export(context, arms[0], a)
             _export(context, arms[1], b)
             out, rep = os.path.join(work, "blend.bvh"), os.path.join(work, "blend.json")
-            help_text = runner.command_help(prefs.executable, "blend")
             args, warnings = runner.blend_args(
                 a,
                 b,
@@ -302,23 +327,10 @@ class EM_OT_blend(bpy.types.Operator, _Run):
                 help_text=help_text,
                 extra=s.extra.split(),
             )
-            res = runner.run_cli(prefs.executable, args, report_path=rep, timeout=prefs.timeout)
-            if not res.ok:
-                return self._fail(context, res.message)
-            name = f"{arms[0].animation_data.action.name} x {arms[1].animation_data.action.name} {s.weight:g}"
-            _, _, msg = _import_action(context, arms[0], out, name)
-        except runner.CliNotFound as exc:
-            return self._fail(context, str(exc))
-        except RuntimeError as exc:
-            return self._fail(context, str(exc))
-        finally:
-            if temporary:
-                shutil.rmtree(work, ignore_errors=True)
-        for w in warnings:
-            self.report({"WARNING"}, w)
-        _show_report(context, res.report, msg)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+            return args, warnings, out, rep
+
+        name = f"{arms[0].animation_data.action.name} x {arms[1].animation_data.action.name} {s.weight:g}"
+        return self._run_and_import(context, "blend", build, arms[0], name)
 
 
 class EM_OT_loop(bpy.types.Operator, _Run):
@@ -333,13 +345,11 @@ class EM_OT_loop(bpy.types.Operator, _Run):
         if not arms:
             return self._fail(context, "select an armature with an action")
         s = context.scene.elastic_motion
-        prefs = _prefs(context)
-        work, temporary = self._work_dir(context)
-        try:
+
+        def build(work, help_text):
             inp = os.path.join(work, "input.bvh")
             _export(context, arms[0], inp)
             out, rep = os.path.join(work, "loop.bvh"), os.path.join(work, "loop.json")
-            help_text = runner.command_help(prefs.executable, "loop")
             args, warnings = runner.loop_args(
                 inp,
                 out,
@@ -350,23 +360,11 @@ class EM_OT_loop(bpy.types.Operator, _Run):
                 help_text=help_text,
                 extra=s.extra.split(),
             )
-            res = runner.run_cli(prefs.executable, args, report_path=rep, timeout=prefs.timeout)
-            if not res.ok:
-                return self._fail(context, res.message)
-            name = f"{arms[0].animation_data.action.name} loop"
-            _, _, msg = _import_action(context, arms[0], out, name)
-        except runner.CliNotFound as exc:
-            return self._fail(context, str(exc))
-        except RuntimeError as exc:
-            return self._fail(context, str(exc))
-        finally:
-            if temporary:
-                shutil.rmtree(work, ignore_errors=True)
-        for w in warnings:
-            self.report({"WARNING"}, w)
-        _show_report(context, res.report, msg)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+            return args, warnings, out, rep
+
+        return self._run_and_import(
+            context, "loop", build, arms[0], f"{arms[0].animation_data.action.name} loop"
+        )
 
 
 class EM_OT_distance(bpy.types.Operator, _Run):

@@ -1,0 +1,402 @@
+"""Joint limits kept by the loop: an active set of DOF angles pinned at their limits.
+
+:func:`elastic_motion.apps.loop.loop_motion` with ``joint_limits="keep"`` (the default; it
+applies when the clip was read from an ASF file with ``limits``, or a
+:class:`~elastic_motion.motion.joint_limits.JointLimits` is given) closes the clip with
+:func:`elastic_motion.closing_kkt.project_closed`, then, at most ``rounds`` times:
+
+1. evaluates every limited DOF angle of the loop per frame
+   (:func:`elastic_motion.motion.joint_limits.check_joint_limits`);
+2. takes the frames/DOFs beyond their limit (by more than ``tol_deg``) where the *original*
+   respected it and adds, of each run of such frames of a DOF, its worst frame and every
+   ``step``-th frame to the active set: equality constraints pinning the DOF angle at the
+   limit it crossed (:class:`LimitConstraints`, rows of the same projection, next to the
+   contact rows if any). The loop between two pinned frames stays near the limit; what is
+   still beyond it starts new runs in the next round;
+3. solves again.
+
+Limits that the original itself violates are never enforced (at those frames), only
+reported. Pinned rows are not released (a row whose multiplier has the wrong sign stays), so
+the result is a KKT point of the projection with the active set as equalities, not of the
+inequality problem; after ``rounds`` rounds any frame still beyond a limit is reported.
+Frames 0 and ``F - 1`` are never pinned (the first frame does not change, closure ties the
+last to it).
+
+Derivative of a row ``theta_i(C^T R_f C) - limit``: for ``delta R_f = hat(omega) R_f``,
+``d theta / d omega = E^-1 C^T``
+(:func:`elastic_motion.motion.joint_limits.dof_angles_jacobian`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastic_motion.closing_kkt import ExtraConstraints
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import Motion
+from elastic_motion.motion.joint_limits import (
+    JointLimitReport,
+    JointLimits,
+    check_joint_limits,
+    dof_angles,
+    dof_angles_jacobian,
+    limit_excess,
+)
+
+__all__ = [
+    "LimitConstraints",
+    "LoopLimits",
+    "StackedConstraints",
+    "joint_limit_report",
+    "limits_report",
+    "solve_within_limits",
+]
+
+
+class LimitConstraints(ExtraConstraints):
+    """DOF angles pinned at given values (rows of :func:`~elastic_motion.closing_kkt.project_closed`).
+
+    The curve must be a clip's Lie curve (root translation, then one ``SO(3)`` copy per
+    joint in skeleton order).
+
+    Parameters
+    ----------
+    limits : JointLimits
+    names : sequence of str
+        The clip's joint names (skeleton order).
+    frame, dof : ndarray of int, shape (R,)
+        Per row: the frame and the dof (column of ``limits.angles``).
+    target : ndarray, shape (R,)
+        The value the dof angle is pinned at, radians.
+    """
+
+    def __init__(
+        self,
+        limits: JointLimits,
+        names: list[str] | tuple[str, ...],
+        frame: np.ndarray,
+        dof: np.ndarray,
+        target: np.ndarray,
+    ) -> None:
+        self.limits = limits
+        index = {n: k for k, n in enumerate(names)}
+        owner = [(k, i) for k, ax in enumerate(limits.axes) for i in range(len(ax))]
+        self.frame = np.asarray(frame, dtype=np.int64)
+        self.dof = np.asarray(dof, dtype=np.int64)
+        self.target = np.asarray(target, dtype=np.float64)
+        self.limit_joint = np.array([owner[d][0] for d in self.dof], dtype=np.int64)
+        self.slot = np.array([owner[d][1] for d in self.dof], dtype=np.int64)
+        self.joint = np.array([index[limits.joints[k]] for k in self.limit_joint], dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    def _groups(self):
+        for k in np.unique(self.limit_joint):
+            rows = np.flatnonzero(self.limit_joint == k)
+            yield k, rows
+
+    def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
+        g = np.zeros(len(self))
+        lim = self.limits
+        for k, rows in self._groups():
+            r = rot[self.frame[rows], self.joint[rows]]
+            ang = dof_angles(r, lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
+            val = ang[np.arange(rows.size), self.slot[rows]]
+            g[rows] = (val - self.target[rows] + math.pi) % (2 * math.pi) - math.pi
+        return g
+
+    def evaluate(
+        self, rot: np.ndarray, eu: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        r_count, m = len(self), rot.shape[1]
+        d_rot = np.zeros((r_count, 1, m, 3))
+        lim = self.limits
+        for k, rows in self._groups():
+            jac = dof_angles_jacobian(
+                rot[self.frame[rows], self.joint[rows]],
+                lim.frames[k],
+                lim.axes[k],
+                lim.lower[k],
+                lim.upper[k],
+            )
+            d_rot[rows, 0, self.joint[rows]] = jac[np.arange(rows.size), self.slot[rows]]
+        return self.residual(rot, eu), self.frame[:, None].copy(), d_rot, np.zeros((r_count, 1, eu.shape[1]))
+
+
+class StackedConstraints(ExtraConstraints):
+    """Several :class:`~elastic_motion.closing_kkt.ExtraConstraints` as one (rows concatenated)."""
+
+    def __init__(self, *parts: ExtraConstraints) -> None:
+        self.parts = [p for p in parts if p is not None and len(p) > 0]
+
+    def __len__(self) -> int:
+        return sum(len(p) for p in self.parts)
+
+    def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
+        return np.concatenate([p.residual(rot, eu) for p in self.parts]) if self.parts else np.zeros(0)
+
+    def evaluate(
+        self, rot: np.ndarray, eu: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        out = [p.evaluate(rot, eu) for p in self.parts]
+        width = max(o[1].shape[1] for o in out)
+        g = np.concatenate([o[0] for o in out])
+        frames, d_rot, d_eu = [], [], []
+        for _, fr, dr, de in out:
+            pad = width - fr.shape[1]
+            frames.append(np.pad(fr, ((0, 0), (0, pad)), constant_values=-1))
+            d_rot.append(np.pad(dr, ((0, 0), (0, pad), (0, 0), (0, 0))))
+            d_eu.append(np.pad(de, ((0, 0), (0, pad), (0, 0))))
+        return g, np.concatenate(frames), np.concatenate(d_rot), np.concatenate(d_eu)
+
+
+@dataclass(frozen=True, eq=False)
+class LoopLimits:
+    """What the loop did with joint limits (:func:`solve_within_limits`, :class:`LoopResult`).
+
+    Attributes
+    ----------
+    mode : {"keep", "report"}
+    before : JointLimitReport
+        The input (the looped frames): limits it violates are reported, not enforced.
+    after : JointLimitReport
+        The loop.
+    rounds : int
+        Active-set solves after the first.
+    pinned : int
+        Frame/DOF rows pinned at a limit in the final solve.
+    pinned_joints : tuple of str
+        Joints with a pinned DOF (they end at a limit).
+    new_violations : tuple of str
+        ``"joint.dof"`` beyond a limit in the loop at a frame where the input respected it
+        (empty when the limits were kept, unless ``rounds`` ran out: ``message`` says so).
+    message : str
+    """
+
+    mode: str
+    before: JointLimitReport
+    after: JointLimitReport
+    rounds: int = 0
+    pinned: int = 0
+    pinned_joints: tuple[str, ...] = ()
+    new_violations: tuple[str, ...] = ()
+    message: str = ""
+
+    def summary(self) -> dict:
+        """JSON-ready fields."""
+        return {
+            "mode": self.mode,
+            "source": self.before.limits.source,
+            "rounds": self.rounds,
+            "pinned_rows": self.pinned,
+            "joints_at_limit": sorted({*self.pinned_joints, *(h.joint for h in self.after.at_limit)}),
+            "new_violations": list(self.new_violations),
+            "input_violations": self.before.summary()["violations"],
+            "loop": self.after.summary(),
+            "message": self.message,
+        }
+
+    def notes(self) -> list[str]:
+        """Report lines: limits the input violates, joints at a limit, limits the loop crossed."""
+        out = []
+        if self.before.violations:
+            out.append(
+                "joint limits the input violates (reported, not enforced): "
+                + ", ".join(f"{h.joint}.{h.dof} by {h.worst_deg:.2f} deg" for h in self.before.violations)
+            )
+        joints = sorted({*self.pinned_joints, *(h.joint for h in self.after.at_limit)})
+        if joints:
+            out.append("joints at a limit in the loop: " + ", ".join(joints))
+        if self.new_violations:
+            out.append("loop beyond a limit the input respected: " + ", ".join(self.new_violations))
+        if self.message:
+            out.append(self.message)
+        return out
+
+
+def _new_beyond(after: JointLimitReport, ok_before: np.ndarray) -> np.ndarray:
+    tol = math.radians(after.tol_deg)
+    return (after.excess > tol) & ok_before
+
+
+def joint_limit_report(
+    motion: Motion, limits: JointLimits | None = None, *, tol_deg: float = 0.01
+) -> JointLimitReport:
+    """Which joints of a clip are beyond (or at) their limits (``em.joint_limits``).
+
+    Parameters
+    ----------
+    motion : Motion
+        A clip (read from an ASF/AMC pair when ``limits`` is not given).
+    limits : JointLimits, optional
+        Default: the ``limits`` of the ASF file the motion was read from
+        (:func:`elastic_motion.motion.asfamc.read_joint_limits`).
+    tol_deg : float, default 0.01
+        Beyond a limit means by more than this, degrees.
+
+    Returns
+    -------
+    JointLimitReport
+
+    Raises
+    ------
+    OptionError
+        No limits given and none in the motion's source.
+    """
+    if limits is None:
+        from elastic_motion.motion.asfamc import read_joint_limits
+
+        limits = read_joint_limits(motion)
+        if limits is None:
+            raise OptionError(
+                "limits",
+                f"expected JointLimits or a motion read from an ASF file with limits; got {motion!r}",
+            )
+    return check_joint_limits(motion, limits, tol_deg=tol_deg)
+
+
+def _new_labels(limits: JointLimits, new_v: np.ndarray) -> tuple[str, ...]:
+    labels = limits.dof_labels()
+    return tuple(f"{labels[d][0]}.{labels[d][1]}" for d in np.flatnonzero(new_v.any(axis=0)))
+
+
+def limits_report(
+    original: np.ndarray,
+    loop: np.ndarray,
+    names: list[str] | tuple[str, ...],
+    limits: JointLimits,
+    *,
+    tol_deg: float = 0.01,
+) -> LoopLimits:
+    """The limits of an input and its loop, measured only (``mode="report"``).
+
+    Parameters
+    ----------
+    original, loop : ndarray, shape (F, J, 3, 3)
+        Local rotations of the input and of the loop (same frames and joints).
+    names : sequence of str
+    limits : JointLimits
+    tol_deg : float, default 0.01
+    """
+    limits = limits.restricted_to(list(names))
+    before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
+    after = check_joint_limits(loop, limits, names=names, tol_deg=tol_deg)
+    new_v = _new_beyond(after, before.excess <= math.radians(tol_deg))
+    return LoopLimits(mode="report", before=before, after=after, new_violations=_new_labels(limits, new_v))
+
+
+def _pick(beyond: np.ndarray, excess: np.ndarray, step: int) -> np.ndarray:
+    """Of each run of ``beyond`` frames (per column): its worst frame and every ``step``-th frame
+    before and after it."""
+    out = np.zeros_like(beyond)
+    for d in np.flatnonzero(beyond.any(axis=0)):
+        col = np.concatenate([[False], beyond[:, d], [False]]).astype(np.int8)
+        edges = np.flatnonzero(np.diff(col))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            worst = a + int(np.argmax(excess[a:b, d]))
+            out[worst % step : b : step, d][(np.arange(worst % step, b, step) >= a)] = True
+    return out
+
+
+def solve_within_limits(
+    solve: Callable[[ExtraConstraints | None], object],
+    rotations_of: Callable[[object], np.ndarray],
+    original: np.ndarray,
+    names: list[str] | tuple[str, ...],
+    limits: JointLimits,
+    *,
+    base: ExtraConstraints | None = None,
+    first: object | None = None,
+    rounds: int = 6,
+    step: int = 1,
+    tol_deg: float = 0.01,
+) -> tuple[object, LoopLimits]:
+    """The active-set loop of the module docstring.
+
+    Parameters
+    ----------
+    solve : callable
+        ``solve(extra) -> result`` (a :class:`~elastic_motion.closing.ClosingResult` of
+        :func:`~elastic_motion.closing_kkt.project_closed` with ``extra``).
+    rotations_of : callable
+        ``rotations_of(result) -> (F, J, 3, 3)`` local rotations of the loop.
+    original : ndarray, shape (F, J, 3, 3)
+        The input's local rotations.
+    names : sequence of str
+    limits : JointLimits
+    base : ExtraConstraints, optional
+        Rows solved with every round (the contacts).
+    first : result, optional
+        The solve without limit rows, when already done.
+    rounds : int, default 6
+        Solves with limit rows at most. A solve that does not converge (pins too dense:
+        a DOF held still makes the SRV singular) is retried with twice the ``step``.
+    step : int, default 1
+        Frames between the pinned frames of a run (1: every frame beyond the limit).
+    tol_deg : float, default 0.01
+        Beyond a limit means by more than this, degrees.
+
+    Returns
+    -------
+    result, LoopLimits
+        The last solve that converged (the first one when none with limit rows did).
+    """
+    limits = limits.restricted_to(list(names))
+    before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
+    tol = math.radians(tol_deg)
+    ok_before = before.excess <= tol
+    ok_before[[0, -1]] = False  # never pinned (module docstring)
+    res = first if first is not None else solve(base)
+    after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
+    lo, hi = limits.bounds()
+    pinned = np.zeros_like(ok_before)
+    target = np.zeros(ok_before.shape)
+    done, message = 0, ""
+    stride = max(int(step), 1)
+    n_frames = ok_before.shape[0]
+    while True:
+        beyond = _new_beyond(after, ok_before) & ~pinned
+        if not beyond.any():
+            break
+        if done >= rounds:
+            message = f"joint limits: still beyond a limit after {rounds} solves"
+            break
+        new = _pick(beyond, after.excess, stride)
+        below, _above = limit_excess(limits.angles(rotations_of(res), list(names)), limits)
+        side = np.where(below > 0, lo[None, :], hi[None, :])
+        target[new] = side[new]
+        trial = pinned | new
+        f_idx, d_idx = np.nonzero(trial)
+        rows = LimitConstraints(limits, names, f_idx, d_idx, target[f_idx, d_idx])
+        extra = StackedConstraints(base, rows) if base is not None and len(base) else rows
+        cand = solve(extra)
+        done += 1
+        if not getattr(cand, "converged", True):
+            if stride < n_frames:  # pins too dense for the solver: sparser ones
+                stride *= 2
+                continue
+            why = getattr(cand, "message", "")
+            message = f"joint limits: solve {done} did not converge ({why}); kept the previous loop"
+            break
+        res, pinned = cand, trial
+        after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
+    new_v = _new_beyond(after, ok_before)
+    new_names = _new_labels(limits, new_v)
+    labels = limits.dof_labels()
+    pinned_joints = tuple(sorted({labels[d][0] for d in np.flatnonzero(pinned.any(axis=0))}))
+    info = LoopLimits(
+        mode="keep",
+        before=before,
+        after=after,
+        rounds=done,
+        pinned=int(pinned.sum()),
+        pinned_joints=pinned_joints,
+        new_violations=new_names,
+        message=message,
+    )
+    return res, info

@@ -1,0 +1,231 @@
+"""Tests of joint limits (issue 11): the ASF limits on the motion, DOF angles and their
+derivative, the limit report, and loops that stay within the limits the input respects."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.loop_limits import LimitConstraints, StackedConstraints, joint_limit_report
+from elastic_motion.apps.report import jsonable
+from elastic_motion.errors import OptionError
+from elastic_motion.groups import SO3
+from elastic_motion.motion import Motion, Skeleton, read_motion
+from elastic_motion.motion.asfamc import _extrinsic, read_amc, read_asf, read_joint_limits
+from elastic_motion.motion.joint_limits import (
+    JointLimits,
+    check_joint_limits,
+    dof_angles,
+    dof_angles_jacobian,
+)
+
+SO3G = SO3()
+AXES = ["XYZ", "ZXY", "YZX", "XZ", "ZY", "X", "Y", "Z"]
+
+
+def random_frame(rng):
+    return SO3G.exp(rng.normal(size=3))
+
+
+@pytest.mark.parametrize("axes", AXES)
+def test_dof_angles_invert_the_amc_reader(axes):
+    """Angles in the AMC reader's convention come back exactly (independent: ``_extrinsic``)."""
+    rng = np.random.default_rng(1)
+    c = random_frame(rng)
+    ang = rng.uniform(-1.3, 1.3, size=(50, len(axes)))
+    rot = c @ _extrinsic(ang, axes) @ c.T
+    np.testing.assert_allclose(dof_angles(rot, c, axes), ang, atol=1e-10)
+
+
+@pytest.mark.parametrize("axes", AXES)
+def test_dof_angles_jacobian_matches_finite_differences(axes):
+    rng = np.random.default_rng(2)
+    c = random_frame(rng)
+    rot = SO3G.exp(rng.normal(scale=0.8, size=(6, 3)))
+    jac = dof_angles_jacobian(rot, c, axes)
+    eps = 1e-6
+    for i in range(3):
+        w = np.zeros(3)
+        w[i] = eps
+        fd = (dof_angles(SO3G.exp(w) @ rot, c, axes) - dof_angles(SO3G.exp(-w) @ rot, c, axes)) / (2 * eps)
+        np.testing.assert_allclose(jac[..., i], fd, atol=1e-7)
+
+
+def chain_skeleton():
+    names = ("root", "hip", "knee", "foot")
+    return Skeleton(
+        names=names,
+        parents=[-1, 0, 1, 2],
+        offsets=[[0, 0, 0], [0.1, -0.1, 0], [0, -0.4, 0], [0, -0.4, 0]],
+        channels=(
+            ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+            ("Zrotation", "Yrotation", "Xrotation"),
+        ),
+        end_site_parents=[3],
+        end_site_offsets=[[0, 0, 0.15]],
+    )
+
+
+KNEE_FRAME = SO3G.exp(np.array([0.0, 0.5, 0.2]))
+
+
+def knee_limits(lo_deg=-15.0, hi_deg=60.0):
+    return JointLimits(
+        ("knee", "hip"),
+        ("X", "XZ"),
+        np.stack([KNEE_FRAME, np.eye(3)]),
+        (np.radians([lo_deg]), np.radians([-90.0, -90.0])),
+        (np.radians([hi_deg]), np.radians([90.0, 90.0])),
+    )
+
+
+def drifting_clip(f=60):
+    """The knee's DOF angle ``40 t - 30 sin(pi t)`` degrees (min -12.8) ends 40 degrees above
+    its start: closing takes off a ramp and pushes it to about -30 degrees."""
+    t = np.linspace(0.0, 1.0, f)
+    knee = np.radians(40 * t - 30 * np.sin(np.pi * t))
+    rot = np.tile(np.eye(3), (f, 4, 1, 1))
+    rot[:, 2] = KNEE_FRAME @ _extrinsic(knee[:, None], "X") @ KNEE_FRAME.T
+    rot[:, 1] = SO3G.exp(np.outer(np.sin(2 * np.pi * t), [0.3, 0.0, 0.1]))  # closed already
+    root = np.tile([0.0, 0.9, 0.0], (f, 1))
+    return Motion(chain_skeleton(), 30.0, root, rot, metres_per_unit=1.0, name="drift")
+
+
+def test_limit_rows_and_stacking_match_finite_differences():
+    rng = np.random.default_rng(3)
+    m = drifting_clip(12)
+    lim = knee_limits()
+    rot = m.rotations @ SO3G.exp(rng.normal(scale=0.1, size=(12, 4, 3)))
+    eu = m.root_translation
+    rows = LimitConstraints(lim, m.skeleton.names, np.array([3, 5, 7]), np.array([0, 1, 2]), np.zeros(3))
+    g, frames, d_rot, d_eu = rows.evaluate(rot, eu)
+    ang = lim.angles(rot, m.skeleton.names)
+    np.testing.assert_allclose(g, ang[[3, 5, 7], [0, 1, 2]], atol=1e-12)
+    eps = 1e-6
+    for r in range(3):
+        f, j = frames[r, 0], rows.joint[r]
+        for i in range(3):
+            w = np.zeros(3)
+            w[i] = eps
+            rp, rm = rot.copy(), rot.copy()
+            rp[f, j] = SO3G.exp(w) @ rot[f, j]
+            rm[f, j] = SO3G.exp(-w) @ rot[f, j]
+            fd = (rows.residual(rp, eu)[r] - rows.residual(rm, eu)[r]) / (2 * eps)
+            assert abs(d_rot[r, 0, j, i] - fd) < 1e-7
+        others = np.delete(np.arange(4), j)
+        assert np.all(d_rot[r, 0, others] == 0) and np.all(d_eu == 0)
+    both = StackedConstraints(rows, LimitConstraints(lim, m.skeleton.names, [4], [0], [0.1]))
+    g2, fr2, dr2, de2 = both.evaluate(rot, eu)
+    assert len(both) == 4 and fr2.shape == (4, 1) and dr2.shape == (4, 1, 4, 3) and de2.shape == (4, 1, 3)
+    np.testing.assert_allclose(g2[:3], g)
+
+
+def test_constrained_loop_stays_within_a_tight_limit_the_unconstrained_one_crosses():
+    m = drifting_clip()
+    lim = knee_limits()
+    free = loop_motion(m, root="inplace", joint_limits="off")
+    knee_free = np.degrees(lim.angles(free.motion.rotations, m.skeleton.names)[:, 0])
+    assert knee_free.min() < -25  # closing pushes the knee 10 degrees past its limit
+    kept = loop_motion(m, root="inplace", joint_limits=lim)
+    knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
+    assert knee.min() >= -15 - 0.5 and knee.max() <= 60 + 0.5  # limit_tol: 0.5 degrees
+    assert kept.seam_after.seam_angle_max_deg < 1e-3
+    jl = kept.joint_limits
+    assert jl.mode == "keep" and jl.pinned > 0 and jl.pinned_joints == ("knee",)
+    assert jl.new_violations == () and jl.before.ok and jl.after.ok
+    s = json.loads(json.dumps(jsonable(kept.summary())))["joint_limits"]
+    assert "knee" in s["joints_at_limit"] and s["input_violations"] == []
+    assert any("knee" in n for n in kept.notes)
+    # the limit costs change: the constrained loop is farther from the input than the free one
+    assert kept.closing.change > free.closing.change
+    # "report" reads the limits of the clip's ASF file: a synthetic clip has none
+    assert loop_motion(m, root="inplace", joint_limits="report").joint_limits is None
+
+
+def test_limits_the_input_violates_are_reported_not_enforced():
+    m = drifting_clip()
+    lim = knee_limits(lo_deg=-5.0)  # the input itself goes to -12.8 degrees
+    res = loop_motion(m, root="inplace", joint_limits=lim)
+    jl = res.joint_limits
+    assert [h.joint for h in jl.before.violations] == ["knee"]
+    assert jl.before.violations[0].worst_deg == pytest.approx(7.8, abs=0.2)
+    assert any("the input violates" in n and "knee.rx" in n for n in res.notes)
+    assert res.closing.converged
+
+
+def test_bad_joint_limits_option():
+    with pytest.raises(OptionError, match="joint_limits"):
+        loop_motion(drifting_clip(), joint_limits="sometimes")
+    with pytest.raises(OptionError, match="limits"):
+        joint_limit_report(drifting_clip())
+
+
+CMU = [("02.asf", "02_01.amc"), ("backflip.asf", "backflip.amc"), ("charleston.asf", "charleston1.amc")]
+
+
+@pytest.mark.parametrize(("asf", "amc"), CMU)
+def test_cmu_limits_on_the_motion_and_the_amc_angles(mocap_dir, asf, amc):
+    folder = mocap_dir / "cmu" / "asfamc"
+    a = read_asf(folder / asf)
+    m = read_amc(a, folder / amc)
+    lim = read_joint_limits(m)
+    assert lim is not None and lim.source == str(folder / asf) and "lfemur" in lim.joints
+    k = lim.joints.index("lfemur")
+    np.testing.assert_allclose(
+        np.degrees([lim.lower[k], lim.upper[k]]).T, a.limits[a.skeleton.index("lfemur")]
+    )
+    # the DOF angles of the read rotations are the AMC values (mod 360; the other Euler
+    # solution where it is less beyond the range): same rotation either way
+    ang = lim.angles(m.rotations, m.skeleton.names)
+    cols = np.cumsum([0, *(len(x) for x in lim.axes)])
+    for j, name in enumerate(lim.joints):
+        c = lim.frames[j]
+        back = c @ _extrinsic(ang[:, cols[j] : cols[j + 1]], lim.axes[j]) @ c.T
+        np.testing.assert_allclose(back, m.rotations[:, m.skeleton.index(name)], atol=1e-9)
+    rep = check_joint_limits(m, lim)  # real clips go beyond some of their own limits
+    assert not rep.ok and rep.summary()["joints_beyond_limit"]
+
+
+def test_cmu_02_01_amc_values_are_the_dof_angles(mocap_dir):
+    folder = mocap_dir / "cmu" / "asfamc"
+    m = read_amc(read_asf(folder / "02.asf"), folder / "02_01.amc")
+    lim = read_joint_limits(m)
+    vals: dict[str, list] = {}
+    for line in (folder / "02_01.amc").read_text().splitlines():
+        t = line.split()
+        if t and t[0] in lim.joints:
+            vals.setdefault(t[0], []).append([float(v) for v in t[1:]])
+    raw = np.concatenate([np.array(vals[j]) for j in lim.joints], axis=1)
+    ang = np.degrees(lim.angles(m.rotations, m.skeleton.names))
+    np.testing.assert_allclose((ang - raw + 180) % 360 - 180, 0, atol=1e-9)
+
+
+def test_cmu_backflip_loop_keeps_its_limits_on_the_written_bvh(mocap_dir, tmp_path):
+    path = mocap_dir / "cmu" / "asfamc" / "backflip.amc"
+    free = loop_motion(path, joint_limits="report")
+    assert free.joint_limits.new_violations  # the plain loop crosses limits the input respects
+    res = loop_motion(path, joint_limits="keep")
+    jl = res.joint_limits
+    assert jl.mode == "keep" and jl.new_violations == () and jl.pinned > 0
+    assert jl.before.violations  # the input's own violations: reported
+    out = tmp_path / "loop.bvh"
+    import elastic_motion as em
+
+    em.write(res, out)
+    written = read_motion(out)
+    lim = read_joint_limits(free.original)
+    before = check_joint_limits(res.original, lim)
+    after = check_joint_limits(written, lim)
+    # limit_tol 0.5 degrees (pins every 0.1 s: the loop may bulge between them), BVH rounding
+    new = (after.excess > math.radians(0.5 + 1e-4)) & (before.excess <= math.radians(0.5))
+    new[[0, -1]] = False
+    assert not new.any()
+    assert res.seam_after.seam_angle_max_deg < 1e-3
+    s = json.loads(em.to_json(res))["joint_limits"]
+    assert s["mode"] == "keep" and s["joints_at_limit"] and s["input_violations"]
