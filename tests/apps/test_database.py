@@ -388,7 +388,9 @@ def test_run_of_the_previous_format_resumes_or_says_how_to_restart(
 
 @needs_dask
 def test_local_cluster_equals_serial_bit_for_bit(serial_run, db_dir: Path, tmp_path: Path) -> None:
-    res = compute_matrix([db_dir], tmp_path / "local", SETTINGS, engine="local", n_workers=2)
+    res = compute_matrix(
+        [db_dir], tmp_path / "local", SETTINGS, engine="local", n_workers=2, force_cluster=True
+    )
     assert res.complete and res.report["engine"] == "local" and res.report["workers"] == 2
     assert _arrays(res.out_dir) == _arrays(serial_run.out_dir)
 
@@ -408,7 +410,9 @@ _KILLER = textwrap.dedent(
 
     if __name__ == "__main__":
         s = DatabaseSettings(n_samples=12, tile_size=2, warp=WarpOptions(method="dp", neighbourhood=4))
-        compute_matrix([{db!r}], {out!r}, s, engine={engine!r}, n_workers=2, progress=progress)
+        compute_matrix(
+            [{db!r}], {out!r}, s, engine={engine!r}, n_workers=2, progress=progress, force_cluster=True
+        )
     """
 )
 
@@ -424,6 +428,17 @@ def _run_killed(db_dir: Path, out: Path, engine: str, after: int) -> None:
             os.killpg(proc.pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
+
+
+def test_local_engine_runs_serially_when_a_cluster_would_not_pay(
+    serial_run, db_dir: Path, tmp_path: Path
+) -> None:
+    """--engine local on 7 small clips: starting a cluster (about 6 s) costs more than the pair
+    work, so the run is serial, says so, and gives the serial numbers."""
+    res = compute_matrix([db_dir], tmp_path / "small", SETTINGS, engine="local", n_workers=2)
+    assert res.complete and res.report["engine"] == "serial"
+    assert res.report["engine_note"].startswith("local cluster not started")
+    assert _arrays(res.out_dir) == _arrays(serial_run.out_dir)
 
 
 @pytest.mark.parametrize("engine", ["serial", pytest.param("local", marks=needs_dask)])

@@ -245,8 +245,9 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
         "--engine",
         choices=("serial", "local", "dask"),
         default="serial",
-        help="serial: this process; local: a Dask cluster of --workers processes started here; dask: the "
-        "Dask scheduler at --scheduler (default: serial)",
+        help="serial: this process; local: a Dask cluster of --workers processes started here (only "
+        "when the work pays for its start; else serial, and the report says so); dask: the Dask "
+        "scheduler at --scheduler (default: serial)",
     )
     p.add_argument(
         "--scheduler",

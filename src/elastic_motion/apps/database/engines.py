@@ -68,6 +68,8 @@ class SerialEngine:
     name = "serial"
     n_workers = 1
     scheduler = None
+    #: Why this engine runs (e.g. a local cluster that would not have paid for its start).
+    note: str | None = None
 
     def share(self, arrays: list[np.ndarray]) -> list[Any]:
         """Handles of the SRV arrays that tasks receive (here: the arrays themselves)."""
@@ -322,7 +324,14 @@ def _connect(client_cls: Any, scheduler: str, timeout: float) -> Any:
         ) from exc
 
 
-def open_engine(engine: str, scheduler: str | None, n_workers: int, timeout: float) -> Engine:
+def open_engine(
+    engine: str,
+    scheduler: str | None,
+    n_workers: int,
+    timeout: float,
+    *,
+    worth_it: tuple[bool, str] | None = None,
+) -> Engine:
     """Start or connect an engine.
 
     Parameters
@@ -334,6 +343,11 @@ def open_engine(engine: str, scheduler: str | None, n_workers: int, timeout: flo
         Worker processes of ``"local"``.
     timeout : float
         Seconds to wait for the scheduler.
+    worth_it : (bool, str), optional
+        For ``"local"``: whether starting a cluster pays for itself
+        (:func:`elastic_motion.apps.database.tiles.cluster_worth_it`) and the sentence saying
+        so. When it does not, a serial engine is returned with that sentence as its ``note``,
+        so ``--engine local`` never loses to serial on small inputs. None: always start it.
 
     Raises
     ------
@@ -352,6 +366,10 @@ def open_engine(engine: str, scheduler: str | None, n_workers: int, timeout: flo
         raise OptionError("workers", f"expected 1 to 1024 worker processes; got {n_workers!r}")
     if engine == "serial":
         return SerialEngine()
+    if engine == "local" and worth_it is not None and not worth_it[0]:
+        serial = SerialEngine()
+        serial.note = worth_it[1]
+        return serial
     if engine in ("local", "dask"):
         return DaskEngine(engine, scheduler, n_workers, timeout)
     raise ValueError(f"engine: expected one of {list(ENGINES)}; got {engine!r}")

@@ -33,7 +33,7 @@ from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
 from elastic_motion.apps.database.engines import Engine, Task, open_engine
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
-from elastic_motion.apps.database.tiles import block, tile_blocks
+from elastic_motion.apps.database.tiles import block, cluster_worth_it, tile_blocks
 from elastic_motion.apps.progress import Progress
 from elastic_motion.errors import OptionError
 
@@ -113,6 +113,7 @@ def compute_matrix(
     recursive: bool = False,
     overwrite: bool = False,
     progress: Progress | None = None,
+    force_cluster: bool = False,
 ) -> MatrixResult:
     """All-pairs distances of the motions in ``inputs``, written tile by tile to ``out_dir``.
 
@@ -127,6 +128,9 @@ def compute_matrix(
     settings : DatabaseSettings, optional
         Default ``DatabaseSettings()``.
     engine : {"serial", "local", "dask"}, default "serial"
+        ``"local"`` starts a cluster of ``n_workers`` processes only when the estimated pair
+        work pays for its start (:func:`elastic_motion.apps.database.tiles.cluster_worth_it`);
+        otherwise the run is serial and the report's ``engine_note`` says why.
     scheduler : str, optional
         Address of the Dask scheduler for ``engine="dask"``.
     n_workers : int, default 2
@@ -137,6 +141,8 @@ def compute_matrix(
         the cluster has none left. A worker lost mid-run costs nothing: its tiles run elsewhere.
     recursive : bool, default False
         Search folders recursively.
+    force_cluster : bool, default False
+        Start the local cluster whatever the estimate (tests, measurements).
     overwrite : bool, default False
     progress : callable, optional
         ``progress(stage, done, total)`` with stages ``"read"`` and ``"tiles"``; called after
@@ -200,7 +206,12 @@ def compute_matrix(
     elif overwrite and out.exists():
         storage.clean_outputs(out)
     # connect before writing anything: an unreachable scheduler leaves no output behind
-    eng = open_engine(engine, scheduler, n_workers, connect_timeout)
+    worth = None
+    if engine == "local" and not force_cluster:
+        n = len(files)
+        n_pairs = n * (n - 1) // 2 * len(settings.representations)
+        worth = cluster_worth_it(n_pairs, settings.n_samples, settings.warp, n_workers=max(2, n_workers))
+    eng = open_engine(engine, scheduler, n_workers, connect_timeout, worth_it=worth)
     try:
         return _run(out, files, ignored, settings, ident, eng, progress)
     finally:
@@ -274,6 +285,7 @@ def _run(
     run_info: dict[str, Any] = {
         "run": run_id,
         "engine": eng.name,
+        "engine_note": getattr(eng, "note", None),
         "workers": eng.n_workers,
         "scheduler": getattr(eng, "scheduler", None),
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
@@ -429,6 +441,7 @@ def _report(
         "comparison": _comparison_note(settings, groups),
         "joints_mode": settings.joints if isinstance(settings.joints, str) else "list",
         "engine": eng.name,
+        "engine_note": getattr(eng, "note", None),
         "workers": eng.n_workers,
         "scheduler": getattr(eng, "scheduler", None),
         "host": platform.node(),
