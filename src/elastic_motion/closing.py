@@ -791,6 +791,32 @@ def _problem(curve, factors, c1, c1_weight, cut_locus_tol, rotation_names, min_p
     return srv, prob
 
 
+def _closed_output(
+    prob: _Problem,
+    curve: DiscreteCurve | SRVFunction,
+    srv: SRVFunction,
+    q_final: np.ndarray,
+    *,
+    moved: bool,
+    keep_free: bool,
+) -> tuple[DiscreteCurve, SRVFunction]:
+    """The closed curve and the solver's own SRV function (module docstring, "Free
+    coordinates"): with ``keep_free`` the free Euclidean coordinates and free SO(3) copies of
+    the curve get their original samples back; ``srv`` is not re-read from the curve."""
+    if not moved:
+        return (curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)), srv
+    closed = SRVFunction(q_final, srv.t, srv.start, srv.group)
+    out_curve = inverse_srv_transform(closed)
+    lay = prob.layout
+    free = np.concatenate([lay.eu_pt[~prob.spec.eu_closed], lay.so3_pt[prob.spec.mode == 0].ravel()])
+    if keep_free and free.size:
+        original = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
+        vals = np.array(out_curve.values).reshape(out_curve.n_points, -1)
+        vals[:, free] = np.asarray(original.values).reshape(original.n_points, -1)[:, free]
+        out_curve = DiscreteCurve(vals.reshape(out_curve.values.shape), srv.group, srv.t)
+    return out_curve, closed
+
+
 def _evaluate_or_raise(prob: _Problem, q: np.ndarray) -> _State:
     try:
         return prob.evaluate(q)
@@ -1044,20 +1070,9 @@ def close_curve(
             converged = True
             message = f"converged in {it} iterations"
 
-    q_final = prob.to_group(state.q)
-    if it == 0:
-        closed = srv
-        out_curve = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-    else:
-        out_curve = inverse_srv_transform(SRVFunction(q_final, srv.t, srv.start, srv.group))
-        lay = prob.layout
-        free_eu = np.concatenate([lay.eu_pt[~prob.spec.eu_closed], lay.so3_pt[prob.spec.mode == 0].ravel()])
-        if keep_free and free_eu.size:
-            original = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-            vals = np.array(out_curve.values).reshape(out_curve.n_points, -1)
-            vals[:, free_eu] = np.asarray(original.values).reshape(original.n_points, -1)[:, free_eu]
-            out_curve = DiscreteCurve(vals.reshape(out_curve.values.shape), srv.group, srv.t)
-        closed = SRVFunction(q_final, srv.t, srv.start, srv.group)
+    out_curve, closed = _closed_output(
+        prob, curve, srv, prob.to_group(state.q), moved=it > 0, keep_free=keep_free
+    )
     return ClosingResult(
         curve=out_curve,
         srv=closed,

@@ -46,6 +46,7 @@ import numpy as np
 
 from elastic_motion.closing import (
     ClosingResult,
+    _closed_output,
     _CutLocus,
     _evaluate_or_raise,
     _l2,
@@ -53,7 +54,7 @@ from elastic_motion.closing import (
     _problem,
     _State,
 )
-from elastic_motion.curves import DiscreteCurve, SRVFunction, inverse_srv_transform
+from elastic_motion.curves import DiscreteCurve, SRVFunction
 from elastic_motion.groups import SO3
 
 __all__ = ["ExtraConstraints", "kkt_residual", "project_closed"]
@@ -479,19 +480,7 @@ def project_closed(
             newton = True  # the identity model converges slowly here: use the Lagrangian's Hessian
 
     q_final = prob.to_group(q)
-    if it == 0:
-        out_curve = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-        closed = srv
-    else:
-        closed = SRVFunction(q_final, srv.t, srv.start, srv.group)
-        out_curve = inverse_srv_transform(closed)
-        lay = prob.layout
-        free = np.concatenate([lay.eu_pt[~prob.spec.eu_closed], lay.so3_pt[prob.spec.mode == 0].ravel()])
-        if keep_free and free.size:
-            original = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-            vals = np.array(out_curve.values).reshape(out_curve.n_points, -1)
-            vals[:, free] = np.asarray(original.values).reshape(original.n_points, -1)[:, free]
-            out_curve = DiscreteCurve(vals.reshape(out_curve.values.shape), srv.group, srv.t)
+    out_curve, closed = _closed_output(prob, curve, srv, q_final, moved=it > 0, keep_free=keep_free)
     return ClosingResult(
         curve=out_curve,
         srv=closed,

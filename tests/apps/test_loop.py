@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import (
     cycle_transform,
@@ -18,7 +19,6 @@ from elastic_motion.curves import curve_distance
 from elastic_motion.groups import SO3
 from elastic_motion.motion import (
     Motion,
-    Skeleton,
     drop_tpose,
     finger_joints,
     forward_kinematics,
@@ -185,22 +185,6 @@ def test_joint_closing_moves_less_than_naive_fix(mocap_dir, key):
 
 
 # ------------------------------------------------------------------------- synthetic clips
-
-
-def chain_skeleton():
-    return Skeleton(
-        names=("root", "hip", "knee", "foot"),
-        parents=[-1, 0, 1, 2],
-        offsets=[[0, 0, 0], [0.1, -0.1, 0], [0, -0.4, 0], [0, -0.4, 0]],
-        channels=(
-            ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-        ),
-        end_site_parents=[3],
-        end_site_offsets=[[0, 0, 0.15]],
-    )
 
 
 def synthetic(f=40, closed=False, seam_pi=False):

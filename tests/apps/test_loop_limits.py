@@ -8,13 +8,14 @@ import math
 
 import numpy as np
 import pytest
+from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
 from elastic_motion.apps.loop_limits import LimitConstraints, StackedConstraints, joint_limit_report
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
-from elastic_motion.motion import Motion, Skeleton, read_motion
+from elastic_motion.motion import Motion, read_motion
 from elastic_motion.motion.asfamc import _extrinsic, read_amc, read_asf, read_joint_limits
 from elastic_motion.motion.joint_limits import (
     JointLimits,
@@ -53,23 +54,6 @@ def test_dof_angles_jacobian_matches_finite_differences(axes):
         w[i] = eps
         fd = (dof_angles(SO3G.exp(w) @ rot, c, axes) - dof_angles(SO3G.exp(-w) @ rot, c, axes)) / (2 * eps)
         np.testing.assert_allclose(jac[..., i], fd, atol=1e-7)
-
-
-def chain_skeleton():
-    names = ("root", "hip", "knee", "foot")
-    return Skeleton(
-        names=names,
-        parents=[-1, 0, 1, 2],
-        offsets=[[0, 0, 0], [0.1, -0.1, 0], [0, -0.4, 0], [0, -0.4, 0]],
-        channels=(
-            ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-        ),
-        end_site_parents=[3],
-        end_site_offsets=[[0, 0, 0.15]],
-    )
 
 
 KNEE_FRAME = SO3G.exp(np.array([0.0, 0.5, 0.2]))

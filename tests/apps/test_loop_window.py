@@ -8,30 +8,15 @@ import json
 
 import numpy as np
 import pytest
+from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion, seam_metrics
 from elastic_motion.apps.loop_window import cycle_candidates, estimate_period, pose_dissimilarity
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
-from elastic_motion.motion import Motion, Skeleton, drop_tpose, read_motion
+from elastic_motion.motion import Motion, drop_tpose, read_motion
 
 SO3G = SO3()
-
-
-def skeleton(names=("root", "hip", "knee", "foot")):
-    return Skeleton(
-        names=names,
-        parents=[-1, 0, 1, 2],
-        offsets=[[0, 0, 0], [0.1, -0.1, 0], [0, -0.4, 0], [0, -0.4, 0]],
-        channels=(
-            ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-            ("Zrotation", "Yrotation", "Xrotation"),
-        ),
-        end_site_parents=[3],
-        end_site_offsets=[[0, 0, 0.15]],
-    )
 
 
 def periodic(f=150, period=40, fps=30.0, lead=17, names=("root", "hip", "knee", "foot")):
@@ -46,7 +31,7 @@ def periodic(f=150, period=40, fps=30.0, lead=17, names=("root", "hip", "knee", 
     rv[:, 2] = np.outer(amp * (1 - np.cos(ph)), [0.5, 0, 0])
     rv[:, 3] = np.outer(amp * np.sin(2 * ph), [0.2, 0.1, 0])
     root = np.stack([0.02 * k, 0.9 + 0.03 * amp * np.sin(2 * ph), 0 * k], 1)
-    return Motion(skeleton(names), fps, root, SO3G.exp(rv), metres_per_unit=1.0, name="periodic")
+    return Motion(chain_skeleton(names), fps, root, SO3G.exp(rv), metres_per_unit=1.0, name="periodic")
 
 
 def test_dissimilarity_is_a_squared_distance_of_pose_and_velocity():

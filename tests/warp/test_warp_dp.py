@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from warp_testlib import all_paths
 
 from elastic_motion.curves import SRVFunction, reparametrize_srv
 from elastic_motion.groups import Euclidean
@@ -17,24 +18,6 @@ def random_grid(n: int, rng: np.random.Generator) -> np.ndarray:
     t = np.concatenate([[0.0], np.cumsum(w) / w.sum()])
     t[-1] = 1.0
     return t
-
-
-def all_paths(n0: int, n1: int, steps: np.ndarray):
-    """Every monotone node path from (0, 0) to (n0, n1) with steps in the neighbourhood."""
-    out = []
-
-    def walk(i, j, path):
-        if (i, j) == (n0, n1):
-            out.append(list(path))
-            return
-        for a, b in steps:
-            if i + a <= n0 and j + b <= n1:
-                path.append((i + a, j + b))
-                walk(i + a, j + b, path)
-                path.pop()
-
-    walk(0, 0, [(0, 0)])
-    return out
 
 
 @pytest.mark.parametrize(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from warp_testlib import all_paths
 
 from elastic_motion.warp import Landmarks, landmark_cost, optimal_warp, warp_at, warp_energy
 from elastic_motion.warp.landmarks import make_penalty
@@ -50,24 +51,6 @@ def _open_pair(n0: int, n1: int):
     return srv(t0, lambda x: 0.4 * np.sin(5 * np.pi * x)), srv(t1, lambda x: 0.4 * np.sin(3 * np.pi * x))
 
 
-def _all_paths(n0: int, n1: int, steps: np.ndarray):
-    """Every lattice path from (0, 0) to (n0, n1) with the given steps (depth-first)."""
-    out = []
-
-    def rec(i, j, path):
-        if (i, j) == (n0, n1):
-            out.append(list(path))
-            return
-        for a, b in steps:
-            if i + a <= n0 and j + b <= n1:
-                path.append((i + a, j + b))
-                rec(i + a, j + b, path)
-                path.pop()
-
-    rec(0, 0, [(0, 0)])
-    return out
-
-
 # theta0 in one DP edge's domain, theta1 in a *later* edge's range for most paths: the paper's
 # rule (charge on the edge whose range holds theta1) and the erratum's differ here
 LM = Landmarks([0.27, 0.61], [0.52, 0.83])
@@ -90,7 +73,7 @@ def all_paths_scored():
     q0, q1 = _open_pair(n0, n1)
     t0, t1 = np.linspace(0, 1, n0 + 1), np.linspace(0, 1, n1 + 1)
     verts = []
-    for path in _all_paths(n0, n1, _as_steps(3)):  # 1434 paths
+    for path in all_paths(n0, n1, _as_steps(3)):  # 1434 paths
         p = np.array(path)
         verts.append(np.column_stack([t0[p[:, 0]], t1[p[:, 1]]]))
     return q0, q1, verts, [warp_energy(q0, q1, v) for v in verts]

@@ -140,33 +140,55 @@ def add_joint_options(p: argparse.ArgumentParser) -> None:
     add_alias(p, "--no-align-heading", "--no-align")
 
 
-def add_warp_options(p: argparse.ArgumentParser, *, landmarks: bool = True) -> None:
-    """The time warp's options (:class:`elastic_motion.warp.WarpOptions`)."""
+def add_warp_options(
+    p: argparse.ArgumentParser,
+    *,
+    defaults: Any = None,
+    sampling: bool = True,
+    coarse_to_fine: bool = False,
+) -> None:
+    """The time warp's options (:class:`elastic_motion.warp.WarpOptions`).
+
+    ``defaults``: the options whose values the flags default to (the API's
+    ``WarpOptions()`` unless a command's API has other defaults, as the database's);
+    ``sampling`` adds ``--sample-fps`` (motions resampled by frame rate), ``coarse_to_fine``
+    the banded DP flag (the database commands).
+    """
     from elastic_motion.cli_commands._argparse import add_alias
     from elastic_motion.warp import WARP_METHODS, WarpOptions
 
-    defaults = WarpOptions()  # the API's defaults, so that both doors agree
+    defaults = WarpOptions() if defaults is None else defaults  # the API's: both doors agree
     p.add_argument(
         "--warp",
         choices=WARP_METHODS,
         default=defaults.method,
-        help="time warp of B onto A: dynamic programming, DP then gradient refinement, or none",
+        help="time warp: dynamic programming, DP then gradient refinement off the grid, or none "
+        f"(distance of the parametrised curves) (default: {defaults.method})",
     )
     p.add_argument(
         "--neighbourhood",
         type=int,
         default=defaults.neighbourhood,
         metavar="N",
-        help="DP slopes: all coprime steps (a, b) with a, b <= N",
+        help="DP slopes: all coprime steps (a, b) with a, b <= N; larger is more exact and slower "
+        f"(default: {defaults.neighbourhood})",
     )
-    p.add_argument(
-        "--sample-fps",
-        type=float,
-        default=defaults.sample_fps,
-        metavar="FPS",
-        help="frame rate (frames per second, at most) of the curves the warp is computed on",
-    )
-    add_alias(p, "--warp-fps", "--sample-fps")
+    if sampling:
+        p.add_argument(
+            "--sample-fps",
+            type=float,
+            default=defaults.sample_fps,
+            metavar="FPS",
+            help="frame rate (frames per second, at most) of the curves the warp is computed on "
+            f"(default: {defaults.sample_fps:g})",
+        )
+        add_alias(p, "--warp-fps", "--sample-fps")
+    if coarse_to_fine:
+        p.add_argument(
+            "--coarse-to-fine",
+            action="store_true",
+            help="banded coarse-to-fine DP (faster on long grids, approximate; default: off)",
+        )
 
 
 def prepare_options(args: argparse.Namespace, n_inputs: int) -> Any:
@@ -221,12 +243,15 @@ def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], input
     write_bvh(output_motion(motion, prepared.units_out), path, protected=list(inputs))
 
 
-def joints_arg(value: str) -> str | tuple[str, ...]:
-    if value in ("all", "common"):
+def joints_arg(value: str, modes: Sequence[str] = ("all", "common")) -> str | tuple[str, ...]:
+    """``--joints``: one of ``modes`` (the database commands add ``map``) or comma-separated names."""
+    if value in modes:
         return value
     names = tuple(v.strip() for v in value.split(",") if v.strip())
     if not names:
-        raise CommandError(f"--joints: expected 'all', 'common' or joint names; got {value!r}")
+        raise CommandError(
+            f"--joints: expected {', '.join(repr(m) for m in modes)} or joint names; got {value!r}"
+        )
     return names
 
 

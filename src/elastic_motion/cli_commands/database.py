@@ -30,8 +30,10 @@ from elastic_motion.cli_commands._common import (
     CommandError,
     add_json_option,
     add_quiet_option,
+    add_warp_options,
     check_output,
     emit_report,
+    joints_arg,
     progress_for,
 )
 from elastic_motion.errors import OptionError, ParseError
@@ -110,37 +112,14 @@ def _add_preparation(p: argparse.ArgumentParser) -> None:
 
 
 def _joints(value: str) -> str | tuple[str, ...]:
-    if value in ("all", "common", "map"):
-        return value
-    names = tuple(v.strip() for v in value.split(",") if v.strip())
-    if not names:
-        raise CommandError(f"--joints: expected 'all', 'common', 'map' or joint names; got {value!r}")
-    return names
+    return joints_arg(value, ("all", "common", "map"))
 
 
 def _add_warp(p: argparse.ArgumentParser) -> None:
-    from elastic_motion.warp import DEFAULT_MAX_STEP, WARP_METHODS
+    from elastic_motion.apps.database.settings import DEFAULT_WARP
 
-    p.add_argument(
-        "--warp",
-        choices=WARP_METHODS,
-        default="dp",
-        help="dp: elastic distance (optimal warp by dynamic programming); dp+refine: then refined off "
-        "the grid; none: no warping, distance of the parametrised curves (default: dp)",
-    )
-    p.add_argument(
-        "--neighbourhood",
-        type=int,
-        default=DEFAULT_MAX_STEP,
-        metavar="N",
-        help="DP slopes: all coprime steps (a, b) with a, b <= N; larger is more exact and slower "
-        f"(default: {DEFAULT_MAX_STEP})",
-    )
-    p.add_argument(
-        "--coarse-to-fine",
-        action="store_true",
-        help="banded coarse-to-fine DP (faster on long grids, approximate; default: off)",
-    )
+    # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
+    add_warp_options(p, defaults=DEFAULT_WARP, sampling=False, coarse_to_fine=True)
 
 
 def _add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
