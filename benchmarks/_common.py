@@ -21,6 +21,24 @@ from elastic_motion._io import atomic_write_text
 T = TypeVar("T")
 
 RESULTS = Path(__file__).resolve().parent / "results"
+#: The real data: ``$ELASTIC_MOTION_MOCAP`` or ``../shared/mocap`` beside the repository.
+MOCAP = Path(os.environ.get("ELASTIC_MOTION_MOCAP", Path(__file__).resolve().parents[2] / "shared" / "mocap"))
+#: CMU clips of one skeleton (the IsaacGymEnvs / una-dinosauria conversions share joint names;
+#: the bvh11 conversions 131_* name their joints differently and form another group).
+CMU_CLIPS = ["01_01", "07_01", "08_02", "09_11", "107_02_30hz", "108_01_30hz", "49_08", "55_01"]
+
+
+def load_clip(rel: str, start: float | None = None, stop: float | None = None, tpose: bool = True):
+    """A clip of the real data (path relative to :data:`MOCAP`), its T-pose frame dropped
+    when ``tpose``, trimmed to ``[start, stop]`` seconds when given."""
+    from elastic_motion.motion import drop_tpose, read_motion, trim
+
+    m = read_motion(MOCAP / rel)
+    if tpose:
+        m = drop_tpose(m)
+    if start is not None or stop is not None:
+        m = trim(m, start, stop)
+    return m
 
 
 def timed_best(fn: Callable[[], T], repeat: int) -> tuple[float, T]:

@@ -18,6 +18,17 @@ Columns
   :func:`elastic_motion.apps.distance.distance_table`).
 * **time** (s): the blend (with clean-up when on), without the metrics.
 
+Two references per pair, from the Lie + warp blend without clean-up (``references``): why a
+50 % blend is not exactly ``d(A, B) / 2`` from each input even before the clean-up.
+
+* **midpoint on its own grid**: ``d(M, A)``, ``d(M, B)`` for the SRV midpoint
+  ``M = R^{-1}((qA + qB * phi) / 2)`` of the Lie curves at the warp's frame rate, on the
+  merged break points where it is exact (no resampling): ``d(A, B) / 2`` up to the DP.
+* **resampling floor**: ``d(A, A')`` and ``d(B, B')`` where ``A'`` (``B'``) is the input
+  itself played on the blend's output clock (``A(u_f)``, ``B(phi(u_f))`` at the output
+  frames, then at most 30 fps like every curve here): a reparametrisation, elastic distance
+  0 in the continuum; what it measures is what sampling a curve at other times costs.
+
 Targets (issue 16): with clean-up every blend skates at most 1.1x the lesser of its inputs
 and no point goes more than 1 cm below the floor; the clean-up keeps each ``d(R, X)`` within
 10 % of ``d(A, B) / 2``; landmark blends (d) no worse than (c) on both CMU pairs.
@@ -31,22 +42,25 @@ Usage: ``python benchmarks/blend_quality.py [--only obstacles,rhythm,...] [--out
 from __future__ import annotations
 
 import argparse
-import os
 import tempfile
 import time
 from pathlib import Path
 
-from _common import machine_info, write_json
+import numpy as np
+
+from _common import MOCAP, load_clip, machine_info, write_json
+from elastic_motion.apps.align import motion_curves
 from elastic_motion.apps.blend import blend_motions
 from elastic_motion.apps.cleanup import carry_contacts
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import contact_skating, foot_sliding
 from elastic_motion.apps.prepare import PrepareOptions, output_motion
-from elastic_motion.motion import drop_tpose, read_bvh, read_motion, trim, write_bvh
+from elastic_motion.curves import DiscreteCurve, srv_transform, weighted_blend
+from elastic_motion.motion import read_bvh, write_bvh
 from elastic_motion.motion.contacts import detect_contacts
+from elastic_motion.warp import WarpOptions, optimal_warp
 
 REPO = Path(__file__).resolve().parents[1]
-MOCAP = Path(os.environ.get("ELASTIC_MOTION_MOCAP", REPO.parent / "shared" / "mocap"))
 
 #: (label, method, warp, landmarks, cycles)
 METHODS = (
@@ -60,38 +74,29 @@ METHODS = (
 )
 
 
-def _load(rel: str, start: float | None = None, stop: float | None = None, tpose: bool = True):
-    m = read_motion(MOCAP / rel)
-    if tpose:
-        m = drop_tpose(m)
-    if start is not None or stop is not None:
-        m = trim(m, start, stop)
-    return m
-
-
 def pairs() -> dict:
     b = "bandai/dataset-1_"
     return {
         "obstacles": lambda: (
-            _load("cmu/bvh/107_02_30hz.bvh", 1.0, 3.4),
-            _load("cmu/bvh/108_01_30hz.bvh", 1.3, 4.8),
+            load_clip("cmu/bvh/107_02_30hz.bvh", 1.0, 3.4),
+            load_clip("cmu/bvh/108_01_30hz.bvh", 1.3, 4.8),
         ),
-        "rhythm": lambda: (_load("cmu/bvh/07_01.bvh"), _load("cmu/bvh/08_02.bvh")),
+        "rhythm": lambda: (load_clip("cmu/bvh/07_01.bvh"), load_clip("cmu/bvh/08_02.bvh")),
         "start_walk_stop": lambda: (
-            _load("cmu/bvh/131_01.bvh", tpose=False),
-            _load("cmu/bvh/131_02.bvh", tpose=False),
+            load_clip("cmu/bvh/131_01.bvh", tpose=False),
+            load_clip("cmu/bvh/131_02.bvh", tpose=False),
         ),
         "deepmimic_walk_run": lambda: (
-            _load("deepmimic/humanoid3d_walk.txt", tpose=False),
-            _load("deepmimic/humanoid3d_run.txt", tpose=False),
+            load_clip("deepmimic/humanoid3d_walk.txt", tpose=False),
+            load_clip("deepmimic/humanoid3d_run.txt", tpose=False),
         ),
         "bandai_normal_tired": lambda: (
-            _load(b + "walk_normal_001.bvh", tpose=False),
-            _load(b + "walk_tired_001.bvh", tpose=False),
+            load_clip(b + "walk_normal_001.bvh", tpose=False),
+            load_clip(b + "walk_tired_001.bvh", tpose=False),
         ),
         "bandai_happy_sad": lambda: (
-            _load(b + "walk_happy_001.bvh", tpose=False),
-            _load(b + "walk_sad_001.bvh", tpose=False),
+            load_clip(b + "walk_happy_001.bvh", tpose=False),
+            load_clip(b + "walk_sad_001.bvh", tpose=False),
         ),
     }
 
@@ -106,10 +111,41 @@ def written(res) -> object:
     return back.replace(metres_per_unit=out.metres_per_unit, up_axis=out.up_axis)
 
 
+def _elastic(x: DiscreteCurve, y: DiscreteCurve) -> float:
+    """The elastic distance of two curves as ``distance_table`` finds it (default warp)."""
+    sx, sy = srv_transform(x), srv_transform(y)
+    return float(optimal_warp(sx.q, sy.q, t0=sx.t, t1=sy.t, **WarpOptions().solver_kwargs()).distance)
+
+
+def references(res) -> dict:
+    """The midpoint on its own grid and the resampling floor (module docstring) of a two-input
+    Lie blend ``res`` (before clean-up)."""
+    prep = res.prepared
+    fps = WarpOptions().sample_fps
+    ca, cb = motion_curves(prep, "lie", fps=fps)
+    fa, fb = motion_curves(prep, "lie")
+    phi = res.warps[1]
+    mid = weighted_blend([ca, cb], [0.5, 0.5], [None, phi])
+    u = np.clip(res.timing, 0.0, 1.0)
+    n_out = max(2, round((u.size - 1) * min(1.0, fps / prep.fps)) + 1)
+    grid = np.linspace(0.0, 1.0, n_out)
+
+    def replayed(curve: DiscreteCurve, params: np.ndarray) -> DiscreteCurve:
+        frames = DiscreteCurve(curve.evaluate(params), curve.group, np.linspace(0.0, 1.0, params.size))
+        return DiscreteCurve(frames.evaluate(grid), curve.group, grid)
+
+    pb = np.clip(np.interp(u, phi[:, 0], phi[:, 1]), 0.0, 1.0)
+    return {
+        "midpoint_own_grid_d_M_A_B": [_elastic(mid, ca), _elastic(mid, cb)],
+        "resampling_floor_d_A_B": [_elastic(ca, replayed(fa, u)), _elastic(cb, replayed(fb, pb))],
+    }
+
+
 def run_pair(key: str, a, b) -> list[dict]:
     rows = []
     inputs_contacts = None
     d_ab = None
+    refs: dict = {}
     for label, method, warp, lm, cyc in (
         *METHODS,
         ("Lie + warp + cycles", "lie", "dp", None, True),
@@ -129,6 +165,8 @@ def run_pair(key: str, a, b) -> list[dict]:
             )
             seconds = time.perf_counter() - t0
             ms = res.prepared.motions
+            if label == "Lie + warp" and not clean:
+                refs = references(res)
             if inputs_contacts is None:
                 inputs_contacts = [detect_contacts(m) for m in ms]
                 inp = [contact_skating(m, c) for m, c in zip(ms, inputs_contacts, strict=True)]
@@ -184,6 +222,7 @@ def run_pair(key: str, a, b) -> list[dict]:
             "skating_m_s": [s.mean_speed for s in inp],
             "below_floor_m": [s.below_floor for s in inp],
             "d_A_B": d_ab,
+            **refs,
         },
     )
     return rows
@@ -226,6 +265,8 @@ def targets(rows: list[dict]) -> dict:
             for r in clean
             if (r["method"], False) in by
         ),
+        "midpoint_own_grid_ratio": max(inp.get("midpoint_own_grid_d_M_A_B", [np.nan])) / half,
+        "resampling_floor_ratio": [x / half for x in inp.get("resampling_floor_d_A_B", [])],
         "d_vs_c_foot_sliding": None if c is None else [c["foot_sliding_m_s"], dd["foot_sliding_m_s"]],
         "d_vs_c_skating": None if c is None else [c["skating_m_s"], dd["skating_m_s"]],
     }
@@ -268,7 +309,15 @@ def main() -> None:
             f"(worst {fmt(t['distance_ratio_max'])}x, "
             f"{fmt(t['distance_ratio_before_cleanup_max'])}x before the clean-up; the clean-up adds at most "
             f"{fmt(100 * (t['cleanup_distance_increase_max'] - 1))} %); "
-            f"foot sliding (c) vs (d): {fmt(t['d_vs_c_foot_sliding'])}"
+            f"foot sliding (c) vs (d): {fmt(t['d_vs_c_foot_sliding'])}, "
+            f"skating (c) vs (d): {fmt(t['d_vs_c_skating'])}"
+        )
+        r0 = rows[0]
+        print(
+            f"references (Lie + warp): the SRV midpoint on its own grid is "
+            f"{fmt(r0['midpoint_own_grid_d_M_A_B'])} from A / B ({fmt(t['midpoint_own_grid_ratio'])}x "
+            f"d(A,B)/2); each input replayed on the output clock is {fmt(r0['resampling_floor_d_A_B'])} "
+            f"from itself ({fmt(t['resampling_floor_ratio'])}x d(A,B)/2)"
         )
     path = write_json(args.out, report)
     print(f"\nwrote {path}")

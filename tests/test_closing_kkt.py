@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from elastic_motion.closing import close_curve, closing_gap, project_closed_rd
-from elastic_motion.closing_kkt import ExtraConstraints, kkt_residual, project_closed
+from elastic_motion.closing_kkt import (
+    _SO3,
+    ExtraConstraints,
+    _eu_samples,
+    _ExtraLinear,
+    kkt_residual,
+    project_closed,
+)
 from elastic_motion.curves import SRVFunction, inverse_srv_transform, srv_transform
 from elastic_motion.groups import SO3, Euclidean, PowerGroup, ProductGroup
 
@@ -169,9 +176,78 @@ class PinConstraints(ExtraConstraints):
         return g, frames, d_rot, d_eu
 
 
+class DenseLinear:
+    """Reference: closing rows plus extra rows as a dense Jacobian ``(R, n, dim)``, assembled
+    row by row through the ``exp`` steps (the implementation ``_ExtraLinear`` replaced)."""
+
+    def __init__(self, prob, s, extra, eu_orig):
+        self.prob, self.s = prob, s
+        n, m, ne, dim = prob.n, prob.m, prob.ne, prob.layout.dim
+        lay, sp = prob.layout, prob.spec
+        bs, be = prob.blocks(s)
+        full = prob.residual(s)
+        sel = prob.sel
+        k = be.shape[-1]
+        # closing rows: row (g, internal coordinate) of the full residual; w.r.t. M_i dq_i
+        jf = np.zeros((k * dim, n, dim))
+        for g in range(k):
+            if ne:
+                idx = g * dim + np.arange(ne)
+                jf[idx, :, np.arange(ne)] = be[:, :, g].T
+            for b in range(m):
+                r0 = g * dim + ne + 3 * b
+                jf[r0 : r0 + 3, :, ne + 3 * b : ne + 3 * b + 3] = np.transpose(
+                    bs[:, b, 3 * g : 3 * g + 3, :], (1, 0, 2)
+                )
+        jf = jf[sel]
+        # extra rows through the exp steps: the natural steps u_i = h_i x_i / s
+        eu = np.where(sp.eu_closed, _eu_samples(prob, s), eu_orig)
+        g_x, frames, d_rot, d_eu = extra.evaluate(s.rot, eu)
+        r = g_x.shape[0]
+        je = np.zeros((r, n, dim))
+        # a sample f depends on the cells i < f: "before[r, s, i]" = i < frames[r, s]
+        before = (np.arange(n)[None, None, :] < frames[:, :, None]).astype(np.float64)  # (R, S, n)
+        # delta eu_f = sum_{i<f} delta u_i (closed coordinates only)
+        tail_eu = np.einsum("rsi,rse->rie", before, d_eu)
+        je[:, :, :ne] = np.where(sp.eu_closed, tail_eu, 0.0) / lay.s_eu
+        if m:
+            # delta R_f R_f^T = sum_{i<f} R_f R_{i+1}^T dexp_{u_i} delta u_i
+            fr = np.maximum(frames, 0)
+            d_back = np.einsum("rsbj,rsbjk->rsbk", d_rot, s.rot[fr])  # (dg/domega_f) R_f
+            tail = np.einsum("rsi,rsbk->ribk", before, d_back)  # (R, n, m, 3): sum over f > i
+            dmat = _SO3.dexp_matrix(s.u_so3)  # (n, m, 3, 3)
+            a = np.einsum("fbji,fbjk->fbik", s.rot[1:], dmat)  # R_{i+1}^T dexp_{u_i}
+            ju = np.einsum("ribj,ibjk->ribk", tail, a)
+            je[:, :, ne:] = (ju / lay.s_so3[:, None]).reshape(r, n, 3 * m)
+        je *= prob.h[None, :, None]
+        jm = np.concatenate([jf, je], axis=0)
+        # J_i = (rows w.r.t. M_i dq_i) M_i, M_i symmetric
+        qn = np.where(s.qn > 0, s.qn, 1.0)
+        coef = np.einsum("rij,ij->ri", jm, s.q) / qn
+        self.jac = jm * s.qn[None, :, None] + coef[:, :, None] * s.q[None] * (s.qn > 0)[None, :, None]
+        self.h = prob.h
+        self.fsel = np.concatenate([full[sel], g_x])
+        self.n_extra = r
+        self._gmat: np.ndarray | None = None
+
+    @property
+    def gmat(self) -> np.ndarray:
+        """``J J^*`` (assembled on first use: the Hessian products need only ``J^*``)."""
+        if self._gmat is None:
+            flat = self.jac.reshape(self.jac.shape[0], -1)
+            w = np.repeat(1.0 / self.h, self.jac.shape[2])
+            self._gmat = (flat * w) @ flat.T
+        return self._gmat
+
+    def forward(self, d: np.ndarray) -> np.ndarray:
+        return np.einsum("ria,ia->r", self.jac, d)
+
+    def adjoint(self, lam: np.ndarray) -> np.ndarray:
+        return np.einsum("r,ria->ia", lam, self.jac) / self.h[:, None]
+
+
 def test_extra_constraint_jacobian_matches_central_differences():
     from elastic_motion.closing import _problem
-    from elastic_motion.closing_kkt import _DenseLinear, _eu_samples
 
     g = lie_group()
     curve = smooth_curve(g, 12, seed=9, scale=1.0)
@@ -182,7 +258,7 @@ def test_extra_constraint_jacobian_matches_central_differences():
         q = prob.to_internal(srv.q)
         s = prob.evaluate(q)
         eu0 = _eu_samples(prob, s)
-        lin = _DenseLinear(prob, s, extra, eu0)
+        lin = DenseLinear(prob, s, extra, eu0)
 
         def rows(qq, prob=prob, eu0=eu0):
             st = prob.evaluate(qq)
@@ -225,3 +301,102 @@ def test_projection_with_extra_constraints_is_a_kkt_point():
         )
         assert other.gap < 1e-9
         assert l2(other.srv.q, srv0.q, srv0.dt) >= res.change * (1 - 1e-9)
+
+
+class RelativeConstraints(ExtraConstraints):
+    """Test rows on two samples each (the second slot an anchor, as the loop's seam contacts),
+    plus a row on the fixed first sample and one with an unused slot."""
+
+    def __init__(self, pairs, b, c):
+        self.pairs, self.b, self.c = pairs, b, c
+
+    def evaluate(self, rot, eu):
+        rows, frames, d_rot, d_eu = [], [], [], []
+        m, e = rot.shape[1], eu.shape[1]
+        a = np.array([0.2, 0.7, -0.4])
+        for f, g in self.pairs:
+            # (R_f a - R_g a)[0] and eu_f[c] - eu_g[c]
+            dr = np.zeros((2, m, 3))
+            for slot, (fr, sign) in enumerate(((f, 1.0), (g, -1.0))):
+                v = rot[fr, self.b] @ a
+                dr[slot, self.b] = sign * np.cross(v, [1.0, 0.0, 0.0])  # e0 . (w x v) = w . (v x e0)
+            rows.append((rot[f, self.b] @ a - rot[g, self.b] @ a)[0])
+            frames.append([f, g])
+            d_rot.append(dr)
+            d_eu.append(np.zeros((2, e)))
+            de = np.zeros((2, e))
+            de[0, self.c], de[1, self.c] = 1.0, -1.0
+            rows.append(eu[f, self.c] - eu[g, self.c])
+            frames.append([f, g])
+            d_rot.append(np.zeros((2, m, 3)))
+            d_eu.append(de)
+        de = np.zeros((2, e))
+        de[0, self.c] = 1.0
+        rows.append(eu[0, self.c])  # the first sample never moves: a zero row of J
+        frames.append([0, -1])
+        d_rot.append(np.zeros((2, m, 3)))
+        d_eu.append(de)
+        return np.array(rows), np.array(frames), np.array(d_rot), np.array(d_eu)
+
+
+class Stacked(ExtraConstraints):
+    def __init__(self, *parts):
+        self.parts = parts
+
+    def evaluate(self, rot, eu):
+        out = [p.evaluate(rot, eu) for p in self.parts]
+        w = max(o[1].shape[1] for o in out)
+        pad = [
+            (
+                o[0],
+                np.pad(o[1], ((0, 0), (0, w - o[1].shape[1])), constant_values=-1),
+                np.pad(o[2], ((0, 0), (0, w - o[2].shape[1]), (0, 0), (0, 0))),
+                np.pad(o[3], ((0, 0), (0, w - o[3].shape[1]), (0, 0))),
+            )
+            for o in out
+        ]
+        return tuple(np.concatenate([p[k] for p in pad]) for k in range(4))
+
+
+@pytest.mark.parametrize("c1", [False, True])
+def test_structured_extra_rows_equal_the_dense_jacobian(c1):
+    """J d, J^* lambda and J J^* of the prefix-sum implementation against the dense Jacobian."""
+    from elastic_motion.closing import _problem
+
+    g = lie_group()
+    curve = smooth_curve(g, 30, seed=4, scale=1.5)
+    mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    extra = Stacked(
+        PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5),
+        RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),
+        PinConstraints(30, 0, [1.0, 0.0, 0.0], [0.4, 0.0], 17, 2, 0.1),
+    )
+    srv, prob = _problem(curve, mask, c1, 1.0, 1e-9, None)
+    q = prob.to_internal(srv.q)
+    s = prob.evaluate(q)
+    eu0 = _eu_samples(prob, s) + 0.3
+    dense = DenseLinear(prob, s, extra, eu0)
+    fast = _ExtraLinear(prob, s, extra, eu0)
+    np.testing.assert_allclose(fast.fsel, dense.fsel, atol=1e-13)
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=q.shape)
+    lam = rng.normal(size=dense.fsel.shape)
+    np.testing.assert_allclose(fast.forward(d), dense.forward(d), rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(fast.adjoint(lam), dense.adjoint(lam), rtol=1e-11, atol=1e-11)
+    scale = np.abs(dense.gmat).max()
+    np.testing.assert_allclose(fast.gmat, dense.gmat, rtol=1e-10, atol=1e-12 * scale)
+
+
+def test_inconsistent_extra_rows_give_up_early_when_asked():
+    """A row asking a closed coordinate of the last sample to differ from the first sample's:
+    no closed curve meets it; with stall_iterations the solver says so after a few iterations."""
+    g = lie_group()
+    curve = smooth_curve(g, 30, seed=5, scale=1.0)
+    mask = np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    n = curve.values.shape[0] - 1
+    extra = PinConstraints(20, 1, [1.0, 0.0, 0.0], [0.6, 0.2], n, 1, float(curve.values[0, 1]) + 0.3)
+    quick = project_closed(curve, factors=mask, extra=extra, max_iter=60, stall_iterations=6)
+    assert not quick.converged and quick.iterations < 30, quick.message
+    slow = project_closed(curve, factors=mask, extra=extra, max_iter=quick.iterations + 5)
+    assert not slow.converged
+    assert "inconsistent" in quick.message and "inconsistent" not in slow.message

@@ -519,6 +519,14 @@ class _State:
     rot_gaps: np.ndarray  # (m,)
     rot_angles: np.ndarray  # (m,)
     eu_gaps: np.ndarray  # (e,)
+    _dexp: np.ndarray | None = None  # (n, m, 3, 3) matrices of dexp_{u_i}, on first use
+
+    @property
+    def dexp(self) -> np.ndarray:
+        """The matrices of ``dexp_{u_i}`` of every step (``groups.SO3.dexp_matrix``), cached."""
+        if self._dexp is None:
+            self._dexp = np.ascontiguousarray(_SO3.dexp_matrix(self.u_so3))
+        return self._dexp
 
 
 class _Problem:
@@ -661,8 +669,9 @@ class _Problem:
         bs = np.empty((n, m, lmat.shape[1], 3))
         if m:
             u = s.u_so3
-            dmat = _SO3.dexp_matrix(u) if exact_dexp else np.broadcast_to(_EYE3, u.shape[:-1] + (3, 3))
-            _cell_blocks_kernel(s.rot, np.ascontiguousarray(dmat), h, lmat, bs)
+            eye = np.ascontiguousarray(np.broadcast_to(_EYE3, u.shape[:-1] + (3, 3)))
+            dmat = s.dexp if exact_dexp else eye
+            _cell_blocks_kernel(s.rot, dmat, h, lmat, bs)
         be0 = np.broadcast_to(h[:, None], (n, ne))
         if not self.c1:
             return bs, be0[..., None]

@@ -40,9 +40,12 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
+import scipy.linalg
+import scipy.sparse
 
 from elastic_motion.closing import (
     ClosingResult,
@@ -111,12 +114,29 @@ def _eu_samples(prob: _Problem, s: _State) -> np.ndarray:
     return prob.start_eu + np.concatenate([np.zeros((1, ne)), np.cumsum(steps, axis=0)])
 
 
-def _solve(gmat: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    mu = 1e-14 * max(float(np.trace(gmat)) / max(gmat.shape[0], 1), 1e-300)
-    try:
-        return np.linalg.solve(gmat + mu * np.eye(gmat.shape[0]), rhs)
-    except np.linalg.LinAlgError:
-        return np.linalg.lstsq(gmat, rhs, rcond=None)[0]
+def _solve(lin: _Linear | _ExtraLinear, rhs: np.ndarray) -> np.ndarray:
+    """``(J J^* + mu I)^{-1} rhs`` at one linearisation (LU factors kept on ``lin``: the
+    normal step, the projections of the CG loop and the multipliers share them)."""
+    if lin._factor is None:
+        gmat = lin.gmat
+        # (a relative 1e-12 shift: dependent rows, e.g. a foot and its toe planted together,
+        # make J J^* singular; the multipliers are refined against the exact J in _kkt)
+        mu = 1e-12 * max(float(np.trace(gmat)) / max(gmat.shape[0], 1), 1e-300)
+        reg = gmat + mu * np.eye(gmat.shape[0])
+        try:  # J J^* is symmetric positive (semi)definite: Cholesky, else LU
+            lin._factor = ("cho", scipy.linalg.cho_factor(reg, check_finite=False))
+        except np.linalg.LinAlgError:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+                lu = scipy.linalg.lu_factor(reg, check_finite=False)
+            # an exactly singular Gram matrix (dependent rows): least squares instead
+            lin._factor = ("lu", lu) if np.all(np.diag(lu[0]) != 0.0) else ("lstsq", None)
+    kind, fac = lin._factor
+    if kind == "cho":
+        return scipy.linalg.cho_solve(fac, rhs, check_finite=False)
+    if kind == "lu":
+        return scipy.linalg.lu_solve(fac, rhs, check_finite=False)
+    return np.linalg.lstsq(lin.gmat, rhs, rcond=None)[0]
 
 
 class _Linear:
@@ -127,6 +147,7 @@ class _Linear:
         self.bs, self.be = prob.blocks(s)
         self.sel = prob.sel
         self._gmat: np.ndarray | None = None
+        self._factor: tuple | None = None
         self.f = prob.residual(s)
         self.fsel = self.f[self.sel]
 
@@ -146,73 +167,184 @@ class _Linear:
         return self.prob.adjoint(self.s, self.bs, self.be, z)
 
 
-class _DenseLinear:
-    """Closing rows plus extra constraint rows, as a dense Jacobian ``(R, n, dim)`` (internal order)."""
+class _ExtraLinear:
+    """Closing rows plus extra constraint rows, without forming their Jacobian (internal order).
+
+    An extra row depends on the curve's samples at a few frames (``ExtraConstraints``), and
+    sample ``f`` on the cells ``i < f``: with the per-cell maps ``A_i = R_{i+1}^T dexp_{u_i}``
+    (``SO(3)`` copies) the perturbation of sample ``f`` is a prefix sum over cells,
+    ``delta R_f R_f^T = R_f sum_{i<f} (h_i / s) A_i (M_i dq_i)`` and
+    ``delta c_f = sum_{i<f} (h_i / s) (M_i dq_i)`` (closed Euclidean coordinates). So
+
+    * ``J d`` is one prefix sum over the cells and a gather at the rows' frames, and
+      ``J^* lambda`` one scatter at the frames and a suffix sum: ``O(n dim + R)``;
+    * ``J J^*`` of the extra rows is, with ``D_a`` the row's derivative at its frame ``f_a``
+      (pulled back by ``R_f``) and ``K(k) = sum_{i<k} C_i`` the prefix of the cells' Gram
+      blocks, ``D_a^T K(min(f_a, f_b)) D_b`` plus the rank-one part of ``M_i^2``: two
+      ``R x dim x R`` products (no ``R x n x dim`` Jacobian).
+
+    The dense Jacobian this replaces is kept in the tests as the reference implementation.
+    """
 
     def __init__(self, prob: _Problem, s: _State, extra: ExtraConstraints, eu_orig: np.ndarray) -> None:
         self.prob, self.s = prob, s
-        n, m, ne, dim = prob.n, prob.m, prob.ne, prob.layout.dim
-        lay, sp = prob.layout, prob.spec
-        bs, be = prob.blocks(s)
-        full = prob.residual(s)
-        sel = prob.sel
-        k = be.shape[-1]
-        # closing rows: row (g, internal coordinate) of the full residual; w.r.t. M_i dq_i
-        jf = np.zeros((k * dim, n, dim))
-        for g in range(k):
-            if ne:
-                idx = g * dim + np.arange(ne)
-                jf[idx, :, np.arange(ne)] = be[:, :, g].T
-            for b in range(m):
-                r0 = g * dim + ne + 3 * b
-                jf[r0 : r0 + 3, :, ne + 3 * b : ne + 3 * b + 3] = np.transpose(
-                    bs[:, b, 3 * g : 3 * g + 3, :], (1, 0, 2)
-                )
-        jf = jf[sel]
-        # extra rows through the exp steps: the natural steps u_i = h_i x_i / s
+        n, m, ne = prob.n, prob.m, prob.ne
+        lay, sp, h = prob.layout, prob.spec, prob.h
+        self.bs, self.be = prob.blocks(s)
+        self.sel = prob.sel
+        self.f = prob.residual(s)
         eu = np.where(sp.eu_closed, _eu_samples(prob, s), eu_orig)
         g_x, frames, d_rot, d_eu = extra.evaluate(s.rot, eu)
-        r = g_x.shape[0]
-        je = np.zeros((r, n, dim))
-        # a sample f depends on the cells i < f: "before[r, s, i]" = i < frames[r, s]
-        before = (np.arange(n)[None, None, :] < frames[:, :, None]).astype(np.float64)  # (R, S, n)
-        # delta eu_f = sum_{i<f} delta u_i (closed coordinates only)
-        tail_eu = np.einsum("rsi,rse->rie", before, d_eu)
-        je[:, :, :ne] = np.where(sp.eu_closed, tail_eu, 0.0) / lay.s_eu
+        r_count, slots = frames.shape
+        self.n_extra = r_count
+        self.fsel = np.concatenate([self.f[self.sel], g_x])
+        self.n_closing = self.fsel.size - r_count
+        # the atoms (row, slot) with a frame > 0 (sample 0 is fixed; -1 marks an unused slot)
+        # and the row's derivative there, pulled back by R_f
+        valid = (frames > 0).reshape(-1)
+        self.fr = frames.reshape(-1)[valid]
+        atom_row = np.repeat(np.arange(r_count), slots)[valid]
+        a_count = self.fr.size
+        d_flat = np.zeros((a_count, lay.dim))
+        d_flat[:, :ne] = np.where(sp.eu_closed, d_eu, 0.0).reshape(-1, ne)[valid]
         if m:
-            # delta R_f R_f^T = sum_{i<f} R_f R_{i+1}^T dexp_{u_i} delta u_i
-            fr = np.maximum(frames, 0)
-            d_back = np.einsum("rsbj,rsbjk->rsbk", d_rot, s.rot[fr])  # (dg/domega_f) R_f
-            tail = np.einsum("rsi,rsbk->ribk", before, d_back)  # (R, n, m, 3): sum over f > i
-            dmat = _SO3.dexp_matrix(s.u_so3)  # (n, m, 3, 3)
-            a = np.einsum("fbji,fbjk->fbik", s.rot[1:], dmat)  # R_{i+1}^T dexp_{u_i}
-            ju = np.einsum("ribj,ibjk->ribk", tail, a)
-            je[:, :, ne:] = (ju / lay.s_so3[:, None]).reshape(r, n, 3 * m)
-        je *= prob.h[None, :, None]
-        jm = np.concatenate([jf, je], axis=0)
-        # J_i = (rows w.r.t. M_i dq_i) M_i, M_i symmetric
-        qn = np.where(s.qn > 0, s.qn, 1.0)
-        coef = np.einsum("rij,ij->ri", jm, s.q) / qn
-        self.jac = jm * s.qn[None, :, None] + coef[:, :, None] * s.q[None] * (s.qn > 0)[None, :, None]
-        self.h = prob.h
-        self.fsel = np.concatenate([full[sel], g_x])
-        self.n_extra = r
+            d_atoms = d_rot.reshape(-1, m, 3)[valid]
+            d_flat[:, ne:] = np.einsum("abj,abjk->abk", d_atoms, s.rot[self.fr]).reshape(a_count, 3 * m)
+        self.d_flat = d_flat
+        # rows = sum of their atoms: a sparse (R, A); sample f collects the atoms at f: (n+1, A)
+        self._rows = scipy.sparse.csr_matrix(
+            (np.ones(a_count), (atom_row, np.arange(a_count))), shape=(r_count, a_count)
+        )
+        self._scatter = scipy.sparse.csr_matrix(
+            (np.ones(a_count), (self.fr, np.arange(a_count))), shape=(n + 1, a_count)
+        )
+        # per-cell maps, natural units: t_i = scale_i * A_i (M_i dq_i) on the SO(3) copies
+        self.scale_rot = h[:, None] / lay.s_so3[None, :]  # (n, m)
+        self.scale_eu = h[:, None] / lay.s_eu[None, :]  # (n, e)
+        self.a = np.matmul(np.swapaxes(s.rot[1:], -1, -2), s.dexp) if m else np.zeros((n, 0, 3, 3))
         self._gmat: np.ndarray | None = None
+        self._factor: tuple | None = None
+
+    # -- the extra rows -----------------------------------------------------------------------
+    def _cell_tangents(self, md: np.ndarray) -> np.ndarray:
+        """``(n, dim)``: each cell's contribution to the samples after it (``md = M d``)."""
+        ne, m = self.prob.ne, self.prob.m
+        t = np.empty_like(md)
+        t[:, :ne] = self.scale_eu * md[:, :ne]
+        if m:
+            rot = np.einsum("ibjk,ibk->ibj", self.a, md[:, ne:].reshape(-1, m, 3))
+            t[:, ne:] = (self.scale_rot[:, :, None] * rot).reshape(-1, 3 * m)
+        return t
+
+    def _extra_forward(self, md: np.ndarray) -> np.ndarray:
+        t = self._cell_tangents(md)
+        prefix = np.concatenate([np.zeros((1, t.shape[1])), np.cumsum(t, axis=0)])  # (n+1, dim)
+        return self._rows @ np.einsum("ad,ad->a", self.d_flat, prefix[self.fr])
+
+    def _extra_adjoint_w(self, lam: np.ndarray) -> np.ndarray:
+        """``B^T`` part of the adjoint (before ``M`` and ``1/h``): ``(n, dim)``."""
+        ne, m, n = self.prob.ne, self.prob.m, self.prob.n
+        cov = self._scatter @ ((self._rows.T @ lam)[:, None] * self.d_flat)
+        suffix = np.cumsum(cov[::-1], axis=0)[::-1]  # suffix[f] = sum_{g >= f} cov[g]
+        after = suffix[1:]  # cell i feeds the samples i+1, ..., n
+        w = np.empty((n, after.shape[1]))
+        w[:, :ne] = self.scale_eu * after[:, :ne]
+        if m:
+            rot = np.einsum("ibjk,ibj->ibk", self.a, after[:, ne:].reshape(n, m, 3))
+            w[:, ne:] = (self.scale_rot[:, :, None] * rot).reshape(n, 3 * m)
+        return w
+
+    # -- the interface of _Linear ---------------------------------------------------------------
+    def forward(self, d: np.ndarray) -> np.ndarray:
+        prob = self.prob
+        md = prob._apply_m(self.s, d)
+        closing = prob.forward(self.s, self.bs, self.be, d)[self.sel]
+        return np.concatenate([closing, self._extra_forward(md)])
+
+    def adjoint(self, lam: np.ndarray) -> np.ndarray:
+        prob = self.prob
+        k = self.n_closing
+        z = np.zeros_like(self.f)
+        z[self.sel] = lam[:k]
+        out = prob.adjoint(self.s, self.bs, self.be, z)
+        if self.n_extra:
+            out += prob._apply_m(self.s, self._extra_adjoint_w(lam[k:])) / prob.h[:, None]
+        return out
 
     @property
     def gmat(self) -> np.ndarray:
-        """``J J^*`` (assembled on first use: the Hessian products need only ``J^*``)."""
+        """``J J^*`` of all rows (assembled on first use: Hessian products need only ``J^*``)."""
         if self._gmat is None:
-            flat = self.jac.reshape(self.jac.shape[0], -1)
-            w = np.repeat(1.0 / self.h, self.jac.shape[2])
-            self._gmat = (flat * w) @ flat.T
+            self._gmat = self._assemble_gram()
         return self._gmat
 
-    def forward(self, d: np.ndarray) -> np.ndarray:
-        return np.einsum("ria,ia->r", self.jac, d)
-
-    def adjoint(self, lam: np.ndarray) -> np.ndarray:
-        return np.einsum("r,ria->ia", lam, self.jac) / self.h[:, None]
+    def _assemble_gram(self) -> np.ndarray:
+        prob, s = self.prob, self.s
+        n, m, ne, dim, h = prob.n, prob.m, prob.ne, prob.layout.dim, prob.h
+        lay = prob.layout
+        g_cc = prob.gram(s, self.bs, self.be)[np.ix_(self.sel, self.sel)]
+        if not self.n_extra:
+            return g_cc
+        qn2 = s.qn**2
+        d, fr = self.d_flat, self.fr
+        # J_{r,i} = (B_i^T W_r(i))^T M_i, M_i^2 = |q_i|^2 I + 3 q_i q_i^T
+        # (1) the |q|^2 part, block diagonal per cell: prefix of C_i = |q_i|^2 h_i / s^2 A_i A_i^T
+        c_eu = (qn2 * h)[:, None] / lay.s_eu[None, :] ** 2  # (n, e)
+        c_rot = (
+            (qn2 * h)[:, None, None, None]
+            / (lay.s_so3**2)[None, :, None, None]
+            * np.einsum("ibjk,iblk->ibjl", self.a, self.a)
+        )
+        k_eu = np.concatenate([np.zeros((1, ne)), np.cumsum(c_eu, axis=0)])[fr]  # (A, e)
+        k_rot = np.concatenate([np.zeros((1, m, 3, 3)), np.cumsum(c_rot, axis=0)])[fr]  # (A, m, 3, 3)
+        e_flat = np.empty_like(d)
+        e_flat[:, :ne] = k_eu * d[:, :ne]
+        if m:
+            e_flat[:, ne:] = np.einsum("abjk,abk->abj", k_rot, d[:, ne:].reshape(-1, m, 3)).reshape(-1, 3 * m)
+        prod = e_flat @ d.T  # [a, b] = D_a^T K(f_a) D_b, right when f_a <= f_b
+        g_atoms = np.where(fr[:, None] <= fr[None, :], prod, prod.T)
+        # (2) the rank-one part 3 (b . q)(b . q) / h: z[a, i] = D_a . y_i for the cells i < f_a
+        y = np.empty((n, dim))
+        y[:, :ne] = self.scale_eu * s.q[:, :ne]
+        if m:
+            y[:, ne:] = (
+                self.scale_rot[:, :, None] * np.einsum("ibjk,ibk->ibj", self.a, s.q[:, ne:].reshape(n, m, 3))
+            ).reshape(n, 3 * m)
+        y *= np.sqrt(3.0 / h)[:, None]
+        z = (d @ y.T) * (np.arange(n)[None, :] < fr[:, None])  # (A, n)
+        rows = self._rows
+        z_rows = rows @ z  # (R, n)
+        g_xx = rows @ (rows @ g_atoms).T + z_rows @ z_rows.T
+        # closing rows x extra rows
+        k = self.be.shape[-1]
+        bs, be = self.bs, self.be
+        v_eu = np.concatenate(
+            [np.zeros((1, ne, k)), np.cumsum((qn2[:, None, None] / lay.s_eu[None, :, None]) * be, axis=0)]
+        )[fr]  # (A, e, k)
+        g_cx = np.zeros((k * dim, fr.size))
+        for g in range(k):
+            g_cx[g * dim : g * dim + ne] = (v_eu[:, :, g] * d[:, :ne]).T
+        if m:
+            v_rot = (qn2[:, None] / lay.s_so3[None, :])[:, :, None, None] * np.einsum(
+                "ibjk,ibrk->ibrj", self.a, bs
+            )  # (n, m, R, 3): (|q|^2 / s) A_i b_row
+            v_rot = np.concatenate([np.zeros((1,) + v_rot.shape[1:]), np.cumsum(v_rot, axis=0)])[fr]
+            blk = np.einsum("abrj,abj->abr", v_rot, d[:, ne:].reshape(-1, m, 3))  # (A, m, R)
+            for g in range(k):
+                idx = g * dim + ne + 3 * np.arange(m)[:, None] + np.arange(3)[None, :]  # (m, 3)
+                g_cx[idx.ravel()] = blk[:, :, 3 * g : 3 * g + 3].reshape(-1, 3 * m).T
+        g_cx = (rows @ g_cx.T).T
+        # rank-one part: (b_c . q) sqrt(3 / h) against z
+        yc = np.empty((n, k * dim))
+        for g in range(k):
+            yc[:, g * dim : g * dim + ne] = be[:, :, g] * s.q[:, :ne]
+            if m:
+                yc[:, g * dim + ne : (g + 1) * dim] = np.einsum(
+                    "ibrk,ibk->ibr", bs[:, :, 3 * g : 3 * g + 3], s.q[:, ne:].reshape(n, m, 3)
+                ).reshape(n, 3 * m)
+        g_cx += (yc * np.sqrt(3.0 / h)[:, None]).T @ z_rows.T
+        g_cx = g_cx[self.sel]
+        return np.block([[g_cc, g_cx], [g_cx.T, g_xx]])
 
 
 def _dot(h: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -220,7 +352,7 @@ def _dot(h: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _newton_step(
-    prob: _Problem, lin: _Linear | _DenseLinear, e: np.ndarray, lam: np.ndarray, linearise, max_cg: int = 20
+    prob: _Problem, lin: _Linear | _ExtraLinear, e: np.ndarray, lam: np.ndarray, linearise, max_cg: int = 20
 ) -> np.ndarray:
     """SQP step with the Hessian of the Lagrangian ``W = I - sum_k lam_k Hess F_k``.
 
@@ -243,9 +375,9 @@ def _newton_step(
         return v - (jt_lam(q + eps * v) - jt_lam(q - eps * v)) / (2.0 * eps)
 
     def proj(v: np.ndarray) -> np.ndarray:
-        return v - lin.adjoint(_solve(lin.gmat, lin.forward(v)))
+        return v - lin.adjoint(_solve(lin, lin.forward(v)))
 
-    dn = -lin.adjoint(_solve(lin.gmat, lin.fsel))
+    dn = -lin.adjoint(_solve(lin, lin.fsel))
     # only the null-space part of the model gradient matters: project it once and after each
     # update (the range part of e is large, and projecting it anew each time loses accuracy)
     r = proj(e + wv(dn))
@@ -273,13 +405,13 @@ def _newton_step(
 
 def _kkt(lin: _Linear, e: np.ndarray, h: np.ndarray) -> tuple[float, np.ndarray]:
     """Relative KKT residual and least-squares multipliers at ``q = q_orig + e``."""
-    lam = _solve(lin.gmat, lin.forward(e))
+    lam = _solve(lin, lin.forward(e))
     ne = _l2(e, h)
     if ne == 0.0:
         return 0.0, lam
     res = e - lin.adjoint(lam)
     for _ in range(2):  # iterative refinement of the normal equations (J J^* is ill-conditioned)
-        lam = lam + _solve(lin.gmat, lin.forward(res))
+        lam = lam + _solve(lin, lin.forward(res))
         res = e - lin.adjoint(lam)
     return _l2(res, h) / ne, lam
 
@@ -334,6 +466,7 @@ def project_closed(
     cut_locus_tol: float = 1e-6,
     rotation_names: Sequence[str] | None = None,
     extra: ExtraConstraints | None = None,
+    stall_iterations: int | None = None,
 ) -> ClosingResult:
     """The closed curve nearest ``curve`` in SRV L2 (a KKT point of the projection).
 
@@ -366,8 +499,13 @@ def project_closed(
         One name per ``SO(3)`` copy, for error messages.
     extra : ExtraConstraints, optional
         More equality constraints on the integrated curve (e.g. contacts of a motion), solved
-        in the same projection; their rows follow the closing rows in ``multipliers``. The
-        Jacobian is then assembled densely (``R x n x dim`` numbers for ``R`` rows).
+        in the same projection; their rows follow the closing rows in ``multipliers``. Their
+        Jacobian is applied by prefix sums over the cells and ``J J^*`` assembled from
+        per-frame blocks (``_ExtraLinear``): ``O(n dim + R^2 dim)`` per linearisation.
+    stall_iterations : int, optional
+        Give up (``converged=False``, the message says the constraints look inconsistent)
+        when the gap has not dropped by 20 % over this many iterations (after the first
+        few): a caller that can relax its constraints learns early that it must.
 
     Returns
     -------
@@ -395,8 +533,8 @@ def project_closed(
     state = _evaluate_or_raise(prob, q)
     eu_orig = _eu_samples(prob, state)
 
-    def linearise(st: _State) -> _Linear | _DenseLinear:
-        return _DenseLinear(prob, st, extra, eu_orig) if extra is not None else _Linear(prob, st)
+    def linearise(st: _State) -> _Linear | _ExtraLinear:
+        return _ExtraLinear(prob, st, extra, eu_orig) if extra is not None else _Linear(prob, st)
 
     def feasibility(st: _State) -> float:
         f = prob.residual(st)[prob.sel]
@@ -414,13 +552,14 @@ def project_closed(
     objs = [0.0]
     steps: list[float] = []
     kkts = [kkt]
+    feas_hist = [feas]
     rho = 0.0
     it = 0
     converged = feas <= tol and kkt <= kkt_tol
     message = "already closed" if converged else f"reached max_iter = {max_iter}"
     newton = False
     while not converged and it < max_iter:
-        lam_step = _solve(lin.gmat, -lin.fsel + lin.forward(e))
+        lam_step = _solve(lin, -lin.fsel + lin.forward(e))
         rho = max(rho, 2.0 * float(np.linalg.norm(lam_step)) + 1e-12)
         merit = 0.5 * _l2(e, h) ** 2 + rho * feas
         accepted = None
@@ -439,7 +578,7 @@ def project_closed(
             # near the solution the merit function cannot resolve the step (its decrease is
             # below rounding): take the full step while it keeps the curve closed
             tiny = _l2(d, h) <= 1e-6 * max(_l2(e, h), 1e-300)
-            for _ in range(40):
+            for _ in range(24):  # down to alpha = 6e-8: a shorter step is no step
                 try:
                     trial = prob.evaluate(q + alpha * d)
                 except _CutLocus:
@@ -473,11 +612,21 @@ def project_closed(
         if feas <= tol and kkt <= kkt_tol:
             converged = True
             message = f"converged in {it} iterations (KKT residual {kkt:.2g})"
-        elif newton and feas <= tol and len(kkts) > 4 and kkt > 0.5 * min(kkts[-4:-1]):
+        elif newton and feas <= tol and kkt < 1e-6 and len(kkts) > 4 and kkt > 0.5 * min(kkts[-4:-1]):
             message = f"stalled at KKT residual {kkt:.2g} after {it} iterations (rounding floor)"
+            break
+        elif (
+            stall_iterations
+            and feas > tol
+            and len(feas_hist) > stall_iterations + 4
+            and (feas > 0.8 * feas_hist[-stall_iterations])
+        ):
+            # the constraints do not fit together: the gap stops decreasing
+            message = f"the constraints look inconsistent: gap {feas:.3g} after {it} iterations"
             break
         elif not newton and kkt > 0.2 * kkts[-2]:
             newton = True  # the identity model converges slowly here: use the Lagrangian's Hessian
+        feas_hist.append(feas)
 
     q_final = prob.to_group(q)
     out_curve, closed = _closed_output(prob, curve, srv, q_final, moved=it > 0, keep_free=keep_free)

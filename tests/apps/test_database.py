@@ -150,6 +150,40 @@ def test_compute_tile_layout() -> None:
     ).all()
 
 
+def test_compute_tile_batched_dp_equals_one_optimal_warp_per_pair() -> None:
+    """The tile's batched DP gives each pair the distance of ``optimal_warp(method="dp")``,
+    across skeleton groups (another D) and for arrays of another length in the same tile."""
+    from elastic_motion.warp import optimal_warp
+
+    rng = np.random.default_rng(11)
+    q = [np.cumsum(rng.normal(size=(16, 3)), axis=0) / 4 for _ in range(4)]
+    q.append(rng.normal(size=(16, 5)))  # group 1: D = 5
+    q.append(rng.normal(size=(16, 5)))
+    q.append(rng.normal(size=(10, 3)))  # group 0, another length: solved in its own batch
+    groups = np.array([0, 0, 0, 0, 1, 1, 0])
+    rows, cols = np.array([0, 1, 4]), np.arange(7)
+    warp = WarpOptions(method="dp", neighbourhood=5)
+    tile = compute_tile(rows, cols, [q[i] for i in rows], q, groups[rows], groups, warp)
+    for a, i in enumerate(rows):
+        for j in cols:
+            if i == j:
+                assert tile[a, j] == 0.0
+            elif i > j:
+                assert np.isnan(tile[a, j])
+            elif groups[i] != groups[j]:
+                assert tile[a, j] == np.inf
+            else:
+                ref = optimal_warp(q[i], q[j], method="dp", neighbourhood=5).distance
+                assert tile[a, j] == pytest.approx(ref, rel=1e-12), (i, j)
+                assert tile[a, j] == pair_distance(q[i], q[j], warp)  # the same numbers one by one
+    c2f = compute_tile(
+        rows[:1], cols[:3], q[:1], q[:3], groups[:1], groups[:3], warp.replace(coarse_to_fine=True)
+    )
+    assert c2f[0, 1] == pytest.approx(
+        optimal_warp(q[0], q[1], **warp.replace(coarse_to_fine=True).solver_kwargs()).distance
+    )
+
+
 def test_find_motion_files_ignores_text_and_keeps_bad_files(db_dir: Path) -> None:
     files, ignored = find_motion_files([db_dir, db_dir / "missing.bvh"])
     names = [f.name for f in files]
@@ -393,6 +427,12 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_run, db_dir: Path, tmp_p
     )
     assert res.complete and res.report["engine"] == "local" and res.report["workers"] == 2
     assert _arrays(res.out_dir) == _arrays(serial_run.out_dir)
+    # the files were read and prepared on the workers: the same cache, skipped files included
+    from elastic_motion.apps.database import SRVCache
+
+    a, b = (SRVCache.load(Path(d) / "srv_cache.npz") for d in (res.out_dir, serial_run.out_dir))
+    assert (a.names, a.paths, a.skipped, a.info) == (b.names, b.paths, b.skipped, b.info)
+    assert all(x.tobytes() == y.tobytes() for r in a.q for x, y in zip(a.q[r], b.q[r], strict=True))
 
 
 _KILLER = textwrap.dedent(

@@ -402,3 +402,6 @@ def test_cluster_worth_it_only_for_enough_work() -> None:
     n = int(2 * LOCAL_CLUSTER_STARTUP / estimated_serial_seconds(1, 64, w)) + 2
     assert cluster_worth_it(n, 64, w)[0] and not cluster_worth_it(n // 2, 64, w)[0]
     assert estimated_serial_seconds(10, 64, WarpOptions("none")) < estimated_serial_seconds(10, 64, w)
+    # one optimal_warp call per pair (refinement, coarse to fine) costs more than the batched DP
+    for slower in (WarpOptions("dp+refine", 6), WarpOptions("dp", 6, coarse_to_fine=True)):
+        assert estimated_serial_seconds(10, 64, slower) > estimated_serial_seconds(10, 64, w)

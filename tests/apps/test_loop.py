@@ -83,7 +83,7 @@ def test_loop_closes_real_clips_and_keeps_travel(mocap_dir, key):
 @pytest.mark.mocap
 def test_cmu_cartwheels_49_08_long_clip(mocap_dir):
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
-    res = loop_motion(m)
+    res = loop_motion(m, contacts="report")  # the projection alone (kept contacts: test_loop_contacts)
     m = res.original  # prepared: metres, Y-up
     assert res.closing.converged and res.closing.iterations <= 15
     assert res.closing.kkt_residual < 1e-8  # the default solver: the nearest closed curve
@@ -135,7 +135,7 @@ def test_euler_baseline_degrades_on_flips(mocap_dir, key):
     # a flip turns the root by 2 pi: the unwrapped Euler angles end 2 pi away from where they
     # started, and closing them undoes the flip (paper 000, sec. 5.4: the character floats)
     m = load(mocap_dir, key)
-    lie = loop_motion(m)
+    lie = loop_motion(m, contacts="report")  # the two projections alone
     eul = loop_motion(m, method="euler-elastic", solver="gauss-newton")  # paper 001's projection
     assert lie.closing.converged and eul.closing.converged
     dl = seam_metrics(lie.motion, original=m)

@@ -124,7 +124,7 @@ def test_contacts_reported_or_skipped():
 @pytest.mark.mocap
 def test_auto_window_of_cmu_cartwheels_changes_a_third_of_the_whole_clip(mocap_dir):
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
-    res = loop_motion(m, window="auto", candidates=2)
+    res = loop_motion(m, window="auto", candidates=2, contacts="report")  # the projections alone
     w = res.window
     assert res.closing.converged and res.closing.kkt_residual < 1e-8
     assert w.deviation_max_m <= w.whole["deviation_max_m"] / 3
@@ -143,7 +143,7 @@ def test_contact_rows_jacobian_matches_central_differences():
     mask[10:25] = True  # an interior contact
     mask[40:] = True  # a contact reaching the last frame: rows relative to it
     contacts = Contacts(("foot",), np.array([3]), mask, 0.0, np.array([0.0]), m.fps, "y")
-    cc = ContactConstraints(m, contacts, step=0.1)
+    cc = ContactConstraints(m, contacts)
     rng = np.random.default_rng(1)
     rot = m.rotations @ SO3G.exp(rng.normal(size=(m.n_frames, 4, 3)) * 0.1)
     eu = m.root_translation + rng.normal(size=(m.n_frames, 3)) * 0.01
@@ -176,8 +176,8 @@ def test_contact_rows_jacobian_matches_central_differences():
 @pytest.mark.mocap
 def test_contacts_kept_plant_the_deepmimic_run(mocap_dir):
     path = mocap_dir / "deepmimic/humanoid3d_run.txt"
-    plain = loop_motion(path)
-    kept = loop_motion(path, contacts="keep")
+    plain = loop_motion(path, contacts="report")
+    kept = loop_motion(path)  # the default: contacts kept
     assert kept.closing.converged and kept.closing.kkt_residual < 1e-8
     assert kept.contacts_kept["rows"] > 0 and "dropped" not in kept.contacts_kept
     assert kept.seam_after.seam_angle_max_deg < 1e-3
@@ -197,7 +197,7 @@ def test_contacts_that_give_way_are_reported():
     mask = np.zeros((50, 1), dtype=bool)
     mask[10:25] = True
     contacts = Contacts(("foot",), np.array([3]), mask, 0.0, np.array([0.0]), m.fps, "y")
-    cc = ContactConstraints(m, contacts, step=0.1)
+    cc = ContactConstraints(m, contacts)
     assert cc.gave_way(m.rotations, m.root_translation) == []  # the input meets its own contacts
     rot = m.rotations.copy()
     rot[22, 1] = SO3G.exp(np.array([0.0, 0.0, 0.1])) @ rot[22, 1]  # the hip moves in a sampled frame

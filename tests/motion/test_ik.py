@@ -127,3 +127,38 @@ def test_root_correction_brings_far_targets_within_reach():
     fixed = m.replace(root_translation=m.root_translation + off)
     out = solve_legs(fixed, legs[:1], [t])
     np.testing.assert_allclose(forward_kinematics(out)[10:20, la], t[10:20], atol=2e-3)
+
+
+def test_two_bone_ik_straightens_a_hyperextended_knee_instead_of_mirroring_it():
+    # a knee bent forward by 6 degrees, straight, then bent backwards by 6 degrees (blends of
+    # two walks do that), the ankle to come 5 cm nearer the hip: with the hinge axis known,
+    # every frame bends the knee forward by the same angle (the old rule mirrored the bend of
+    # a backward knee: a jump of twice the bend where the leg passes straight)
+    th = np.radians(np.linspace(6.0, -6.0, 13))
+    down = np.array([0.0, -1.0, 0.0])
+    fwd = np.array([0.0, 0.0, 1.0])
+    thigh = 0.45 * (np.cos(th / 2)[:, None] * down + np.sin(th / 2)[:, None] * fwd)
+    shin = 0.4 * (np.cos(th / 2)[:, None] * down - np.sin(th / 2)[:, None] * fwd)
+    a = np.zeros((13, 3))
+    b, c = a + thigh, a + thigh + shin
+    t = np.tile([[0.0, -0.80, 0.0]], (13, 1))
+    hinge = np.tile([[-1.0, 0.0, 0.0]], (13, 1))  # (c - a) x (b - a) of a forward bend
+    r_hip, r_knee = two_bone_ik(a, b, c, t, hinge)
+    knee = a + np.einsum("fij,fj->fi", r_hip, b - a)
+    ankle = knee + np.einsum("fij,fj->fi", r_knee, c - b)
+    np.testing.assert_allclose(ankle, t, atol=1e-9)
+    assert (knee[:, 2] > 0.05).all()  # bent forward
+    np.testing.assert_allclose(knee, np.broadcast_to(knee[6], knee.shape), atol=1e-9)
+
+
+def test_the_hinge_axis_is_the_way_the_knee_bends_most():
+    # first bent frame slightly backwards, all others well forward: the hinge follows the many
+    from elastic_motion.motion.ik import _bend_axis_local
+
+    th = np.radians(np.array([-4.0, 30.0, 40.0, 50.0, 35.0]))
+    down, fwd = np.array([0.0, -1.0, 0.0]), np.array([0.0, 0.0, 1.0])
+    thigh = 0.45 * (np.cos(th / 2)[:, None] * down + np.sin(th / 2)[:, None] * fwd)
+    shin = 0.4 * (np.cos(th / 2)[:, None] * down - np.sin(th / 2)[:, None] * fwd)
+    a = np.zeros((5, 3))
+    axis = _bend_axis_local(np.tile(np.eye(3), (5, 1, 1)), a, a + thigh, a + thigh + shin)
+    np.testing.assert_allclose(axis, [-1.0, 0.0, 0.0], atol=1e-12)

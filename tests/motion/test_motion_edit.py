@@ -178,3 +178,143 @@ def test_merge_root_keeps_fk(mocap_dir):
     assert np.ptp(g.root_translation[:, 2]) > 100  # the walk moves the new root (cm)
     with pytest.raises(ValueError, match="exactly one child"):
         merge_root(g)
+
+
+def test_lift_out_of_floor_raises_the_dips_smoothly_and_spares_fixed_frames():
+    from elastic_motion.motion import lift_out_of_floor
+    from elastic_motion.motion.skeleton import Motion, Skeleton
+
+    sk = Skeleton(
+        names=("root", "foot"), parents=[-1, 0], offsets=[[0, 0, 0], [0, -1.0, 0]],
+        channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+                  ("Zrotation", "Yrotation", "Xrotation")),
+        end_site_parents=[1], end_site_offsets=[[0, -0.1, 0]],
+    )  # fmt: skip
+    f = 90
+    root = np.zeros((f, 3))
+    root[:, 1] = 1.2  # the end site at 0.1 above the floor
+    root[40:45, 1] -= np.array([0.1, 0.2, 0.3, 0.2, 0.1])  # a dip to 0.2 below
+    root[2, 1] -= 0.25  # a dip next to the fixed first frame
+    m = Motion(sk, 30.0, root, np.broadcast_to(np.eye(3), (f, 2, 3, 3)).copy(), metres_per_unit=1.0)
+    low = forward_kinematics(m, end_sites=True)[..., 1].min(axis=1)
+    out, lift = lift_out_of_floor(m, 0.0, ease=0.1, fixed=(0, f - 1))
+    new_low = forward_kinematics(out, end_sites=True)[..., 1].min(axis=1)
+    assert np.all(new_low[30:60] >= -1e-12)  # the dip is out of the floor
+    assert lift[42] == pytest.approx(0.2) and lift[41] >= 0.1 and lift[43] >= 0.1
+    assert lift[0] == 0.0 and lift[-1] == 0.0 and 0.0 < lift[1] < lift[2]  # eased to the fixed frame
+    assert lift[2] == pytest.approx(0.15)  # a third of the ease away from it: lifted in full
+    assert np.all(lift[:1] == 0) and np.all(lift[50:] == 0)  # only around the dips
+    assert np.abs(np.diff(lift)).max() < 0.2  # eased in: no step as big as the dip
+    np.testing.assert_allclose(out.root_translation[:, [0, 2]], m.root_translation[:, [0, 2]])
+    same, none = lift_out_of_floor(m, float(low.min()) - 1.0)  # nothing below: unchanged
+    assert same is m and not none.any()
+    # a per-frame floor (an original's own lowest point): nothing lifted where it was already low
+    _, lift2 = lift_out_of_floor(m, np.minimum(0.0, low), fixed=(0, f - 1))
+    assert not lift2.any()
+
+
+def _synthetic(rot: np.ndarray, root: np.ndarray, fps: float = 30.0, jt: np.ndarray | None = None):
+    """A motion of J joints in a chain from rotations (F, J, 3, 3) and root translation (F, 3)."""
+    from elastic_motion.motion.skeleton import Motion, Skeleton
+
+    j = rot.shape[1]
+    sk = Skeleton(
+        names=tuple(f"j{k}" for k in range(j)),
+        parents=[-1, *range(j - 1)],
+        offsets=[[0.0, 0.1 * (k > 0), 0.0] for k in range(j)],
+        channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),)
+        + (("Zrotation", "Yrotation", "Xrotation"),) * (j - 1),
+    )
+    return Motion(sk, fps, root, rot, joint_translations=jt, metres_per_unit=1.0)
+
+
+def _geodesic(f: int, j: int, seed: int = 0) -> np.ndarray:
+    """Constant-speed geodesics R_f = R_0 exp(f w) per joint, up to 0.1 rad per frame."""
+    from elastic_motion.groups import SO3
+
+    rng = np.random.default_rng(seed)
+    so3 = SO3()
+    r0 = so3.exp(rng.normal(size=(j, 3)))
+    w = rng.uniform(-0.1, 0.1, size=(j, 3))
+    return r0[None] @ so3.exp(np.arange(f)[:, None, None] * w[None])
+
+
+def test_smooth_motion_keeps_linear_translation_and_constant_speed_rotation_exactly():
+    from elastic_motion.motion.edit import smooth_motion
+
+    f = 40
+    t = np.arange(f)[:, None]
+    root = np.array([0.3, 1.0, -0.2]) + t * np.array([0.02, 0.0, 0.05])  # linear in time
+    jt = np.broadcast_to(np.array([0.0, 0.1, 0.0]) + 0.001 * t[:, None, :], (f, 3, 3)).copy()
+    m = _synthetic(_geodesic(f, 3), root, jt=jt)
+    for sigma in (0.5 / 30, 2.0 / 30, 100.0):  # half a frame, two, and a kernel cut at F - 1
+        s = smooth_motion(m, sigma)
+        np.testing.assert_allclose(s.root_translation, root, atol=1e-12)
+        np.testing.assert_allclose(s.joint_translations, jt, atol=1e-12)
+        np.testing.assert_allclose(s.rotations, m.rotations, atol=1e-10)  # ends included
+    const = _synthetic(np.broadcast_to(m.rotations[:1], m.rotations.shape).copy(), np.ones((f, 3)))
+    np.testing.assert_allclose(smooth_motion(const, 0.05).rotations, const.rotations, atol=1e-12)
+    assert smooth_motion(m, 0.0) is m  # off: the motion itself
+
+
+def test_smooth_motion_attenuates_frame_rate_noise_and_keeps_slow_motion():
+    from elastic_motion.groups import SO3
+    from elastic_motion.motion.edit import smooth_motion
+
+    so3 = SO3()
+    f, fps = 120, 30.0
+    k = np.arange(f)
+    slow = 0.3 * np.sin(2 * np.pi * k / 40.0)  # 0.75 Hz: a gait-like frequency
+    alt = 0.02 * (-1.0) ** k  # the Nyquist frequency: frame-to-frame noise
+    root = np.column_stack([slow + alt, np.ones(f), np.zeros(f)])
+    axis = np.array([0.0, 0.0, 1.0])
+    rot = so3.exp(((slow + alt)[:, None] * axis)[:, None, :])  # (F, 1, 3, 3) about z
+    m = _synthetic(rot, root, fps)
+    s = smooth_motion(m, 1.0 / fps)  # one frame: gain exp(-pi^2 / 2) ~ 0.007 at Nyquist
+    angle = so3.log(s.rotations[:, 0])[:, 2]
+    inner = slice(8, -8)  # away from the ends
+    gain = np.exp(-2 * np.pi**2 * (1.0 / fps) ** 2 * (fps / 40.0) ** 2)  # 0.97 at 0.75 Hz
+    for x in (s.root_translation[:, 0], angle):
+        # the alternation (amplitude 0.02) is gone, the slow motion keeps its Gaussian gain
+        np.testing.assert_allclose(x[inner], gain * slow[inner], atol=5e-4)
+    # half a frame (the anti-aliasing default) attenuates less but still: about 0.58 at Nyquist
+    s5 = smooth_motion(m, 0.5 / fps)
+    slow5 = np.exp(-2 * np.pi**2 * (0.5 / 40.0) ** 2) * slow[inner]
+    left = (s5.root_translation[inner, 0] - slow5) / alt[inner]
+    assert 0.45 < np.median(left) < 0.7
+
+
+def test_smooth_motion_matches_a_gaussian_filter_inside_and_commutes_with_frames():
+    from scipy.ndimage import gaussian_filter1d
+
+    from elastic_motion.groups import SO3
+    from elastic_motion.motion.edit import smooth_motion
+
+    so3 = SO3()
+    rng = np.random.default_rng(3)
+    f, fps, sigma = 60, 120.0, 2.0 / 120.0
+    root = np.cumsum(rng.normal(scale=0.01, size=(f, 3)), axis=0)
+    rot = _geodesic(f, 2, seed=4) @ so3.exp(rng.normal(scale=0.05, size=(f, 2, 3)))
+    m = _synthetic(rot, root, fps)
+    s = smooth_motion(m, sigma)
+    assert s.rotations.shape == (f, 2, 3, 3) and s.root_translation.shape == (f, 3)
+    assert s.fps == fps and s.n_frames == f and s.skeleton is m.skeleton
+    np.testing.assert_array_equal(m.root_translation, root)  # input untouched
+    ref = gaussian_filter1d(root, 2.0, axis=0, truncate=4.0)  # same kernel away from the ends
+    np.testing.assert_allclose(s.root_translation[8:-8], ref[8:-8], atol=1e-12)
+    np.testing.assert_allclose(
+        np.swapaxes(s.rotations, -1, -2) @ s.rotations,
+        np.broadcast_to(np.eye(3), s.rotations.shape),
+        atol=1e-12,
+    )
+    # bi-invariant: a constant rotation on the left (world) and on the right (rest pose)
+    c, d = so3.exp(np.array([0.3, -1.2, 0.5])), so3.exp(np.array([-0.7, 0.2, 0.9]))
+    s2 = smooth_motion(m.replace(rotations=c @ rot @ d), sigma)
+    np.testing.assert_allclose(s2.rotations, c @ s.rotations @ d, atol=1e-10)
+    # noise is reduced: the rotation steps between frames get smaller
+    step = lambda r: np.linalg.norm(so3.log(np.swapaxes(r[:-1], -1, -2) @ r[1:]), axis=-1)  # noqa: E731
+    assert step(s.rotations)[8:-8].std() < 0.5 * step(rot)[8:-8].std()
+    with pytest.raises(ValueError, match="sigma"):
+        smooth_motion(m, -1.0)
+    with pytest.raises(ValueError, match="truncate"):
+        smooth_motion(m, 0.1, truncate=0.0)

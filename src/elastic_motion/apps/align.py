@@ -28,8 +28,17 @@ Conventions
   such as ``"dp"`` is short for ``WarpOptions(method="dp")``): the solver, the DP slopes,
   the frame rate the curves are resampled to (``sample_fps``, default 30: a warp is a
   function on ``[0, 1]``, independent of the sampling, and the DP cost grows with the
-  square of the frame count) and the *relative* landmark weight ``landmark_weight``
-  (:mod:`elastic_motion.warp.options`).
+  square of the frame count), the Gaussian low-pass before that sampling
+  (``sample_smoothing``, seconds) and the *relative* landmark weight
+  ``landmark_weight`` (:mod:`elastic_motion.warp.options`).
+* **Smoothing before sampling**: with ``fps`` given, :func:`motion_curves` low-passes each
+  motion (:func:`elastic_motion.motion.edit.smooth_motion`, standard deviation ``smoothing``
+  seconds, default 1/60 s) before it samples it, also when it is already at that rate: the
+  SRV ``q = v / sqrt|v|`` of a curve is a derivative, and without the low-pass the
+  capture's frame-to-frame noise, what lies above the Nyquist frequency of the sampled
+  curve and the choice of the sampling instants all show in the distance, which then grows
+  with the frame rate. The full-rate curves
+  (``fps=None``, the ones a blend is made of) are never smoothed.
 """
 
 from __future__ import annotations
@@ -52,7 +61,9 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
+from elastic_motion.motion.edit import smooth_motion
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
+from elastic_motion.warp.options import DEFAULT_SAMPLE_SMOOTHING
 
 __all__ = [
     "AUTO_LANDMARK_WEIGHT",
@@ -97,6 +108,7 @@ def motion_curves(
     *,
     fps: float | None = None,
     which: Sequence[int] | None = None,
+    smoothing: float = DEFAULT_SAMPLE_SMOOTHING,
 ) -> list[DiscreteCurve]:
     """The curves of prepared motions in the representation of ``method``.
 
@@ -110,6 +122,9 @@ def motion_curves(
         Downsample (geodesic interpolation) to at most this frame rate; default: as they are.
     which : sequence of int, optional
         Indices of the motions (default all).
+    smoothing : float, default ``WarpOptions().sample_smoothing`` (1/60 s)
+        With ``fps`` given: Gaussian low-pass of each motion before it is sampled, standard
+        deviation in seconds (module docstring); 0: none. Ignored without ``fps``.
 
     Returns
     -------
@@ -122,6 +137,8 @@ def motion_curves(
     ref_angles = None
     for k in idx:
         m = prepared.curve_motion(k)
+        if fps is not None and smoothing > 0:
+            m = smooth_motion(m, smoothing)
         if fps is not None and m.fps > fps * (1 + 1e-9):
             m = resample(m, fps)
         if method == "lie":
@@ -423,7 +440,7 @@ def align_motions(
             raise OptionError("motions", "expected two motions a and b; got b None")
         prep = prepare_motions([a, b], prepare)
     ma, mb = prep.motions
-    ca, cb = motion_curves(prep, method, fps=opts.sample_fps)
+    ca, cb = motion_curves(prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
     sa, sb = srv_transform(ca), srv_transform(cb)
     plan = plan_landmarks(landmarks, ma, mb, sa, sb, opts, kinds=landmark_kinds, max_pairs=max_pairs)
     pairs, opts = plan.pairs, plan.options

@@ -55,16 +55,21 @@ What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s)
    (:func:`elastic_motion.motion.contacts.detect_contacts`) are carried through the warps to
    the blend's frames and enforced by leg IK and a smooth root correction
    (:mod:`.cleanup`, :mod:`elastic_motion.motion.ik`; bone lengths kept). The change is
-   smoothed in time by the largest of 0.1, 0.05, 0.025, 0 s that leaves the blend skating at
-   most 0.9 times the lesser input's skating (their own contacts): the smoothest change
-   that skates less than the inputs. Skipped, with a note, when the inputs have no contacts
+   smoothed in time by the largest of 0.4, 0.3, ..., 0.025, 0 s that leaves the blend skating
+   at most 0.95 times the lesser input (its own contacts), and then only the least fraction of
+   the way to the plants that still does so (bisection): the smallest change of the blend's
+   velocities (what the elastic distance measures) that skates no more than the inputs;
+   planting harder than the inputs themselves would only move the blend farther from them.
+   The floor is enforced in full. Skipped, with a note, when the inputs have no contacts
    or a weight is 1. ``BlendResult.cleanup`` reports skating before and after and the
    largest pose change; ``before_cleanup`` keeps the blend before it.
 8. ``loop=True``: one matched cycle of each is blended (steps 1-6) and closed into a seamless
    loop by :func:`elastic_motion.apps.loop.loop_motion` (root ``"travel"``); then the
    clean-up (step 7) runs on the loop, and the small seam gap it leaves (it plants the
-   cycle's first and last contacts separately) is closed once more. The notes give the seam
-   and the skating after each step.
+   cycle's first and last contacts separately) is closed once more; where that closing pushes
+   a foot more than 5 mm into the floor, the feet are lifted out of it (the floor only, eased)
+   and the loop closed again (at most 3 times). The notes give the seam and the skating after
+   each step.
 
 Time-varying weights (``weight_curve``, two motions; paper 000 sec. 5.3)
 ----------------------------------------------------------------------
@@ -556,7 +561,7 @@ def blend_motions(
         warps = [np.asarray(v, dtype=np.float64) for v in template_warps]
         notes.append("warps: given (a common template computed once)")
     elif opts.method != "none":
-        coarse = motion_curves(prep, method, fps=opts.sample_fps)
+        coarse = motion_curves(prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
         if k == 2:
             sa, sb = srv_transform(coarse[0]), srv_transform(coarse[1])
             plan = plan_landmarks(
@@ -666,14 +671,33 @@ def blend_motions(
             seam = seam_metrics(result, joints=loop_res.closed_joints)
             loop_res = loop_motion(result, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False))
             result = loop_res.motion
+            from elastic_motion.apps.cleanup import cleanup_footskate
             from elastic_motion.apps.metrics import contact_skating
 
             again = contact_skating(result, cleaned.contacts)
+            floor_note = ""
+            below = again.below_floor
+            rounds = 0
+            while again.below_floor > _LOOP_FLOOR_TOL and rounds < _LOOP_FLOOR_ROUNDS:
+                # the closing spreads the seam over the cycle and may push a foot into the
+                # floor: lift it out (the floor only, eased) and close again
+                rounds += 1
+                result = cleanup_footskate(result, cleaned.contacts, smooth=0.0, strength=0.0).motion
+                loop_res = loop_motion(
+                    result, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False)
+                )
+                result = loop_res.motion
+                again = contact_skating(result, cleaned.contacts)
+            if rounds:
+                floor_note = (
+                    f" (a foot went {below:.3g} m below the floor in the closing: lifted out and "
+                    f"closed again {rounds} times)"
+                )
             notes.append(
                 f"loop: the clean-up left a seam of {seam.seam_position_max_m:.3g} m, "
                 f"{seam.seam_angle_max_deg:.3g} deg; closed again: seam "
                 f"{loop_res.seam_after.seam_position_max_m:.3g} m, skating while in contact "
-                f"{again.mean_speed:.3g} m/s, below the floor {again.below_floor:.3g} m"
+                f"{again.mean_speed:.3g} m/s, below the floor {again.below_floor:.3g} m" + floor_note
             )
     out_metrics = None
     if metrics:
@@ -727,9 +751,19 @@ def _cycle_span(prep: PreparedMotions, contacts: Any, max_cycles: int | None) ->
 
 
 #: The clean-up's smoothing of its change (s), tried in this order: the first whose skating is
-#: at most _SKATE_GOAL times the lesser input's is kept (0: the exact plants).
-_SMOOTHING = (0.1, 0.05, 0.025, 0.0)
-_SKATE_GOAL = 0.9
+#: at most _SKATE_GOAL times the lesser input's is kept (0: the exact plants); then the least
+#: fraction of the way to the plants (``strength``) that still meets the goal. The goal is the
+#: inputs' own skating (less 5 %, a margin for the written file and for the skating of the
+#: spans that ``cycles`` keeps): the clean-up removes what the blend adds, no more. The old goal
+#: of 0.9 with smoothings of at most 0.1 s moved the blends up to 33 % farther from their inputs
+#: (benchmarks/blend_quality.py, Bandai normal x tired); now at most 13 %.
+_SMOOTHING = (0.4, 0.3, 0.2, 0.15, 0.1, 0.07, 0.05, 0.035, 0.025, 0.0)
+_SKATE_GOAL = 0.95
+#: Bisection steps for the fraction of the way to the plants (1/64 resolution).
+_STRENGTH_STEPS = 6
+#: A loop's floor after the last closing: lift and close again while a foot is deeper (m).
+_LOOP_FLOOR_TOL = 0.005
+_LOOP_FLOOR_ROUNDS = 3
 
 
 def _contact_options(contacts: Any) -> ContactOptions | None:
@@ -775,7 +809,7 @@ def _cleanup(
         joints=result.skeleton.names,
         options=opts,
     )
-    # the smoothest change (least change of velocities) that skates less than the inputs
+    # the smoothest change (least change of velocities) that skates no more than the inputs
     from elastic_motion.apps.metrics import contact_skating
 
     own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
@@ -784,12 +818,22 @@ def _cleanup(
         res = cleanup_footskate(result, carried, smooth=smooth)
         if not res.applied or res.skating_after.mean_speed <= goal:
             break
+    if res.applied and res.skating_after.mean_speed < goal:
+        # then the least fraction of that change that still meets the goal (bisection)
+        lo, hi = 0.0, 1.0
+        for _ in range(_STRENGTH_STEPS):
+            mid = 0.5 * (lo + hi)
+            trial = cleanup_footskate(result, carried, smooth=res.smooth, strength=mid)
+            if trial.skating_after.mean_speed <= goal:
+                hi, res = mid, trial
+            else:
+                lo = mid
     if res.applied:
         notes.append(
             "clean-up: contacts carried through the warps and enforced by leg IK; skating "
             f"{res.skating_before.mean_speed:.3g} -> {res.skating_after.mean_speed:.3g} m/s (inputs "
             + ", ".join(f"{x:.3g}" for x in own)
-            + f"), change smoothed over {res.smooth:g} s; "
+            + f"), change smoothed over {res.smooth:g} s, {100 * res.strength:.0f} % of it kept; "
             f"largest change {res.max_position_change:.3g} m, {res.max_rotation_change_deg:.3g} deg"
         )
     else:

@@ -217,7 +217,7 @@ def blendspace(
         inputs=tuple(prep.inputs[i] for i in order) if prep.inputs else prep.inputs,
     )
     opts = WarpOptions(method="dp")
-    coarse = motion_curves(sorted_prep, method, fps=opts.sample_fps)
+    coarse = motion_curves(sorted_prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
     n = max(c.n_points for c in coarse) - 1
     km = karcher_mean(coarse, n_samples=n, warp=opts)
     notes = (

@@ -16,12 +16,17 @@ In the spirit of Kovar, Schreiner and Gleicher (2002):
    toe`` where only the toe is (the foot moves rigidly, heel off), and eases to 0 within
    ``blend_time`` (default 0.15 s) outside the contacts (smoothstep weights; two nearby
    contacts share the gap). A plant below the floor plus the joint's ground height is
-   raised to it.
+   raised to it. Where a point of the foot would go below the floor the ankle is raised, the
+   raise eased in and out over the same ``blend_time`` (:func:`_envelope`: a raise of a single
+   frame would jerk the knee of a nearly straight leg by tens of degrees).
 3. **IK** (:mod:`elastic_motion.motion.ik`): a smooth root offset brings every target
    within reach, two-bone leg IK moves the ankles to ``ankle + delta`` (the foot keeps its
    global orientation), and where ankle and toe are both planted the foot turns about the
    ankle to put the toe on its plant (the turn also eased in and out). Bone lengths are
    kept: only rotations of hip, knee and ankle joints and the root translation change.
+   The knee bends one way: a blended knee bent slightly backwards is straightened through 0,
+   not mirrored (:func:`elastic_motion.motion.ik.two_bone_ik` with the knee's hinge axis).
+   The last lift (no point of a foot below the floor after the smoothing) is eased likewise.
 
 Legs are found by name (:func:`elastic_motion.apps.landmarks.find_leg_joints`); contacts of
 other joints (hands) are measured but not enforced (a note says so). Lengths are in the
@@ -196,6 +201,8 @@ class CleanupResult:
     notes : tuple of str
     smooth : float
         The smoothing of the change used (seconds, :func:`cleanup_footskate`).
+    strength : float
+        The fraction of the way to the plants (:func:`cleanup_footskate`).
     """
 
     motion: Motion
@@ -209,6 +216,7 @@ class CleanupResult:
     applied: bool
     notes: tuple[str, ...] = field(default=())
     smooth: float = 0.0
+    strength: float = 1.0
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready (speeds in m/s, lengths in m)."""
@@ -221,6 +229,7 @@ class CleanupResult:
             "max_rotation_change_deg": self.max_rotation_change_deg,
             "max_root_offset_m": self.max_root_offset,
             "smooth_s": self.smooth,
+            "strength": self.strength,
             "contacts": self.contacts.summary(),
             "notes": list(self.notes),
         }
@@ -269,6 +278,18 @@ def _smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion
     )
 
 
+def _envelope(x: np.ndarray, width: int) -> np.ndarray:
+    """The smallest-looking smooth upper envelope of ``x >= 0`` ``(F,)``: each value eased in
+    and out over ``width`` frames (smoothstep), the maximum over the frames."""
+    f = x.shape[0]
+    out = x.copy()
+    for k in range(1, width + 1):
+        w = float(_smoothstep(np.array(1.0 - k / (width + 1.0))))
+        out[k:] = np.maximum(out[k:], w * x[: f - k])
+        out[: f - k] = np.maximum(out[: f - k], w * x[k:])
+    return out
+
+
 def _foot_low(pos_all: np.ndarray, sk, ankle: int, up: int) -> np.ndarray:
     """Lowest height per frame of the ankle, the joints under it and their end sites ``(F,)``."""
     sub = sk.subtree(ankle)
@@ -296,6 +317,7 @@ def cleanup_footskate(
     *,
     blend_time: float = 0.15,
     smooth: float = 0.05,
+    strength: float = 1.0,
     legs: Sequence[LegChain] | None = None,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
@@ -313,6 +335,10 @@ def cleanup_footskate(
         makes (the root offset and each joint's rotation change ``log(R^T R')``) in time;
         0 keeps the exact plants. Smoothing trades a little skating for a smaller change of
         the motion's velocities (which the elastic distance measures).
+    strength : float, default 1.0
+        Fraction in [0, 1] of the way from the blend's feet to their plants (the ankle's
+        correction and the foot's turn are scaled by it): less leaves part of the blend's
+        skating and changes it less. The floor is enforced in full whatever the fraction.
     legs : sequence of LegChain, optional
         Default :func:`find_legs`.
 
@@ -325,6 +351,8 @@ def cleanup_footskate(
         raise ValueError(
             f"contacts: expected {motion.n_frames} frames like the motion; got {contacts.n_frames}"
         )
+    if not (0.0 <= strength <= 1.0):
+        raise ValueError(f"strength: expected a fraction in [0, 1]; got {strength!r}")
     notes: list[str] = []
     if legs is None:
         found, leg_notes = find_legs(motion)
@@ -379,17 +407,18 @@ def cleanup_footskate(
             vec = np.zeros_like(pa)
             if both.any():
                 vec[both] = _SO3.log(rotation_between(pt[both] - pa[both], plant_t[both] - plant_a[both]))
-            vec = _ease(vec, both, width)
+            vec = strength * _ease(vec, both, width)
             turn = _SO3.exp(vec)
             # heel off: the ankle goes where the turned foot puts the toe on its plant
             only_toe = mt & ~ma
             foot = np.einsum("fij,fj->fi", turn[only_toe], pt[only_toe] - pa[only_toe])
             delta[only_toe] = plant_t[only_toe] - foot - pa[only_toe]
         known = ma | mt
-        delta = _ease(delta, known, width)
+        delta = strength * _ease(delta, known, width)
         # no point of the foot below the floor: raise the ankle where the foot would go under
         low = _foot_low(pos_all, sk, leg.ankle, up)
-        delta[:, up] = np.maximum(delta[:, up], contacts.floor - low)
+        # (eased in and out like the plants: a raise of one frame would jerk the knee)
+        delta[:, up] += _envelope(np.maximum(contacts.floor - low - delta[:, up], 0.0), width)
         moved = np.linalg.norm(delta, axis=1) > 0
         tgt = np.where(moved[:, None], pa + delta, np.nan)
         targets.append(tgt)
@@ -418,13 +447,14 @@ def cleanup_footskate(
     lift = []
     for leg in found:
         low = _foot_low(p_out, sk, leg.ankle, up)
-        under = low < contacts.floor
+        raise_ = _envelope(np.maximum(contacts.floor - low, 0.0), width)
+        under = raise_ > 0
         if not under.any():
             lift.append(None)
             continue
         t = np.full((motion.n_frames, 3), np.nan)
         t[under] = p_out[under, leg.ankle]
-        t[under, up] += contacts.floor - low[under]
+        t[under, up] += raise_[under]
         lift.append(t)
     if any(t is not None for t in lift):
         out = solve_legs(out, found, lift)
@@ -446,4 +476,5 @@ def cleanup_footskate(
         applied=True,
         notes=tuple(notes),
         smooth=float(smooth),
+        strength=float(strength),
     )

@@ -9,8 +9,10 @@ Conventions
 * The motions are prepared together (:func:`elastic_motion.apps.prepare.prepare_motions`:
   T-pose, metres, Y-up, joints, one frame rate, each placed like the first), their curves
   are built over the non-finger joints with weights shared by all (``"lie"``) or
-  unweighted (``"euler-*"``), at most ``warp.sample_fps`` frames per second, each on ``[0, 1]`` (a clip's
-  duration is normalised away: the distance compares shapes, not lengths).
+  unweighted (``"euler-*"``), at most ``warp.sample_fps`` frames per second after the
+  low-pass of ``warp.sample_smoothing`` (:func:`elastic_motion.apps.align.motion_curves`),
+  each on ``[0, 1]`` (a clip's duration is normalised away: the distance compares shapes,
+  not lengths).
 * ``warp`` (a :class:`elastic_motion.warp.WarpOptions` or a method name), ``"dp"``: the
   elastic distance ``min_phi ||q_i - q_j * phi||`` by dynamic programming
   (:func:`elastic_motion.warp.optimal_warp`), always with the lower index as the curve
@@ -115,7 +117,8 @@ def distance_table(
     if n < 2:
         raise OptionError("motions", f"expected at least 2 motions; got {n}")
     prep = prepare_motions(motions, prepare, labels=labels)
-    srvs = [srv_transform(c) for c in motion_curves(prep, method, fps=opts.sample_fps)]
+    curves = motion_curves(prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
+    srvs = [srv_transform(c) for c in curves]
     k = len(srvs)
     d = np.zeros((k, k))
     du = np.zeros((k, k))

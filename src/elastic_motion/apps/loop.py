@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -52,14 +53,14 @@ import numpy as np
 
 from elastic_motion import limits
 from elastic_motion._validation import check_finite
-from elastic_motion.apps.loop_contacts import ContactConstraints
+from elastic_motion.apps.loop_contacts import ContactConstraints, contact_grid, grid_step, lift_correction
 from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_within_limits
 from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
 from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sliding
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
 from elastic_motion.closing_kkt import project_closed
-from elastic_motion.curves import DiscreteCurve
+from elastic_motion.curves import DiscreteCurve, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, Euclidean
 from elastic_motion.motion import (
@@ -68,6 +69,8 @@ from elastic_motion.motion import (
     forward_kinematics,
     from_euler_curve,
     from_lie_curve,
+    lift_out_of_floor,
+    select_frames,
     to_euler_curve,
     to_lie_curve,
 )
@@ -102,6 +105,10 @@ LOOP_CONTACTS = ("keep", "report", "off")
 #: What the loop does with joint limits (ASF ``limits``): keep them (an active set of the
 #: projection, :mod:`elastic_motion.apps.loop_limits`), report them, or ignore them.
 LOOP_JOINT_LIMITS = ("keep", "report", "off")
+#: Kept contacts missed by at most this (metres) where the constrained projection stopped
+#: short are accepted: the loop is closed exactly from there (``contacts_kept["polished"]``),
+#: if that closing keeps them within twice this.
+POLISH_MISS = 0.005
 
 
 @dataclass(frozen=True, eq=False)
@@ -336,6 +343,61 @@ def _free(motion: Motion, free: str | Sequence[str] | None) -> list[str]:
 # ------------------------------------------------------------------------------------------
 
 
+def _solve_with_contacts(lie, motion: Motion, contacts: Contacts, *, max_release: int, solve):
+    """Close ``lie`` with the contacts kept; release contacts that conflict with closure.
+
+    When the projection with every contact fails (closure and contacts do not fit
+    together), first the contacts on the last frame of a joint that is in the air on the
+    first are released (closing puts the first pose on the last frame); after a further
+    failure, the contact that missed most at the failed solve (with any that missed at
+    least a quarter as much). At most ``max_release`` contacts and three re-solves. A
+    failed solve whose contacts all hold within ``POLISH_MISS`` is returned as it is (the
+    caller closes exactly from it).
+
+    Returns the closing result, the constraints it was solved with and the released
+    contacts (``joint``, ``frames`` on ``motion``'s frames, ``largest_miss_m`` at release
+    or None, ``why``).
+    """
+    mask = np.array(contacts.mask)
+    released: list[dict] = []
+    attempts = 0
+    while True:
+        kept = dataclasses.replace(contacts, mask=mask)
+        extra = ContactConstraints(motion, kept)
+        res = solve(lie, extra)
+        attempts += 1
+        if res.converged or len(released) >= max_release or attempts > 3 or not len(extra):
+            break
+        vals = np.asarray(res.curve.values)
+        rot, eu = vals[:, 3:].reshape(-1, motion.n_joints, 3, 3), vals[:, :3]
+        if np.abs(extra.residual(rot, eu)).max() <= POLISH_MISS:
+            break  # nearly held: the caller closes exactly from here, releasing nothing
+        if attempts == 1:
+            # a contact that reaches the last frame of a joint in the air on the first cannot
+            # hold: closing puts the first frame's pose, foot in the air, on the last frame
+            for k, name in enumerate(contacts.joints):
+                col = mask[:, k]
+                if col[-1] and not col[0] and len(released) < max_release:
+                    a = int(np.flatnonzero(~col)[-1]) + 1
+                    mask[a:, k] = False
+                    released.append(
+                        {"joint": name, "frames": [a, col.size], "largest_miss_m": None,
+                         "why": "planted on the last frame, in the air on the first"}
+                    )  # fmt: skip
+            if released:
+                continue
+        misses = extra.gave_way(rot, eu)
+        if not misses:
+            break
+        worst = max(g["largest_miss_m"] for g in misses)
+        for g in sorted(misses, key=lambda g: -g["largest_miss_m"]):
+            if g["largest_miss_m"] >= 0.25 * worst and len(released) < max_release:
+                a, b = g["frames"]
+                mask[a:b, contacts.joints.index(g["joint"])] = False
+                released.append({**g, "why": "missed most when the projection with it failed"})
+    return res, extra, released
+
+
 def _close_clip(
     motion: Motion,
     closed_joint: np.ndarray,
@@ -350,7 +412,8 @@ def _close_clip(
     translation_weight: float | None,
     contacts: str = "report",
     contact_options: ContactOptions | None = None,
-    contact_step: float = 0.034,
+    contact_step: float = 1.0 / 30.0,
+    max_release: int = 8,
     joint_limits: JointLimits | None = None,
     limit_step: float = 0.1,
     limit_tol: float = 0.5,
@@ -381,20 +444,83 @@ def _close_clip(
             rot_mask[0, up] = False  # root: swing about the up axis (heading free)
         mask = np.concatenate([pos_mask, rot_mask.ravel()])
         found = detect_contacts(motion, contact_options) if contacts == "keep" else None
+        out = None
         if found is not None and found.any:
-            extra = ContactConstraints(motion, found, contact_step)
-            res = project_closed(
-                lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                rotation_names=list(names), extra=extra,
+            # every frame of a grid of about 1 / contact_step fps (loop_contacts: rows only
+            # every few frames let the planted joints drift between them); C1 seam rows and
+            # kept joint limits need the clip's own frames
+            grid = (
+                np.arange(motion.n_frames)
+                if c1 or joint_limits is not None
+                else contact_grid(motion.n_frames, motion.fps, grid_step(found, contact_step))
+            )
+            coarse = select_frames(motion, grid) if grid.size < motion.n_frames else motion
+            found_c = dataclasses.replace(found, mask=found.mask[grid]) if coarse is not motion else found
+            lie_c = (
+                to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)
+                if coarse is not motion
+                else lie
+            )
+            t_keep = time.perf_counter()
+            res, extra, released = _solve_with_contacts(
+                lie_c, coarse, found_c, max_release=max_release, solve=lambda lc, ex: project_closed(
+                    lc, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                    rotation_names=list(names), extra=ex, stall_iterations=6,
+                ),
             )  # fmt: skip
             vals = np.asarray(res.curve.values)
+            near = float(np.abs(extra.residual(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])).max(initial=0))
+            polished = None
+            if not res.converged and near <= POLISH_MISS:
+                # the contacts nearly hold where the solver stopped (dependent rows, e.g. a foot
+                # and its toe, can stall it at a few mm): close exactly from there
+                polish = project_closed(
+                    res.curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                    rotation_names=list(names),
+                )  # fmt: skip
+                pv = np.asarray(polish.curve.values)
+                after = float(
+                    np.abs(extra.residual(pv[:, 3:].reshape(-1, j, 3, 3), pv[:, :3])).max(initial=0)
+                )
+                if polish.converged and after <= 2 * POLISH_MISS:  # closing did not undo the contacts
+                    q0 = srv_transform(lie_c)
+                    change = float(
+                        np.sqrt(np.einsum("i,ij,ij->", q0.dt, polish.srv.q - q0.q, polish.srv.q - q0.q))
+                    )
+                    polished = (
+                        f"the contacts held within {1000 * near:.1f} mm where the solver stopped "
+                        f"({res.message}); closed exactly from there (within {1000 * after:.1f} mm)"
+                    )
+                    res = dataclasses.replace(polish, change=change, message=polished)
+                    vals = np.asarray(res.curve.values)
+            # the time of every constrained solve (released attempts, polish) is the solve's
+            res = dataclasses.replace(res, time=time.perf_counter() - t_keep)
             kept = {
                 "rows": len(extra),
-                "step_s": contact_step,
+                "grid_frames": int(grid.size),
+                "grid_fps": float(motion.fps * (grid.size - 1) / max(motion.n_frames - 1, 1)),
                 "converged": res.converged,
-                "gave_way": extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3]),
+                "polished": polished,
+                "released": [
+                    {**r, "frames": [int(grid[r["frames"][0]]), int(grid[r["frames"][1] - 1]) + 1]}
+                    for r in released
+                ],
+                "gave_way": [
+                    {**g, "frames": [int(grid[g["frames"][0]]), int(grid[g["frames"][1] - 1]) + 1]}
+                    for g in extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])
+                ],
             }
-            if not res.converged:  # contacts and closure do not fit together: close without them
+            if res.converged:
+                out = lift_correction(motion, grid, coarse, from_lie_curve(res.curve, coarse))
+                # kept feet push the change into the other frames: where that puts a hand or
+                # the head under the floor, raise the body there (not on the seam frames)
+                # (never above the input's own lowest point on a frame)
+                unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+                lowest_in = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)]
+                floor = np.minimum(found.floor / unit, lowest_in.min(axis=1))
+                out, lift = lift_out_of_floor(out, floor, fixed=(0, motion.n_frames - 1))
+                kept["lifted_max_m"] = float(lift.max() * unit)
+            else:  # contacts and closure do not fit together: close without them
                 kept["dropped"] = f"contacts dropped ({res.message}); closed without them"
                 res = project_closed(
                     lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
@@ -428,7 +554,8 @@ def _close_clip(
                 vals = np.asarray(res.curve.values)
                 kept["gave_way"] = base.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])
             kept = {**(kept or {}), "joint_limits": lim_info}
-        out = from_lie_curve(res.curve, motion)
+        if out is None or (joint_limits is not None and solver == "kkt"):
+            out = from_lie_curve(res.curve, motion)
     else:
         euler = to_euler_curve(motion)
         weights = lie.group.weights  # same layout: root position, then 3 per joint
@@ -468,8 +595,13 @@ def _window(
     candidates: int,
     close,
     root: str,
+    close_final=None,
 ) -> tuple[CycleWindow, Motion, ClosingResult]:
-    """Choose the window (``"auto"`` or ``(start, stop)``), close it; also the whole clip for the report."""
+    """Choose the window (``"auto"`` or ``(start, stop)``), close it; also the whole clip for the report.
+
+    The candidates are ranked by ``close``; the chosen one is closed again by
+    ``close_final`` when given (kept contacts: ranking every candidate with them would cost
+    a constrained projection each)."""
     f = motion.n_frames
     fps = motion.fps
     cand = None
@@ -520,6 +652,9 @@ def _window(
     if best is None:
         raise OptionError("window", f"no candidate window could be closed: {trials}")
     _, a, b, out, res, sm, kept = best
+    if close_final is not None:  # the chosen window, closed with what only it needs (contacts)
+        out, res, kept = close_final(_frames(motion, a, b))
+        sm = seam_metrics(out, original=_frames(motion, a, b), root=root, joints=closed)
     whole: dict = {}
     done = [t for t in trials if (t["start"], t["stop"]) == (0, f)]
     if done:
@@ -582,9 +717,9 @@ def loop_motion(
     window: str | tuple[int, int] | None = None,
     min_length: float | None = None,
     candidates: int = 5,
-    contacts: str = "report",
+    contacts: str | None = None,
     contact_options: ContactOptions | None = None,
-    contact_step: float = 0.034,
+    contact_step: float = 1.0 / 30.0,
     joint_limits: str | JointLimits = "report",
     limit_tol: float = 0.5,
 ) -> LoopResult:
@@ -627,21 +762,30 @@ def loop_motion(
         half the clip when it does not repeat).
     candidates : int, default 5
         Windows closed exactly by ``"auto"`` (the best of the cheap pose/velocity match).
-    contacts : {"keep", "report", "off"}
+    contacts : {"keep", "report", "off"}, optional
+        Default ``"keep"`` with ``method="lie"`` and ``solver="kkt"``, else ``"report"``.
         ``"keep"``: the input's contacts are constraints of the same projection
         (:mod:`elastic_motion.apps.loop_contacts`: a planted joint stays where the input had
-        it, a contact across the seam moves as one piece; needs ``method="lie"`` and
-        ``solver="kkt"``); the report says which contact gave way and by how much, and when
-        contacts and closure could not be solved together the clip is closed without them
-        (a note says so). ``"report"``: detect the input's contacts
+        it, a contact across the seam moves as one piece, every frame of a 30 fps grid
+        constrained; needs ``method="lie"`` and ``solver="kkt"``); with no contact found the
+        plain projection. A contact that conflicts with closure is released and named in the
+        notes and ``contacts_kept["released"]``; one that is kept but missed is listed in
+        ``contacts_kept["gave_way"]``; when the projection still fails the clip is closed
+        without contacts (a note says so). With ``window="auto"`` the candidates are ranked
+        by the plain projection and the chosen window is closed with its contacts.
+        ``"report"``: detect the input's contacts
         (:func:`elastic_motion.motion.contacts.detect_contacts`) and measure skating and
         depth below the floor of input and loop during them
         (:func:`elastic_motion.apps.metrics.contact_skating`); ``"keep"`` does this too.
         ``"off"``: skip.
     contact_options : ContactOptions, optional
         Thresholds of contact detection.
-    contact_step : float, default 0.1
-        With ``contacts="keep"``: seconds between the constrained frames of a contact.
+    contact_step : float, default 1/30
+        With ``contacts="keep"``: a clip whose contacts need more rows than
+        :data:`elastic_motion.apps.loop_contacts.ROW_BUDGET` is closed on a grid of its
+        frames at most this many seconds apart, every grid frame of a contact constrained,
+        and the correction interpolated to the other frames
+        (:func:`~elastic_motion.apps.loop_contacts.grid_step`); 0: every frame always.
     joint_limits : {"report", "keep", "off"} or JointLimits, default "report"
         Limits of the joints' DOF angles: those of the ASF file the clip was read from
         (:func:`elastic_motion.motion.asfamc.read_joint_limits`; nothing happens when there
@@ -672,6 +816,8 @@ def loop_motion(
         raise OptionError("method", f"expected one of {list(LOOP_METHODS)}; got {method!r}")
     if solver not in CLOSING_SOLVERS:
         raise OptionError("solver", f"expected one of {list(CLOSING_SOLVERS)}; got {solver!r}")
+    if contacts is None:
+        contacts = "keep" if method == "lie" and solver == "kkt" else "report"
     if contacts not in LOOP_CONTACTS:
         raise OptionError("contacts", f"expected one of {list(LOOP_CONTACTS)}; got {contacts!r}")
     if not isinstance(joint_limits, JointLimits) and joint_limits not in LOOP_JOINT_LIMITS:
@@ -699,7 +845,7 @@ def loop_motion(
         limits_mode = "report"
         lim_notes.append("joint limits: reported only (keeping them needs method='lie' and solver='kkt')")
 
-    def close(clip: Motion) -> tuple[Motion, ClosingResult, dict | None]:
+    def close(clip: Motion, contacts: str = contacts) -> tuple[Motion, ClosingResult, dict | None]:
         return _close_clip(
             clip, closed_joint, root=root, c1=c1, method=method, solver=solver, tol=tol,
             max_iter=max_iter, joint_weights=joint_weights, translation_weight=translation_weight,
@@ -711,9 +857,12 @@ def loop_motion(
     if window is None:
         out, res, kept = close(motion)
     else:
+        # candidates ranked by the plain projection; the chosen window keeps its contacts
         cw, out, res, kept = _window(
-            motion, window, closed_joint, closed, min_length, candidates, close, root
-        )
+            motion, window, closed_joint, closed, min_length, candidates,
+            (lambda clip: close(clip, "report")) if contacts == "keep" else close, root,
+            close_final=close if contacts == "keep" else None,
+        )  # fmt: skip
         motion = _frames(motion, cw.start, cw.stop)
     rot, _ = cycle_transform(out, root)
     heading = _twist_angle(rot, up) if root == "travel" else 0.0
@@ -727,8 +876,17 @@ def loop_motion(
         lim_notes.extend(lim_info.notes())
     contact_notes.extend(lim_notes)
     if kept is not None:
+        if kept.get("polished"):
+            contact_notes.append(f"contacts: {kept['polished']}")
         if "dropped" in kept:
             contact_notes.append(kept["dropped"])
+        for g in kept.get("released", []):
+            contact_notes.append(
+                f"contact released (it conflicts with closing the loop): {g['joint']} frames "
+                f"{g['frames'][0]}..{g['frames'][1] - 1} ({g['why']}"
+                + (f", missed by {g['largest_miss_m']:.4f} m" if g["largest_miss_m"] is not None else "")
+                + ")"
+            )
         for g in kept["gave_way"]:
             contact_notes.append(
                 f"contact gave way: {g['joint']} frames {g['frames'][0]}..{g['frames'][1] - 1} missed by "

@@ -183,6 +183,14 @@ def add_warp_options(
             f"(default: {defaults.sample_fps:g})",
         )
         add_alias(p, "--warp-fps", "--sample-fps")
+        p.add_argument(
+            "--sample-smoothing",
+            type=float,
+            default=defaults.sample_smoothing,
+            metavar="SECONDS",
+            help="standard deviation (seconds) of the Gaussian low-pass applied before sampling "
+            f"the curves at --sample-fps; 0: none (default: {defaults.sample_smoothing:.4g})",
+        )
     if coarse_to_fine:
         p.add_argument(
             "--coarse-to-fine",
@@ -224,6 +232,7 @@ def warp_options(args: argparse.Namespace) -> Any:
         method=args.warp,
         neighbourhood=args.neighbourhood,
         sample_fps=args.sample_fps,
+        sample_smoothing=getattr(args, "sample_smoothing", WarpOptions().sample_smoothing),
         landmark_weight=WarpOptions().landmark_weight if lw is None else lw,
     )
 

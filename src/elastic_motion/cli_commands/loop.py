@@ -88,10 +88,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--contacts",
         choices=("keep", "report", "off"),
-        default="report",
-        help="'report': detect the input's foot/toe/hand contacts and report skating and depth below "
-        "the floor of input and loop during them; 'keep': also plant them, as constraints of the same "
-        "projection (slow on long clips; the report says which contact gave way); 'off': skip",
+        default=None,
+        help="'keep' (default with --method lie and --solver kkt): plant the input's foot/toe/hand "
+        "contacts, as constraints of the same projection on a 30 fps grid; contacts that conflict "
+        "with closing are released and named; 'report' (the default otherwise): detect them and "
+        "report skating and depth below the floor of input and loop during them; 'off': skip",
     )
     p.add_argument(
         "--joint-limits",

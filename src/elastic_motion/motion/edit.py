@@ -3,7 +3,8 @@ new :class:`~.skeleton.Motion` and leaves its input untouched.
 
 * Frames and time: :func:`drop_tpose` (the CMU conversions start with a T-pose frame),
   :func:`trim` (by time in seconds), :func:`resample` (to a frame rate, geodesic
-  interpolation of rotations), :func:`resample_at_times`.
+  interpolation of rotations), :func:`resample_at_times`, :func:`smooth_motion` (a Gaussian
+  low-pass in time, the anti-aliasing step before sampling a curve at a lower rate).
 * Joints: :func:`select_joints`, :func:`drop_joints`, :func:`finger_joints` (CMU hand
   joints flip by 180 degrees between frames: drop them before comparing motions),
   :func:`merge_root` (fold a static reference root, like the Bandai files' ``joint_Root``,
@@ -34,6 +35,7 @@ __all__ = [
     "has_reference_root",
     "has_tpose_first_frame",
     "heading_angle",
+    "lift_out_of_floor",
     "merge_root",
     "place_like",
     "place_on_floor",
@@ -42,6 +44,7 @@ __all__ = [
     "select_frames",
     "select_joints",
     "set_up_axis",
+    "smooth_motion",
     "to_metres",
     "trim",
 ]
@@ -233,6 +236,101 @@ def resample(motion: Motion, fps: float) -> Motion:
         raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
     n = math.floor(motion.duration * fps + 1e-6) + 1
     return resample_at_times(motion, motion.times, np.arange(n) / fps, fps=fps)
+
+
+def _point_reflected(x: np.ndarray, k: int) -> np.ndarray:
+    """``x`` ``(F, ...)`` extended by ``k`` frames at each end by point reflection about its end
+    values (``x[-m] = 2 x[0] - x[m]``), so a linear-in-time sequence stays linear: ``(F + 2k, ...)``."""
+    head = 2.0 * x[:1] - x[k:0:-1]
+    tail = 2.0 * x[-1:] - x[-2 : -k - 2 : -1]
+    return np.concatenate([head, x, tail])
+
+
+def smooth_motion(motion: Motion, sigma: float, *, truncate: float = 4.0) -> Motion:
+    """Gaussian low-pass of a motion in time, e.g. before sampling it at a lower frame rate.
+
+    With the sampled Gaussian kernel ``g_k ~ exp(-k^2 / (2 s^2))``, ``s = sigma * fps``
+    frames, ``|k| <= ceil(truncate * s)``, normalised to sum 1:
+
+    * root translation and joint translations (if any): ``p'_f = sum_k g_k p_{f+k}``;
+    * each joint's rotation, in the Lie algebra around the frame itself:
+      ``R'_f = R_f exp(sum_k g_k log(R_f^T R_{f+k}))``, one Gauss-Newton step of the weighted
+      Karcher mean of the neighbouring rotations started at ``R_f`` (not the converged mean;
+      the two differ by terms of third order in the angles within the window).
+
+    Beyond the ends the motion is extended by point reflection about the end frame
+    (``p_{-m} = 2 p_0 - p_m``, ``R_{-m} = R_0 R_m^T R_0``, likewise after the last frame), so
+    a motion that is linear in time (translations) and a constant-speed geodesic
+    (``R_f = R_0 exp(f w)``) are returned unchanged, up to rounding, ends included. The
+    rotation step is bi-invariant: multiplying every ``R_f`` by a constant rotation on the
+    left or on the right commutes with it (a change of world frame or of rest pose does not
+    change what is smoothed). It assumes that a joint turns by well under pi within
+    ``truncate * sigma`` seconds (``log`` is ambiguous at pi: drop the CMU finger joints
+    first, :func:`finger_joints`).
+
+    The gain at frequency ``nu`` (Hz) is about ``exp(-2 pi^2 sigma^2 nu^2)``: for half a
+    frame of a lower rate, ``sigma = 0.5 / fps_out`` (the default of
+    :func:`elastic_motion.apps.align.motion_curves`, 1/60 s at 30 fps), 0.29 at the
+    Nyquist frequency ``fps_out / 2`` of that rate, 0.73 at half of it, -3 dB at
+    ``0.27 fps_out`` (8 Hz at 30 fps).
+
+    Parameters
+    ----------
+    motion : Motion
+        ``F`` frames at ``motion.fps``.
+    sigma : float
+        Standard deviation of the kernel, seconds (>= 0); 0, or less than a thousandth
+        of a frame, returns ``motion`` itself.
+    truncate : float, default 4
+        Kernel half-width in standard deviations (as ``scipy.ndimage.gaussian_filter``);
+        at most ``F - 1`` frames (the kernel is cut there and renormalised: still symmetric).
+
+    Returns
+    -------
+    Motion
+        Same frames, frame rate, skeleton; rotations ``(F, J, 3, 3)``, root translation
+        ``(F, 3)`` and joint translations ``(F, J, 3)`` smoothed.
+
+    Raises
+    ------
+    ValueError
+        If ``sigma`` or ``truncate`` is negative or not finite.
+    """
+    sigma = float(sigma)
+    truncate = float(truncate)
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma: expected a standard deviation >= 0 in seconds; got {sigma!r}")
+    if not (math.isfinite(truncate) and truncate > 0):
+        raise ValueError(f"truncate: expected a positive number of standard deviations; got {truncate!r}")
+    f = motion.n_frames
+    s = sigma * motion.fps
+    if s < 1e-3 or f < 3:
+        return motion
+    half = min(max(1, math.ceil(truncate * s)), f - 1)
+    offsets = np.arange(-half, half + 1)
+    g = np.exp(-0.5 * (offsets / s) ** 2)
+    g /= g.sum()
+
+    def linear(x: np.ndarray) -> np.ndarray:
+        ext = _point_reflected(x, half)
+        return sum(w * ext[half + k : half + k + f] for k, w in zip(offsets, g, strict=True))
+
+    r = motion.rotations  # (F, J, 3, 3)
+    rt = np.swapaxes(r, -1, -2)
+    m = np.arange(1, half + 1)
+    head = r[:1] @ rt[m] @ r[:1]  # R_{-m} = R_0 R_m^T R_0, m = 1..half (frames -1..-half)
+    tail = r[-1:] @ rt[f - 1 - m] @ r[-1:]  # R_{F-1+m}
+    ext = np.concatenate([head[::-1], r, tail])  # (F + 2 half, J, 3, 3)
+    step = np.zeros(r.shape[:-1])  # (F, J, 3): sum_k g_k log(R_f^T R_{f+k})
+    for k, w in zip(offsets, g, strict=True):
+        if k:
+            step += w * _SO3.log(rt @ ext[half + k : half + k + f])
+    jt = motion.joint_translations
+    return motion.replace(
+        rotations=r @ _SO3.exp(step),
+        root_translation=linear(motion.root_translation),
+        joint_translations=None if jt is None else linear(jt),
+    )
 
 
 # ------------------------------------------------------------------------------------------
@@ -494,6 +592,58 @@ def place_on_floor(motion: Motion, *, floor: float = 0.0) -> Motion:
     shift = np.zeros(3)
     shift[up] = floor - lowest
     return _apply_world_transform(motion, np.eye(3), shift)
+
+
+def lift_out_of_floor(
+    motion: Motion, floor: float | np.ndarray, *, ease: float = 0.15, fixed: Sequence[int] = ()
+) -> tuple[Motion, np.ndarray]:
+    """Raise the root, smoothly in time, where a point of the body is below ``floor``.
+
+    Parameters
+    ----------
+    motion : Motion
+    floor : float or ndarray, shape (F,)
+        Floor height along the up axis, in the motion's length unit (per frame: e.g. the
+        floor or an original's own lowest point there, whichever is lower).
+    ease : float, default 0.15
+        Seconds over which a lift eases in before and out after the frames that need it
+        (smoothstep), so the body does not jump.
+    fixed : sequence of int
+        Frames that must not move (e.g. a loop's seam frames); the lift eases to 0 there,
+        within a third of ``ease``.
+
+    Returns
+    -------
+    motion : Motion
+        The lifted motion (``motion`` itself when nothing is below the floor).
+    lift : ndarray, shape (F,)
+        The root's rise per frame (motion unit), at least the depth of the lowest joint or
+        end site below ``floor`` on every frame not within ``ease`` of a fixed frame.
+    """
+    up = _AXES.index(motion.up_axis)
+    f = motion.n_frames
+    depth = np.maximum(floor - forward_kinematics(motion, end_sites=True)[..., up].min(axis=1), 0.0)
+    lift = np.zeros(f)
+    if not depth.any():
+        return motion, lift
+    width = max(1, round(ease * motion.fps))
+    for k in range(-width, width + 1):  # the upper envelope of smoothstep bumps
+        x = 1.0 - abs(k) / (width + 1.0)
+        bump = x * x * (3.0 - 2.0 * x)
+        shifted = np.zeros(f)
+        lo, hi = max(0, -k), min(f, f - k)
+        shifted[lo:hi] = depth[lo + k : hi + k]
+        lift = np.maximum(lift, bump * shifted)
+    if len(fixed):
+        # a third of the ease: a lift next to a fixed frame is needed close to it
+        near = max(1, round(ease * motion.fps / 3))
+        idx = np.arange(f)
+        dist = np.min(np.abs(idx[:, None] - (np.asarray(fixed) % f)[None, :]), axis=1)
+        x = np.clip(dist / (near + 1.0), 0.0, 1.0)
+        lift *= x * x * (3.0 - 2.0 * x)
+    root = motion.root_translation.copy()
+    root[:, up] += lift
+    return motion.replace(root_translation=root), lift
 
 
 # ------------------------------------------------------------------------------------------

@@ -22,10 +22,16 @@ Conventions
      direction of ``c - a``;
   2. the whole leg turns about the hip by the smallest rotation taking ``c - a`` to ``t - a``.
 
-  On a straight leg (``|n|`` tiny) the bending axis is the knee's hinge axis learnt from the
-  other frames, in the knee's frame. Rotations are global (world) rotations applied on the
-  left: ``G_hip' = R2 R0 G_hip``, ``G_knee' = R2 R0 R1 G_knee``; the ankle keeps its global
-  orientation (the foot does not tilt), so its local rotation is ``G_knee'^T G_ankle``.
+  The knee's hinge axis ``h`` is learnt from the frames where the leg is bent (the main axis
+  of the normals ``n`` in the knee's frame, oriented the way the knee bends most). The knee
+  bends one way only: where ``n`` points against ``h`` (a knee bent backwards, which blends
+  produce) the angles are signed (``alpha -> -alpha``, ``beta -> 2 pi - beta``, about ``-n``),
+  so such a knee is straightened through 0 and bent forwards, never mirrored (mirroring jumps
+  by twice the bend where the leg passes straight); where the leg is nearly straight
+  (``sin`` of the bend below 0.05) it bends about ``h`` projected off the leg. Rotations are
+  global (world) rotations applied on the left: ``G_hip' = R2 R0 G_hip``,
+  ``G_knee' = R2 R0 R1 G_knee``; the ankle keeps its global orientation (the foot does not
+  tilt), so its local rotation is ``G_knee'^T G_ankle``.
 * **Root correction** (:func:`root_correction`): where a target is farther from its hip than
   ``reach`` (default 0.999) times the leg length, the hip must move towards it by the excess;
   the root's translation moves by the sum over legs, smoothed in time by a Gaussian of
@@ -56,6 +62,8 @@ __all__ = [
 
 _SO3 = SO3()
 _SHRINK = 1e-4
+#: Below this sine of the knee's bend the leg's plane is taken from the knee's hinge axis.
+_WEAK_BEND = 0.05
 
 
 @dataclass(frozen=True)
@@ -140,7 +148,10 @@ def two_bone_ik(
     hip, knee, ankle, target : ndarray, shape (F, 3)
         Positions of the hip, knee and ankle joints and the ankle's target.
     bend_axis : ndarray, shape (F, 3), optional
-        Bending axis used where the leg is straight (default: any axis orthogonal to the leg).
+        The knee's hinge axis in the world frame, oriented like ``(c - a) x (b - a)`` of a
+        knee bent forwards (module docstring): a backward bend is straightened through 0, a
+        nearly straight leg bends about it. Default: the plane of each frame as it is, and
+        any axis orthogonal to a straight leg.
 
     Returns
     -------
@@ -163,6 +174,28 @@ def two_bone_ik(
     beta1 = np.arccos(np.clip((l1**2 + l2**2 - d**2) / np.maximum(2.0 * l1 * l2, 1e-300), -1.0, 1.0))
     n, nn = _unit(np.cross(c - a, b - a))
     straight = nn < 1e-6 * np.maximum(total, 1e-300) ** 2
+    if bend_axis is not None:
+        # the knee bends one way only: orient the leg's plane by the hinge, so that a knee
+        # bent backwards (hyperextended, common in blends) is straightened through 0 instead
+        # of its bend being mirrored (a jump of twice the bend where the leg passes straight)
+        h = np.asarray(bend_axis, dtype=np.float64)
+        leg_dir, _ = _unit(c - a)
+        h = h - np.einsum("...i,...i->...", h, leg_dir)[..., None] * leg_dir
+        h, hn = _unit(h)
+        sin_bend = nn / np.maximum(l1 * np.linalg.norm(c - a, axis=-1), 1e-300)
+        weak = (sin_bend < _WEAK_BEND) & (hn > 0)
+        back = ~weak & ~straight & (np.einsum("...i,...i->...", n, h) < 0)
+        # signed angles about the oriented normal: a backward bend is beyond straight
+        n = np.where(back[..., None], -n, n)
+        alpha0 = np.where(back, -alpha0, alpha0)
+        beta0 = np.where(back, 2.0 * np.pi - beta0, beta0)
+        # nearly straight: the plane is ill-defined, bend about the hinge (signed likewise)
+        sgn = np.sign(np.einsum("...i,...i->...", np.cross(c - a, b - a), h))
+        w_back = weak & (sgn < 0)
+        n = np.where(weak[..., None], h, n)
+        alpha0 = np.where(w_back, -alpha0, alpha0)
+        beta0 = np.where(w_back, 2.0 * np.pi - beta0, beta0)
+        straight = straight & ~weak & (hn <= 0)
     if straight.any():
         if bend_axis is None:
             leg = c - a
@@ -175,7 +208,9 @@ def two_bone_ik(
     r0 = _SO3.exp(n * (alpha1 - alpha0)[..., None])
     r1 = _SO3.exp(n * (beta1 - beta0)[..., None])
     # after R0 (hip) and R1 (knee) the ankle is at distance d along the old direction c - a
-    r2 = rotation_between(c - a, t - a)
+    # (up to the knee's offset from the hinge's plane on a nearly straight leg: measured)
+    c1 = np.einsum("...ij,...j->...i", r0, (b - a) + np.einsum("...ij,...j->...i", r1, c - b))
+    r2 = rotation_between(c1, t - a)
     return r2 @ r0, r2 @ r0 @ r1
 
 
@@ -187,10 +222,14 @@ def _bend_axis_local(g_knee: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.nda
     if not good.any():
         return None
     local = np.einsum("fji,fj->fi", g_knee[good], n[good])  # G^T n
-    ref = local[0]
-    local = local * np.sign(local @ ref)[:, None]
-    m, nm = _unit(local.mean(axis=0))
-    return m if nm > 0 else None
+    # the hinge's line: the main axis of the normals; its sign: the way the knee bends most
+    # (weighted by the bend, so a few slightly hyperextended frames do not decide it)
+    wgt = nn[good] / np.maximum(scale[good], 1e-300)
+    _, vecs = np.linalg.eigh(np.einsum("f,fi,fj->ij", wgt, local, local))
+    m = vecs[:, -1]
+    if np.dot(wgt, local @ m) < 0:
+        m = -m
+    return m
 
 
 def solve_legs(motion: Motion, legs: list[LegChain], targets: list[np.ndarray | None]) -> Motion:

@@ -32,7 +32,7 @@ Penalty kinds (``pen_kind``): 0 = squared ``lam * r^2``, 1 = absolute ``lam * |r
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 # ----------------------------------------------------------------------------- edge cost
 
@@ -382,6 +382,272 @@ def dp_backtrack(arg, lo, steps, nu, nv):  # pragma: no cover - numba
         out[n, 1] = j
         n += 1
     return out[:n][::-1].copy()
+
+
+# ----------------------------------------------------------------------------- many pairs
+#
+# The batched DP (:func:`dp_energies_uniform`): the recursion and edge costs of
+# :func:`dp_solve_rows` on uniform grids without landmarks, laid out for throughput.
+# Value and arg-min tables live in one flat, padded layout: node (i, j) is entry
+# ``(i + P) * S + j + P`` with ``P`` the largest step and row stride ``S = n1 + 1 + P``; the
+# ``P`` rows above and the ``P`` columns left of the grid hold ``H = +inf``, so a predecessor
+# ``(i - a, j - b)`` is a constant offset from the node, with no bounds tests.  The Gram
+# matrix is flat too, with row stride ``SG = n1 + 1`` (one zero column) and ``PT = 2 P`` zero
+# rows above: every cell an edge into node (i, j) crosses is a constant offset from entry
+# ``(i + PT) * SG + j``, so the cross term of slope ``nb`` on a block of rows is
+# ``C[p] = sum_taps w * G[p + off]`` over one contiguous run of ``p``: one long vectorised
+# loop per tap instead of one short one per (row, tap).  (Nodes with ``j < b`` read cells of
+# the row above instead of zeros: finite values on edges whose predecessor is ``+inf``.)
+# Work per pair: ``O(n0 n1 sum_(a,b) (a + b - 1))``, the edge work of the row kernel.
+
+
+@njit(cache=True)
+def _gram_padded(q0, q1t, Gp, PT, SG):  # pragma: no cover - numba
+    """``Gp[(x + PT) * SG + y] = <q0[x], q1[y]>`` (``q1t`` = ``q1.T``), zero elsewhere.
+
+    Summed over the dimension in a fixed order (four terms at a time, then added), whatever
+    the batch: the same pair gives the same bits in every tiling and engine.
+    """
+    n0, D = q0.shape
+    n1 = q1t.shape[1]
+    Gp[:] = 0.0
+    for x in range(n0):
+        base = (x + PT) * SG
+        row = Gp[base : base + n1]
+        d = 0
+        while d + 4 <= D:
+            c0, c1, c2, c3 = q0[x, d], q0[x, d + 1], q0[x, d + 2], q0[x, d + 3]
+            r0, r1, r2, r3 = q1t[d], q1t[d + 1], q1t[d + 2], q1t[d + 3]
+            for y in range(n1):
+                row[y] += (c0 * r0[y] + c1 * r1[y]) + (c2 * r2[y] + c3 * r3[y])
+            d += 4
+        while d < D:
+            c0 = q0[x, d]
+            r0 = q1t[d]
+            for y in range(n1):
+                row[y] += c0 * r0[y]
+            d += 1
+
+
+@njit(cache=True)
+def _cross_block(Gp, C, lo, L, tap_ptr, tap_off, tap_w):  # pragma: no cover - numba
+    """``C[nb, m] = sum_t tap_w[t] * Gp[lo + m + tap_off[t]]`` for ``m < L``, every slope.
+
+    Taps are taken four (then two, one) at a time so the running sum is loaded and stored
+    once per group.
+    """
+    for nb in range(tap_ptr.shape[0] - 1):
+        c = C[nb, :L]
+        t = tap_ptr[nb]
+        te = tap_ptr[nb + 1]
+        for m in range(L):
+            c[m] = 0.0
+        while t + 4 <= te:
+            w0, w1, w2, w3 = tap_w[t], tap_w[t + 1], tap_w[t + 2], tap_w[t + 3]
+            g0 = Gp[lo + tap_off[t] : lo + tap_off[t] + L]
+            g1 = Gp[lo + tap_off[t + 1] : lo + tap_off[t + 1] + L]
+            g2 = Gp[lo + tap_off[t + 2] : lo + tap_off[t + 2] + L]
+            g3 = Gp[lo + tap_off[t + 3] : lo + tap_off[t + 3] + L]
+            for m in range(L):
+                c[m] += (w0 * g0[m] + w1 * g1[m]) + (w2 * g2[m] + w3 * g3[m])
+            t += 4
+        while t + 2 <= te:
+            w0, w1 = tap_w[t], tap_w[t + 1]
+            g0 = Gp[lo + tap_off[t] : lo + tap_off[t] + L]
+            g1 = Gp[lo + tap_off[t + 1] : lo + tap_off[t + 1] + L]
+            for m in range(L):
+                c[m] += w0 * g0[m] + w1 * g1[m]
+            t += 2
+        if t < te:
+            w0 = tap_w[t]
+            g0 = Gp[lo + tap_off[t] : lo + tap_off[t] + L]
+            for m in range(L):
+                c[m] += w0 * g0[m]
+
+
+@njit(cache=True)
+def _dp_uniform_pair(q0, q1, steps, taps, layout, t0, t1, scratch):  # pragma: no cover - numba
+    """DP of one pair in the padded layout; returns ``(exact energy of the DP path, H value)``.
+
+    ``taps = (tap_ptr, tap_off, tap_w, sqrt_s)``, ``layout = (P, S, PT, SG, R)`` (module
+    comment above; ``R`` rows per block of cross terms); the scratch arrays
+    ``(q1t, Gp, Hp, arg, C, Bp)`` come from the caller.
+    The recursion is that of :func:`dp_solve_rows` (same slope order, same strict ``<``, so
+    the same ties win); the returned energy is :func:`energy_direct` of the backtracked path,
+    as :func:`elastic_motion.warp.optimal_warp` reports it.  ``(+inf, +inf)``: no path.
+    """
+    tap_ptr, tap_off, tap_w, sqrt_s = taps
+    P, S, PT, SG, R = layout
+    q1t, Gp, Hp, arg, C, Bp = scratch
+    n0, D = q0.shape
+    n1 = q1.shape[0]
+    for y in range(n1):
+        for d in range(D):
+            q1t[d, y] = q1[y, d]
+    _gram_padded(q0, q1t, Gp, PT, SG)
+    # prefix integrals of |q|^2 at the nodes (uniform cells: h = 1 / n)
+    P0 = np.zeros(n0 + 1)
+    for x in range(n0):
+        s = 0.0
+        for d in range(D):
+            s += q0[x, d] * q0[x, d]
+        P0[x + 1] = P0[x] + s / n0
+    P1 = np.zeros(n1 + 1)
+    for y in range(n1):
+        s = 0.0
+        for d in range(D):
+            s += q1[y, d] * q1[y, d]
+        P1[y + 1] = P1[y] + s / n1
+    # Bp[b, j] = int_{v_(j-b)}^{v_j} |q1|^2 (0 where j < b: H is +inf there anyway)
+    for b in range(1, Bp.shape[0]):
+        for j in range(n1 + 1):
+            Bp[b, j] = P1[j] - P1[j - b] if j >= b else 0.0
+    Hp[:] = np.inf
+    arg[:] = -1
+    Hp[P * S + P] = 0.0
+    for i0 in range(1, n0 + 1, R):
+        i1 = min(i0 + R, n0 + 1)
+        _cross_block(Gp, C, (i0 + PT) * SG, (i1 - i0) * SG, tap_ptr, tap_off, tap_w)
+        for i in range(i0, i1):
+            co = (i - i0) * SG
+            hb = (i + P) * S + P
+            best = Hp[hb : hb + n1 + 1]
+            ab = arg[hb : hb + n1 + 1]
+            for nb in range(steps.shape[0]):
+                a = steps[nb, 0]
+                b = steps[nb, 1]
+                if a > i:
+                    continue
+                # edge cost (paper 001 eq. 28): A + B - 2 sqrt(s) cross, clamped at 0 (rounding)
+                A = P0[i] - P0[i - a]
+                rs2 = 2.0 * sqrt_s[nb]
+                hk = Hp[hb - a * S - b : hb - a * S - b + n1 + 1]
+                bb = Bp[b, : n1 + 1]
+                cc = C[nb, co : co + n1 + 1]
+                for j in range(1, n1 + 1):
+                    e = A + bb[j] - rs2 * cc[j]
+                    if e < 0.0:
+                        e = 0.0
+                    v = hk[j] + e
+                    if v < best[j]:
+                        best[j] = v
+                        ab[j] = nb
+    value = Hp[(n0 + P) * S + n1 + P]
+    if not np.isfinite(value):
+        return np.inf, np.inf
+    # backtrack (eq. 30) into the vertices of phi, then the exact energy of that warp
+    x = np.empty(n0 + n1 + 1)
+    y = np.empty(n0 + n1 + 1)
+    i = n0
+    j = n1
+    cnt = 0
+    while True:
+        x[cnt] = t0[i]
+        y[cnt] = t1[j]
+        cnt += 1
+        if i == 0 and j == 0:
+            break
+        nb = arg[(i + P) * S + j + P]
+        i -= steps[nb, 0]
+        j -= steps[nb, 1]
+    return energy_direct(q0, t0, q1, t1, x[:cnt][::-1].copy(), y[:cnt][::-1].copy()), value
+
+
+@njit(cache=True)
+def _batch_setup(n0, n1, steps, taps, block_rows):  # pragma: no cover - numba
+    """Layout ``(P, S, PT, SG, R)``, kernel taps ``(tap_ptr, tap_off, tap_w, sqrt_s)`` (offsets
+    in the Gram layout) and the grids ``t0``, ``t1`` of a batch (module comment above)."""
+    tap_ptr, tap_dp, tap_dr, tap_w, sqrt_s = taps
+    K = steps.shape[0]
+    P = 1
+    for nb in range(K):
+        P = max(P, steps[nb, 0], steps[nb, 1])
+    SG = n1 + 1
+    tap_off = np.empty(tap_w.shape[0], dtype=np.int64)
+    for nb in range(K):
+        for t in range(tap_ptr[nb], tap_ptr[nb + 1]):
+            tap_off[t] = (tap_dp[t] - steps[nb, 0]) * SG + (tap_dr[t] - steps[nb, 1])
+    layout = (P, n1 + 1 + P, 2 * P, SG, max(1, min(block_rows, n0)))
+    return (
+        layout,
+        (tap_ptr, tap_off, tap_w, sqrt_s),
+        np.linspace(0.0, 1.0, n0 + 1),
+        np.linspace(0.0, 1.0, n1 + 1),
+    )
+
+
+@njit(cache=True)
+def _batch_scratch(n0, n1, D, K, layout):  # pragma: no cover - numba
+    """Scratch arrays ``(q1t, Gp, Hp, arg, C, Bp)`` of :func:`_dp_uniform_pair` (one per thread)."""
+    P, S, PT, SG, R = layout
+    size = (n0 + P + 1) * S
+    return (
+        np.empty((D, n1)),
+        np.empty((n0 + PT + 1) * SG),
+        np.empty(size),
+        np.empty(size, dtype=np.int16),
+        np.empty((K, R * SG)),
+        np.zeros((P + 1, n1 + 1)),
+    )
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def dp_energies_uniform(Q0, Q1, i0s, i1s, steps, taps, block_rows):  # pragma: no cover - numba
+    """DP energies of many pairs ``(Q0[i0s[p]], Q1[i1s[p]])`` on uniform grids, no landmarks.
+
+    Parameters
+    ----------
+    Q0, Q1 : (M0, n0, D), (M1, n1, D) float64
+        SRV arrays on ``linspace(0, 1, n + 1)``.
+    i0s, i1s : (npairs,) int64
+        The pairs.
+    steps : (K, 2) int64
+        Neighbourhood.
+    taps : tuple (tap_ptr, tap_dp, tap_dr, tap_w, sqrt_s)
+        Its uniform-grid taps, as for :func:`dp_solve` (the taps of the grids ``(n0, n1)``).
+    block_rows : int
+        Rows of the grid whose cross terms are computed together (a few: they stay in cache).
+
+    Returns
+    -------
+    energy : (npairs,) float64
+        Exact energy of each pair's DP warp (``+inf``: no path reaches (1, 1)).
+    value : (npairs,) float64
+        The DP's own value ``H[n0, n1]`` (equal to ``energy`` up to rounding).
+
+    Pairs are split among numba's threads (``numba.set_num_threads``); each pair is solved
+    by one thread, so the results do not depend on the number of threads (and equal those
+    of :func:`dp_energies_uniform_serial`).  The GIL is released.
+    """
+    n0, n1, D, K = Q0.shape[1], Q1.shape[1], Q0.shape[2], steps.shape[0]
+    layout, ktaps, t0, t1 = _batch_setup(n0, n1, steps, taps, block_rows)
+    npairs = i0s.shape[0]
+    energy = np.empty(npairs)
+    value = np.empty(npairs)
+    nchunk = min(npairs, 256)
+    for ch in prange(nchunk):
+        scratch = _batch_scratch(n0, n1, D, K, layout)
+        for p in range(ch, npairs, nchunk):
+            e, v = _dp_uniform_pair(Q0[i0s[p]], Q1[i1s[p]], steps, ktaps, layout, t0, t1, scratch)
+            energy[p] = e
+            value[p] = v
+    return energy, value
+
+
+@njit(cache=True, nogil=True)
+def dp_energies_uniform_serial(Q0, Q1, i0s, i1s, steps, taps, block_rows):  # pragma: no cover - numba
+    """:func:`dp_energies_uniform` on the calling thread only (for one numba thread, e.g. a
+    single-threaded Dask worker: the parallel version would still go through numba's
+    threading layer, whose idle threads spin beside the other workers)."""
+    n0, n1, D, K = Q0.shape[1], Q1.shape[1], Q0.shape[2], steps.shape[0]
+    layout, ktaps, t0, t1 = _batch_setup(n0, n1, steps, taps, block_rows)
+    npairs = i0s.shape[0]
+    energy = np.empty(npairs)
+    value = np.empty(npairs)
+    scratch = _batch_scratch(n0, n1, D, K, layout)
+    for p in range(npairs):
+        energy[p], value[p] = _dp_uniform_pair(Q0[i0s[p]], Q1[i1s[p]], steps, ktaps, layout, t0, t1, scratch)
+    return energy, value
 
 
 # ----------------------------------------------------------------------------- energies

@@ -2,7 +2,8 @@
 
 :class:`WarpOptions` says *how* a warp is found: the solver (``method``), the DP slopes
 (``neighbourhood``), the banded coarse-to-fine DP, the frame rate of the curves the warp is
-computed on (``sample_fps``) and the *relative* landmark weight (``landmark_weight``). The
+computed on (``sample_fps``), the Gaussian low-pass applied to a motion before it is sampled
+at that rate (``sample_smoothing``) and the *relative* landmark weight (``landmark_weight``). The
 warp layer itself (:func:`elastic_motion.warp.optimal_warp`) takes an *absolute* landmark
 weight ``lam``; :meth:`WarpOptions.absolute_landmark_weight` is the one conversion between
 the two, so the two numbers never share a name.
@@ -28,6 +29,7 @@ __all__ = [
     "DEFAULT_LANDMARK_WEIGHT",
     "DEFAULT_MAX_STEP",
     "DEFAULT_SAMPLE_FPS",
+    "DEFAULT_SAMPLE_SMOOTHING",
     "WARP_METHODS",
     "WarpOptions",
 ]
@@ -38,6 +40,10 @@ DEFAULT_MAX_STEP = 10
 DEFAULT_LANDMARK_WEIGHT = 100.0
 #: Default frame rate (at most) of the curves a warp between motions is computed on.
 DEFAULT_SAMPLE_FPS = 30.0
+#: Default low-pass before sampling a motion's curve: Gaussian standard deviation in seconds
+#: (1/60 s: half a frame at the default 30 fps, -3 dB at 8 Hz; 0: none). Measured in
+#: ``docs/applications.md``, "Smoothing before the SRV".
+DEFAULT_SAMPLE_SMOOTHING = 1.0 / 60.0
 #: Warp methods: none (identity), dynamic programming, DP then gradient refinement off the grid.
 WARP_METHODS = ("none", "dp", "dp+refine")
 
@@ -65,6 +71,14 @@ class WarpOptions:
         Motions are resampled to at most this many frames per second before the warp is
         computed (a warp is a function on ``[0, 1]``; the DP cost grows with the square of
         the frame count). Ignored by the curve-level solver.
+    sample_smoothing : float, default 1/60
+        Gaussian low-pass of a motion in time before its curve is sampled at
+        ``sample_fps`` (:func:`elastic_motion.motion.edit.smooth_motion`), standard deviation
+        in seconds (0: none). The default is half a frame at the default 30 fps (the usual
+        anti-aliasing choice, -3 dB at 8 Hz); fixed in seconds, not in frames, so the
+        distance does not grow with ``sample_fps`` (``docs/applications.md``, "Smoothing
+        before the SRV"). Below 30 fps it is less than half a sampled frame: set it to
+        ``0.5 / sample_fps`` there. Ignored by the curve-level solver.
     landmark_weight : float, default 100
         Relative weight of the landmark term (module docstring); must be >= 0.
     """
@@ -74,6 +88,7 @@ class WarpOptions:
     coarse_to_fine: bool = False
     sample_fps: float = DEFAULT_SAMPLE_FPS
     landmark_weight: float = DEFAULT_LANDMARK_WEIGHT
+    sample_smoothing: float = DEFAULT_SAMPLE_SMOOTHING
 
     def __post_init__(self) -> None:
         if self.method not in WARP_METHODS:
@@ -87,6 +102,12 @@ class WarpOptions:
         lw = self.landmark_weight
         if not (isinstance(lw, int | float) and math.isfinite(lw) and lw >= 0):
             raise OptionError("landmark_weight", f"expected a finite weight >= 0; got {lw!r}")
+        sm = self.sample_smoothing
+        if isinstance(sm, bool) or not (isinstance(sm, int | float) and math.isfinite(sm) and sm >= 0):
+            raise OptionError(
+                "sample_smoothing", f"expected a finite standard deviation >= 0 in seconds; got {sm!r}"
+            )
+        object.__setattr__(self, "sample_smoothing", float(sm))
         object.__setattr__(self, "coarse_to_fine", bool(self.coarse_to_fine))
         object.__setattr__(self, "sample_fps", float(fps))
         object.__setattr__(self, "landmark_weight", float(lw))

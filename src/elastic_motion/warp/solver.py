@@ -678,8 +678,9 @@ def optimal_warp(
     -----
     DP cost: ``O(nu nv sum_(a,b) (a + b))`` edge work in the worst case (the cross term of
     an edge walks the cells it crosses, with the Gram matrix ``G = q0 q1^T`` computed once:
-    ``O(n0 n1 D)``), much less in practice thanks to an exact pruning bound; rows of the
-    table are filled in parallel (numba ``prange``).  Memory ``O(nu nv)``.
+    ``O(n0 n1 D)``), much less in practice thanks to an exact pruning bound.  Memory
+    ``O(nu nv)``.  For many pairs on uniform grids, :func:`dp_energies` runs the same DP
+    without the Python work of a call per pair (about 0.3 ms of each call at 64 cells).
     """
     t_start = time.perf_counter()
     method, neighbourhood, coarse_to_fine = _resolve_options(options, method, neighbourhood, coarse_to_fine)
@@ -897,6 +898,110 @@ def _resolve_options(
     nb = DEFAULT_MAX_STEP if explicit["neighbourhood"] is None else explicit["neighbourhood"]
     c2f = False if explicit["coarse_to_fine"] is None else bool(explicit["coarse_to_fine"])
     return m, nb, c2f
+
+
+#: Rows of the DP grid whose cross terms the batched kernel computes together.
+BATCH_BLOCK_ROWS = 4
+
+
+def _as_stack(q: Any, name: str) -> np.ndarray:
+    """``(M, n, D)`` float64, C-contiguous, finite: a stack or a sequence of equal-shape arrays."""
+    if isinstance(q, np.ndarray):
+        arr = q
+    else:
+        arr = np.stack([np.asarray(x, dtype=np.float64) for x in q]) if len(q) else np.zeros((0, 1, 1))
+    arr = kernel_array(arr)
+    if arr.ndim != 3 or arr.shape[1] < 1 or arr.shape[2] < 1:
+        raise ValueError(
+            f"{name}: expected SRV arrays of one shape, stacked as (M, n, D); got shape {arr.shape}"
+        )
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name}: expected finite values; got NaN or inf")
+    return arr
+
+
+def dp_energies(
+    q0: Any,
+    q1: Any,
+    pairs: Any,
+    *,
+    neighbourhood: int | Any | None = None,
+) -> np.ndarray:
+    """DP energies of many pairs of SRV arrays on uniform grids, in one compiled call.
+
+    ``dp_energies(q0, q1, pairs)[p]`` is ``optimal_warp(q0[a], q1[b], method="dp",
+    neighbourhood=m).energy`` for ``(a, b) = pairs[p]``: the same DP (same grid, slopes, edge
+    costs and tie-breaking), the exact energy of its warp, without the Python work of one
+    call per pair. Pairs are shared among numba's threads (``numba.set_num_threads``); the
+    result does not depend on their number.
+
+    Parameters
+    ----------
+    q0 : array_like, shape (M0, n0, D), or a sequence of M0 arrays of shape (n0, D)
+        SRV arrays (cell values) on ``linspace(0, 1, n0 + 1)``.
+    q1 : array_like, shape (M1, n1, D), or a sequence of arrays of shape (n1, D)
+        The curves that are warped, on ``linspace(0, 1, n1 + 1)``; same D.
+    pairs : array_like of int, shape (P, 2)
+        ``(index into q0, index into q1)``.
+    neighbourhood : int or array_like of shape (K, 2), default 10
+        DP slopes, as in :func:`optimal_warp`.
+
+    Returns
+    -------
+    ndarray, shape (P,)
+        Energies ``||q0 - q1 * phi||^2`` of the DP warps (the squared elastic distances the
+        DP finds).
+
+    Raises
+    ------
+    ValueError
+        Bad shapes or indices, NaN, different D, a DP table beyond ``limits.max_dp_nodes``.
+
+    Notes
+    -----
+    Uniform grids, open curves, no landmarks: what a database of resampled motions needs.
+    Memory per thread ``O((n0 + m) (n1 + m))``; time ``O(n0 n1 sum_(a,b) (a + b - 1))`` per
+    pair (no pruning: on real motions at 64 cells the exact pruning removes little, see
+    ``docs/warp.md``).  When ``n0`` and ``n1`` differ by more than ``m / 2`` times,
+    :func:`optimal_warp` refines the coarser grid so that a path exists; those pairs are
+    solved by it, one call each.
+    """
+    a0 = _as_stack(q0, "q0")
+    a1 = _as_stack(q1, "q1")
+    if a0.shape[2] != a1.shape[2]:
+        raise ValueError(f"q1: expected the dimension D = {a0.shape[2]} of q0; got {a1.shape[2]}")
+    pr = np.asarray(pairs)
+    if pr.size == 0:
+        return np.zeros(0)
+    if pr.ndim != 2 or pr.shape[1] != 2 or not np.issubdtype(pr.dtype, np.integer):
+        raise ValueError(f"pairs: expected integer indices of shape (P, 2); got {pr.dtype} {pr.shape}")
+    i0s = kernel_array(pr[:, 0], np.int64)
+    i1s = kernel_array(pr[:, 1], np.int64)
+    for name, idx, m in (("pairs[:, 0]", i0s, len(a0)), ("pairs[:, 1]", i1s, len(a1))):
+        if idx.min() < 0 or idx.max() >= m:
+            raise ValueError(f"{name}: expected indices in [0, {m}); got {idx.min()} .. {idx.max()}")
+    steps = _as_steps(DEFAULT_MAX_STEP if neighbourhood is None else neighbourhood)
+    n0, n1 = a0.shape[1], a1.shape[1]
+    t0, t1 = np.linspace(0.0, 1.0, n0 + 1), np.linspace(0.0, 1.0, n1 + 1)
+    if _reachable_grid(t0, t1, int(steps.max())) is not None:
+        return np.array(
+            [
+                optimal_warp(a0[a], a1[b], method="dp", neighbourhood=steps).energy
+                for a, b in zip(i0s, i1s, strict=True)
+            ]
+        )
+    limits.check_option(
+        "n_samples",
+        "a time-warp table (fewer samples per curve) of",
+        (n0 + 1) * (n1 + 1),
+        "max_dp_nodes",
+    )
+    taps = _tap_pattern(tuple(map(tuple, steps.tolist())), n0, n1)
+    import numba
+
+    kernel = _dp.dp_energies_uniform if numba.get_num_threads() > 1 else _dp.dp_energies_uniform_serial
+    energy, _ = kernel(a0, a1, i0s, i1s, steps, taps, BATCH_BLOCK_ROWS)
+    return energy
 
 
 def identity_energy(q0: Any, q1: Any, t0: Any = None, t1: Any = None) -> float:

@@ -70,6 +70,7 @@ from elastic_motion.apps.database.tiles import (
     compute_tile,
     distance_matrix,
     pair_distance,
+    pair_distances,
     single_threaded_blas,
     tile_blocks,
 )
@@ -110,6 +111,7 @@ __all__ = [
     "lower_bounds",
     "map_to_common_body",
     "pair_distance",
+    "pair_distances",
     "part_norms",
     "prepare_motion",
     "public_method",

@@ -17,10 +17,11 @@ groups, per-motion info, group joints and weights, skipped files, settings).
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -173,6 +174,32 @@ def srv_arrays(
     return out
 
 
+def _prepare_one(
+    path: str, settings: DatabaseSettings, motion: Motion | None = None
+) -> PreparedMotion | dict[str, str]:
+    """One file prepared as the database does, or ``{"path", "reason"}`` when it is unusable.
+
+    A module-level function of picklable arguments: engines may run it in worker processes.
+    """
+    select = settings.joints if settings.joints == "map" or not isinstance(settings.joints, str) else "all"
+    try:
+        return prepare_motion(
+            path,
+            settings.n_samples,
+            joints=select,
+            drop_fingers=settings.drop_fingers,
+            align_heading=settings.align_heading,
+            motion=motion,
+        )
+    except (ParseError, ValueError, KeyError, OSError) as exc:
+        reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        return {"path": path, "reason": f"{type(exc).__name__}: {reason}"}
+
+
+#: ``mapper(fn, items)``: ``fn`` applied to each item, results in order (e.g. on worker processes).
+Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], Iterable[Any]]
+
+
 def build_srv_cache(
     files: Sequence[str | os.PathLike[str]],
     settings: DatabaseSettings,
@@ -180,6 +207,7 @@ def build_srv_cache(
     ignored: Sequence[str | os.PathLike[str]] = (),
     motions: Sequence[Motion] | None = None,
     progress: Progress | None = None,
+    mapper: Mapper | None = None,
 ) -> SRVCache:
     """Read and prepare every file, group by skeleton, compute the SRV arrays.
 
@@ -197,6 +225,10 @@ def build_srv_cache(
         segments cut from longer clips.
     progress : callable, optional
         ``progress("read", done, total)``.
+    mapper : callable, optional
+        ``mapper(fn, files)`` yields ``fn(file)`` for each file in order: where the files are
+        read and prepared (e.g. a local cluster's workers, :meth:`Engine.map`); default: here,
+        one after another. Not used with ``motions``. The result does not depend on it.
 
     Returns
     -------
@@ -213,22 +245,17 @@ def build_srv_cache(
         raise OptionError("motions", f"expected one motion per file ({len(files)}); got {len(motions)}")
     prepared: list[PreparedMotion] = []
     skipped: list[dict[str, str]] = []
-    select = settings.joints if settings.joints == "map" or not isinstance(settings.joints, str) else "all"
-    for k, f in enumerate(files):
-        try:
-            prepared.append(
-                prepare_motion(
-                    f,
-                    settings.n_samples,
-                    joints=select,
-                    drop_fingers=settings.drop_fingers,
-                    align_heading=settings.align_heading,
-                    motion=None if motions is None else motions[k],
-                )
-            )
-        except (ParseError, ValueError, KeyError, OSError) as exc:
-            reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-            skipped.append({"path": f, "reason": f"{type(exc).__name__}: {reason}"})
+    if motions is not None:
+        results: Iterable[Any] = (_prepare_one(f, settings, m) for f, m in zip(files, motions, strict=True))
+    elif mapper is not None:
+        results = mapper(functools.partial(_prepare_one, settings=settings), files)
+    else:
+        results = (_prepare_one(f, settings) for f in files)
+    for k, res in enumerate(results):
+        if isinstance(res, PreparedMotion):
+            prepared.append(res)
+        else:
+            skipped.append(res)
         if progress is not None:
             progress("read", k + 1, len(files))
     if settings.joints == "common":

@@ -6,7 +6,9 @@
 
 Tiles are Dask tasks that receive their SRV arrays with the task (scattered once; no shared
 file system needed); the driver gathers them ``as_completed`` with a bounded number in
-flight. Same function, same inputs: every engine gives bit-identical matrices.
+flight. Same function, same inputs: every engine gives bit-identical matrices. A
+``"local"`` cluster also reads and prepares the files (``Engine.map``: its workers see the
+driver's files); on ``"dask"`` the driver reads them.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import itertools
 import logging
 import time
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -55,6 +57,8 @@ class Engine(Protocol):
 
     def share(self, arrays: list[np.ndarray]) -> list[Any]: ...
 
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> Iterator[Any]: ...
+
     def run(
         self, tasks: list[Task], args_of: Callable[[Task], tuple]
     ) -> Iterator[tuple[Task, np.ndarray, float]]: ...
@@ -75,6 +79,10 @@ class SerialEngine:
         """Handles of the SRV arrays that tasks receive (here: the arrays themselves)."""
         return arrays
 
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> Iterator[Any]:
+        """``fn(item)`` for each item, in order, here."""
+        return (fn(x) for x in items)
+
     def run(
         self, tasks: list[Task], args_of: Callable[[Task], tuple]
     ) -> Iterator[tuple[Task, np.ndarray, float]]:
@@ -90,7 +98,11 @@ class SerialEngine:
 
 def _warm_up() -> None:
     """Load (or compile) the DP kernels in this process, for writable and for read-only arrays
-    (arrays received from the scheduler are read-only: another numba specialisation)."""
+    (arrays received from the scheduler are read-only: another numba specialisation), with one
+    numba thread, as the tiles run on a worker (:func:`_timed_tile`)."""
+    import numba
+
+    numba.set_num_threads(1)
     q = np.zeros((4, 2))
     q[:, 0] = 1.0
     r = q[::-1].copy()
@@ -163,6 +175,30 @@ class DaskEngine:
         for f, a in zip(futures, arrays, strict=True):
             self._arrays[f.key] = a
         return futures
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> Iterator[Any]:
+        """``fn(item)`` for each item, in order, computed on the workers in chunks of
+        :data:`MAP_CHUNK` items (one task each; at most ``4 * workers`` tasks in flight).
+
+        For work that reads local files (the preparation of a ``"local"`` run): the workers
+        must see the same file system as the driver."""
+        chunks = [list(items[k : k + MAP_CHUNK]) for k in range(0, len(items), MAP_CHUNK)]
+        window = max(2, 4 * self.n_workers)
+        futures = [
+            self.client.submit(_map_chunk, fn, c, pure=False, key=f"elastic-map-{uuid.uuid4().hex}")
+            for c in chunks[:window]
+        ]
+        for k in range(len(chunks)):
+            if k + window < len(chunks):
+                futures.append(
+                    self.client.submit(
+                        _map_chunk, fn, chunks[k + window], pure=False, key=f"elastic-map-{uuid.uuid4().hex}"
+                    )
+                )
+            results = futures[k].result()
+            futures[k].release()
+            futures[k] = None
+            yield from results
 
     def _with_arrays(self, args: tuple) -> tuple:
         """``args`` with every scattered future replaced by the driver's own array."""
@@ -263,6 +299,12 @@ class DaskEngine:
 
 #: Times a tile whose worker or data was lost is resubmitted by the driver (with its arrays).
 MAX_RESUBMITS = 3
+#: Items per task of :meth:`DaskEngine.map` (files read and prepared per task: 20-50 ms each).
+MAP_CHUNK = 8
+
+
+def _map_chunk(fn: Callable[[Any], Any], items: list[Any]) -> list[Any]:
+    return [fn(x) for x in items]
 
 
 def _lost(exc: BaseException) -> bool:

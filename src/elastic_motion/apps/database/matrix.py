@@ -225,6 +225,7 @@ def _load_or_build_cache(
     settings: DatabaseSettings,
     resuming: bool,
     progress: Progress | None,
+    eng: Engine,
 ) -> tuple[SRVCache, bool]:
     cache_path = out / storage.CACHE
     cache = None
@@ -233,7 +234,9 @@ def _load_or_build_cache(
             cache = SRVCache.load(cache_path)
     if cache is not None:
         return cache, True
-    cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
+    # a local cluster's workers see the driver's files: they read and prepare them too
+    mapper = eng.map if eng.name == "local" else None
+    cache = build_srv_cache(files, settings, ignored=ignored, progress=progress, mapper=mapper)
     if len(cache) == 0:  # before anything is written
         raise OptionError(
             "inputs",
@@ -259,7 +262,9 @@ def _run(
     manifest_path = out / storage.MANIFEST
     manifest = storage.read_json(manifest_path) if manifest_path.exists() else None
     t_read = time.perf_counter()
-    cache, cache_reused = _load_or_build_cache(out, files, ignored, settings, manifest is not None, progress)
+    cache, cache_reused = _load_or_build_cache(
+        out, files, ignored, settings, manifest is not None, progress, eng
+    )
     t_read = time.perf_counter() - t_read
     tiles_dir = out / storage.TILES
     tiles_dir.mkdir(parents=True, exist_ok=True)

@@ -18,13 +18,16 @@ from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_ar
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.preparation import prepare_motion
 from elastic_motion.apps.database.settings import DatabaseSettings, canonical_method, public_method
-from elastic_motion.apps.database.tiles import pair_distance, single_threaded_blas
+from elastic_motion.apps.database.tiles import pair_distance, pair_distances, single_threaded_blas
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import group_weights
 
 __all__ = ["QueryResult", "SearchResult", "knn_search", "query_distances"]
+
+#: Pairs of a query solved in one call of the batched DP (progress is reported between calls).
+QUERY_BATCH = 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,13 +205,15 @@ def query_distances(
     key = _method_key(method, representation)
     cache = _open_database(database, key, settings, progress)
     qq, g, notes, _ = _query_srv(query, cache, key)
-    members = [k for k in range(len(cache)) if cache.groups[k] == g]
+    members = np.array([k for k in range(len(cache)) if cache.groups[k] == g], dtype=np.int64)
     out = np.full(len(cache), np.inf)
-    with single_threaded_blas():
-        for n, k in enumerate(members):
-            out[k] = pair_distance(qq, cache.q[key][k], cache.settings.warp)
+    with single_threaded_blas():  # in batches: one compiled call per QUERY_BATCH pairs
+        for n0 in range(0, len(members), QUERY_BATCH):
+            chunk = members[n0 : n0 + QUERY_BATCH]
+            pairs = np.column_stack([np.zeros(len(chunk), dtype=np.int64), chunk])
+            out[chunk] = pair_distances([qq], cache.q[key], pairs, cache.settings.warp)
             if progress is not None:
-                progress("query", n + 1, len(members))
+                progress("query", n0 + len(chunk), len(members))
     return QueryResult(
         query=os.fspath(query),
         representation=key,

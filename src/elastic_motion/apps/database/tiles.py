@@ -26,6 +26,7 @@ __all__ = [
     "distance_matrix",
     "estimated_serial_seconds",
     "pair_distance",
+    "pair_distances",
     "single_threaded_blas",
     "tile_blocks",
 ]
@@ -47,14 +48,73 @@ def pair_distance(q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WA
         ``method="dp"`` (or ``"dp+refine"``): ``optimal_warp(q0, q1).distance`` =
         ``min_phi ||q0 - q1 * phi||`` over the solver's warps; ``method="none"``:
         ``||q0 - q1||_L2`` (``sqrt(mean_i |q0_i - q1_i|^2)``, paper 000, eq. 4). The DP
-        value never exceeds the ``"none"`` one (the identity is a DP path).
+        value never exceeds the ``"none"`` one (the identity is a DP path). The DP alone
+        (``method="dp"``, no coarse to fine) runs in the batched kernel of
+        :func:`pair_distances` (same DP, same numbers as one call per pair).
     """
     if warp.method == "none":
         d = q0 - q1
         return float(math.sqrt(np.einsum("ij,ij->", d, d) / q0.shape[0]))
+    if _batched(warp):
+        return float(pair_distances([q0], [q1], np.zeros((1, 2), dtype=np.int64), warp)[0])
     from elastic_motion.warp import optimal_warp
 
     return float(optimal_warp(q0, q1, **warp.solver_kwargs()).distance)
+
+
+def _batched(warp: WarpOptions) -> bool:
+    """Whether pairs of this warp run in the batched DP kernel (the DP alone, exact)."""
+    return warp.method == "dp" and not warp.coarse_to_fine
+
+
+def pair_distances(
+    q0: Sequence[np.ndarray],
+    q1: Sequence[np.ndarray],
+    pairs: np.ndarray,
+    warp: WarpOptions = DEFAULT_WARP,
+) -> np.ndarray:
+    """Distances of many pairs ``(q0[a], q1[b])`` for ``(a, b)`` in ``pairs``, as :func:`pair_distance`.
+
+    Parameters
+    ----------
+    q0, q1 : sequences of ndarray, shapes (n, D)
+        SRV arrays on uniform grids (arrays of one shape are solved together).
+    pairs : ndarray of int, shape (P, 2)
+        ``(index into q0, index into q1)``; both arrays of a pair have the same D.
+    warp : WarpOptions
+
+    Returns
+    -------
+    ndarray, shape (P,)
+        ``pair_distance(q0[a], q1[b], warp)`` for each pair. With ``method="dp"`` (no coarse
+        to fine) the pairs of each shape go to
+        :func:`elastic_motion.warp.solver.dp_energies` in one compiled call (numba's threads
+        share them; the numbers do not depend on how pairs are grouped or on the threads);
+        otherwise one :func:`pair_distance` per pair.
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    out = np.empty(len(pairs))
+    if not _batched(warp):
+        for p, (a, b) in enumerate(pairs):
+            out[p] = pair_distance(q0[a], q1[b], warp)
+        return out
+    from elastic_motion.warp.solver import dp_energies
+
+    by_shape: dict[tuple, list[int]] = {}
+    for p, (a, b) in enumerate(pairs):
+        by_shape.setdefault((np.shape(q0[a]), np.shape(q1[b])), []).append(p)
+    for idx in by_shape.values():
+        sel = pairs[idx]
+        ua, ia = np.unique(sel[:, 0], return_inverse=True)
+        ub, ib = np.unique(sel[:, 1], return_inverse=True)
+        e = dp_energies(
+            np.stack([q0[a] for a in ua]),
+            np.stack([q1[b] for b in ub]),
+            np.column_stack([ia.ravel(), ib.ravel()]),
+            neighbourhood=warp.neighbourhood,
+        )
+        out[idx] = np.sqrt(np.maximum(e, 0.0))
+    return out
 
 
 def single_threaded_blas() -> contextlib.AbstractContextManager:
@@ -114,15 +174,17 @@ def compute_tile(
     q_rows = [np.require(q, np.float64, ["C", "A", "W"]) for q in q_rows]
     q_cols = [np.require(q, np.float64, ["C", "A", "W"]) for q in q_cols]
     out = np.full((len(rows), len(cols)), np.nan)
-    with single_threaded_blas():
-        for a, i in enumerate(rows):
-            for b, j in enumerate(cols):
-                if i == j:
-                    out[a, b] = 0.0
-                elif i < j:
-                    out[a, b] = (
-                        pair_distance(q_rows[a], q_cols[b], warp) if g_rows[a] == g_cols[b] else np.inf
-                    )
+    rows = np.asarray(rows)
+    cols = np.asarray(cols)
+    g_rows = np.asarray(g_rows)
+    g_cols = np.asarray(g_cols)
+    upper = rows[:, None] < cols[None, :]
+    out[rows[:, None] == cols[None, :]] = 0.0
+    out[upper & (g_rows[:, None] != g_cols[None, :])] = np.inf
+    todo = np.argwhere(upper & (g_rows[:, None] == g_cols[None, :]))
+    if len(todo):
+        with single_threaded_blas():
+            out[todo[:, 0], todo[:, 1]] = pair_distances(q_rows, q_cols, todo, warp)
     return out
 
 
@@ -178,23 +240,31 @@ def block(i: int, tile_size: int, n_motions: int) -> np.ndarray:
 #: Seconds to start a 2-worker Dask ``LocalCluster`` and load the kernels on it, measured on the
 #: 2-core reference machine (38 clips: 10.1 s with ``--engine local`` against 4.0 s serial).
 LOCAL_CLUSTER_STARTUP = 6.0
-#: Seconds per DP pair at 64 cells with neighbourhood 6 on one core (``benchmarks/database.py``).
-SECONDS_PER_PAIR_64 = 0.9e-3
+#: Seconds per DP pair at 64 cells with neighbourhood 6 on one core, batched kernel
+#: (``benchmarks/database_scale.py``, section ``per_pair``: 0.175 ms; 0.48 ms with neighbourhood 10).
+SECONDS_PER_PAIR_64 = 0.18e-3
 
 
 def estimated_serial_seconds(n_pairs: int, n_samples: int, warp: WarpOptions = DEFAULT_WARP) -> float:
-    """A rough serial cost of ``n_pairs`` pair distances (for the engine choice, not a promise).
+    """A rough single-core cost of ``n_pairs`` pair distances (for the engine choice, not a promise).
 
-    ``SECONDS_PER_PAIR_64 * (n / 64)^1.5 * K(m) / K(6)`` per DP pair (``K(m)``: the number of
-    coprime steps up to ``m``; the exponent 1.5 is the measured growth of the pruned DP between
-    64 and 200 cells); the no-warp distance costs ``1e-6 * n / 64`` s.
+    ``SECONDS_PER_PAIR_64 * (n / 64)^2 * K(m) / K(6)`` per DP pair (``K(m)``: the number of
+    coprime steps up to ``m``; the batched DP fills the whole ``n x n`` grid, and its measured
+    cost grows like ``K(m)``: 0.175 ms at ``m = 6``, 0.48 ms at ``m = 10``); the refinement
+    (``dp+refine``) about 15 times that, the coarse-to-fine DP (one ``optimal_warp`` call per
+    pair) about 2.3 times; the no-warp distance ``1e-6 * n / 64`` s.
     """
     from elastic_motion.warp import coprime_steps
 
     if warp.method == "none":
         return n_pairs * 1e-6 * n_samples / 64
     steps = len(coprime_steps(int(warp.neighbourhood))) / len(coprime_steps(6))
-    return n_pairs * SECONDS_PER_PAIR_64 * (n_samples / 64) ** 1.5 * steps
+    per_pair = SECONDS_PER_PAIR_64 * (n_samples / 64) ** 2 * steps
+    if warp.method != "dp":
+        per_pair *= 15.0
+    elif warp.coarse_to_fine:
+        per_pair *= 2.3  # one optimal_warp call per pair (not batched)
+    return n_pairs * per_pair
 
 
 def cluster_worth_it(

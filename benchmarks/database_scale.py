@@ -1,0 +1,529 @@
+"""Benchmark of the scale targets of issue 15: all pairs of 1000 motions x 200 frames, exact-DP
+quality, Dask speed-ups.
+
+Sections (``--sections``, comma-separated; default all, in this order):
+
+1. ``per_pair``: seconds per pair of the database's DP (neighbourhood 10, ``n_samples`` cells,
+   Lie) on one core: one ``optimal_warp(method="dp")`` call per pair against the batched kernel
+   (``warp.solver.dp_energies``, what the tiles run), on real SRV arrays of the windows.
+2. ``scale``: ``M`` (default 1000) BVH files of exactly 200 frames, windows at random starts
+   of the 120 Hz CMU clips of ``/work/shared/mocap`` (written once, seed 0), then the whole
+   pipeline measured end to end: ``compute_matrix`` (read, prepare, SRV, all ``M (M - 1) / 2``
+   pairs; Lie; the database defaults: ``n_samples = 64``, exact DP with neighbourhood 10,
+   tiles of 32) with each engine of ``--engine`` (default ``serial,local``: the default
+   engine, whose batched DP uses numba's threads, then a ``LocalCluster`` of 2 workers).
+3. ``quality``: on a random sample of pairs of that matrix, the energy ``d^2`` of the matrix
+   against the exact DP solved independently (``optimal_warp(q_i, q_j, method="dp")``, one
+   call per pair, on the run's own SRV cache): the share of pairs more than 0.1 % above it
+   (the target: none) and the largest excess; and whether the engines' matrices are equal
+   bit for bit.
+4. ``speedup``: all pairs of the first ``--speedup-motions`` (default 400) of those windows:
+   serial (one numba thread), a ``LocalCluster`` of 2 workers, and a ``dask scheduler`` + 2
+   ``dask worker`` processes started here on 127.0.0.1 (subprocesses); end-to-end seconds and
+   seconds of the pair phase, the matrices compared bit for bit. Also serial with numba's
+   default threads (the batched kernel shares a tile's pairs among them). Skipped with a message
+   when ``distributed`` is not installed (extra ``cluster``).
+5. ``small``: ``--engine local`` on a small input (40 windows) against serial: the cluster is
+   not started when it would not pay for its start (``tiles.cluster_worth_it``).
+
+Prints a table and writes ``benchmarks/results/database_scale.json``. The machine is shared:
+the JSON records the load average before and after each section.
+
+Usage::
+
+    python benchmarks/database_scale.py                       # everything (~12 min idle machine)
+    python benchmarks/database_scale.py --sections scale,quality
+    python benchmarks/database_scale.py --quick               # smoke test (small sizes)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _common import CMU_CLIPS, RESULTS, machine_info, write_json
+from elastic_motion.apps.database import (
+    DEFAULT_WARP,
+    DatabaseSettings,
+    SRVCache,
+    build_srv_cache,
+    compute_matrix,
+    single_threaded_blas,
+)
+from elastic_motion.motion import drop_tpose, read_motion, select_frames, write_bvh
+from elastic_motion.warp import optimal_warp
+from elastic_motion.warp.solver import dp_energies
+
+REPO = Path(__file__).resolve().parents[1]
+FRAMES = 200
+#: Energy above the exact DP allowed per pair (issue 15: 0.1 %).
+TOLERANCE = 1e-3
+
+
+def load(label: str) -> dict:
+    return {"load_average": [round(x, 2) for x in os.getloadavg()], "at": label}
+
+
+def write_windows(cmu: Path, out: Path, m: int, seed: int = 0) -> float:
+    """``m`` BVH files of exactly ``FRAMES`` frames: windows at random starts of the 120 Hz CMU
+    clips, in turn (``w0000.bvh`` ...). Returns the seconds spent."""
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    clips = [drop_tpose(read_motion(cmu / f"{c}.bvh")) for c in CMU_CLIPS]
+    clips = [c for c in clips if c.fps == 120 and c.n_frames >= FRAMES]
+    out.mkdir(parents=True, exist_ok=True)
+    for k in range(m):
+        clip = clips[k % len(clips)]
+        s = int(rng.integers(0, clip.n_frames - FRAMES + 1))
+        write_bvh(select_frames(clip, slice(s, s + FRAMES)), out / f"w{k:04d}.bvh")
+    return time.perf_counter() - t0
+
+
+def settings(tile_size: int = 32) -> DatabaseSettings:
+    """The database defaults (n_samples 64, exact DP with neighbourhood 10, tiles of 32 x 32), Lie only."""
+    return DatabaseSettings(tile_size=tile_size, representations=("lie",), warp=DEFAULT_WARP)
+
+
+# --------------------------------------------------------------------------------------------
+# 1. Per pair
+# --------------------------------------------------------------------------------------------
+
+
+def per_pair(inputs: list[Path], pairs: int) -> dict:
+    """Seconds per pair on one core: one ``optimal_warp`` call per pair against the batch."""
+    import numba
+
+    cache = build_srv_cache(inputs[:100], settings())
+    q = np.stack(cache.q["lie"])
+    rng = np.random.default_rng(3)
+    pr = np.column_stack([rng.integers(0, len(q), pairs), rng.integers(0, len(q), pairs)])
+    numba.set_num_threads(1)
+    out = {"n_samples": q.shape[1], "D": q.shape[2], "pairs": pairs}
+    with single_threaded_blas():
+        for nb in (6, 10):
+            optimal_warp(q[0], q[1], method="dp", neighbourhood=nb)
+            dp_energies(q, q, pr[:2], neighbourhood=nb)
+            best_one, best_batch = np.inf, np.inf
+            for _ in range(3):
+                t0 = time.perf_counter()
+                e1 = np.array([optimal_warp(q[a], q[b], method="dp", neighbourhood=nb).energy for a, b in pr])
+                best_one = min(best_one, time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                e2 = dp_energies(q, q, pr, neighbourhood=nb)
+                best_batch = min(best_batch, time.perf_counter() - t0)
+            out[f"neighbourhood {nb}"] = {
+                "ms_optimal_warp": 1e3 * best_one / pairs,
+                "ms_batched": 1e3 * best_batch / pairs,
+                "max_relative_difference": float(np.max(np.abs(e2 - e1) / np.maximum(e1, 1e-300))),
+            }
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# 2. Scale and 3. quality
+# --------------------------------------------------------------------------------------------
+
+
+def run_matrix(src: Path, out: Path, engine: str, workers: int, **kw) -> dict:
+    """``compute_matrix`` of the folder, timed end to end."""
+    shutil.rmtree(out, ignore_errors=True)
+    t0 = time.perf_counter()
+    res = compute_matrix([src], out, settings(), engine=engine, n_workers=workers, **kw)
+    wall = time.perf_counter() - t0
+    t = res.report["timings"]
+    run = res.report["runs"][-1]
+    import numba
+
+    return {
+        "engine": run["engine"],
+        "numba_threads": numba.get_num_threads() if run["engine"] == "serial" else 1,
+        "engine_note": run.get("engine_note"),
+        "workers": run["workers"],
+        "complete": res.complete,
+        "motions": len(res.names),
+        "pairs": t["pairs_computed"],
+        "seconds_total": round(wall, 2),
+        "seconds_read_and_srv": t["read_seconds"],
+        "seconds_pairs": t["tiles_seconds"],
+        "seconds_other": round(wall - t["read_seconds"] - t["tiles_seconds"], 2),
+    }
+
+
+def quality(out: Path, sample: int) -> dict:
+    """Matrix energies against the exact DP, one ``optimal_warp`` call per sampled pair."""
+    cache = SRVCache.load(out / "srv_cache.npz")
+    d = np.load(out / "distances_lie.npy")
+    q = cache.q["lie"]
+    m = len(q)
+    rng = np.random.default_rng(7)
+    i = rng.integers(0, m, 3 * sample)
+    j = rng.integers(0, m, 3 * sample)
+    keep = i != j
+    i, j = np.minimum(i, j)[keep][:sample], np.maximum(i, j)[keep][:sample]
+    with single_threaded_blas():
+        exact = np.array([optimal_warp(q[a], q[b], method="dp").energy for a, b in zip(i, j, strict=True)])
+    got = d[i, j] ** 2
+    excess = (got - exact) / np.maximum(exact, 1e-300)
+    excess[(exact == 0) & (got == 0)] = 0.0
+    return {
+        "pairs": len(i),
+        "reference": "optimal_warp(q_i, q_j, method='dp', neighbourhood=10): the exact DP, one call per pair",
+        "tolerance": TOLERANCE,
+        "share_over_tolerance": float(np.mean(excess > TOLERANCE)),
+        "max_relative_excess": float(excess.max()),
+        "max_relative_deficit": float(-excess.min()),
+        "zero_energy_pairs": int(np.sum(exact == 0)),
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# 4. Dask speed-ups
+# --------------------------------------------------------------------------------------------
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def start_dask(n_workers: int) -> tuple[str, list[subprocess.Popen], float]:
+    """A ``dask scheduler`` and ``n_workers`` single-threaded ``dask worker`` processes on
+    127.0.0.1 (subprocesses); returns the address, the processes and the start-up seconds."""
+    from distributed import Client
+
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    port = _free_port()
+    addr = f"tcp://127.0.0.1:{port}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env}
+    t0 = time.perf_counter()
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+             "--port", str(port), "--dashboard-address", ":0"],
+            **quiet,
+        )
+    ]  # fmt: skip
+    for _ in range(n_workers):
+        procs.append(
+            subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", addr, "--nthreads", "1",
+                 "--nworkers", "1", "--no-dashboard"],
+                **quiet,
+            )
+        )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                with Client(addr, timeout=5) as c:
+                    c.wait_for_workers(n_workers, timeout=max(1.0, deadline - time.monotonic()))
+                break
+            except OSError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.5)
+    except BaseException:
+        stop(procs)
+        raise
+    return addr, procs, time.perf_counter() - t0
+
+
+def stop(procs: list[subprocess.Popen]) -> None:
+    for p in procs[::-1]:
+        p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def speedup(src: Path, tmp: Path) -> dict:
+    """Serial (one numba thread) against a LocalCluster and a separately started cluster."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return {"skipped": "distributed is not installed (pip install 'elastic-motion[cluster]')"}
+    import numba
+
+    rows: dict[str, dict] = {}
+    numba.set_num_threads(1)
+    try:
+        rows["serial, 1 thread"] = run_matrix(src, tmp / "sp_serial1", "serial", 1)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    rows[f"serial, {numba.config.NUMBA_NUM_THREADS} numba threads"] = run_matrix(
+        src, tmp / "sp_serialN", "serial", 1
+    )
+    rows["LocalCluster, 2 workers"] = run_matrix(src, tmp / "sp_local", "local", 2, force_cluster=True)
+    rows["LocalCluster, 2 workers"]["note"] = "start-up included in seconds_other"
+    addr, procs, startup = start_dask(2)
+    try:
+        rows["dask scheduler + 2 dask workers (127.0.0.1)"] = run_matrix(
+            src, tmp / "sp_dask", "dask", 2, scheduler=addr, connect_timeout=30
+        )
+    finally:
+        stop(procs)
+    rows["dask scheduler + 2 dask workers (127.0.0.1)"]["seconds_cluster_start_not_included"] = round(
+        startup, 2
+    )
+    ref = np.load(tmp / "sp_serial1" / "distances_lie.npy")
+    base = rows["serial, 1 thread"]
+    dirs = dict(zip(rows, ["sp_serial1", "sp_serialN", "sp_local", "sp_dask"], strict=True))
+    for name, r in rows.items():
+        r["speedup_total"] = round(base["seconds_total"] / r["seconds_total"], 3)
+        r["speedup_pairs"] = round(base["seconds_pairs"] / r["seconds_pairs"], 3)
+        r["identical_to_serial"] = bool(
+            np.load(tmp / dirs[name] / "distances_lie.npy").tobytes() == ref.tobytes()
+        )
+    return {"motions": base["motions"], "pairs": base["pairs"], "rows": rows}
+
+
+# --------------------------------------------------------------------------------------------
+# 5. Small input
+# --------------------------------------------------------------------------------------------
+
+
+def small(src: Path, tmp: Path, m: int) -> dict:
+    """``--engine local`` on ``m`` windows against serial (the cluster is started only when worth it)."""
+    part = tmp / "small_inputs"
+    part.mkdir(exist_ok=True)
+    for f in sorted(src.glob("*.bvh"))[:m]:
+        shutil.copy(f, part / f.name)
+    out = {"serial": run_matrix(part, tmp / "small_serial", "serial", 1)}
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        out["local"] = {"skipped": "distributed is not installed"}
+        return out
+    out["local"] = run_matrix(part, tmp / "small_local", "local", 2)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Report
+# --------------------------------------------------------------------------------------------
+
+
+def markdown(r: dict) -> str:
+    lines = []
+    if "per_pair" in r:
+        p = r["per_pair"]
+        lines += [
+            f"### Seconds per pair, one core (N = {p['n_samples']}, D = {p['D']}, {p['pairs']} pairs)",
+            "",
+            "| DP neighbourhood | optimal_warp, ms | batched, ms | speed-up | max relative difference |",
+            "|---|---|---|---|---|",
+        ]
+        for nb in (6, 10):
+            x = p[f"neighbourhood {nb}"]
+            lines.append(
+                f"| {nb} | {x['ms_optimal_warp']:.3f} | {x['ms_batched']:.3f} | "
+                f"{x['ms_optimal_warp'] / x['ms_batched']:.2f}x | {x['max_relative_difference']:.1e} |"
+            )
+    if "scale" in r:
+        runs = r["scale"]
+        lines += [
+            "",
+            f"### All pairs of {next(iter(runs.values()))['motions']} motions x {FRAMES} frames (measured "
+            "end to end; Lie, N = 64, exact DP neighbourhood 10, tiles of 32)",
+            "",
+            "| engine | read + SRV s | pairs s | other s | total s | pairs | load average | 10 min |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+
+        def who(s: dict) -> str:
+            if s["engine"] == "serial":
+                return f"{s.get('numba_threads', '?')} numba threads"
+            return f"{s['workers']} workers"
+
+        for s in runs.values():
+            lines.append(
+                f"| {s['engine']} ({who(s)}) | {s['seconds_read_and_srv']:.1f} | "
+                f"{s['seconds_pairs']:.1f} | {s['seconds_other']:.1f} | **{s['seconds_total']:.1f}** "
+                f"({s['seconds_total'] / 60:.1f} min) | {s['pairs']} | {s.get('load_average')} | "
+                f"{'met' if s['seconds_total'] <= 600 and s['complete'] else 'NOT met'} |"
+            )
+            if s.get("engine_note"):
+                lines.append(f"\n{s['engine_note']}")
+    if "quality" in r:
+        q = r["quality"]
+        lines += [
+            "",
+            f"### Energy of the matrix above the exact DP ({q['pairs']} sampled pairs; reference: "
+            f"{q['reference']})",
+            "",
+            "| pairs > 0.1 % above | max excess | max deficit | zero-energy pairs |",
+            "|---|---|---|---|",
+            f"| {100 * q['share_over_tolerance']:.2f} % | {q['max_relative_excess']:.1e} | "
+            f"{q['max_relative_deficit']:.1e} | {q['zero_energy_pairs']} |",
+        ]
+        if "engines_bit_identical" in q:
+            lines.append(f"\nMatrices of the engines equal bit for bit: {q['engines_bit_identical']}.")
+    if "speedup" in r:
+        sp = r["speedup"]
+        if "skipped" in sp:
+            lines += ["", f"Dask speed-ups skipped: {sp['skipped']}"]
+        else:
+            lines += [
+                "",
+                f"### Dask speed-ups ({sp['motions']} motions, {sp['pairs']} pairs, against serial on one "
+                "thread)",
+                "",
+                "| engine | total s | read + SRV s | pairs s | speed-up total | speed-up pairs | identical |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for name, x in sp["rows"].items():
+                lines.append(
+                    f"| {name} | {x['seconds_total']:.1f} | {x['seconds_read_and_srv']:.1f} | "
+                    f"{x['seconds_pairs']:.1f} | {x['speedup_total']:.2f} | {x['speedup_pairs']:.2f} | "
+                    f"{x['identical_to_serial']} |"
+                )
+            d = sp["rows"].get("dask scheduler + 2 dask workers (127.0.0.1)", {})
+            if "seconds_cluster_start_not_included" in d:
+                lines.append(
+                    f"\n(the separately started scheduler and workers took "
+                    f"{d['seconds_cluster_start_not_included']:.1f} s to start, not included)"
+                )
+    if "small" in r:
+        sm = r["small"]
+        loc = sm["local"]
+        lines += [
+            "",
+            f"### Small input ({sm['serial']['motions']} motions): serial "
+            f"{sm['serial']['seconds_total']:.1f} s, "
+            + (
+                f"--engine local {loc['seconds_total']:.1f} s (ran as: {loc['engine']}; "
+                f"{loc.get('engine_note')})"
+                if "skipped" not in loc
+                else f"--engine local skipped: {loc['skipped']}"
+            ),
+        ]
+    meta = r.get("meta", {})
+    if meta:
+        lines += ["", "Load average (1, 5, 15 min) after each section: "]
+        lines += [
+            f"- {k}: {v['after']['load_average']} ({v['seconds']:.0f} s, {v['date']})"
+            for k, v in meta.items()
+            if isinstance(v, dict) and "after" in v
+        ]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument(
+        "--mocap",
+        type=Path,
+        default=Path(os.environ.get("ELASTIC_MOTION_MOCAP", REPO.parent / "shared" / "mocap")),
+    )
+    parser.add_argument("--sections", default="per_pair,scale,quality,speedup,small")
+    parser.add_argument("--motions", type=int, default=1000, help="motions of the scale run (default 1000)")
+    parser.add_argument(
+        "--engine",
+        default="serial,local",
+        help="engines of the scale run, comma-separated (default serial,local: both, one after the other)",
+    )
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--speedup-motions", type=int, default=400)
+    parser.add_argument("--sample", type=int, default=300, help="pairs of the quality check")
+    parser.add_argument("--inputs", type=Path, default=None, help="keep the generated windows here (reused)")
+    parser.add_argument("--quick", action="store_true", help="small sizes (a smoke test of the script)")
+    parser.add_argument("--out", type=Path, default=RESULTS / "database_scale.json")
+    parser.add_argument("--markdown", action="store_true", help="only print the tables of the existing JSON")
+    args = parser.parse_args()
+    if args.markdown:
+        print(markdown(json.loads(args.out.read_text())))
+        return
+    if args.quick:
+        args.motions, args.speedup_motions, args.sample = 120, 80, 40
+    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
+    known = {"per_pair", "scale", "quality", "speedup", "small"}
+    if set(sections) - known:
+        raise SystemExit(f"--sections: expected some of {sorted(known)}; got {sorted(set(sections) - known)}")
+    # a subset of the sections updates the existing JSON; all of them start it afresh
+    keep = args.out.exists() and not args.quick and set(sections) != known
+    result = json.loads(args.out.read_text()) if keep else {}
+    result["machine"] = machine_info()
+    result.setdefault("meta", {})
+    tmp = Path(tempfile.mkdtemp(prefix="em-db-scale-"))
+    src = args.inputs or tmp / "windows"
+    existing = sorted(src.glob("w*.bvh")) if src.exists() else []
+    if len(existing) != args.motions:
+        shutil.rmtree(src, ignore_errors=True)
+        secs = write_windows(args.mocap / "cmu" / "bvh", src, args.motions)
+        print(f"wrote {args.motions} windows of {FRAMES} frames to {src} in {secs:.0f} s", flush=True)
+    inputs = sorted(src.glob("w*.bvh"))
+    sub = tmp / "speedup_inputs"
+    sub.mkdir()
+    for f in inputs[: args.speedup_motions]:
+        shutil.copy(f, sub / f.name)
+    engines = [e.strip() for e in args.engine.split(",") if e.strip()]
+    if not engines or set(engines) - {"serial", "local"}:
+        raise SystemExit(
+            f"--engine: expected 'serial', 'local' or both (comma-separated); got {args.engine!r}"
+        )
+    try:
+        for section in sections:
+            print(f"[{time.strftime('%H:%M:%S')}] {section} ...", flush=True)
+            before = load("before")
+            t0 = time.perf_counter()
+            if section == "per_pair":
+                result["per_pair"] = per_pair(inputs, pairs=200 if args.quick else 1000)
+            elif section == "scale":
+                result["scale"] = {}
+                for engine in engines:
+                    before_run = load("before")
+                    out = tmp / f"scale_{engine}"
+                    result["scale"][engine] = run_matrix(src, out, engine, args.workers)
+                    result["scale"][engine]["load_average"] = [
+                        before_run["load_average"],
+                        load("after")["load_average"],
+                    ]
+                    print(f"  {engine}: {result['scale'][engine]['seconds_total']:.1f} s", flush=True)
+            elif section == "quality":
+                outs = [
+                    tmp / f"scale_{e}" for e in engines if (tmp / f"scale_{e}" / "distances_lie.npy").exists()
+                ]
+                if not outs:
+                    raise SystemExit("--sections: 'quality' checks the matrix of 'scale'; run them together")
+                result["quality"] = quality(outs[0], args.sample)
+                ref = np.load(outs[0] / "distances_lie.npy").tobytes()
+                result["quality"]["engines_bit_identical"] = all(
+                    np.load(o / "distances_lie.npy").tobytes() == ref for o in outs
+                )
+            elif section == "speedup":
+                result["speedup"] = speedup(sub, tmp)
+            elif section == "small":
+                result["small"] = small(src, tmp, 40)
+            result["meta"][section] = {
+                "seconds": round(time.perf_counter() - t0, 1),
+                "before": before,
+                "after": load("after"),
+                "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                "quick": args.quick,
+            }
+            if not args.quick:
+                write_json(args.out, result)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(markdown(result))
+    if not args.quick:
+        print(f"\nwritten {args.out}")
+
+
+if __name__ == "__main__":
+    main()
