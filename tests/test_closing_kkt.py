@@ -358,9 +358,11 @@ class Stacked(ExtraConstraints):
         return tuple(np.concatenate([p[k] for p in pad]) for k in range(4))
 
 
+@pytest.mark.parametrize("one_slot", [False, True])
 @pytest.mark.parametrize("c1", [False, True])
-def test_structured_extra_rows_equal_the_dense_jacobian(c1):
-    """J d, J^* lambda and J J^* of the prefix-sum implementation against the dense Jacobian."""
+def test_structured_extra_rows_equal_the_dense_jacobian(c1, one_slot):
+    """J d, J^* lambda and J J^* of the prefix-sum implementation against the dense Jacobian
+    (rows on two samples and unused slots; and rows on one sample each, the short path)."""
     from elastic_motion.closing import _problem
 
     g = lie_group()
@@ -368,7 +370,7 @@ def test_structured_extra_rows_equal_the_dense_jacobian(c1):
     mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
     extra = Stacked(
         PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5),
-        RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),
+        *(() if one_slot else (RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),)),
         PinConstraints(30, 0, [1.0, 0.0, 0.0], [0.4, 0.0], 17, 2, 0.1),
     )
     srv, prob = _problem(curve, mask, c1, 1.0, 1e-9, None)
@@ -377,6 +379,7 @@ def test_structured_extra_rows_equal_the_dense_jacobian(c1):
     eu0 = _eu_samples(prob, s) + 0.3
     dense = DenseLinear(prob, s, extra, eu0)
     fast = _ExtraLinear(prob, s, extra, eu0)
+    assert fast._one_atom_per_row == one_slot
     np.testing.assert_allclose(fast.fsel, dense.fsel, atol=1e-13)
     rng = np.random.default_rng(0)
     d = rng.normal(size=q.shape)

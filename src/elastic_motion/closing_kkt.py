@@ -215,6 +215,7 @@ class _ExtraLinear:
         self._rows = scipy.sparse.csr_matrix(
             (np.ones(a_count), (atom_row, np.arange(a_count))), shape=(r_count, a_count)
         )
+        self._one_atom_per_row = a_count == r_count and bool(np.all(atom_row == np.arange(r_count)))
         self._scatter = scipy.sparse.csr_matrix(
             (np.ones(a_count), (self.fr, np.arange(a_count))), shape=(n + 1, a_count)
         )
@@ -301,7 +302,10 @@ class _ExtraLinear:
         e_flat[:, :ne] = k_eu * d[:, :ne]
         if m:
             e_flat[:, ne:] = np.einsum("abjk,abk->abj", k_rot, d[:, ne:].reshape(-1, m, 3)).reshape(-1, 3 * m)
-        prod = e_flat @ d.T  # [a, b] = D_a^T K(f_a) D_b, right when f_a <= f_b
+        # (the rows touch few coordinates, e.g. a foot's chain: multiply on those only)
+        cols = np.flatnonzero(np.any(d != 0.0, axis=0))
+        d_c = np.ascontiguousarray(d[:, cols])
+        prod = np.ascontiguousarray(e_flat[:, cols]) @ d_c.T  # [a, b] = D_a^T K(f_a) D_b if f_a <= f_b
         g_atoms = np.where(fr[:, None] <= fr[None, :], prod, prod.T)
         # (2) the rank-one part 3 (b . q)(b . q) / h: z[a, i] = D_a . y_i for the cells i < f_a
         y = np.empty((n, dim))
@@ -311,10 +315,13 @@ class _ExtraLinear:
                 self.scale_rot[:, :, None] * np.einsum("ibjk,ibk->ibj", self.a, s.q[:, ne:].reshape(n, m, 3))
             ).reshape(n, 3 * m)
         y *= np.sqrt(3.0 / h)[:, None]
-        z = (d @ y.T) * (np.arange(n)[None, :] < fr[:, None])  # (A, n)
+        z = (d_c @ y[:, cols].T) * (np.arange(n)[None, :] < fr[:, None])  # (A, n)
         rows = self._rows
-        z_rows = rows @ z  # (R, n)
-        g_xx = rows @ (rows @ g_atoms).T + z_rows @ z_rows.T
+        if self._one_atom_per_row:
+            z_rows, g_xx = z, g_atoms + z @ z.T
+        else:
+            z_rows = rows @ z  # (R, n)
+            g_xx = rows @ (rows @ g_atoms).T + z_rows @ z_rows.T
         # closing rows x extra rows
         k = self.be.shape[-1]
         bs, be = self.bs, self.be
@@ -333,7 +340,8 @@ class _ExtraLinear:
             for g in range(k):
                 idx = g * dim + ne + 3 * np.arange(m)[:, None] + np.arange(3)[None, :]  # (m, 3)
                 g_cx[idx.ravel()] = blk[:, :, 3 * g : 3 * g + 3].reshape(-1, 3 * m).T
-        g_cx = (rows @ g_cx.T).T
+        if not self._one_atom_per_row:
+            g_cx = (rows @ g_cx.T).T
         # rank-one part: (b_c . q) sqrt(3 / h) against z
         yc = np.empty((n, k * dim))
         for g in range(k):

@@ -119,10 +119,11 @@ def test_kept_feet_do_not_push_the_hands_into_the_floor(mocap_dir):
 
 @pytest.mark.mocap
 def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
-    """CMU 49_08 (cartwheels), whole clip: the constrained projection stalls with every contact
-    within a few mm (a foot and its toe planted together make dependent rows); the loop is
-    closed exactly from there instead of releasing or dropping contacts."""
-    res = loop_motion(mocap_dir / "cmu/bvh/49_08.bvh")
+    """CMU 49_08 (cartwheels), frames 231-569: the constrained projection stalls with every
+    contact within a few mm; the loop is closed exactly from there instead of releasing or
+    dropping contacts."""
+    path = mocap_dir / "cmu/bvh/49_08.bvh"
+    res = loop_motion(path, window=(231, 569))
     info = res.contacts_kept
     assert info["polished"] is not None and "mm" in info["polished"]
     assert info["released"] == [] and "dropped" not in info
@@ -130,5 +131,32 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     assert res.closing.converged and res.seam_after.seam_angle_max_deg < 1e-3
     assert any("closed exactly from there" in n for n in res.notes)
     # the change is measured from the input (not from where the solver stopped)
-    plain = loop_motion(mocap_dir / "cmu/bvh/49_08.bvh", contacts="report")
+    plain = loop_motion(path, window=(231, 569), contacts="report")
     assert res.closing.change > plain.closing.change
+
+
+def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():
+    """A foot whose toe crosses the seam while its heel is planted on the last frame but not
+    on the first: the heel's last contact gets no rows (rows on both fought over the rigid
+    foot and stalled the solver); the toe's are relative to the last frame."""
+    from elastic_motion.apps.loop_contacts import contact_rows
+    from elastic_motion.motion.contacts import Contacts
+
+    m = periodic(f=50)
+    mask = np.zeros((50, 2), dtype=bool)
+    mask[40:, :] = True  # the "knee" (heel) and the "foot" (toe), one body, planted at the end
+    mask[:5, 1] = True  # only the toe planted at the start
+    mask[10:20, 0] = True  # an interior heel contact keeps its rows
+
+    def rows_of(mask):
+        return contact_rows(
+            m, Contacts(("knee", "foot"), np.array([2, 3]), mask, 0.0, np.zeros(2), m.fps, "y")
+        )
+
+    rows = rows_of(mask)
+    heel = [r for r in rows if r.name == "knee"]
+    assert heel and all(r.frame < 20 for r in heel)
+    assert {r.anchor for r in rows if r.name == "foot" and r.frame >= 40} == {-1, 49}
+    mask[:5, 0] = True  # the heel planted at the start too: both cross the seam
+    heel = [r for r in rows_of(mask) if r.name == "knee"]
+    assert {r.anchor for r in heel if r.frame >= 40} == {-1, 49}

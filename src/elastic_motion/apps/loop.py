@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion import limits
+from elastic_motion._threads import single_threaded_blas
 from elastic_motion._validation import check_finite
 from elastic_motion.apps.loop_contacts import ContactConstraints, contact_grid, grid_step, lift_correction
 from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_within_limits
@@ -462,12 +463,13 @@ def _close_clip(
                 else lie
             )
             t_keep = time.perf_counter()
-            res, extra, released = _solve_with_contacts(
-                lie_c, coarse, found_c, max_release=max_release, solve=lambda lc, ex: project_closed(
-                    lc, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                    rotation_names=list(names), extra=ex, stall_iterations=6,
-                ),
-            )  # fmt: skip
+            with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
+                res, extra, released = _solve_with_contacts(
+                    lie_c, coarse, found_c, max_release=max_release, solve=lambda lc, ex: project_closed(
+                        lc, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                        rotation_names=list(names), extra=ex, stall_iterations=6,
+                    ),
+                )  # fmt: skip
             vals = np.asarray(res.curve.values)
             near = float(np.abs(extra.residual(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])).max(initial=0))
             polished = None

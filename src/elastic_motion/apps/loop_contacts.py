@@ -12,7 +12,12 @@ subject to closure *and* the input's contacts
   across the seam: there the floor-plane position is constrained *relative to the last
   frame* (``p(f) - p(F-1) = p_in(f) - p_in(F-1)``, 2 rows) and the height absolutely
   (except at ``F - 1``, which the seam fixes), so closing moves that contact as one piece
-  with the next cycle's start.
+  with the next cycle's start. That holds only when the joint is planted on the first frame
+  (else closing it may fail and the contact is released, see ``apps.loop``). A foot whose
+  toe crosses the seam while its heel (ankle) is planted on the last frame but lifted on
+  the first leaves that last heel contact to the toe: rows on both (the heel's absolute,
+  the toe's relative to the seam) fight over the rigid foot by a few mm and the solver
+  stalls (CMU 55_01 frames 391-991).
 * **Derivatives.** For a left perturbation ``delta R_j = hat(omega) R_j`` of joint ``j``'s
   local rotation at frame ``f``, ``delta p_k = (G_parent(j) omega) x (p_k - p_j)`` for every
   proper ancestor ``j`` of ``k`` (root included, ``G_parent(root) = I``); a change of the
@@ -75,12 +80,30 @@ def contact_rows(motion: Motion, contacts: Contacts) -> list[_Row]:
     scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
     pos = _fk(motion, motion.rotations, motion.root_translation)[0] * scale
     rows: list[_Row] = []
-    for name, runs in contacts.all_intervals().items():
-        j = motion.skeleton.index(name)
+    intervals = contacts.all_intervals()
+    sk = motion.skeleton
+
+    def body(name: str) -> str:  # the top-most contact joint above (a toe's foot)
+        top, p = name, sk.parents[sk.index(name)]
+        while p >= 0:
+            if sk.names[p] in intervals:
+                top = sk.names[p]
+            p = sk.parents[p]
+        return top
+
+    # a foot planted on the last frame with its toe but lifting its heel on the first: the
+    # heel's last contact is left to the toe (rows on both, the heel's absolute and the toe's
+    # relative to the seam, fight over the rigid foot by a few mm and stall the solver)
+    start = {n for n, runs in intervals.items() if runs and runs[0][0] == 0}
+    end = {n for n, runs in intervals.items() if runs and runs[-1][1] == f_count}
+    crossing_bodies = {body(n) for n in end & start}
+    for name, runs in intervals.items():
+        j = sk.index(name)
         for a, b in runs:
-            frames = range(a, b)
             seam = b == f_count and a > 0
-            for f in frames:
+            if seam and name not in start and body(name) in crossing_bodies:
+                continue
+            for f in range(a, b):
                 if seam:
                     if f == f_count - 1:
                         continue

@@ -10,12 +10,12 @@ and ``||q0 - q1 * phi|| = ||q1 - q0 * phi^-1||``).
 
 from __future__ import annotations
 
-import contextlib
 import math
 from collections.abc import Sequence
 
 import numpy as np
 
+from elastic_motion._threads import single_threaded_blas
 from elastic_motion.apps.database.settings import DEFAULT_WARP
 from elastic_motion.apps.progress import Progress
 from elastic_motion.warp import WarpOptions
@@ -115,22 +115,6 @@ def pair_distances(
         )
         out[idx] = np.sqrt(np.maximum(e, 0.0))
     return out
-
-
-def single_threaded_blas() -> contextlib.AbstractContextManager:
-    """Limit BLAS to one thread while tiles run, when ``threadpoolctl`` is installed.
-
-    The DP solver makes one small matrix product per pair (the Gram matrix ``q0 q1^T``); a
-    multi-threaded OpenBLAS spins its threads after each product and starves numba's own
-    threads: measured 4-5x slower pairs at N = 200 on 2 cores. One thread also makes the
-    product's summation order the same in every process (Dask workers are started with
-    ``OPENBLAS_NUM_THREADS=1``), which keeps serial and cluster results bit-identical.
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - optional dependency
-        return contextlib.nullcontext()
-    return threadpool_limits(1, user_api="blas")
 
 
 def compute_tile(
