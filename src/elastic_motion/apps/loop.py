@@ -399,6 +399,101 @@ def _solve_with_contacts(lie, motion: Motion, contacts: Contacts, *, max_release
     return res, extra, released
 
 
+def _close_keeping_contacts(
+    motion: Motion,
+    found: Contacts,
+    project,
+    *,
+    max_step: float,
+    max_release: int,
+    joint_weights: np.ndarray | None,
+    translation_weight: float | None,
+) -> tuple[Motion | None, ClosingResult, ContactConstraints, dict]:
+    """Close a prepared clip with its contacts kept (``contacts="keep"``, module
+    :mod:`elastic_motion.apps.loop_contacts`).
+
+    The clip is closed on a grid of its frames (every frame while the rows fit in the
+    budget, at most ``max_step`` seconds apart; 0: every frame), conflicting contacts are
+    released (:func:`_solve_with_contacts`), a solve that stopped with every contact within
+    :data:`POLISH_MISS` is closed exactly from there, the grid's correction is lifted to
+    every frame and the body is raised where it went under the floor.
+
+    Returns
+    -------
+    out : Motion or None
+        The loop; None when the contacts could not be kept (the caller closes without them:
+        ``kept["dropped"]`` says why).
+    res : ClosingResult
+        The constrained projection (on the grid), ``time`` covering every attempt.
+    extra : ContactConstraints
+        The rows it was solved with (on the grid's frames).
+    kept : dict
+        The report: rows, grid, converged, polished, released and gave way (on the clip's
+        frames), lifted_max_m.
+    """
+    j = motion.n_joints
+    step = grid_step(found, max_step) if max_step > 0 else 0.0
+    grid = contact_grid(motion.n_frames, motion.fps, step)
+    coarse = select_frames(motion, grid) if grid.size < motion.n_frames else motion
+    found_c = dataclasses.replace(found, mask=found.mask[grid]) if coarse is not motion else found
+    lie_c = to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)
+    t_keep = time.perf_counter()
+    with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
+        res, extra, released = _solve_with_contacts(
+            lie_c, coarse, found_c, max_release=max_release,
+            solve=lambda curve, ex: project(curve, ex, stall=6),
+        )  # fmt: skip
+
+    def worst_miss(r: ClosingResult) -> float:
+        v = np.asarray(r.curve.values)
+        return float(np.abs(extra.residual(v[:, 3:].reshape(-1, j, 3, 3), v[:, :3])).max(initial=0))
+
+    near = worst_miss(res)
+    polished = None
+    if not res.converged and near <= POLISH_MISS:
+        # the contacts nearly hold where the solver stopped: close exactly from there, if that
+        # keeps them
+        polish = project(res.curve)
+        after = worst_miss(polish)
+        if polish.converged and after <= 2 * POLISH_MISS:
+            q0 = srv_transform(lie_c)
+            dq = polish.srv.q - q0.q
+            polished = (
+                f"the contacts held within {1000 * near:.1f} mm where the solver stopped "
+                f"({res.message}); closed exactly from there (within {1000 * after:.1f} mm)"
+            )
+            change = float(np.sqrt(np.einsum("i,ij,ij->", q0.dt, dq, dq)))  # from the input
+            res = dataclasses.replace(polish, change=change, message=polished)
+    # the time of every constrained solve (released attempts, polish) is the solve's
+    res = dataclasses.replace(res, time=time.perf_counter() - t_keep)
+    vals = np.asarray(res.curve.values)
+
+    def on_clip(g: dict) -> dict:
+        return {**g, "frames": [int(grid[g["frames"][0]]), int(grid[g["frames"][1] - 1]) + 1]}
+
+    kept = {
+        "rows": len(extra),
+        "grid_frames": int(grid.size),
+        "grid_fps": float(motion.fps * (grid.size - 1) / max(motion.n_frames - 1, 1)),
+        "converged": res.converged,
+        "polished": polished,
+        "released": [on_clip(r) for r in released],
+        "gave_way": [on_clip(g) for g in extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])],
+    }
+    if not res.converged:
+        kept["dropped"] = f"contacts dropped ({res.message}); closed without them"
+        return None, res, extra, kept
+    out = lift_correction(motion, grid, coarse, from_lie_curve(res.curve, coarse))
+    # kept feet push the change into the other frames: where that puts a hand or the head
+    # under the floor (or under the input's own lowest point there), raise the body there
+    unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    lowest_in = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)]
+    floor = np.minimum(found.floor / unit, lowest_in.min(axis=1))
+    out, lift = lift_out_of_floor(out, floor, fixed=(0, motion.n_frames - 1))
+    kept["lifted_max_m"] = float(lift.max() * unit)
+    return out, res, extra, kept
+
+
 def _close_clip(
     motion: Motion,
     closed_joint: np.ndarray,
@@ -446,93 +541,24 @@ def _close_clip(
         mask = np.concatenate([pos_mask, rot_mask.ravel()])
         found = detect_contacts(motion, contact_options) if contacts == "keep" else None
         out = None
-        if found is not None and found.any:
-            # every frame of a grid of about 1 / contact_step fps (loop_contacts: rows only
-            # every few frames let the planted joints drift between them); C1 seam rows and
-            # kept joint limits need the clip's own frames
-            grid = (
-                np.arange(motion.n_frames)
-                if c1 or joint_limits is not None
-                else contact_grid(motion.n_frames, motion.fps, grid_step(found, contact_step))
-            )
-            coarse = select_frames(motion, grid) if grid.size < motion.n_frames else motion
-            found_c = dataclasses.replace(found, mask=found.mask[grid]) if coarse is not motion else found
-            lie_c = (
-                to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)
-                if coarse is not motion
-                else lie
-            )
-            t_keep = time.perf_counter()
-            with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
-                res, extra, released = _solve_with_contacts(
-                    lie_c, coarse, found_c, max_release=max_release, solve=lambda lc, ex: project_closed(
-                        lc, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                        rotation_names=list(names), extra=ex, stall_iterations=6,
-                    ),
-                )  # fmt: skip
-            vals = np.asarray(res.curve.values)
-            near = float(np.abs(extra.residual(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])).max(initial=0))
-            polished = None
-            if not res.converged and near <= POLISH_MISS:
-                # the contacts nearly hold where the solver stopped (dependent rows, e.g. a foot
-                # and its toe, can stall it at a few mm): close exactly from there
-                polish = project_closed(
-                    res.curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                    rotation_names=list(names),
-                )  # fmt: skip
-                pv = np.asarray(polish.curve.values)
-                after = float(
-                    np.abs(extra.residual(pv[:, 3:].reshape(-1, j, 3, 3), pv[:, :3])).max(initial=0)
-                )
-                if polish.converged and after <= 2 * POLISH_MISS:  # closing did not undo the contacts
-                    q0 = srv_transform(lie_c)
-                    change = float(
-                        np.sqrt(np.einsum("i,ij,ij->", q0.dt, polish.srv.q - q0.q, polish.srv.q - q0.q))
-                    )
-                    polished = (
-                        f"the contacts held within {1000 * near:.1f} mm where the solver stopped "
-                        f"({res.message}); closed exactly from there (within {1000 * after:.1f} mm)"
-                    )
-                    res = dataclasses.replace(polish, change=change, message=polished)
-                    vals = np.asarray(res.curve.values)
-            # the time of every constrained solve (released attempts, polish) is the solve's
-            res = dataclasses.replace(res, time=time.perf_counter() - t_keep)
-            kept = {
-                "rows": len(extra),
-                "grid_frames": int(grid.size),
-                "grid_fps": float(motion.fps * (grid.size - 1) / max(motion.n_frames - 1, 1)),
-                "converged": res.converged,
-                "polished": polished,
-                "released": [
-                    {**r, "frames": [int(grid[r["frames"][0]]), int(grid[r["frames"][1] - 1]) + 1]}
-                    for r in released
-                ],
-                "gave_way": [
-                    {**g, "frames": [int(grid[g["frames"][0]]), int(grid[g["frames"][1] - 1]) + 1]}
-                    for g in extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])
-                ],
-            }
-            if res.converged:
-                out = lift_correction(motion, grid, coarse, from_lie_curve(res.curve, coarse))
-                # kept feet push the change into the other frames: where that puts a hand or
-                # the head under the floor, raise the body there (not on the seam frames)
-                # (never above the input's own lowest point on a frame)
-                unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
-                lowest_in = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)]
-                floor = np.minimum(found.floor / unit, lowest_in.min(axis=1))
-                out, lift = lift_out_of_floor(out, floor, fixed=(0, motion.n_frames - 1))
-                kept["lifted_max_m"] = float(lift.max() * unit)
-            else:  # contacts and closure do not fit together: close without them
-                kept["dropped"] = f"contacts dropped ({res.message}); closed without them"
-                res = project_closed(
-                    lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                    rotation_names=list(names),
-                )  # fmt: skip
-        elif solver == "kkt":
-            res = project_closed(
-                lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                rotation_names=list(names),
+
+        def project(curve, extra=None, stall=None):
+            return project_closed(
+                curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                rotation_names=list(names), extra=extra, stall_iterations=stall,
             )  # fmt: skip
+
+        if found is not None and found.any:
+            # C1 seam rows and kept joint limits need the clip's own frames
+            out, res, extra, kept = _close_keeping_contacts(
+                motion, found, project, max_step=0.0 if c1 or joint_limits is not None else contact_step,
+                max_release=max_release, joint_weights=joint_weights,
+                translation_weight=translation_weight,
+            )  # fmt: skip
+            if out is None:  # contacts and closure do not fit together: close without them
+                res = project(lie)
+        elif solver == "kkt":
+            res = project(lie)
         else:
             res = close_curve(
                 lie, method=solver, tol=tol, max_iter=max_iter, factors=mask, c1=c1,
@@ -541,14 +567,8 @@ def _close_clip(
         if joint_limits is not None and solver == "kkt":
             base = extra if kept is not None and "dropped" not in kept else None
 
-            def solve_extra(ex):
-                return project_closed(
-                    lie, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
-                    rotation_names=list(names), extra=ex,
-                )  # fmt: skip
-
             res, lim_info = solve_within_limits(
-                solve_extra, lambda r: np.asarray(r.curve.values)[:, 3:].reshape(-1, j, 3, 3),
+                lambda ex: project(lie, ex), lambda r: np.asarray(r.curve.values)[:, 3:].reshape(-1, j, 3, 3),
                 motion.rotations, names, joint_limits, base=base, first=res,
                 step=max(1, round(limit_step * motion.fps)), tol_deg=limit_tol,
             )  # fmt: skip
