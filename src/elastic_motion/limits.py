@@ -29,6 +29,8 @@ The limits (field of :class:`Limits`, default, what it bounds):
 ``max_dp_nodes``            50,000,000    nodes of one dynamic-programming table of a time
                                           warp (about 20 bytes each: 1 GB; two clips of
                                           7,000 samples each, 4 min at 30 fps)
+``max_constraint_rows``     8,000         contact rows a loop keeps in one projection (their
+                                          Gram matrix: 8 bytes per pair of rows, 0.5 GB)
 ==========================  ============  ===============================================
 
 Overriding: a user who needs more (a day-long capture, a 16k render) sets the environment
@@ -81,6 +83,7 @@ class Limits:
     max_render_fps: float = 1_000.0
     max_render_frames: int = 100_000
     max_dp_nodes: int = 50_000_000
+    max_constraint_rows: int = 8_000
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

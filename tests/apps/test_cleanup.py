@@ -159,7 +159,8 @@ def test_real_walks_skate_no_more_than_their_inputs(mocap_dir):
 
 
 def test_floor_raises_are_eased_in_and_out():
-    from elastic_motion.apps.cleanup import _envelope, _smoothstep
+    from elastic_motion.motion.edit import eased_envelope as _envelope
+    from elastic_motion.motion.edit import smoothstep as _smoothstep
 
     x = np.zeros(21)
     x[10] = 0.04  # the foot one frame 4 cm under the floor

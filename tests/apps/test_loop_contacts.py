@@ -160,3 +160,20 @@ def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():
     mask[:5, 0] = True  # the heel planted at the start too: both cross the seam
     heel = [r for r in rows_of(mask) if r.name == "knee"]
     assert {r.anchor for r in heel if r.frame >= 40} == {-1, 49}
+
+
+@pytest.mark.mocap
+def test_kept_contacts_are_bounded_and_checked(mocap_dir):
+    from elastic_motion import limits
+    from elastic_motion.errors import OptionError
+
+    path = mocap_dir / "deepmimic/humanoid3d_run.txt"
+    with pytest.raises(OptionError, match="contact_step"):
+        loop_motion(path, contact_step=-0.1)
+    rows = loop_motion(path, contact_step=0.0).contacts_kept["rows"]
+    assert rows > 6
+    with (
+        limits.override(max_constraint_rows=rows // 2),
+        pytest.raises(OptionError, match="max_constraint_rows"),
+    ):
+        loop_motion(path, contact_step=0.0)

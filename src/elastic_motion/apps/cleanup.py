@@ -17,8 +17,9 @@ In the spirit of Kovar, Schreiner and Gleicher (2002):
    ``blend_time`` (default 0.15 s) outside the contacts (smoothstep weights; two nearby
    contacts share the gap). A plant below the floor plus the joint's ground height is
    raised to it. Where a point of the foot would go below the floor the ankle is raised, the
-   raise eased in and out over the same ``blend_time`` (:func:`_envelope`: a raise of a single
-   frame would jerk the knee of a nearly straight leg by tens of degrees).
+   raise eased in and out over the same ``blend_time``
+   (:func:`elastic_motion.motion.edit.eased_envelope`: a raise of a single frame would jerk
+   the knee of a nearly straight leg by tens of degrees).
 3. **IK** (:mod:`elastic_motion.motion.ik`): a smooth root offset brings every target
    within reach, two-bone leg IK moves the ankles to ``ankle + delta`` (the foot keeps its
    global orientation), and where ankle and toe are both planted the foot turns about the
@@ -46,6 +47,7 @@ from elastic_motion.apps.metrics import ContactSkating, contact_skating
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions, Contacts, _clean_runs, _runs
+from elastic_motion.motion.edit import eased_envelope, smoothstep
 from elastic_motion.motion.ik import (
     LegChain,
     leg_chain,
@@ -235,11 +237,6 @@ class CleanupResult:
         }
 
 
-def _smoothstep(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
-
-
 def _ease(values: np.ndarray, known: np.ndarray, width: int) -> np.ndarray:
     """``values`` where ``known``; elsewhere eased to 0 within ``width`` frames of the nearest
     known frames on either side (smoothstep weights, normalised when they sum above 1)."""
@@ -250,8 +247,8 @@ def _ease(values: np.ndarray, known: np.ndarray, width: int) -> np.ndarray:
     idx = np.arange(f)
     prev = np.maximum.accumulate(np.where(known, idx, -1))
     nxt = np.minimum.accumulate(np.where(known, idx, f)[::-1])[::-1]
-    wl = np.where(prev >= 0, _smoothstep(1.0 - (idx - prev) / (width + 1.0)), 0.0)
-    wr = np.where(nxt < f, _smoothstep(1.0 - (nxt - idx) / (width + 1.0)), 0.0)
+    wl = np.where(prev >= 0, smoothstep(1.0 - (idx - prev) / (width + 1.0)), 0.0)
+    wr = np.where(nxt < f, smoothstep(1.0 - (nxt - idx) / (width + 1.0)), 0.0)
     vl = values[np.clip(prev, 0, f - 1)]
     vr = values[np.clip(nxt, 0, f - 1)]
     s = wl + wr
@@ -276,18 +273,6 @@ def _smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion
     return after.replace(
         rotations=before.rotations @ _SO3.exp(rel), root_translation=before.root_translation + off
     )
-
-
-def _envelope(x: np.ndarray, width: int) -> np.ndarray:
-    """The smallest-looking smooth upper envelope of ``x >= 0`` ``(F,)``: each value eased in
-    and out over ``width`` frames (smoothstep), the maximum over the frames."""
-    f = x.shape[0]
-    out = x.copy()
-    for k in range(1, width + 1):
-        w = float(_smoothstep(np.array(1.0 - k / (width + 1.0))))
-        out[k:] = np.maximum(out[k:], w * x[: f - k])
-        out[: f - k] = np.maximum(out[: f - k], w * x[k:])
-    return out
 
 
 def _foot_low(pos_all: np.ndarray, sk, ankle: int, up: int) -> np.ndarray:
@@ -418,7 +403,7 @@ def cleanup_footskate(
         # no point of the foot below the floor: raise the ankle where the foot would go under
         low = _foot_low(pos_all, sk, leg.ankle, up)
         # (eased in and out like the plants: a raise of one frame would jerk the knee)
-        delta[:, up] += _envelope(np.maximum(contacts.floor - low - delta[:, up], 0.0), width)
+        delta[:, up] += eased_envelope(np.maximum(contacts.floor - low - delta[:, up], 0.0), width)
         moved = np.linalg.norm(delta, axis=1) > 0
         tgt = np.where(moved[:, None], pa + delta, np.nan)
         targets.append(tgt)
@@ -447,7 +432,7 @@ def cleanup_footskate(
     lift = []
     for leg in found:
         low = _foot_low(p_out, sk, leg.ankle, up)
-        raise_ = _envelope(np.maximum(contacts.floor - low, 0.0), width)
+        raise_ = eased_envelope(np.maximum(contacts.floor - low, 0.0), width)
         under = raise_ > 0
         if not under.any():
             lift.append(None)

@@ -61,7 +61,7 @@ from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sl
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
 from elastic_motion.closing_kkt import project_closed
-from elastic_motion.curves import DiscreteCurve, srv_transform
+from elastic_motion.curves import DiscreteCurve, srv_distance, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, Euclidean
 from elastic_motion.motion import (
@@ -436,6 +436,11 @@ def _close_keeping_contacts(
     grid = contact_grid(motion.n_frames, motion.fps, step)
     coarse = select_frames(motion, grid) if grid.size < motion.n_frames else motion
     found_c = dataclasses.replace(found, mask=found.mask[grid]) if coarse is not motion else found
+    # bounded before the Gram matrix of the rows is made (3 rows per contact frame at most)
+    limits.check_option(
+        "contacts", "the rows of the kept contacts (3 per contact frame) at", 3 * int(found_c.mask.sum()),
+        "max_constraint_rows",
+    )  # fmt: skip
     lie_c = to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)
     t_keep = time.perf_counter()
     with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
@@ -456,13 +461,11 @@ def _close_keeping_contacts(
         polish = project(res.curve)
         after = worst_miss(polish)
         if polish.converged and after <= 2 * POLISH_MISS:
-            q0 = srv_transform(lie_c)
-            dq = polish.srv.q - q0.q
             polished = (
                 f"the contacts held within {1000 * near:.1f} mm where the solver stopped "
                 f"({res.message}); closed exactly from there (within {1000 * after:.1f} mm)"
             )
-            change = float(np.sqrt(np.einsum("i,ij,ij->", q0.dt, dq, dq)))  # from the input
+            change = srv_distance(polish.srv, srv_transform(lie_c))  # from the input
             res = dataclasses.replace(polish, change=change, message=polished)
     # the time of every constrained solve (released attempts, polish) is the solve's
     res = dataclasses.replace(res, time=time.perf_counter() - t_keep)
@@ -840,6 +843,8 @@ def loop_motion(
         raise OptionError("solver", f"expected one of {list(CLOSING_SOLVERS)}; got {solver!r}")
     if contacts is None:
         contacts = "keep" if method == "lie" and solver == "kkt" else "report"
+    if not (math.isfinite(contact_step) and contact_step >= 0):
+        raise OptionError("contact_step", f"expected a non-negative number of seconds; got {contact_step!r}")
     if contacts not in LOOP_CONTACTS:
         raise OptionError("contacts", f"expected one of {list(LOOP_CONTACTS)}; got {contacts!r}")
     if not isinstance(joint_limits, JointLimits) and joint_limits not in LOOP_JOINT_LIMITS:

@@ -31,6 +31,7 @@ __all__ = [
     "align_heading",
     "drop_joints",
     "drop_tpose",
+    "eased_envelope",
     "finger_joints",
     "has_reference_root",
     "has_tpose_first_frame",
@@ -45,6 +46,7 @@ __all__ = [
     "select_joints",
     "set_up_axis",
     "smooth_motion",
+    "smoothstep",
     "to_metres",
     "trim",
 ]
@@ -594,6 +596,25 @@ def place_on_floor(motion: Motion, *, floor: float = 0.0) -> Motion:
     return _apply_world_transform(motion, np.eye(3), shift)
 
 
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """``3 x^2 - 2 x^3`` of ``x`` clipped to ``[0, 1]``: 0 to 1 with zero slope at both ends."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def eased_envelope(x: np.ndarray, width: int) -> np.ndarray:
+    """The smallest smooth upper envelope of ``x >= 0`` ``(F,)`` by bumps: each value eased in
+    and out over ``width`` frames on either side (:func:`smoothstep`), the maximum over the
+    frames (a change needed on one frame, spread so that it does not jump)."""
+    f = x.shape[0]
+    out = np.array(x, dtype=np.float64)
+    for k in range(1, width + 1):
+        w = float(smoothstep(np.array(1.0 - k / (width + 1.0))))
+        out[k:] = np.maximum(out[k:], w * x[: f - k])
+        out[: f - k] = np.maximum(out[: f - k], w * x[k:])
+    return out
+
+
 def lift_out_of_floor(
     motion: Motion, floor: float | np.ndarray, *, ease: float = 0.15, fixed: Sequence[int] = ()
 ) -> tuple[Motion, np.ndarray]:
@@ -623,24 +644,15 @@ def lift_out_of_floor(
     up = _AXES.index(motion.up_axis)
     f = motion.n_frames
     depth = np.maximum(floor - forward_kinematics(motion, end_sites=True)[..., up].min(axis=1), 0.0)
-    lift = np.zeros(f)
     if not depth.any():
-        return motion, lift
-    width = max(1, round(ease * motion.fps))
-    for k in range(-width, width + 1):  # the upper envelope of smoothstep bumps
-        x = 1.0 - abs(k) / (width + 1.0)
-        bump = x * x * (3.0 - 2.0 * x)
-        shifted = np.zeros(f)
-        lo, hi = max(0, -k), min(f, f - k)
-        shifted[lo:hi] = depth[lo + k : hi + k]
-        lift = np.maximum(lift, bump * shifted)
+        return motion, np.zeros(f)
+    lift = eased_envelope(depth, max(1, round(ease * motion.fps)))
     if len(fixed):
         # a third of the ease: a lift next to a fixed frame is needed close to it
         near = max(1, round(ease * motion.fps / 3))
         idx = np.arange(f)
         dist = np.min(np.abs(idx[:, None] - (np.asarray(fixed) % f)[None, :]), axis=1)
-        x = np.clip(dist / (near + 1.0), 0.0, 1.0)
-        lift *= x * x * (3.0 - 2.0 * x)
+        lift *= smoothstep(dist / (near + 1.0))
     root = motion.root_translation.copy()
     root[:, up] += lift
     return motion.replace(root_translation=root), lift
