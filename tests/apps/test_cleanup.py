@@ -171,3 +171,46 @@ def test_floor_raises_are_eased_in_and_out():
     np.testing.assert_allclose(env[6:10], 0.04 * _smoothstep(1.0 - np.arange(4, 0, -1) / 5.0))
     assert env[5] == 0.0 and env[18] == 0.0 and env[11] == pytest.approx(0.04 * _smoothstep(0.8))
     assert np.abs(np.diff(env)).max() < 0.5 * 0.04
+
+
+def test_given_plants_are_reached_fixed_frames_kept_and_exact_feet_left_alone():
+    """The loop's use of the clean-up: plants given per frame (not the run's mean), seam
+    frames that must not change, and targets already met (to rounding) are not touched."""
+    m = walker(duration=1.5)
+    names = ("LeftFoot", "RightFoot")
+    f = m.n_frames
+    mask = np.zeros((f, 2), dtype=bool)
+    mask[:12, 0] = True  # a contact reaching the first (fixed) frame
+    mask[24:38, 1] = True
+    c = _contacts(names, mask, floor=-np.inf)
+    p = forward_kinematics(m)
+    la, ra = m.skeleton.index("LeftFoot"), m.skeleton.index("RightFoot")
+    plants = {"LeftFoot": np.full((f, 3), np.nan), "RightFoot": np.full((f, 3), np.nan)}
+    plants["LeftFoot"][:12] = p[:12, la] + 1e-12  # already where the rows put it
+    plants["RightFoot"][24:38] = p[24:38, ra] + np.array([0.02, 0.0, -0.01])  # 2 cm off, per frame
+    plants["RightFoot"][30, 1] = np.nan  # no row: the joint's own height
+    res = cleanup_footskate(m, c, plants=plants, smooth=0.0, fixed=(0, f - 1), knee_hinge=False)
+    q = forward_kinematics(res.motion)
+    np.testing.assert_allclose(q[24:38, ra, [0, 2]], plants["RightFoot"][24:38][:, [0, 2]], atol=1e-7)
+    np.testing.assert_allclose(q[30, ra, 1], p[30, ra, 1], atol=1e-7)
+    # the left leg's targets were met: not one of its joints turned (IK would bend the knee)
+    hip, knee = m.skeleton.index("LeftUpLeg"), m.skeleton.index("LeftLeg")
+    np.testing.assert_array_equal(res.motion.rotations[:, [hip, knee, la]], m.rotations[:, [hip, knee, la]])
+    np.testing.assert_array_equal(res.motion.rotations[[0, -1]], m.rotations[[0, -1]])
+    np.testing.assert_array_equal(res.motion.root_translation[[0, -1]], m.root_translation[[0, -1]])
+    with pytest.raises(ValueError, match="plants"):
+        cleanup_footskate(m, c, plants={"RightFoot": np.zeros((f - 1, 3))})
+
+
+@pytest.mark.mocap
+def test_arms_are_found_from_the_hands_parent_named_like_an_elbow(mocap_dir):
+    from elastic_motion.apps.cleanup import find_arms
+
+    cmu = read_motion(mocap_dir / "cmu/bvh/49_08.bvh")
+    sk = cmu.skeleton
+    (left,) = find_arms(cmu, ["LeftHand", "LeftFoot", "NoSuchJoint"])
+    assert [sk.names[j] for j in (left.hip, left.knee, left.ankle)] == ["LeftArm", "LeftForeArm", "LeftHand"]
+    assert left.toe == -1
+    asf = read_motion(mocap_dir / "cmu/asfamc/backflip.amc")
+    arms = find_arms(asf, ["lhand", "lwrist", "rwrist"])  # lhand's parent is the wrist: no chain
+    assert [asf.skeleton.names[a.knee] for a in arms] == ["lradius", "rradius"]

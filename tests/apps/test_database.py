@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from database_testlib import needs_dask
 
 from elastic_motion.apps.database import (
     ClusterUnavailableError,
@@ -40,14 +41,6 @@ from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.warp import WarpOptions
 
 SRC = Path(__file__).resolve().parents[2] / "src"
-
-try:
-    import distributed  # noqa: F401
-
-    HAVE_DASK = True
-except ImportError:  # the `cluster` extra is not installed
-    HAVE_DASK = False
-needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="needs dask[distributed] (extra 'cluster')")
 
 
 # --------------------------------------------------------------------------------------------

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from database_testlib import needs_dask
 
 from elastic_motion.apps.database import ClusterUnavailableError, DatabaseSettings, compute_matrix
 from elastic_motion.errors import OptionError
@@ -30,14 +31,6 @@ from elastic_motion.motion import Motion, Skeleton, write_bvh
 from elastic_motion.motion.deepmimic import DEEPMIMIC_JOINTS
 from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.warp import WarpOptions
-
-try:
-    import distributed  # noqa: F401
-
-    HAVE_DASK = True
-except ImportError:  # the `cluster` extra is not installed
-    HAVE_DASK = False
-needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="needs dask[distributed] (extra 'cluster')")
 
 SETTINGS = DatabaseSettings(n_samples=12, tile_size=2, warp=WarpOptions(method="dp", neighbourhood=4))
 

@@ -71,7 +71,7 @@ def test_demo_folder(demo, capsys):
             < 0.1 * loop["seam_before"]["seam_position_max_m"] + 1e-6
         )
     m = read_bvh(demo / "blends" / "walk_run_lie_warp.bvh")
-    assert m.n_joints == 13 and m.n_frames > 30
+    assert m.n_joints == 15 and m.n_frames > 30  # the DeepMimic humanoid with its fixed wrists
     assert rep["timings"]["total_s"] < 180
 
 

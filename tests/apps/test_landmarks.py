@@ -155,6 +155,62 @@ def test_pairs_of_different_kinds_that_cross_are_dropped():
     assert any("crosses" in s["why"] for s in pr.skipped)
 
 
+def _evu(kind, times, fps=30.0):
+    """Events from a per-frame detector: known to half a frame."""
+    return [Event(kind, t, round(fps * t), 0.5 / fps) for t in times]
+
+
+def test_pairs_the_prior_meets_within_the_timing_uncertainty_are_dropped():
+    ea = _evu("left_heel_strike", [1.0, 2.0])
+    eb = _evu("left_heel_strike", [1.01, 2.1])
+    ident = np.array([[0.0, 0.0], [1.0, 1.0]])
+    pr = pair_by_phase(ea, eb, ident, 3.0, 3.0, ["left_heel_strike"])
+    w = 0.5 / 30 + 0.5 / 30  # half a frame of A carried by the prior (slope 1), half of B
+    # 1.0 -> 1.01 s is 10 ms off the prior, inside the +-33 ms window: dropped, with the reason
+    assert [(d["time_s"], d["time_b_s"]) for d in pr.dropped] == [(1.0, 1.01)]
+    assert pr.dropped[0]["window_s"] == pytest.approx(w)
+    assert "timing uncertainty" in pr.dropped[0]["why"]
+    # 2.0 -> 2.1 s is 100 ms off: pinned at the window's edge nearest the prior, not at 2.1
+    assert pr.times == [(2.0, pytest.approx(2.1 - w))]
+    d = pr.details[0]
+    assert (d["time_b_s"], d["offset_s"]) == (2.1, pytest.approx(0.1))
+    assert d["target_b_s"] == pytest.approx(2.1 - w) and "edge" in d["why"]
+    # the report keeps dropped pairs apart from the unpaired events
+    summary = pr.summary()
+    assert len(summary["dropped"]) == 1 and not any(x.get("dropped") for x in summary["skipped"])
+    # an event early of the prediction is pinned at the window's other edge
+    pr = pair_by_phase(ea[1:], _evu("left_heel_strike", [1.9]), ident, 3.0, 3.0, ["left_heel_strike"])
+    assert pr.times == [(2.0, pytest.approx(1.9 + w))]
+
+
+def test_the_window_carries_the_uncertainty_of_a_through_the_prior():
+    # B runs at half speed: half a frame of A is a whole frame of B
+    ea = _evu("left_heel_strike", [1.0])
+    eb = _evu("left_heel_strike", [2.04])
+    slow = np.array([[0.0, 0.0], [1.0, 1.0]])  # A 0..3 s -> B 0..6 s
+    pr = pair_by_phase(ea, eb, slow, 3.0, 6.0, ["left_heel_strike"])
+    w = 2 * 0.5 / 30 + 0.5 / 30
+    assert pr.times == [] and pr.dropped[0]["window_s"] == pytest.approx(w)  # 40 ms < 50 ms
+    pr = pair_by_phase(ea, _evu("left_heel_strike", [2.1]), slow, 3.0, 6.0, ["left_heel_strike"])
+    assert pr.times == [(1.0, pytest.approx(2.1 - w))]
+
+
+def test_times_without_uncertainty_are_pinned_where_they_are():
+    ident = np.array([[0.0, 0.0], [1.0, 1.0]])
+    ea = _ev("left_heel_strike", [1.0, 2.0])
+    eb = _ev("left_heel_strike", [1.01, 2.1])
+    pr = pair_by_phase(ea, eb, ident, 3.0, 3.0, ["left_heel_strike"])
+    assert pr.times == [(1.0, 1.01), (2.0, 2.1)] and pr.dropped == ()
+
+
+def test_events_know_their_timing_uncertainty():
+    m = walker(duration=2.0)
+    for e in contact_events(m):
+        assert e.uncertainty == pytest.approx(0.5 / m.fps)
+    knees = [e for e in detect_events(m, ["left_knee_passes", "right_knee_passes"])]
+    assert knees and all(0.0 <= e.uncertainty <= 1.0 / m.fps for e in knees)
+
+
 def test_contact_events_are_gait_kinds():
     ev = contact_events(walker(duration=2.0))
     assert all(e.kind in GAIT_KINDS for e in ev)
@@ -186,3 +242,20 @@ def test_gait_events_on_a_real_walk_alternate_feet(mocap_dir):
     ev = [e for e in contact_events(m) if e.kind.endswith("heel_strike")]
     sides = [e.kind.split("_")[0] for e in ev]
     assert len(ev) >= 3 and all(x != y for x, y in itertools.pairwise(sides))
+
+
+@pytest.mark.mocap
+def test_auto_landmarks_on_the_obstacle_walks_drop_what_the_prior_meets(mocap_dir):
+    from elastic_motion.apps.blend import blend_motions
+
+    a = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/107_02_30hz.bvh")), 1.0, 3.4)
+    b = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/108_01_30hz.bvh")), 1.3, 4.8)
+    res = blend_motions([a, b], 0.5, method="euler-elastic", warp="dp", landmarks="auto", contacts="off")
+    rep = res.summary()["landmark_pairing"]
+    # 30 fps: strikes and toe-offs the warp without landmarks meets within a frame are dropped,
+    # the others pinned at their window's edge; the report says which and why
+    assert rep["pairs"] and rep["dropped"]
+    assert all(abs(d["offset_s"]) > d["window_s"] > 0 for d in rep["pairs"])
+    assert all(abs(d["offset_s"]) <= d["window_s"] for d in rep["dropped"])
+    assert [list(p) for p in res.landmarks] == [[d["time_a_s"], d["target_b_s"]] for d in rep["pairs"]]
+    assert any(n.startswith("landmarks auto: dropped") for n in res.notes)

@@ -162,3 +162,23 @@ def test_the_hinge_axis_is_the_way_the_knee_bends_most():
     a = np.zeros((5, 3))
     axis = _bend_axis_local(np.tile(np.eye(3), (5, 1, 1)), a, a + thigh, a + thigh + shin)
     np.testing.assert_allclose(axis, [-1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_solve_legs_without_the_hinge_keeps_each_frames_bend_plane():
+    """A knee bent the other way from the clip's hinge: with the hinge, IK to the ankle's own
+    position bends it forward (decimetres at the knee); without, nothing moves."""
+    m = walker(duration=1.0)
+    legs = _legs(m)
+    knee = m.skeleton.index("LeftLeg")
+    bent_back = m.rotations.copy()
+    # the walker's knee bends about +x, and is straight in frames 13-27: bend it backwards
+    bent_back[15:19, knee] = SO3().exp(np.array([-0.25, 0.0, 0.0]))
+    m2 = m.replace(rotations=bent_back)
+    p = forward_kinematics(m2)
+    la = m2.skeleton.index("LeftFoot")
+    target = np.full((m2.n_frames, 3), np.nan)
+    target[15:19] = p[15:19, la]
+    keep = solve_legs(m2, legs[:1], [target], hinge=False)
+    np.testing.assert_allclose(forward_kinematics(keep), p, atol=1e-9)
+    flip = solve_legs(m2, legs[:1], [target], hinge=True)
+    assert np.linalg.norm(forward_kinematics(flip)[15:19, knee] - p[15:19, knee], axis=-1).max() > 0.05

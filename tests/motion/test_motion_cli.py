@@ -33,7 +33,7 @@ def test_info_text_for_amc_and_deepmimic(mocap_dir, capsys):
     assert "frames:     247" in out and "fps:        60" in out and "cmu (0.0564444 m per unit)" in out
     assert main(["info", str(mocap_dir / "deepmimic" / "humanoid3d_spin.txt")]) == 0
     out = capsys.readouterr().out
-    assert "fps:        24" in out and "right_knee" in out and "joints:     13 (+ 5 end sites)" in out
+    assert "fps:        24" in out and "right_knee" in out and "joints:     15 (+ 3 end sites)" in out
 
 
 def test_info_on_a_bad_file_exits_2_naming_file_and_line(tmp_path, capsys):

@@ -17,7 +17,7 @@ from elastic_motion.motion import (
     read_motion,
     read_urdf_skeleton,
 )
-from elastic_motion.motion.deepmimic import DEEPMIMIC_JOINTS
+from elastic_motion.motion.deepmimic import DEEPMIMIC_FIXED_JOINTS, DEEPMIMIC_JOINTS
 
 KNOWN_FPS = {
     "humanoid3d_walk": 30,
@@ -36,7 +36,7 @@ def test_every_clip_loads_with_its_frame_count_and_rate(mocap_dir):
         d = np.array([fr[0] for fr in frames])
         rate = 1.0 / np.median(d[:-1])
         assert m.fps == pytest.approx(round(rate)), path.name
-        assert m.n_joints == 13 and m.metres_per_unit == 1.0 and m.up_axis == "y"
+        assert m.n_joints == 15 and m.metres_per_unit == 1.0 and m.up_axis == "y"  # with the fixed wrists
         if path.stem == "humanoid3d_roll":  # one 2-frame gap: resampled onto a uniform grid
             assert m.n_frames == math.floor(d[:-1].sum() * m.fps + 1e-6) + 1 == 121
         else:
@@ -77,6 +77,8 @@ def _reference_positions(frame: list[float]) -> dict[str, np.ndarray]:
     for name, parent, _ in DEEPMIMIC_JOINTS[1:]:
         pos[name] = pos[parent] + glob[parent].apply(offsets[name])
         glob[name] = glob[parent] * local[name]
+    for name, parent in DEEPMIMIC_FIXED_JOINTS:  # the wrists: fixed, not in the frames
+        pos[name] = pos[parent] + glob[parent].apply(offsets[name])
     return pos
 
 

@@ -318,3 +318,38 @@ def test_smooth_motion_matches_a_gaussian_filter_inside_and_commutes_with_frames
         smooth_motion(m, -1.0)
     with pytest.raises(ValueError, match="truncate"):
         smooth_motion(m, 0.1, truncate=0.0)
+
+
+def test_fade_change_scales_the_change_and_keeps_fixed_frames_exactly():
+    from elastic_motion.groups import SO3
+    from elastic_motion.motion.edit import fade_change, fixed_frames_weight
+    from elastic_motion.motion.skeleton import Motion, Skeleton
+
+    w = fixed_frames_weight(21, (0, -1), 4)
+    assert w[0] == 0.0 and w[-1] == 0.0 and (w[5:16] == 1.0).all()
+    assert (np.diff(w[:6]) > 0).all() and np.allclose(w, w[::-1])  # rising, symmetric
+    sk = Skeleton(
+        names=("root", "foot"), parents=[-1, 0], offsets=[[0, 0, 0], [0, -1.0, 0]],
+        channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+                  ("Zrotation", "Yrotation", "Xrotation")),
+    )  # fmt: skip
+    g = SO3()
+    rng = np.random.default_rng(3)
+    before = Motion(
+        sk, 30.0, rng.normal(size=(21, 3)), g.exp(rng.normal(size=(21, 2, 3))), metres_per_unit=1.0
+    )
+    turn = np.array([0.0, 0.0, 0.8])  # a change about one axis: its angle scales with the weight
+    after = before.replace(
+        rotations=before.rotations @ g.exp(turn), root_translation=before.root_translation + [0.2, 0.0, 0.0]
+    )
+    out = fade_change(before, after, w)
+    np.testing.assert_array_equal(out.rotations[[0, -1]], before.rotations[[0, -1]])
+    np.testing.assert_array_equal(out.root_translation[[0, -1]], before.root_translation[[0, -1]])
+    np.testing.assert_array_equal(out.rotations[10], after.rotations[10])
+    rel = g.log(np.swapaxes(before.rotations, -1, -2) @ out.rotations)  # (21, 2, 3)
+    np.testing.assert_allclose(rel, np.broadcast_to(w[:, None, None] * turn, rel.shape), atol=1e-12)
+    np.testing.assert_allclose(
+        out.root_translation[:, 0] - before.root_translation[:, 0], 0.2 * w, atol=1e-15
+    )
+    with pytest.raises(ValueError, match="weight"):
+        fade_change(before, after, w[:-1])

@@ -26,7 +26,7 @@ from elastic_motion.motion import (
     up_axis_warning,
     write_bvh,
 )
-from elastic_motion.motion.axes import DIRECTIONS
+from elastic_motion.motion.axes import DIRECTIONS, MIN_MARGIN
 from elastic_motion.motion.rotations import axis_rotation
 
 #: World rotations taking +y to the named direction (proper rotations, det = +1).
@@ -218,11 +218,14 @@ def test_every_real_clip_is_detected_in_every_orientation(mocap_dir):
     # body mostly horizontal or upside down as recorded: cartwheels, crawling, getting up
     assert lying == {
         "49_08.bvh",
+        "humanoid3d_cartwheel.txt",
         "humanoid3d_crawl.txt",
         "humanoid3d_getup_facedown.txt",
         "humanoid3d_getup_faceup.txt",
     }
-    assert min(margins.values()) > 0.4, sorted(margins.items(), key=lambda kv: kv[1])[:3]
+    # every clip clear of the ambiguity margin (the least: DeepMimic getup_facedown, 0.34,
+    # face down with its hands, now joints of the torso, on the floor)
+    assert min(margins.values()) > MIN_MARGIN, sorted(margins.items(), key=lambda kv: kv[1])[:3]
 
 
 @pytest.mark.mocap

@@ -31,8 +31,10 @@ What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s)
 2. The warp ``phi`` of B onto A (``warp.method != "none"``), on the curves of the method
    at most ``warp.sample_fps`` frames per second, with the landmarks (seconds, or ``"auto"``:
    the warp without landmarks is solved first and is the prior that pairs the events of A
-   and B by phase, :func:`elastic_motion.apps.landmarks.pair_by_phase`; the pairs are then
-   met with a relative landmark weight of at least 1000). With ``cycles``,
+   and B by phase, :func:`elastic_motion.apps.landmarks.pair_by_phase`; a pair the prior
+   already meets within the events' timing uncertainty is dropped, the others are met at
+   the edge of that window nearest the prior, with a relative landmark weight of at least
+   1000; ``BlendResult.landmark_pairing`` says which and why). With ``cycles``,
    the gait cycles of A and B are matched first (:mod:`.cycles`), both clips keep only the
    matched cycles (B moved on the floor to start where A does), and the warp passes through
    every cycle boundary and step (landmarks, relative weight at least 1000).
@@ -175,6 +177,11 @@ class BlendResult:
         How the gait cycles were matched (``cycles=True``); ``n == 0`` when they could not be.
     loop : LoopResult or None
         The closing of the blended cycle (``loop=True``): seam before and after.
+    landmark_pairing : dict or None
+        ``landmarks="auto"``: how the events were paired
+        (:meth:`elastic_motion.apps.landmarks.PhasePairing.summary`): each pinned pair with
+        its offset from the warp without landmarks, its timing window and why; each dropped
+        pair and skipped event with the reason. None otherwise.
     """
 
     motion: Motion
@@ -192,6 +199,7 @@ class BlendResult:
     before_cleanup: Motion | None = None
     cycles: Any = None
     loop: Any = None
+    landmark_pairing: dict | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -201,6 +209,7 @@ class BlendResult:
             "warp": self.warp,
             "weights": self.weights.tolist(),
             "landmarks_s": [list(p) for p in self.landmarks],
+            "landmark_pairing": self.landmark_pairing,
             "frames": m.n_frames,
             "fps": m.fps,
             "duration_s": m.duration,
@@ -415,6 +424,44 @@ def _blend_skeleton(ms: Sequence[Motion], w: np.ndarray, mode: str) -> Skeleton:
     return Skeleton(sk.names, sk.parents, offsets, sk.channels, sk.end_site_parents, es)
 
 
+def _auto_pairing(a: Motion, b: Motion, srv_a, srv_b, options: WarpOptions, kinds, max_pairs):
+    """The phase pairing behind ``landmarks="auto"`` (for the report): the same events and
+    prior as :func:`elastic_motion.apps.align.plan_landmarks` (the warp without landmarks of
+    the same curves and options), so the same pairs. Costs one more DP solve of the prior:
+    ``plan_landmarks`` does not hand its pairing on."""
+    from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, phase_landmarks
+
+    prior = solve_warp(srv_a, srv_b, options)
+    kinds = tuple(kinds) if kinds else DEFAULT_PAIR_KINDS
+    return phase_landmarks(a, b, kinds, prior=np.asarray(prior.vertices), max_pairs=max_pairs)
+
+
+def _pairing_notes(pairing) -> list[str]:
+    """One note for the pinned pairs and one for the dropped ones, seconds ``A:B``."""
+    out = []
+    if pairing.details:
+        out.append(
+            "landmarks auto: pinned (offset from the warp without landmarks beyond the events' "
+            "timing uncertainty; met at the window's edge): "
+            + ", ".join(
+                f"{d['kind']} {d['time_a_s']:.3f}:{d['time_b_s']:.3f} "
+                f"({d['offset_s']:+.3f} +- {d['window_s']:.4f} s -> {d['target_b_s']:.3f})"
+                for d in pairing.details
+            )
+        )
+    if pairing.dropped:
+        out.append(
+            "landmarks auto: dropped (the warp without landmarks meets them within the events' "
+            "timing uncertainty, or out of order once pinned): "
+            + ", ".join(
+                f"{d['kind']} {d['time_s']:.3f}:{d['time_b_s']:.3f} "
+                f"({d['offset_s']:+.3f} +- {d['window_s']:.4f} s)"
+                for d in pairing.dropped
+            )
+        )
+    return out
+
+
 def blend_motions(
     motions: Sequence[Source] | PreparedMotions,
     weights: float | Sequence[float] | None = None,
@@ -552,6 +599,7 @@ def blend_motions(
 
     # 2. warps, on curves of the method at warp_fps
     pairs: list[tuple[float, float]] = []
+    landmark_pairing = None
     warps: list[np.ndarray] = [_IDENTITY] * k
     if template_warps is not None:
         if len(template_warps) != k:
@@ -567,8 +615,12 @@ def blend_motions(
             plan = plan_landmarks(
                 landmarks, ms[0], ms[1], sa, sb, opts, kinds=landmark_kinds, max_pairs=max_pairs
             )
+            if isinstance(landmarks, str) and landmarks == "auto":
+                landmark_pairing = _auto_pairing(ms[0], ms[1], sa, sb, opts, landmark_kinds, max_pairs)
             pairs, opts = plan.pairs, plan.options
             notes.extend(plan.notes)
+            if landmark_pairing is not None:
+                notes.extend(_pairing_notes(landmark_pairing))
             theta = landmark_parameters(pairs, durations[0], durations[1], prep.labels[:2]) if pairs else None
             res = solve_warp(sa, sb, opts, landmarks=theta)
             warps = [_IDENTITY, np.asarray(res.vertices)]
@@ -718,6 +770,7 @@ def blend_motions(
         notes=tuple(notes),
         cleanup=cleaned,
         before_cleanup=before,
+        landmark_pairing=None if landmark_pairing is None else landmark_pairing.summary(),
         cycles=match,
         loop=loop_res,
     )

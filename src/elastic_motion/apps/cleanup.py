@@ -30,14 +30,16 @@ In the spirit of Kovar, Schreiner and Gleicher (2002):
    The last lift (no point of a foot below the floor after the smoothing) is eased likewise.
 
 Legs are found by name (:func:`elastic_motion.apps.landmarks.find_leg_joints`); contacts of
-other joints (hands) are measured but not enforced (a note says so). Lengths are in the
+other joints (hands) are measured but not enforced (a note says so), unless their arms are
+passed as ``legs`` (:func:`find_arms`: shoulder, elbow, hand; a loop's planted hands). Lengths are in the
 motion's unit (metres after :mod:`elastic_motion.apps.prepare`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,7 +49,7 @@ from elastic_motion.apps.metrics import ContactSkating, contact_skating
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions, Contacts, _clean_runs, _runs
-from elastic_motion.motion.edit import eased_envelope, smoothstep
+from elastic_motion.motion.edit import eased_envelope, fade_change, fixed_frames_weight, smoothstep
 from elastic_motion.motion.ik import (
     LegChain,
     leg_chain,
@@ -62,6 +64,8 @@ __all__ = ["CleanupResult", "carry_contacts", "cleanup_footskate", "find_legs"]
 
 _SO3 = SO3()
 _AXES = "xyz"
+#: Ankle corrections below this fraction of the leg's length (a micrometre) are not made.
+_STILL = 1e-6
 
 
 def carry_contacts(
@@ -175,6 +179,34 @@ def find_legs(motion: Motion) -> tuple[list[LegChain], list[str]]:
         except ValueError as e:
             notes.append(f"{side} leg: {e}")
     return legs, notes
+
+
+_ELBOW = re.compile(r"forearm|lowerarm|elbow|radius", re.IGNORECASE)
+
+
+def find_arms(motion: Motion, hands: Sequence[str]) -> list[LegChain]:
+    """Two-bone chains ``shoulder -> elbow -> hand`` ending at the given contact joints.
+
+    A hand joint qualifies when its parent is named like an elbow (``forearm``, ``lowerarm``,
+    ``elbow``, ``radius``: CMU ``LeftForeArm``, ASF ``lradius``); the chain's "hip" is the
+    elbow's parent. The clean-up moves them like legs (:func:`cleanup_footskate` with
+    ``legs=``), without a toe.
+
+    Returns
+    -------
+    list of LegChain
+        One per qualifying hand, in the order given.
+    """
+    sk = motion.skeleton
+    out = []
+    for name in hands:
+        if name not in sk.names:
+            continue
+        hand = sk.index(name)
+        elbow = sk.parents[hand]
+        if elbow > 0 and _ELBOW.search(sk.names[elbow]) and sk.parents[elbow] >= 0:
+            out.append(LegChain(int(sk.parents[elbow]), int(elbow), hand))
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -296,6 +328,16 @@ def _plants(p: np.ndarray, mask: np.ndarray, min_height: float | None, up: int) 
     return out
 
 
+def _given(plants: Mapping[str, np.ndarray], name: str, p: np.ndarray) -> np.ndarray | None:
+    """A joint's given plants ``(F, 3)``, its own position ``p`` where a coordinate is NaN."""
+    if name not in plants:
+        return None
+    given = np.asarray(plants[name], dtype=np.float64)
+    if given.shape != p.shape:
+        raise ValueError(f"plants[{name!r}]: expected shape {p.shape}; got {given.shape}")
+    return np.where(np.isnan(given), p, given)
+
+
 def cleanup_footskate(
     motion: Motion,
     contacts: Contacts,
@@ -304,6 +346,9 @@ def cleanup_footskate(
     smooth: float = 0.05,
     strength: float = 1.0,
     legs: Sequence[LegChain] | None = None,
+    plants: Mapping[str, np.ndarray] | None = None,
+    fixed: Sequence[int] = (),
+    knee_hinge: bool = True,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
 
@@ -326,6 +371,17 @@ def cleanup_footskate(
         skating and changes it less. The floor is enforced in full whatever the fraction.
     legs : sequence of LegChain, optional
         Default :func:`find_legs`.
+    plants : mapping of str to ndarray of shape (F, 3), optional
+        Where given, a contact joint's plant on every frame of its contacts (motion's unit;
+        NaN coordinates keep the joint's own), instead of the mean over each run: e.g. a
+        loop's planted feet between the frames it was closed on
+        (:mod:`elastic_motion.apps.loop_contacts`).
+    fixed : sequence of int
+        Frames that must not change (a loop's seam frames): the clean-up's change fades to 0
+        there, within a third of ``blend_time`` (:func:`elastic_motion.motion.edit.fade_change`).
+    knee_hinge : bool, default True
+        As ``hinge`` of :func:`elastic_motion.motion.ik.solve_legs`: False keeps each frame's
+        own knee plane (small corrections of a motion whose knees are right, e.g. a loop's).
 
     Returns
     -------
@@ -379,13 +435,15 @@ def cleanup_footskate(
             continue
         used.append(sk.names[leg.ankle])
         pa = pos[:, leg.ankle]
-        plant_a = _plants(pa, ma, ha, up)
+        plant_a = _given(plants, sk.names[leg.ankle], pa) if plants else None
+        plant_a = _plants(pa, ma, ha, up) if plant_a is None else plant_a
         delta = np.zeros_like(pa)
         delta[ma] = plant_a[ma] - pa[ma]
         turn = None
         if mt.any():
             pt = pos[:, leg.toe]
-            plant_t = _plants(pt, mt, ht, up)
+            plant_t = _given(plants, sk.names[leg.toe], pt) if plants else None
+            plant_t = _plants(pt, mt, ht, up) if plant_t is None else plant_t
             # the foot's turn about the ankle: where both are planted it takes toe - ankle to
             # plant_toe - plant_ankle; eased into the heel-off (toe only) and swing frames
             both = ma & mt
@@ -404,7 +462,13 @@ def cleanup_footskate(
         low = _foot_low(pos_all, sk, leg.ankle, up)
         # (eased in and out like the plants: a raise of one frame would jerk the knee)
         delta[:, up] += eased_envelope(np.maximum(contacts.floor - low - delta[:, up], 0.0), width)
-        moved = np.linalg.norm(delta, axis=1) > 0
+        # a target within _STILL leg lengths of the ankle is where it is: IK there would only
+        # bend a straight knee by its reach margin (cm at the knee for nothing)
+        length = np.median(
+            np.linalg.norm(pos[:, leg.knee] - pos[:, leg.hip], axis=1)
+            + np.linalg.norm(pa - pos[:, leg.knee], axis=1)
+        )
+        moved = np.linalg.norm(delta, axis=1) > _STILL * length
         tgt = np.where(moved[:, None], pa + delta, np.nan)
         targets.append(tgt)
         turns.append(turn)
@@ -421,7 +485,7 @@ def cleanup_footskate(
     # 1. root correction, 2. leg IK, 3. toe turns
     offset = root_correction(motion, found, targets, sigma=blend_time / 2)
     out = motion.replace(root_translation=motion.root_translation + offset) if offset.any() else motion
-    out = solve_legs(out, found, targets)
+    out = solve_legs(out, found, targets, hinge=knee_hinge)
     for leg, turn in zip(found, turns, strict=True):
         if turn is not None:
             out = turn_joint(out, leg.ankle, turn)
@@ -442,7 +506,9 @@ def cleanup_footskate(
         t[under, up] += raise_[under]
         lift.append(t)
     if any(t is not None for t in lift):
-        out = solve_legs(out, found, lift)
+        out = solve_legs(out, found, lift, hinge=knee_hinge)
+    if len(fixed):
+        out = fade_change(motion, out, fixed_frames_weight(motion.n_frames, fixed, max(1, width // 3)))
     after = contact_skating(out, contacts)
     p0 = pos_all
     p1 = forward_kinematics(out, end_sites=True)

@@ -41,9 +41,38 @@ event sequences picks the increasing matching that maximises
 prediction; ``tol`` = 0.15 of the kind's median period, a sixth of a gait cycle, 0.4 s
 when unknown: landmarks refine a warp that is about right, they do not overrule it),
 skipping events freely and never pairing events more than ``tol`` apart. The pairs of all
-kinds are then merged best first, keeping those that stay increasing in both clips. Each
-pair records why it was kept (its offset from the prior) and each event left out why (no B
-event near the prediction, or a conflict with a better pair).
+kinds are then merged best first, keeping those that stay increasing in both clips.
+
+Timing uncertainty: landmarks as windows
+----------------------------------------
+An event time is only known to within its detector's resolution, its ``uncertainty`` (the
+half-width of the interval it lies in, seconds): a contact starts or ends between two
+frames, so heel strikes, toe-offs and foot contacts are known to half a frame
+(``0.5 / fps``; the event is the frame where the contact flag flips, a lag common to both
+clips that cancels in the offset when they share a frame rate); a knee crossing is the
+zero of ``d`` interpolated linearly between two frames, known to the interpolation error
+``max|d''| / (8 |d'|)`` frames (at most one frame). A pair ``(tA, tB)`` therefore only asks
+the warp to pass within the window ``|phi(tA) - tB| <= w`` with
+``w = (P(tA + uA) - P(tA - uA)) / 2 + uB`` (``P`` the prior in seconds: A's uncertainty
+carried into B by the prior's local slope). Pinning the detected times exactly (the old
+rule) enforced the detectors' frame quantisation as if it were the motion: on the CMU
+obstacle walks (30 fps) moving one pinned strike by half a frame changed the blend's foot
+sliding by up to 13 %, and jittering all events within their half frame spread it by
++-5 % (``docs/applications.md``). So, with the same prior:
+
+* a pair whose prior prediction already lies in the window (``|offset| <= w``, ``w > 0``)
+  is **dropped**: the warp without landmarks meets it as well as the events can tell, and
+  a hard landmark there would only add the events' jitter (events without an uncertainty,
+  ``w = 0``, are pinned where they are, as before);
+* a pair outside its window is **kept and moved to the window's edge nearest the prior**:
+  its B time becomes ``tB - sign(offset) * w``. This is where the least-energy warp that
+  respects the window touches it (the constraint binds, and the warp moves no further
+  than the evidence requires); a kept pair that would then no longer increase in both
+  clips is dropped too.
+
+Each kept pair records why (its offset from the prior, its window, where it is pinned),
+each dropped pair why (its offset is within the window) and each event left out why (no
+B event near the prediction, or a conflict with a better pair).
 
 Joints are found by name (:func:`find_leg_joints`): the side from a ``left``/``right``/``l``/
 ``r`` prefix or an ``_l``/``_r`` suffix, the part from the rest (``UpLeg``/``femur``/``hip``/
@@ -55,6 +84,7 @@ unit is known.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import re
@@ -111,6 +141,9 @@ _SUFFIXES = (("left", "left"), ("right", "right"), ("l", "left"), ("r", "right")
 _MIN_RUN = 0.06  # seconds: shortest contact / shortest gap that counts
 _TOL_FRACTION = 0.15  # pairing by phase: largest offset from the prior, fraction of the period
 _KNEE_EPS = 0.02  # hysteresis, fraction of the leg length
+#: Timing uncertainty of an event from a per-frame contact flag, frames: the flag flips
+#: between two frames (module docstring, "Timing uncertainty").
+_CONTACT_UNCERTAINTY = 0.5
 
 
 @dataclass(frozen=True)
@@ -125,11 +158,16 @@ class Event:
         Seconds from the first frame (interpolated between frames for knee crossings).
     frame : int
         The frame nearest ``time``.
+    uncertainty : float
+        Seconds, half-width of the interval the event lies in as far as its detector can
+        tell (module docstring, "Timing uncertainty"): half a frame for contact events,
+        the linear-interpolation error for knee crossings; 0 when unknown (given times).
     """
 
     kind: str
     time: float
     frame: int
+    uncertainty: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -220,13 +258,21 @@ def _forward(pos: np.ndarray, left_hip: int, right_hip: int, up: int) -> np.ndar
     return fwd / np.where(norm > 0, norm, 1.0)
 
 
-def _crossings(d: np.ndarray, eps: float, upward: bool) -> list[float]:
-    """Fractional frame indices where ``d`` crosses 0 (up or down) with hysteresis ``eps``."""
+def _crossings(d: np.ndarray, eps: float, upward: bool) -> list[tuple[float, float]]:
+    """Zero crossings of ``d`` (up or down) with hysteresis ``eps``: ``(fractional frame,
+    uncertainty in frames)``.
+
+    The zero is interpolated linearly between the frames ``k, k + 1`` that bracket it. The
+    interpolation misses the value by at most ``max|d''| / 8`` (one frame step, ``d''`` the
+    second differences around the bracket), i.e. the time by ``max|d''| / (8 |d'|)``
+    frames with ``d' = d[k+1] - d[k]``; capped at one frame (the bracket itself).
+    """
     s = d if upward else -d
-    out: list[float] = []
+    n = s.shape[0]
+    out: list[tuple[float, float]] = []
     armed = False
     last_neg = -1  # last frame with s < 0
-    for f in range(s.shape[0]):
+    for f in range(n):
         if s[f] < -eps:
             armed = True
         if s[f] < 0:
@@ -234,7 +280,10 @@ def _crossings(d: np.ndarray, eps: float, upward: bool) -> list[float]:
         elif armed and s[f] > eps and last_neg >= 0:
             k = last_neg  # s[k] < 0 <= s[k+1]: interpolate the zero
             a, b = s[k], s[k + 1]
-            out.append(k + (0.0 - a) / (b - a) if b != a else float(k))
+            second = [abs(s[i + 1] - 2 * s[i] + s[i - 1]) for i in (k, k + 1) if 0 < i < n - 1]
+            slope = abs(b - a)
+            err = min(1.0, max(second, default=0.0) / (8.0 * slope)) if slope > 0 else 1.0
+            out.append((k + (0.0 - a) / (b - a) if b != a else float(k), float(err)))
             armed = False
     return out
 
@@ -305,9 +354,10 @@ def detect_events(
     fps = motion.fps
     events: list[Event] = []
 
-    def add(kind: str, frame_f: float) -> None:
+    def add(kind: str, frame_f: float, unc_frames: float) -> None:
         t = frame_f / fps
-        events.append(Event(kind, float(t), int(min(max(round(frame_f), 0), motion.n_frames - 1))))
+        f = int(min(max(round(frame_f), 0), motion.n_frames - 1))
+        events.append(Event(kind, float(t), f, float(unc_frames) / fps))
 
     if any(k.endswith("knee_passes") for k in kinds):
         _need(legs, ("left_hip", "right_hip", "left_knee", "right_knee"), sk, "knee crossings")
@@ -321,11 +371,11 @@ def detect_events(
         fwd = _forward(pos, lh, rh, up)
         d = np.einsum("fi,fi->f", pos[:, lk] - pos[:, rk], fwd)
         if "left_knee_passes" in kinds:
-            for f in _crossings(d, eps, upward=True):
-                add("left_knee_passes", f)
+            for f, err in _crossings(d, eps, upward=True):
+                add("left_knee_passes", f, err)
         if "right_knee_passes" in kinds:
-            for f in _crossings(d, eps, upward=False):
-                add("right_knee_passes", f)
+            for f, err in _crossings(d, eps, upward=False):
+                add("right_knee_passes", f, err)
 
     gait = [k for k in kinds if k in GAIT_KINDS]
     if gait:
@@ -356,7 +406,7 @@ def detect_events(
                 continue
             if touch[max(0, start - n_run) : start].any():
                 continue
-            add(kind, float(start))
+            add(kind, float(start), _CONTACT_UNCERTAINTY)
     events.sort(key=lambda e: (e.time, e.kind))
     return events
 
@@ -455,11 +505,12 @@ def contact_events(motion: Motion, *, legs: LegJoints | None = None, options=Non
     for side in ("left", "right"):
         parts = legs.side(side)
         ankle, toe = parts["ankle"], parts["toe"]
+        unc = _CONTACT_UNCERTAINTY / motion.fps
         if ankle in runs:
-            out += [Event(f"{side}_heel_strike", a / motion.fps, a) for a, _ in runs[ankle] if a > 0]
+            out += [Event(f"{side}_heel_strike", a / motion.fps, a, unc) for a, _ in runs[ankle] if a > 0]
         lift = toe if toe in runs else ankle if ankle in runs else None
         if lift is not None:
-            out += [Event(f"{side}_toe_off", b / motion.fps, b) for _, b in runs[lift] if b < f]
+            out += [Event(f"{side}_toe_off", b / motion.fps, b, unc) for _, b in runs[lift] if b < f]
     out.sort(key=lambda e: (e.time, e.kind))
     return out
 
@@ -471,12 +522,17 @@ class PhasePairing:
     Attributes
     ----------
     pairs : tuple of (Event, Event)
-        Increasing in both times.
+        The landmarks the warp meets, increasing in both times. The B event of a pair is
+        at the time the warp is pinned to: the edge of the pair's window nearest the prior
+        (module docstring, "Timing uncertainty"); its detected time is in ``details``.
     details : tuple of dict
-        One per pair: ``kind``, ``time_a_s``, ``time_b_s``, ``predicted_b_s`` (by the prior
-        warp), ``offset_s`` and ``why``.
+        One per pair: ``kind``, ``time_a_s``, ``time_b_s`` (detected), ``predicted_b_s`` (by
+        the prior warp), ``offset_s`` (detected minus predicted), ``window_s`` (the
+        half-width ``w``), ``target_b_s`` (where the warp is pinned) and ``why``.
     skipped : tuple of dict
-        Events of A or B left unpaired: ``motion`` ("A" or "B"), ``kind``, ``time_s``, ``why``.
+        Events left unpaired and pairs dropped, each with ``motion`` ("A" or "B"),
+        ``kind``, ``time_s`` and ``why``; a dropped pair (see :attr:`dropped`) also has
+        ``dropped: True``, ``time_b_s``, ``predicted_b_s``, ``offset_s`` and ``window_s``.
     tolerance_s : dict of str to float
         Largest offset accepted, per kind.
     """
@@ -488,16 +544,25 @@ class PhasePairing:
 
     @property
     def times(self) -> list[tuple[float, float]]:
-        """The pairs as landmarks ``(tA, tB)`` in seconds."""
+        """The pairs as landmarks ``(tA, tB)`` in seconds (``tB`` the pinned time)."""
         return [(a.time, b.time) for a, b in self.pairs]
 
+    @property
+    def dropped(self) -> tuple[dict, ...]:
+        """The pairs found but not pinned (within their window, or out of order once
+        pinned), with the reason."""
+        return tuple(d for d in self.skipped if d.get("dropped"))
+
     def summary(self) -> dict:
-        """JSON-ready: pairs with their reasons, skipped events, tolerances."""
+        """JSON-ready: pairs with their reasons, dropped pairs and skipped events, tolerances."""
         return {
             "rule": "paired by phase: the warp without landmarks predicts each event of A in B; "
-            "a DP per kind keeps the increasing matching closest to the prediction",
+            "a DP per kind keeps the increasing matching closest to the prediction; a pair "
+            "the prediction meets within the events' timing uncertainty is dropped, the "
+            "others are pinned at the edge of that window nearest the prediction",
             "pairs": [dict(d) for d in self.details],
-            "skipped": [dict(d) for d in self.skipped],
+            "dropped": [dict(d) for d in self.dropped],
+            "skipped": [dict(d) for d in self.skipped if not d.get("dropped")],
             "tolerance_s": dict(self.tolerance_s),
         }
 
@@ -548,7 +613,10 @@ def pair_by_phase(
     *,
     max_pairs: int | None = None,
 ) -> PhasePairing:
-    """Pair the events of two motions by phase (module docstring).
+    """Pair the events of two motions by phase (module docstring): match each kind by a DP
+    around the prior's predictions, merge the kinds, then drop the pairs the prior meets
+    within their timing window and pin the others at the window's edge nearest the prior
+    (module docstring, "Timing uncertainty": the events' ``uncertainty`` sets the window).
 
     Parameters
     ----------
@@ -626,18 +694,53 @@ def pair_by_phase(
                 }
             )
     kept.sort(key=lambda c: c[1].time)
-    details = tuple(
-        {
-            "kind": a.kind,
-            "time_a_s": a.time,
-            "time_b_s": b.time,
-            "predicted_b_s": pred,
-            "offset_s": off,
-            "why": f"the nearest {a.kind} of B to the prior's prediction ({off:+.3f} s)",
-        }
-        for _, a, b, pred, off in kept
-    )
-    return PhasePairing(tuple((a, b) for _, a, b, _, _ in kept), details, tuple(skipped), tols)
+    pairs: list[tuple[Event, Event]] = []
+    details: list[dict] = []
+    for _, a, b, pred, off in kept:
+        # the window: A's uncertainty carried into B by the prior, plus B's own
+        w = 0.5 * (predict(a.time + a.uncertainty) - predict(a.time - a.uncertainty)) + b.uncertainty
+        info = {"time_b_s": b.time, "predicted_b_s": pred, "offset_s": off, "window_s": w}
+        if w > 0.0 and abs(off) <= w:  # (times given without uncertainty are pinned as they are)
+            skipped.append(
+                {
+                    "motion": "A",
+                    "kind": a.kind,
+                    "time_s": a.time,
+                    "dropped": True,
+                    **info,
+                    "why": f"the warp without landmarks already meets it: offset {off:+.3f} s is "
+                    f"within the events' timing uncertainty +-{w:.3f} s (a hard landmark would "
+                    "only add the detectors' jitter)",
+                }
+            )
+            continue
+        target = b.time - math.copysign(w, off)
+        if not (0.0 < target < duration_b) or (pairs and not target > pairs[-1][1].time):
+            skipped.append(
+                {
+                    "motion": "A",
+                    "kind": a.kind,
+                    "time_s": a.time,
+                    "dropped": True,
+                    **info,
+                    "why": f"pinned at the edge of its window ({target:.3f} s in B) it would leave "
+                    "the clip or not follow the previous pair in B",
+                }
+            )
+            continue
+        pairs.append((a, dataclasses.replace(b, time=float(target))))
+        details.append(
+            {
+                "kind": a.kind,
+                "time_a_s": a.time,
+                **info,
+                "target_b_s": float(target),
+                "why": f"the nearest {a.kind} of B to the prior's prediction ({off:+.3f} s), "
+                f"more than its timing uncertainty +-{w:.3f} s: the warp is pinned at "
+                f"{target:.3f} s, the edge of that window",
+            }
+        )
+    return PhasePairing(tuple(pairs), tuple(details), tuple(skipped), tols)
 
 
 def prior_warp(a: Motion, b: Motion) -> np.ndarray:

@@ -54,7 +54,15 @@ import numpy as np
 from elastic_motion import limits
 from elastic_motion._threads import single_threaded_blas
 from elastic_motion._validation import check_finite
-from elastic_motion.apps.loop_contacts import ContactConstraints, contact_grid, grid_step, lift_correction
+from elastic_motion.apps.cleanup import cleanup_footskate, find_arms, find_legs
+from elastic_motion.apps.loop_contacts import (
+    ContactConstraints,
+    contact_grid,
+    fine_contacts,
+    grid_step,
+    lift_correction,
+    row_plants,
+)
 from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_within_limits
 from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
 from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sliding
@@ -106,10 +114,19 @@ LOOP_CONTACTS = ("keep", "report", "off")
 #: What the loop does with joint limits (ASF ``limits``): keep them (an active set of the
 #: projection, :mod:`elastic_motion.apps.loop_limits`), report them, or ignore them.
 LOOP_JOINT_LIMITS = ("keep", "report", "off")
+#: Seconds before the seam over which a contact planted on the last frame, of a joint in the
+#: air on the first, is kept in the floor plane only: the joint rises there to the first
+#: frame's pose without sliding (a foot lifts off in about this time: 0.1-0.2 s in walks).
+LIFT_TIME = 0.15
+#: How far (metres) a kept-contacts loop may go under the floor where the input itself does
+#: (the floor is a robust estimate, the 2nd percentile of the lowest point: the input goes
+#: under it on a few frames); deeper, the body is raised there (not on the seam frames).
+FLOOR_TOLERANCE = 0.01
 #: Kept contacts missed by at most this (metres) where the constrained projection stopped
 #: short are accepted: the loop is closed exactly from there (``contacts_kept["polished"]``),
-#: if that closing keeps them within twice this.
-POLISH_MISS = 0.005
+#: if that closing keeps them within twice this, and leg IK plants the feet again (a third of
+#: the contacts' detection height, 3 cm: a correction IK makes without a visible pose change).
+POLISH_MISS = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -344,27 +361,44 @@ def _free(motion: Motion, free: str | Sequence[str] | None) -> list[str]:
 # ------------------------------------------------------------------------------------------
 
 
-def _solve_with_contacts(lie, motion: Motion, contacts: Contacts, *, max_release: int, solve):
+def _solve_with_contacts(
+    lie, motion: Motion, contacts: Contacts, *, max_release: int, solve, c1: bool = False
+):
     """Close ``lie`` with the contacts kept; release contacts that conflict with closure.
 
-    When the projection with every contact fails (closure and contacts do not fit
-    together), first the contacts on the last frame of a joint that is in the air on the
-    first are released (closing puts the first pose on the last frame); after a further
-    failure, the contact that missed most at the failed solve (with any that missed at
-    least a quarter as much). At most ``max_release`` contacts and three re-solves. A
-    failed solve whose contacts all hold within ``POLISH_MISS`` is returned as it is (the
-    caller closes exactly from it).
+    A contact on the last frame of a joint that is in the air on the first is kept in the
+    floor plane only over its last :data:`LIFT_TIME` (closing puts the first pose, that
+    joint in the air, on the last frame: it must rise there; with ``c1`` it is free there,
+    to take the first frame's velocity too). When the projection fails
+    (closure and contacts do not fit together), the contact that missed most at the failed
+    solve is released (with any that missed at least a quarter as much). At most
+    ``max_release`` contacts and three re-solves. A failed solve whose contacts all hold
+    within ``POLISH_MISS`` is returned as it is (the caller closes exactly from it).
 
-    Returns the closing result, the constraints it was solved with and the released
-    contacts (``joint``, ``frames`` on ``motion``'s frames, ``largest_miss_m`` at release
-    or None, ``why``).
+    Returns the closing result, the constraints it was solved with, the released contacts
+    (``joint``, ``frames`` on ``motion``'s frames, ``largest_miss_m`` at release, ``why``)
+    and the contacts lifted early (``joint``, ``frames``: from the first frame without a
+    height row to the end).
     """
     mask = np.array(contacts.mask)
     released: list[dict] = []
+    # a contact that reaches the last frame of a joint in the air on the first cannot hold to
+    # the end: closing puts the first frame's pose, that joint in the air, on the last frame.
+    # It is kept in the floor plane only over its last LIFT_TIME: the joint rises there to
+    # meet the first pose without sliding (height rows to the end would make it pop up
+    # between the last two frames, or fail)
+    lift_from: dict[str, int] = {}
+    lifting: list[dict] = []
+    f_count = mask.shape[0]
+    for k, name in enumerate(contacts.joints):
+        if mask[-1, k] and not mask[0, k]:
+            a = int(np.flatnonzero(~mask[:, k])[-1]) + 1
+            lift_from[name] = max(a + 1, f_count - max(1, round(LIFT_TIME * motion.fps)))
+            lifting.append({"joint": name, "frames": [lift_from[name], f_count]})
     attempts = 0
     while True:
         kept = dataclasses.replace(contacts, mask=mask)
-        extra = ContactConstraints(motion, kept)
+        extra = ContactConstraints(motion, kept, lift_from=lift_from, c1=c1)
         res = solve(lie, extra)
         attempts += 1
         if res.converged or len(released) >= max_release or attempts > 3 or not len(extra):
@@ -373,20 +407,6 @@ def _solve_with_contacts(lie, motion: Motion, contacts: Contacts, *, max_release
         rot, eu = vals[:, 3:].reshape(-1, motion.n_joints, 3, 3), vals[:, :3]
         if np.abs(extra.residual(rot, eu)).max() <= POLISH_MISS:
             break  # nearly held: the caller closes exactly from here, releasing nothing
-        if attempts == 1:
-            # a contact that reaches the last frame of a joint in the air on the first cannot
-            # hold: closing puts the first frame's pose, foot in the air, on the last frame
-            for k, name in enumerate(contacts.joints):
-                col = mask[:, k]
-                if col[-1] and not col[0] and len(released) < max_release:
-                    a = int(np.flatnonzero(~col)[-1]) + 1
-                    mask[a:, k] = False
-                    released.append(
-                        {"joint": name, "frames": [a, col.size], "largest_miss_m": None,
-                         "why": "planted on the last frame, in the air on the first"}
-                    )  # fmt: skip
-            if released:
-                continue
         misses = extra.gave_way(rot, eu)
         if not misses:
             break
@@ -395,8 +415,59 @@ def _solve_with_contacts(lie, motion: Motion, contacts: Contacts, *, max_release
             if g["largest_miss_m"] >= 0.25 * worst and len(released) < max_release:
                 a, b = g["frames"]
                 mask[a:b, contacts.joints.index(g["joint"])] = False
+                if b == f_count and g["joint"] in lift_from:  # its lift goes with it
+                    del lift_from[g["joint"]]
+                    lifting[:] = [x for x in lifting if x["joint"] != g["joint"]]
                 released.append({**g, "why": "missed most when the projection with it failed"})
-    return res, extra, released
+    # (a heel whose last contact was left to its toe has no rows to lift)
+    with_rows = {r.name for r in extra.rows if r.interval[1] == f_count}
+    return res, extra, released, [x for x in lifting if x["joint"] in with_rows]
+
+
+def _plant_and_lift(
+    motion: Motion,
+    out: Motion,
+    found: Contacts,
+    kept_contacts: Contacts,
+    lift_from: dict[str, int],
+    c1: bool,
+    report: dict,
+) -> Motion:
+    """The loop ``out`` of ``motion`` with its kept contacts planted on every frame and its
+    body out of the floor; the seam frames (and their neighbours for a C1 seam, whose
+    velocities must match too) untouched. Adds ``planted_by_ik`` and ``lifted_max_m`` to
+    ``report``.
+
+    Between the grid's frames the interpolated correction lets planted feet drift (by its
+    curvature: cm on a clip changed by decimetres), and a polished solve misses them by up to
+    :data:`POLISH_MISS`: leg and arm IK put them on the rows' targets
+    (:func:`~elastic_motion.apps.loop_contacts.row_plants`), eased in and out of the contacts
+    like a blend's clean-up. Kept feet push the change into the other frames: where that
+    puts a hand or the head under the floor (or under the input's own lowest point there,
+    down to :data:`FLOOR_TOLERANCE` under it), the body is raised there.
+    """
+    f = motion.n_frames
+    seam = (0, 1, f - 2, f - 1) if c1 and f > 4 else (0, f - 1)
+    unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    plants = row_plants(motion, kept_contacts, out, lift_from, c1=c1)
+    # only the plants here: a leg raised by IK to clear a floor the loop went decimetres under
+    # bends its knee by as much; the body is raised instead, below
+    no_floor = dataclasses.replace(kept_contacts, floor=-math.inf)
+    limbs = find_legs(out)[0] + find_arms(out, kept_contacts.joints)  # a cartwheel's hands too
+    ik = cleanup_footskate(out, no_floor, plants=plants, smooth=0.0, fixed=seam, knee_hinge=False, legs=limbs)
+    if ik.applied:
+        out = ik.motion
+        report["planted_by_ik"] = {
+            "skating_before_m_s": ik.skating_before.mean_speed,
+            "skating_after_m_s": ik.skating_after.mean_speed,
+            "max_position_change_m": ik.max_position_change * unit,
+        }
+    lowest_in = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)].min(axis=1)
+    floor = found.floor / unit
+    floor = np.minimum(floor, np.maximum(lowest_in, floor - FLOOR_TOLERANCE / unit))
+    out, lift = lift_out_of_floor(out, floor, fixed=seam)
+    report["lifted_max_m"] = float(lift.max() * unit)
+    return out
 
 
 def _close_keeping_contacts(
@@ -408,6 +479,7 @@ def _close_keeping_contacts(
     max_release: int,
     joint_weights: np.ndarray | None,
     translation_weight: float | None,
+    c1: bool = False,
 ) -> tuple[Motion | None, ClosingResult, ContactConstraints, dict]:
     """Close a prepared clip with its contacts kept (``contacts="keep"``, module
     :mod:`elastic_motion.apps.loop_contacts`).
@@ -444,9 +516,9 @@ def _close_keeping_contacts(
     lie_c = to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)
     t_keep = time.perf_counter()
     with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
-        res, extra, released = _solve_with_contacts(
+        res, extra, released, lifting = _solve_with_contacts(
             lie_c, coarse, found_c, max_release=max_release,
-            solve=lambda curve, ex: project(curve, ex, stall=6),
+            solve=lambda curve, ex: project(curve, ex, stall=6), c1=c1,
         )  # fmt: skip
 
     def worst_miss(r: ClosingResult) -> float:
@@ -481,19 +553,15 @@ def _close_keeping_contacts(
         "converged": res.converged,
         "polished": polished,
         "released": [on_clip(r) for r in released],
+        "lifted_early": [on_clip(r) for r in lifting],
         "gave_way": [on_clip(g) for g in extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])],
     }
     if not res.converged:
         kept["dropped"] = f"contacts dropped ({res.message}); closed without them"
         return None, res, extra, kept
     out = lift_correction(motion, grid, coarse, from_lie_curve(res.curve, coarse))
-    # kept feet push the change into the other frames: where that puts a hand or the head
-    # under the floor (or under the input's own lowest point there), raise the body there
-    unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
-    lowest_in = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)]
-    floor = np.minimum(found.floor / unit, lowest_in.min(axis=1))
-    out, lift = lift_out_of_floor(out, floor, fixed=(0, motion.n_frames - 1))
-    kept["lifted_max_m"] = float(lift.max() * unit)
+    lift_fine = {g["joint"]: int(grid[g["frames"][0]]) for g in lifting}
+    out = _plant_and_lift(motion, out, found, fine_contacts(found, grid, released), lift_fine, c1, kept)
     return out, res, extra, kept
 
 
@@ -556,7 +624,7 @@ def _close_clip(
             out, res, extra, kept = _close_keeping_contacts(
                 motion, found, project, max_step=0.0 if c1 or joint_limits is not None else contact_step,
                 max_release=max_release, joint_weights=joint_weights,
-                translation_weight=translation_weight,
+                translation_weight=translation_weight, c1=c1,
             )  # fmt: skip
             if out is None:  # contacts and closure do not fit together: close without them
                 res = project(lie)
@@ -793,8 +861,13 @@ def loop_motion(
         (:mod:`elastic_motion.apps.loop_contacts`: a planted joint stays where the input had
         it, a contact across the seam moves as one piece, every frame of a 30 fps grid
         constrained; needs ``method="lie"`` and ``solver="kkt"``); with no contact found the
-        plain projection. A contact that conflicts with closure is released and named in the
-        notes and ``contacts_kept["released"]``; one that is kept but missed is listed in
+        plain projection. A contact planted on the last frame by a joint in the air on the
+        first is kept in the floor plane only over its last :data:`LIFT_TIME`
+        (``contacts_kept["lifted_early"]``); one that still conflicts with closure is
+        released and named in the notes and ``contacts_kept["released"]``. Between the grid's
+        frames and after a polished solve leg and arm IK plant feet and hands on every frame
+        (``contacts_kept["planted_by_ik"]``, the seam frames untouched). One that is kept but
+        missed is listed in
         ``contacts_kept["gave_way"]``; when the projection still fails the clip is closed
         without contacts (a note says so). With ``window="auto"`` the candidates are ranked
         by the plain projection and the chosen window is closed with its contacts.
@@ -913,6 +986,12 @@ def loop_motion(
                 f"{g['frames'][0]}..{g['frames'][1] - 1} ({g['why']}"
                 + (f", missed by {g['largest_miss_m']:.4f} m" if g["largest_miss_m"] is not None else "")
                 + ")"
+            )
+        for g in kept.get("lifted_early", []):
+            held = "free" if c1 else "kept in the floor plane only"
+            contact_notes.append(
+                f"contact lifted early (planted on the last frame, in the air on the first): {g['joint']} "
+                f"{held} from frame {g['frames'][0]}, rising to the first frame's pose"
             )
         for g in kept["gave_way"]:
             contact_notes.append(

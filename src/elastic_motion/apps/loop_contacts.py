@@ -36,6 +36,14 @@ subject to closure *and* the input's contacts
   ``R' R^T``, root offset) is then interpolated to all frames (:func:`lift_correction`,
   geodesic in time). The seam frames are grid frames, so the loop closes exactly; between
   grid frames a planted joint moves by the curvature of the correction only.
+* **Planted on every frame.** Between grid frames (and after a solve polished from
+  within ``POLISH_MISS``) :func:`row_plants` gives every kept contact's target on every
+  frame, and :func:`elastic_motion.apps.cleanup.cleanup_footskate` (``plants=``, leg and
+  arm IK, the seam frames fixed) puts the joints there.
+* **Lifted early.** A contact on the last frame of a joint in the air on the first
+  (``lift_from`` of :func:`contact_rows`) keeps its floor-plane rows to the end but no
+  height rows over its last frames: closing puts the first pose, that joint in the air,
+  on the last frame, and the joint rises there without sliding.
 * **Gave way.** When contacts and closure cannot all hold, the projection's least-squares
   multipliers spread the conflict; :func:`contact_residuals` reports, per contact, the
   largest distance (m) between the loop's joint and its constrained position.
@@ -43,8 +51,9 @@ subject to closure *and* the input's contacts
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,7 +64,16 @@ from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import Contacts
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
 
-__all__ = ["ROW_BUDGET", "ContactConstraints", "contact_grid", "contact_rows", "grid_step", "lift_correction"]
+__all__ = [
+    "ROW_BUDGET",
+    "ContactConstraints",
+    "contact_grid",
+    "contact_rows",
+    "fine_contacts",
+    "grid_step",
+    "lift_correction",
+    "row_plants",
+]
 
 _AXES = "xyz"
 _SO3 = SO3()
@@ -72,8 +90,25 @@ class _Row:
     target: float
 
 
-def contact_rows(motion: Motion, contacts: Contacts) -> list[_Row]:
-    """The constraint rows of a clip's contacts on every contact frame (module docstring), metres."""
+def contact_rows(
+    motion: Motion,
+    contacts: Contacts,
+    lift_from: Mapping[str, int] | None = None,
+    *,
+    c1: bool = False,
+) -> list[_Row]:
+    """The constraint rows of a clip's contacts on every contact frame (module docstring), metres.
+
+    ``lift_from`` maps a joint whose last contact reaches the last frame to the frame from
+    which that contact is kept in the floor plane only (no height rows): the joint may rise
+    there to meet the first frame's pose across the seam without sliding.
+
+    ``c1``: the seam is C1 (the last step's velocities are the first step's): a lifted
+    contact has no rows at all from its ``lift_from`` frame, and a contact across the seam
+    none on the frame before the last (rows there would give the last step the input's own
+    end velocity, which need not be its first).
+    """
+    lift_from = dict(lift_from or {})
     f_count = motion.n_frames
     up = _AXES.index(motion.up_axis)
     horiz = [a for a in range(3) if a != up]
@@ -105,11 +140,13 @@ def contact_rows(motion: Motion, contacts: Contacts) -> list[_Row]:
                 continue
             for f in range(a, b):
                 if seam:
-                    if f == f_count - 1:
+                    if f == f_count - 1 or (c1 and f == f_count - 2):
                         continue
-                    for ax in horiz:
+                    lifting = f >= lift_from.get(name, f_count)
+                    for ax in horiz if not (c1 and lifting) else ():
                         rows.append(_Row(j, name, (a, b), f, ax, f_count - 1, pos[f, j, ax] - pos[-1, j, ax]))
-                    rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
+                    if not lifting:
+                        rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
                 else:
                     if f == 0:
                         continue  # the first frame never changes
@@ -138,11 +175,20 @@ class ContactConstraints(ExtraConstraints):
         Its contacts (every contact frame is constrained).
     more_rows : sequence of rows, optional
         Rows from elsewhere, after the contacts' rows.
+    lift_from, c1
+        Contacts lifted early, a C1 seam (:func:`contact_rows`).
     """
 
-    def __init__(self, motion: Motion, contacts: Contacts, more_rows: Sequence[_Row] = ()) -> None:
+    def __init__(
+        self,
+        motion: Motion,
+        contacts: Contacts,
+        more_rows: Sequence[_Row] = (),
+        lift_from: Mapping[str, int] | None = None,
+        c1: bool = False,
+    ) -> None:
         self.motion = motion
-        self.rows = contact_rows(motion, contacts) + list(more_rows)
+        self.rows = contact_rows(motion, contacts, lift_from, c1=c1) + list(more_rows)
         self.scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
         parents = motion.skeleton.parents
         self.joint = np.array([r.joint for r in self.rows], dtype=np.int64)
@@ -296,3 +342,59 @@ def lift_correction(fine: Motion, grid: np.ndarray, before: Motion, after: Motio
     same = np.all(after.rotations == before.rotations, axis=(0, 2, 3))
     rot[:, same] = fine.rotations[:, same]  # unchanged joints (e.g. free ones) stay bit for bit
     return fine.replace(rotations=rot, root_translation=root)
+
+
+def fine_contacts(contacts: Contacts, grid: np.ndarray, released: Sequence[dict]) -> Contacts:
+    """A clip's contacts without those released on its grid (whole contacts of the clip's frames).
+
+    ``released`` items carry ``joint`` and ``frames`` ``[a, b)`` on the grid's frames
+    (:func:`elastic_motion.apps.loop._solve_with_contacts`); every contact of the clip that
+    overlaps grid frames ``grid[a] .. grid[b - 1]`` is dropped.
+    """
+    mask = np.array(contacts.mask)
+    for g in released:
+        k = contacts.joints.index(g["joint"])
+        lo, hi = int(grid[g["frames"][0]]), int(grid[g["frames"][1] - 1])
+        for a, b in contacts.intervals(g["joint"]):
+            if a <= hi and b > lo:
+                mask[a:b, k] = False
+    return dataclasses.replace(contacts, mask=mask)
+
+
+def row_plants(
+    motion: Motion,
+    contacts: Contacts,
+    loop: Motion,
+    lift_from: Mapping[str, int] | None = None,
+    *,
+    c1: bool = False,
+) -> dict[str, np.ndarray]:
+    """Where the kept contacts' rows put each contact joint on every frame of the loop.
+
+    Parameters
+    ----------
+    motion : Motion
+        The prepared clip (the rows' targets are its positions).
+    contacts : Contacts
+        The kept contacts on its frames (:func:`fine_contacts`).
+    loop : Motion
+        The loop on the same frames (a seam row's target is relative to its last frame).
+    lift_from, c1
+        As :func:`contact_rows`, on these frames.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (F, 3)
+        Per contact joint, its planted position in the motion's unit on the frames its rows
+        constrain; NaN on other frames and for coordinates without a row (the foot's height
+        while it lifts off early, a heel held by its toe).
+    """
+    rows = contact_rows(motion, contacts, lift_from, c1=c1)
+    scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    pos = _fk(loop, loop.rotations, loop.root_translation)[0] * scale
+    out: dict[str, np.ndarray] = {}
+    for r in rows:
+        plant = out.setdefault(r.name, np.full((motion.n_frames, 3), np.nan))
+        base = pos[r.anchor, r.joint, r.axis] if r.anchor >= 0 else 0.0
+        plant[r.frame, r.axis] = (r.target + base) / scale
+    return out

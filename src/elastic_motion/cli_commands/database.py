@@ -20,53 +20,29 @@ from pathlib import Path
 from typing import Any
 
 from elastic_motion.cli_commands._argparse import (
-    EXIT_BAD_INPUT,
     EXIT_INCOMPLETE,
-    add_alias,
-    handle_error,
     print_error,
 )
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_json_option,
     add_quiet_option,
-    add_warp_options,
     check_output,
-    emit_report,
-    joints_arg,
     progress_for,
 )
-from elastic_motion.errors import OptionError, ParseError
-
-#: Curve representations (``--method``) of the database commands (``euler`` is accepted for
-#: ``euler-elastic``, the name of the other commands).
-METHODS = ("lie", "euler-elastic")
-_METHOD_KEYS = {"lie": "lie", "euler-elastic": "euler", "euler": "euler"}
-#: Linkages of ``cluster --linkage``.
-LINKAGES = ("average", "complete", "single", "weighted")
-#: Removed in this release (shown in the deprecation notes of the old spellings).
-_ALIAS_UNTIL = "0.3"
-
-#: Python argument names (``OptionError.option``) -> the flag that sets them; ``None``: the
-#: message already starts with the file it concerns.
-_FLAGS: dict[str, str | None] = {
-    "representation": "--method",
-    "representations": "--method",
-    "n_samples": "--samples",
-    "joints": "--joints",
-    "warp": "--warp",
-    "neighbourhood": "--neighbourhood",
-    "tile_size": "--tile-size",
-    "out_dir": "--output",
-    "k": "-k",
-    "n_clusters": "--clusters",
-    "method": "--method",
-    "linkage": "--linkage",
-    "labels": "--labels",
-    "scheduler": "--scheduler",
-    "engine": "--engine",
-    "inputs": "inputs",
-}
+from elastic_motion.cli_commands._database_options import (
+    LINKAGES,
+    USER_ERRORS,
+    add_method,
+    add_preparation,
+    add_warp,
+    alias,
+    database_settings,
+    emit,
+    fail,
+    joints_option,
+    methods,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -81,125 +57,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 # --------------------------------------------------------------------------------------------
 # Shared options and errors
 # --------------------------------------------------------------------------------------------
-
-
-def _alias(p: argparse.ArgumentParser, old: str, new: str) -> None:
-    add_alias(p, old, new, until=_ALIAS_UNTIL)
-
-
-def _add_preparation(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--samples",
-        type=int,
-        default=64,
-        help="cells of the common time grid: each motion is resampled to SAMPLES + 1 frames uniformly "
-        "over its duration (default: 64)",
-    )
-    p.add_argument(
-        "--joints",
-        default="all",
-        help="'all' (every joint: matrix groups motions by skeleton, mean needs one skeleton), 'common' "
-        "(the joints all motions share), 'map' (every skeleton on a 13-joint common body through joint-name "
-        "maps: CMU BVH/ASF, Bandai, DeepMimic) or a comma-separated list of joint names (default: all)",
-    )
-    p.add_argument("--keep-fingers", action="store_true", help="keep finger/thumb joints (default: dropped)")
-    p.add_argument(
-        "--no-align",
-        action="store_true",
-        help="do not remove the heading and floor position of the root at frame 0 (default: removed)",
-    )
-    _alias(p, "--no-align-heading", "--no-align")
-
-
-def _joints(value: str) -> str | tuple[str, ...]:
-    return joints_arg(value, ("all", "common", "map"))
-
-
-def _add_warp(p: argparse.ArgumentParser) -> None:
-    from elastic_motion.apps.database.settings import DEFAULT_WARP
-
-    # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
-    add_warp_options(p, defaults=DEFAULT_WARP, sampling=False, coarse_to_fine=True)
-
-
-def _add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
-    """``--method`` (the curve representation), with the old spelling ``--repr``."""
-    if several:
-        p.add_argument(
-            "--method",
-            default="lie,euler",
-            metavar="{lie,euler-elastic}[,...]",
-            help="curve representations, comma-separated: lie (R^3 x SO(3)^J) and/or euler-elastic (Euler "
-            "angles, radians; 'euler' also accepted) (default: lie,euler)",
-        )
-    else:
-        p.add_argument(
-            "--method",
-            default="lie",
-            metavar="{lie,euler-elastic}",
-            help="curve representation: lie (R^3 x SO(3)^J) or euler-elastic (Euler angles, radians; 'euler' "
-            "also accepted) (default: lie)",
-        )
-    _alias(p, "--repr", "--method")
-
-
-def _methods(value: str, *, several: bool) -> tuple[str, ...]:
-    """The stored keys (``lie``, ``euler``) of ``--method``'s value."""
-    got = tuple(v.strip() for v in value.split(",") if v.strip()) if several else (value,)
-    keys = tuple(_METHOD_KEYS.get(m, m) for m in got)
-    if not got or any(m not in _METHOD_KEYS for m in got) or len(set(keys)) != len(keys):
-        if not several and value in LINKAGES:
-            raise CommandError(
-                f"--method: expected a curve representation, one of {', '.join(METHODS)}; got {value!r}, a "
-                f"linkage (use --linkage {value})"
-            )
-        what = "distinct entries of" if several else "one of"
-        raise CommandError(f"--method: expected {what} {', '.join(METHODS)}; got {value!r}")
-    return keys
-
-
-def _settings(args: argparse.Namespace, reps: tuple[str, ...]):
-    from elastic_motion.apps.database import DatabaseSettings
-    from elastic_motion.warp import WarpOptions
-
-    return DatabaseSettings(
-        n_samples=args.samples,
-        representations=reps,
-        warp=WarpOptions(
-            method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
-        ),
-        joints=_joints(args.joints),
-        drop_fingers=not args.keep_fingers,
-        align_heading=not args.no_align,
-        tile_size=getattr(args, "tile_size", 32),
-    )
-
-
-def _fail(command: str, exc: BaseException) -> int:
-    """Print ``elastic-motion CMD: error: FILE-OR-OPTION: expected ...; got ...``; return the exit code.
-
-    An :class:`~elastic_motion.errors.OptionError` is shown with the flag that sets the option.
-    """
-    if isinstance(exc, OptionError) and exc.option in _FLAGS:
-        flag = _FLAGS[exc.option]
-        print_error(command, exc.message if flag is None else f"{flag}: {exc.message}")
-        return EXIT_BAD_INPUT
-    if isinstance(exc, OSError) and exc.errno is None and exc.args:  # our own FILE: expected ...; got ...
-        print_error(command, str(exc))
-        return EXIT_BAD_INPUT
-    return handle_error(command, exc)
-
-
-#: Exceptions a database command reports as an error line (others are bugs and propagate).
-_USER_ERRORS = (CommandError, ValueError, KeyError, OSError, ParseError)
-
-
-def _emit(args: argparse.Namespace, command: str, body: dict, inputs, outputs, lines: list[str]) -> None:
-    """The shared report: header (command, version, time, inputs, outputs) + ``body``."""
-    from elastic_motion.apps.report import report_header
-
-    report = {**report_header(command, inputs=inputs, outputs=outputs), **body}
-    emit_report(args, report, [str(p) for p in inputs], "\n".join(lines))
 
 
 # --------------------------------------------------------------------------------------------
@@ -219,7 +76,7 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("inputs", nargs="+", help="motion files and/or folders")
     p.add_argument("-o", "--output", required=True, help="output folder (created; required)")
-    _alias(p, "--out", "--output")
+    alias(p, "--out", "--output")
     p.add_argument(
         "--engine",
         choices=("serial", "local", "dask"),
@@ -243,7 +100,7 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
         "else at the address is an error within this time) and, mid-run, for a worker when none is "
         "left (default: 10)",
     )
-    _add_method(p, several=True)
+    add_method(p, several=True)
     p.add_argument(
         "--tile-size",
         type=int,
@@ -259,8 +116,8 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
     )
     add_quiet_option(p)
     add_json_option(p)
-    _add_preparation(p)
-    _add_warp(p)
+    add_preparation(p)
+    add_warp(p)
     p.set_defaults(func=run_matrix)
 
 
@@ -269,7 +126,7 @@ def run_matrix(args: argparse.Namespace) -> int:
 
     bar = progress_for("matrix", args)
     try:
-        settings = _settings(args, _methods(args.method, several=True))
+        settings = database_settings(args, methods(args.method, several=True))
         res = compute_matrix(
             args.inputs,
             args.output,
@@ -285,8 +142,8 @@ def run_matrix(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print_error("matrix", "interrupted (Ctrl-C): finished tiles are kept; run the same command to resume")
         return EXIT_INCOMPLETE
-    except (*_USER_ERRORS, ClusterUnavailableError) as exc:  # unreachable scheduler: exit code 3
-        return _fail("matrix", exc)
+    except (*USER_ERRORS, ClusterUnavailableError) as exc:  # unreachable scheduler: exit code 3
+        return fail("matrix", exc)
     finally:
         bar.close()
     rep = res.report
@@ -297,7 +154,7 @@ def run_matrix(args: argparse.Namespace) -> int:
         f"pairs computed this run: {t.get('pairs_computed')} in {t.get('tiles_seconds')} s",
         *(f"skipped {sk['path']}: {sk['reason']}" for sk in rep["skipped"]),
     ]
-    _emit(args, "matrix", rep, args.inputs, [res.out_dir], lines)
+    emit(args, "matrix", rep, args.inputs, [res.out_dir], lines)
     return 0 if res.complete else EXIT_INCOMPLETE
 
 
@@ -328,11 +185,11 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
         help="partial matching: best segment of each DATABASE motion (free start and end; segments last "
         "1/N to N times the query, N = --neighbourhood) (default: off)",
     )
-    _add_method(p, several=False)
+    add_method(p, several=False)
     add_quiet_option(p)
     add_json_option(p)
-    _add_preparation(p)
-    _add_warp(p)
+    add_preparation(p)
+    add_warp(p)
     p.set_defaults(func=run_search)
 
 
@@ -341,7 +198,7 @@ def _run_within(args: argparse.Namespace) -> int:
 
     bar = progress_for("search", args)
     try:
-        (method,) = _methods(args.method, several=False)
+        (method,) = methods(args.method, several=False)
         res = find_within(
             args.query,
             args.database,
@@ -350,8 +207,8 @@ def _run_within(args: argparse.Namespace) -> int:
             neighbourhood=args.neighbourhood,
             drop_fingers=not args.keep_fingers,
         )
-    except _USER_ERRORS as exc:
-        return _fail("search", exc)
+    except USER_ERRORS as exc:
+        return fail("search", exc)
     finally:
         bar.close()
     s = res.summary()
@@ -363,7 +220,7 @@ def _run_within(args: argparse.Namespace) -> int:
     ]
     lines += [f"skipped {sk['path']}: {sk['reason']}" for sk in res.skipped]
     body = {**s, "matches": matches, "within": True}
-    _emit(args, "search", body, [args.query, *args.database], [], lines)
+    emit(args, "search", body, [args.query, *args.database], [], lines)
     return 0
 
 
@@ -375,10 +232,10 @@ def run_search(args: argparse.Namespace) -> int:
     db = args.database[0] if len(args.database) == 1 else args.database
     bar = progress_for("search", args)
     try:
-        (method,) = _methods(args.method, several=False)
-        res = knn_search(args.query, db, args.k, method, _settings(args, (method,)), progress=bar)
-    except _USER_ERRORS as exc:
-        return _fail("search", exc)
+        (method,) = methods(args.method, several=False)
+        res = knn_search(args.query, db, args.k, method, database_settings(args, (method,)), progress=bar)
+    except USER_ERRORS as exc:
+        return fail("search", exc)
     finally:
         bar.close()
     s = res.summary()
@@ -408,7 +265,7 @@ def run_search(args: argparse.Namespace) -> int:
         "skipped": s["skipped"],
         "notes": s["notes"],
     }
-    _emit(args, "search", body, [args.query, *args.database], [], lines)
+    emit(args, "search", body, [args.query, *args.database], [], lines)
     return 0
 
 
@@ -433,7 +290,7 @@ def _register_classify(subparsers: argparse._SubParsersAction) -> None:
         help="CSV file name,label or bandai-content | bandai-style | cmu (required)",
     )
     p.add_argument("-k", type=int, default=1, help="neighbours that vote (default: 1)")
-    _add_method(p, several=True)
+    add_method(p, several=True)
     add_json_option(p)
     p.set_defaults(func=run_classify)
 
@@ -463,7 +320,7 @@ def run_classify(args: argparse.Namespace) -> int:
 
     out = {}
     try:
-        for rep in _methods(args.method, several=True):
+        for rep in methods(args.method, several=True):
             m = load_matrix(args.matrix_dir, rep)
             labels = _labels_for(m.names, args.labels)
             ev = knn_evaluate(m.distances, labels, args.k)
@@ -474,13 +331,13 @@ def run_classify(args: argparse.Namespace) -> int:
                 "per_class": ev.per_class,
                 "predictions": dict(zip(m.names, ev.predictions, strict=True)),
             }
-    except _USER_ERRORS as exc:
-        return _fail("classify", exc)
+    except USER_ERRORS as exc:
+        return fail("classify", exc)
     lines = []
     for rep, r in out.items():
         lines.append(f"{rep}: {r['accuracy']:.3f} ({r['evaluated']} evaluated, k={r['k']})")
         lines += [f"    {c:20s} {ok}/{n}" for c, (ok, n) in r["per_class"].items()]
-    _emit(args, "classify", {"results": out}, [args.matrix_dir], [], lines)
+    emit(args, "classify", {"results": out}, [args.matrix_dir], [], lines)
     return 0
 
 
@@ -500,8 +357,8 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("files", nargs="+", help="motion files of one skeleton")
     p.add_argument("-o", "--output", required=True, help="output .bvh file (required)")
-    _alias(p, "--out", "--output")
-    _add_method(p, several=False)
+    alias(p, "--out", "--output")
+    add_method(p, several=False)
     p.add_argument("--max-iter", type=int, default=20, help="alignment iterations at most (default: 20)")
     p.add_argument(
         "--tol", type=float, default=1e-4, help="relative energy decrease to stop at (default: 1e-4)"
@@ -521,8 +378,8 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
     )
     add_quiet_option(p)
     add_json_option(p)
-    _add_preparation(p)
-    _add_warp(p)
+    add_preparation(p)
+    add_warp(p)
     p.set_defaults(func=run_mean)
 
 
@@ -534,12 +391,12 @@ def run_mean(args: argparse.Namespace) -> int:
     bar = progress_for("mean", args)
     try:
         check_output(args.output, args.files, suffixes=(".bvh",), what="--output")
-        (method,) = _methods(args.method, several=False)
+        (method,) = methods(args.method, several=False)
         res = mean_motion(
             args.files,
             n_samples=args.samples,
             method=method,
-            joints=_joints(args.joints),
+            joints=joints_option(args.joints),
             drop_fingers=not args.keep_fingers,
             align_heading=not args.no_align,
             warp=WarpOptions(
@@ -551,8 +408,8 @@ def run_mean(args: argparse.Namespace) -> int:
             progress=bar,
         )
         path = write_bvh(res.motion, args.output, protected=args.files)
-    except _USER_ERRORS as exc:
-        return _fail("mean", exc)
+    except USER_ERRORS as exc:
+        return fail("mean", exc)
     finally:
         bar.close()
     body: dict[str, Any] = {**res.summary(), "output": str(path)}
@@ -566,7 +423,7 @@ def run_mean(args: argparse.Namespace) -> int:
     lines = [f"iteration {i:3d}  energy {e:.6g}" for i, e in enumerate(body["energies"], 1)]
     frames = f"{body['frames']} frames at {body['fps']:g} fps"
     lines.append(f"{state}; mean of {len(args.files)} motions -> {path} ({frames})")
-    _emit(args, "mean", body, args.files, outputs, lines)
+    emit(args, "mean", body, args.files, outputs, lines)
     return 0
 
 
@@ -582,7 +439,7 @@ def _register_cluster(subparsers: argparse._SubParsersAction) -> None:
         description="Agglomerative clustering of the motions of a `matrix` output folder.",
     )
     p.add_argument("matrix_dir", help="output folder of `elastic-motion matrix`")
-    _add_method(p, several=False)
+    add_method(p, several=False)
     p.add_argument(
         "--linkage",
         choices=LINKAGES,
@@ -608,14 +465,14 @@ def run_cluster(args: argparse.Namespace) -> int:
     from elastic_motion.apps.statistics import cluster
 
     try:
-        (method,) = _methods(args.method, several=False)
+        (method,) = methods(args.method, several=False)
         m = load_matrix(args.matrix_dir, method)
         res = cluster(m.distances, m.names, method=args.linkage, n_clusters=args.clusters)
         colors = None
         if args.plot and args.labels:
             colors = [lab or "?" for lab in _labels_for(m.names, args.labels)]
-    except _USER_ERRORS as exc:
-        return _fail("cluster", exc)
+    except USER_ERRORS as exc:
+        return fail("cluster", exc)
     out: dict[str, Any] = {
         "linkage_method": res.method,
         "representation": method,
@@ -632,5 +489,5 @@ def run_cluster(args: argparse.Namespace) -> int:
         lines.append(f"dendrogram -> {out['plot']}")
     if res.labels is None and not args.plot:
         lines.append("nothing to show: pass --clusters K and/or --plot FILE.png (or --json for the linkage)")
-    _emit(args, "cluster", out, [args.matrix_dir], [out["plot"]] if args.plot else [], lines)
+    emit(args, "cluster", out, [args.matrix_dir], [out["plot"]] if args.plot else [], lines)
     return 0

@@ -9,15 +9,15 @@ from __future__ import annotations
 import argparse
 
 from elastic_motion.cli_commands._common import add_json_option, add_quiet_option, progress_for
-from elastic_motion.cli_commands.database import (
-    _USER_ERRORS,
-    _add_method,
-    _add_preparation,
-    _add_warp,
-    _emit,
-    _fail,
-    _methods,
-    _settings,
+from elastic_motion.cli_commands._database_options import (
+    USER_ERRORS,
+    add_method,
+    add_preparation,
+    add_warp,
+    database_settings,
+    emit,
+    fail,
+    methods,
 )
 
 
@@ -38,11 +38,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--overwrite", action="store_true", help="rebuild an index found in OUTPUT (default: refuse)"
     )
-    _add_method(p, several=True)
+    add_method(p, several=True)
     add_quiet_option(p)
     add_json_option(p)
-    _add_preparation(p)
-    _add_warp(p)
+    add_preparation(p)
+    add_warp(p)
     p.set_defaults(func=run)
 
 
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
 
     bar = progress_for("index", args)
     try:
-        settings = _settings(args, _methods(args.method, several=True))
+        settings = database_settings(args, methods(args.method, several=True))
         idx = build_index(
             args.inputs,
             args.output,
@@ -61,8 +61,8 @@ def run(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             progress=bar,
         )
-    except _USER_ERRORS as exc:
-        return _fail("index", exc)
+    except USER_ERRORS as exc:
+        return fail("index", exc)
     finally:
         bar.close()
     meta = idx.meta
@@ -73,5 +73,5 @@ def run(args: argparse.Namespace) -> int:
             "(use --joints common to compare on shared joints)"
         )
     lines += [f"skipped {sk['path']}: {sk['reason']}" for sk in meta["skipped"]]
-    _emit(args, "index", idx.summary(), args.inputs, [idx.path], lines)
+    emit(args, "index", idx.summary(), args.inputs, [idx.path], lines)
     return 0

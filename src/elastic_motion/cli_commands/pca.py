@@ -12,15 +12,15 @@ from pathlib import Path
 from typing import Any
 
 from elastic_motion.cli_commands._common import add_json_option, add_quiet_option, progress_for
-from elastic_motion.cli_commands.database import (
-    _USER_ERRORS,
-    _add_method,
-    _add_preparation,
-    _add_warp,
-    _emit,
-    _fail,
-    _joints,
-    _methods,
+from elastic_motion.cli_commands._database_options import (
+    USER_ERRORS,
+    add_method,
+    add_preparation,
+    add_warp,
+    emit,
+    fail,
+    joints_option,
+    methods,
 )
 
 
@@ -38,7 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("files", nargs="+", help="motion files of one skeleton (at least two)")
     p.add_argument("-o", "--output", required=True, help="output folder (created; required)")
-    _add_method(p, several=False)
+    add_method(p, several=False)
     p.add_argument("--modes", type=int, default=3, help="modes written as BVH (default: 3)")
     p.add_argument(
         "--spread", type=float, default=2.0, help="standard deviations along each mode (default: 2.0)"
@@ -57,8 +57,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_quiet_option(p)
     add_json_option(p)
-    _add_preparation(p)
-    _add_warp(p)
+    add_preparation(p)
+    add_warp(p)
     p.set_defaults(func=run)
 
 
@@ -73,12 +73,12 @@ def run(args: argparse.Namespace) -> int:
         out = Path(args.output)
         if out.exists() and not out.is_dir():
             raise ValueError(f"--output: expected a folder; got the file {args.output!r}")
-        (method,) = _methods(args.method, several=False)
+        (method,) = methods(args.method, several=False)
         model = motion_pca(
             args.files,
             n_samples=args.samples,
             method=method,
-            joints=_joints(args.joints),
+            joints=joints_option(args.joints),
             drop_fingers=not args.keep_fingers,
             align_heading=not args.no_align,
             warp=WarpOptions(
@@ -96,8 +96,8 @@ def run(args: argparse.Namespace) -> int:
         paths.append(
             plot_variance_explained(model.explained, out / "variance.png", title="PCA of aligned motions")
         )
-    except _USER_ERRORS as exc:
-        return _fail("pca", exc)
+    except USER_ERRORS as exc:
+        return fail("pca", exc)
     finally:
         bar.close()
     body: dict[str, Any] = {**model.summary(), "files_written": [str(p) for p in paths]}
@@ -108,5 +108,5 @@ def run(args: argparse.Namespace) -> int:
         )
     ]
     lines.append(f"{len(paths)} files -> {out}")
-    _emit(args, "pca", body, args.files, paths, lines)
+    emit(args, "pca", body, args.files, paths, lines)
     return 0

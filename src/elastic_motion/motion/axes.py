@@ -399,8 +399,9 @@ def is_lying_down(motion: Motion, *, max_tilt_deg: float = 60.0, max_frames: int
     ``max_tilt_deg`` with the labelled up axis: ``mean(b . up) < cos(max_tilt_deg)``. That is
     the symptom of a Z-up file labelled Y-up (the character lies on the floor), but also of
     clips that really are lying, crawling or turning over: among the 47 real clips of the
-    test data, DeepMimic ``crawl`` (mean 0.16), the two ``getup`` clips (0.16, 0.46) and CMU
-    cartwheels ``49_08`` (0.37). So warn, and refuse only when :func:`detect_up_axis` also
+    test data, DeepMimic ``crawl`` (mean 0.16), the two ``getup`` clips (0.16, 0.46), the
+    cartwheels CMU ``49_08`` (0.37) and DeepMimic ``cartwheel`` (0.499, its hands on the
+    floor for a third of the clip). So warn, and refuse only when :func:`detect_up_axis` also
     disagrees with the label (:func:`up_axis_warning`). ``False`` when the skeleton has no
     recognisable legs and torso.
 

@@ -15,8 +15,10 @@ from unit length).
 
 The skeleton is the one of ``humanoid.urdf`` at pybullet's ``globalScaling = 0.25``
 (the scale DeepMimic's humanoid runs at, in metres); it is built in
-(:func:`deepmimic_skeleton`) and can be read from the URDF instead. End sites: the wrists
-(fixed joints) and the centres of the head and foot collision shapes.
+(:func:`deepmimic_skeleton`) and can be read from the URDF instead. The wrists (fixed
+joints of the URDF, not in the frames) are joints of the skeleton with the identity
+rotation, so that a hand on the floor is a contact like a foot; end sites: the centres of
+the head and foot collision shapes.
 
 Frame timing: ``fps`` is ``1 / dt`` of the frames (snapped to an integer when within
 0.01 %). When the durations are not all equal (``humanoid3d_roll.txt`` has one frame of
@@ -41,7 +43,14 @@ from elastic_motion.motion.bvh import snap_fps
 from elastic_motion.motion.rotations import axis_rotation, quaternion_to_matrix
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
-__all__ = ["DEEPMIMIC_JOINTS", "SKELETON_ORDER", "deepmimic_skeleton", "read_deepmimic", "read_urdf_skeleton"]
+__all__ = [
+    "DEEPMIMIC_FIXED_JOINTS",
+    "DEEPMIMIC_JOINTS",
+    "SKELETON_ORDER",
+    "deepmimic_skeleton",
+    "read_deepmimic",
+    "read_urdf_skeleton",
+]
 
 #: Joints of the humanoid in frame order (root first): (name, parent, revolute).
 DEEPMIMIC_JOINTS: tuple[tuple[str, str, bool], ...] = (
@@ -60,6 +69,14 @@ DEEPMIMIC_JOINTS: tuple[tuple[str, str, bool], ...] = (
     ("left_elbow", "left_shoulder", True),
 )
 
+#: The humanoid's fixed joints (name, parent): the wrists. Not in the frames (their rotation
+#: is the identity in every frame); joints of the Skeleton so that the hands are points a
+#: contact can plant (cartwheels, handsprings).
+DEEPMIMIC_FIXED_JOINTS: tuple[tuple[str, str], ...] = (
+    ("right_wrist", "right_elbow"),
+    ("left_wrist", "left_elbow"),
+)
+
 #: Joint order of the Skeleton: depth-first (as a BVH file lists them), children in
 #: frame order. Frame order and skeleton order differ; readers map by name.
 SKELETON_ORDER: tuple[str, ...] = (
@@ -68,8 +85,10 @@ SKELETON_ORDER: tuple[str, ...] = (
     "neck",
     "right_shoulder",
     "right_elbow",
+    "right_wrist",
     "left_shoulder",
     "left_elbow",
+    "left_wrist",
     "right_hip",
     "right_knee",
     "right_ankle",
@@ -96,11 +115,11 @@ _URDF_OFFSETS = {
     "left_ankle": (0.0, -1.639480, 0.0),
     "left_shoulder": (-0.096200, 0.974000, -0.732440),
     "left_elbow": (0.0, -1.099152, 0.0),
+    "right_wrist": (0.0, -1.035788, 0.0),  # fixed joints: the centres of the hand spheres
+    "left_wrist": (0.0, -1.035788, 0.0),
 }
 _URDF_END_SITES = (  # depth-first order, as a BVH file lists them
     ("neck", (0.0, 0.7, 0.0)),  # centre of the head sphere
-    ("right_elbow", (0.0, -1.035788, 0.0)),  # right_wrist (fixed joint)
-    ("left_elbow", (0.0, -1.035788, 0.0)),  # left_wrist
     ("right_ankle", (0.18, -0.09, 0.0)),  # centre of the foot box
     ("left_ankle", (0.18, -0.09, 0.0)),
 )
@@ -111,7 +130,7 @@ _FRAME_SIZE = 1 + 3 + 4 + sum(1 if rev else 4 for _, _, rev in DEEPMIMIC_JOINTS[
 
 def _build_skeleton(offsets: dict, end_sites: list, scale: float) -> Skeleton:
     names = list(SKELETON_ORDER)
-    parent_of = {n: p for n, p, _ in DEEPMIMIC_JOINTS}
+    parent_of = {n: p for n, p, _ in DEEPMIMIC_JOINTS} | dict(DEEPMIMIC_FIXED_JOINTS)
     parents = [names.index(parent_of[n]) if parent_of[n] else -1 for n in names]
     return Skeleton(
         names=names,
@@ -124,7 +143,9 @@ def _build_skeleton(offsets: dict, end_sites: list, scale: float) -> Skeleton:
 
 
 def deepmimic_skeleton() -> Skeleton:
-    """The DeepMimic humanoid (13 joints, metres, Y up), as in ``humanoid.urdf`` x 0.25.
+    """The DeepMimic humanoid (15 joints, metres, Y up), as in ``humanoid.urdf`` x 0.25.
+
+    The 13 joints of the clips' frames and the two fixed wrists (identity rotation).
 
     Joints in depth-first order (:data:`SKELETON_ORDER`).
 
@@ -148,7 +169,7 @@ def read_urdf_skeleton(path: str | os.PathLike[str], *, scale: float = URDF_SCAL
     -------
     Skeleton
         Same joints, order and channels as :func:`deepmimic_skeleton`; offsets from the
-        joints' ``<origin xyz>``, end sites from the wrist joints and the head and foot
+        joints' ``<origin xyz>`` (the fixed wrists' too), end sites from the head and foot
         links' collision origins.
 
     Raises
@@ -178,23 +199,17 @@ def read_urdf_skeleton(path: str | os.PathLike[str], *, scale: float = URDF_SCAL
     joints = {j.get("name"): j for j in root.iter("joint")}
     links = {lk.get("name"): lk for lk in root.iter("link")}
     offsets = {"root": (0.0, 0.0, 0.0)}
-    for name, _, _ in DEEPMIMIC_JOINTS[1:]:
+    for name in [n for n, _, _ in DEEPMIMIC_JOINTS[1:]] + [n for n, _ in DEEPMIMIC_FIXED_JOINTS]:
         if name not in joints:
             raise ParseError(p, None, f"expected a joint named {name!r} in the URDF, found none")
         offsets[name] = xyz(joints[name], f"joint {name!r}")
     end_sites = []
     for joint, _ in _URDF_END_SITES:
-        if joint.endswith("_elbow"):
-            wrist = joint.replace("elbow", "wrist")
-            if wrist not in joints:
-                raise ParseError(p, None, f"expected a joint named {wrist!r} in the URDF, found none")
-            end_sites.append((joint, xyz(joints[wrist], f"joint {wrist!r}")))
-        else:
-            link = links.get(joint)
-            coll = link.find("collision") if link is not None else None
-            if coll is None:
-                raise ParseError(p, None, f"expected a link {joint!r} with a <collision> in the URDF")
-            end_sites.append((joint, xyz(coll, f"the collision of link {joint!r}")))
+        link = links.get(joint)
+        coll = link.find("collision") if link is not None else None
+        if coll is None:
+            raise ParseError(p, None, f"expected a link {joint!r} with a <collision> in the URDF")
+        end_sites.append((joint, xyz(coll, f"the collision of link {joint!r}")))
     return _build_skeleton(offsets, end_sites, scale)
 
 
@@ -275,7 +290,7 @@ def read_deepmimic(
     Returns
     -------
     Motion
-        13 joints, metres, Y up.
+        15 joints (the frames' 13 and the fixed wrists), metres, Y up.
 
     Raises
     ------
@@ -304,9 +319,10 @@ def read_deepmimic(
         slot = [skeleton.index(name) for name, _, _ in DEEPMIMIC_JOINTS]
     except KeyError as exc:
         raise ValueError(f"skeleton: expected the DeepMimic humanoid's joints; {exc.args[0]}") from None
-    if skeleton.n_joints != len(DEEPMIMIC_JOINTS):
+    n_expected = len(DEEPMIMIC_JOINTS) + len(DEEPMIMIC_FIXED_JOINTS)
+    if skeleton.n_joints != n_expected or not all(n in skeleton.names for n, _ in DEEPMIMIC_FIXED_JOINTS):
         raise ValueError(
-            f"skeleton: expected the {len(DEEPMIMIC_JOINTS)}-joint DeepMimic humanoid; "
+            f"skeleton: expected the {n_expected}-joint DeepMimic humanoid (with the fixed wrists); "
             f"got {skeleton.n_joints} joints"
         )
 
@@ -341,6 +357,8 @@ def read_deepmimic(
     limits.check_clip(p, _frame_line(text, 0), frames=f, fps=fps, duration=duration, joints=skeleton.n_joints)
 
     rotations = np.empty((f, skeleton.n_joints, 3, 3))
+    for name, _ in DEEPMIMIC_FIXED_JOINTS:
+        rotations[:, skeleton.index(name)] = np.eye(3)
     col = 4
     for j, (name, _, revolute) in zip(slot, DEEPMIMIC_JOINTS, strict=True):
         if revolute:

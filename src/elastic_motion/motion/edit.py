@@ -615,6 +615,37 @@ def eased_envelope(x: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
+def fixed_frames_weight(n_frames: int, fixed: Sequence[int], width: int) -> np.ndarray:
+    """Per frame, how much of a change may apply next to frames that must not change.
+
+    Returns an ``(n_frames,)`` array: 0 on the ``fixed`` frames (negative indices count from
+    the end), rising by :func:`smoothstep` to 1 at ``width + 1`` frames from the nearest one.
+    """
+    idx = np.arange(n_frames)
+    if not len(fixed):
+        return np.ones(n_frames)
+    dist = np.min(np.abs(idx[:, None] - (np.asarray(fixed) % n_frames)[None, :]), axis=1)
+    return smoothstep(dist / (width + 1.0))
+
+
+def fade_change(before: Motion, after: Motion, weight: np.ndarray) -> Motion:
+    """``after``'s change from ``before`` scaled per frame by ``weight`` (0: ``before``'s frame).
+
+    The change is each joint's ``log(R_before^T R_after)`` and the root offset, scaled
+    linearly; frames of weight 1 are ``after``'s exactly, of weight 0 ``before``'s exactly.
+    """
+    w = np.asarray(weight, dtype=np.float64)
+    if w.shape != (before.n_frames,):
+        raise ValueError(f"weight: expected shape ({before.n_frames},); got {w.shape}")
+    part = (w > 0) & (w < 1)
+    rot = np.where((w >= 1)[:, None, None, None], after.rotations, before.rotations)
+    if part.any():
+        rel = _SO3.log(np.swapaxes(before.rotations[part], -1, -2) @ after.rotations[part])
+        rot[part] = before.rotations[part] @ _SO3.exp(w[part, None, None] * rel)
+    root = before.root_translation + w[:, None] * (after.root_translation - before.root_translation)
+    return after.replace(rotations=rot, root_translation=root)
+
+
 def lift_out_of_floor(
     motion: Motion, floor: float | np.ndarray, *, ease: float = 0.15, fixed: Sequence[int] = ()
 ) -> tuple[Motion, np.ndarray]:
@@ -649,10 +680,7 @@ def lift_out_of_floor(
     lift = eased_envelope(depth, max(1, round(ease * motion.fps)))
     if len(fixed):
         # a third of the ease: a lift next to a fixed frame is needed close to it
-        near = max(1, round(ease * motion.fps / 3))
-        idx = np.arange(f)
-        dist = np.min(np.abs(idx[:, None] - (np.asarray(fixed) % f)[None, :]), axis=1)
-        lift *= smoothstep(dist / (near + 1.0))
+        lift *= fixed_frames_weight(f, fixed, max(1, round(ease * motion.fps / 3)))
     root = motion.root_translation.copy()
     root[:, up] += lift
     return motion.replace(root_translation=root), lift

@@ -232,7 +232,9 @@ def _bend_axis_local(g_knee: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.nda
     return m
 
 
-def solve_legs(motion: Motion, legs: list[LegChain], targets: list[np.ndarray | None]) -> Motion:
+def solve_legs(
+    motion: Motion, legs: list[LegChain], targets: list[np.ndarray | None], *, hinge: bool = True
+) -> Motion:
     """Move each leg's ankle to its target by two-bone IK (module docstring).
 
     Parameters
@@ -242,6 +244,11 @@ def solve_legs(motion: Motion, legs: list[LegChain], targets: list[np.ndarray | 
     targets : list of (ndarray of shape (F, 3) or None)
         World positions of each leg's ankle (the motion's unit); NaN rows or None: leave
         that frame (leg) alone.
+    hinge : bool, default True
+        Bend each knee about its hinge axis (estimated from the clip's bent frames): a knee
+        bent backwards is straightened through 0 (blends). False keeps each frame's own bend
+        plane: the least change for a small correction of a motion whose knees are its own
+        (a loop's planted feet), even where the hinge estimate is poor.
 
     Returns
     -------
@@ -265,7 +272,7 @@ def solve_legs(motion: Motion, legs: list[LegChain], targets: list[np.ndarray | 
         a, b, c = pos[:, leg.hip], pos[:, leg.knee], pos[:, leg.ankle]
         g_hip, g_knee, g_ankle = glob[:, leg.hip], glob[:, leg.knee], glob[:, leg.ankle]
         g_par = glob[:, parents[leg.hip]]
-        axis_l = _bend_axis_local(g_knee, a, b, c)
+        axis_l = _bend_axis_local(g_knee, a, b, c) if hinge else None
         bend = None if axis_l is None else g_knee[sel] @ axis_l
         r_hip, r_knee = two_bone_ik(a[sel], b[sel], c[sel], tgt[sel], bend)
         new_hip = r_hip @ g_hip[sel]

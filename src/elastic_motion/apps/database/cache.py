@@ -17,26 +17,44 @@ groups, per-motion info, group joints and weights, skipped files, settings).
 
 from __future__ import annotations
 
-import functools
 import io
 import json
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from elastic_motion._io import atomic_write_bytes
-from elastic_motion.apps.database.preparation import PreparedMotion, prepare_motion, restrict_to_common_joints
+from elastic_motion.apps.database.preparation import (
+    PreparedMotion,
+    common_joint_names,
+    prepare_motion,
+    restrict_prepared,
+)
 from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
 from elastic_motion.apps.progress import Progress
 from elastic_motion.curves import srv_transform
 from elastic_motion.errors import OptionError, ParseError
-from elastic_motion.motion import Motion, group_weights, to_euler_curve, to_lie_curve
+from elastic_motion.motion import (
+    Motion,
+    default_joint_weights,
+    default_translation_weight,
+    to_euler_curve,
+    to_lie_curve,
+)
 
-__all__ = ["SRVCache", "build_srv_cache", "srv_arrays"]
+__all__ = [
+    "FilesNotSeenError",
+    "HereStages",
+    "SRVCache",
+    "Stages",
+    "build_srv_cache",
+    "file_fingerprint",
+    "srv_arrays",
+]
 
 
 @dataclass(eq=False)
@@ -196,8 +214,186 @@ def _prepare_one(
         return {"path": path, "reason": f"{type(exc).__name__}: {reason}"}
 
 
-#: ``mapper(fn, items)``: ``fn`` applied to each item, results in order (e.g. on worker processes).
-Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], Iterable[Any]]
+# --------------------------------------------------------------------------------------------
+# The preparation in stages, here or on workers
+# --------------------------------------------------------------------------------------------
+#
+# build_srv_cache runs in three stages over chunks of files; the prepared motions (about
+# 120 kB each) stay where they were prepared, only small summaries and the SRV arrays travel:
+#
+# 1. _prepare_chunk: read and prepare each file (where the chunk runs);
+#    _summarise_chunk: per motion its joint names and its default inner-product weights;
+# 2. (joints='common' only) the driver intersects the joint names, _restrict_chunk applies them,
+#    summarised again;
+# 3. the driver groups the motions by joint names and takes each group's weights (means of the
+#    per-motion defaults, in input order: what group_weights computes); _srv_chunk computes the
+#    SRV arrays where the motions are and sends them back (the cache keeps them).
+
+
+class FilesNotSeenError(RuntimeError):
+    """A worker does not see an input file as the driver does (missing, other size or time)."""
+
+
+def file_fingerprint(path: str) -> tuple[int, int] | None:
+    """``(size, mtime_ns)`` of the file at ``path`` (links followed); None when it cannot be stat'ed.
+
+    What a worker compares before it reads a file for the driver (:class:`FilesNotSeenError`)."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return st.st_size, st.st_mtime_ns
+
+
+#: One file of a chunk: ``(path, already-read motion or None, fingerprint to check or None)``.
+ChunkItem = tuple[str, Motion | None, tuple[int, int] | None]
+
+
+def _prepare_chunk(
+    items: list[ChunkItem], settings: DatabaseSettings
+) -> list[PreparedMotion | dict[str, str]]:
+    """:func:`_prepare_one` of each item; an unexpected error names the file (as a note)."""
+    out: list[PreparedMotion | dict[str, str]] = []
+    for path, motion, seen in items:
+        if seen is not None and file_fingerprint(path) != seen:
+            raise FilesNotSeenError(
+                f"{path}: expected the file the driver sees (size, mtime_ns) = {seen}; got "
+                f"{file_fingerprint(path)} on this worker"
+            )
+        try:
+            out.append(_prepare_one(path, settings, motion))
+        except Exception as exc:
+            exc.add_note(f"while preparing {path} for a database")
+            raise
+    return out
+
+
+def _summarise_chunk(prepared: list[PreparedMotion | dict[str, str]]) -> list[dict[str, Any]]:
+    """Per item: ``{"skipped": {"path", "reason"}}`` or ``{"names", "jw", "tw"}`` (joint names,
+    default joint weights ``(J,)`` and translation weight of its skeleton)."""
+    out: list[dict[str, Any]] = []
+    for p in prepared:
+        if isinstance(p, PreparedMotion):
+            sk = p.motion.skeleton
+            out.append(
+                {
+                    "names": p.joint_names,
+                    "jw": default_joint_weights(sk),
+                    "tw": default_translation_weight(sk),
+                }
+            )
+        else:
+            out.append({"skipped": p})
+    return out
+
+
+def _restrict_chunk(
+    prepared: list[PreparedMotion | dict[str, str]], common: frozenset[str]
+) -> list[PreparedMotion | dict[str, str]]:
+    return [restrict_prepared(p, common) if isinstance(p, PreparedMotion) else p for p in prepared]
+
+
+def _motion_info(p: PreparedMotion) -> dict[str, Any]:
+    return {
+        "frames": p.original_frames,
+        "fps": round(float((p.original_frames - 1) / p.duration), 6) if p.duration > 0 else None,
+        "duration": p.duration,
+        "joints": p.motion.n_joints,
+        "notes": list(p.notes),
+    }
+
+
+def _srv_chunk(
+    prepared: list[PreparedMotion | dict[str, str]],
+    weights: list[tuple[np.ndarray, float] | None],
+    representations: tuple[str, ...],
+) -> list[tuple[dict[str, np.ndarray], dict[str, Any]] | None]:
+    """Per item: its SRV arrays (:func:`srv_arrays` with its group's ``weights``) and its info;
+    None for a skipped file. An error names the file (as a note)."""
+    out: list[tuple[dict[str, np.ndarray], dict[str, Any]] | None] = []
+    for p, w in zip(prepared, weights, strict=True):
+        if not isinstance(p, PreparedMotion):
+            out.append(None)
+            continue
+        try:
+            out.append((srv_arrays(p, representations, w), _motion_info(p)))
+        except Exception as exc:
+            exc.add_note(f"while computing the SRV of {p.path} for a database")
+            raise
+    return out
+
+
+class Stages(Protocol):
+    """Where the stages of :func:`build_srv_cache` run: ``fn`` applied to chunks, the results
+    kept where they were computed (handles) until gathered or released.
+
+    :class:`HereStages` runs them in this process; a Dask engine on its workers
+    (:meth:`elastic_motion.apps.database.engines.DaskEngine.stages`). The result does not depend on it.
+    """
+
+    #: Files per chunk (one task each).
+    chunk_size: int
+
+    def submit(self, fn: Callable[..., Any], args: Sequence[tuple]) -> list[Any]:
+        """Handles of ``fn(*a)`` for each ``a`` of ``args``."""
+        ...
+
+    def then(
+        self, fn: Callable[..., Any], handles: Sequence[Any], args: Sequence[tuple] | None = None
+    ) -> list[Any]:
+        """Handles of ``fn(value_k, *args[k])`` for each handle ``k``, run where its value is."""
+        ...
+
+    def gather(self, handles: Sequence[Any], on_done: Callable[[int], None] | None = None) -> list[Any]:
+        """The values of ``handles`` in order; ``on_done(k)`` as each is ready."""
+        ...
+
+    def release(self, handles: Sequence[Any]) -> None:
+        """Forget the values of ``handles``."""
+        ...
+
+
+class _Deferred:
+    """A value computed on first use, here: ``fn(*args)`` with deferred arguments resolved."""
+
+    __slots__ = ("args", "done", "fn", "value")
+
+    def __init__(self, fn: Callable[..., Any], args: tuple) -> None:
+        self.fn, self.args, self.done, self.value = fn, args, False, None
+
+    def get(self) -> Any:
+        if not self.done:
+            self.value = self.fn(*(a.get() if isinstance(a, _Deferred) else a for a in self.args))
+            self.done, self.fn, self.args = True, None, ()
+        return self.value
+
+
+class HereStages:
+    """The stages of :func:`build_srv_cache` in this process, one file per chunk, each computed
+    when first gathered (so progress follows the files)."""
+
+    chunk_size = 1
+
+    def submit(self, fn: Callable[..., Any], args: Sequence[tuple]) -> list[Any]:
+        return [_Deferred(fn, tuple(a)) for a in args]
+
+    def then(
+        self, fn: Callable[..., Any], handles: Sequence[Any], args: Sequence[tuple] | None = None
+    ) -> list[Any]:
+        args = args if args is not None else [()] * len(handles)
+        return [_Deferred(fn, (h, *a)) for h, a in zip(handles, args, strict=True)]
+
+    def gather(self, handles: Sequence[Any], on_done: Callable[[int], None] | None = None) -> list[Any]:
+        out = []
+        for k, h in enumerate(handles):
+            out.append(h.get())
+            if on_done is not None:
+                on_done(k)
+        return out
+
+    def release(self, handles: Sequence[Any]) -> None:
+        """Nothing to do: a value goes with the last handle that refers to it (as a Dask
+        future's, it outlives ``release`` while a later stage still needs it)."""
 
 
 def build_srv_cache(
@@ -207,7 +403,7 @@ def build_srv_cache(
     ignored: Sequence[str | os.PathLike[str]] = (),
     motions: Sequence[Motion] | None = None,
     progress: Progress | None = None,
-    mapper: Mapper | None = None,
+    stages: Stages | None = None,
 ) -> SRVCache:
     """Read and prepare every file, group by skeleton, compute the SRV arrays.
 
@@ -222,13 +418,15 @@ def build_srv_cache(
         Recorded as ignored (not motions).
     motions : sequence of Motion, optional
         Already-read motions, one per entry of ``files`` (which then only name them), e.g.
-        segments cut from longer clips.
+        segments cut from longer clips. Prepared here whatever ``stages``.
     progress : callable, optional
-        ``progress("read", done, total)``.
-    mapper : callable, optional
-        ``mapper(fn, files)`` yields ``fn(file)`` for each file in order: where the files are
-        read and prepared (e.g. a local cluster's workers, :meth:`Engine.map`); default: here,
-        one after another. Not used with ``motions``. The result does not depend on it.
+        ``progress("read", done, total)`` as files are read and prepared.
+    stages : Stages, optional
+        Where the files are read, prepared and their SRV computed (chunks of files as tasks,
+        the prepared motions kept there; module comment above): e.g. a Dask engine's workers
+        (:meth:`elastic_motion.apps.database.engines.DaskEngine.stages`), which must see the
+        driver's files (each checks :func:`file_fingerprint`, else :class:`FilesNotSeenError`).
+        Default :class:`HereStages`: here, one file after another. The result does not depend on it.
 
     Returns
     -------
@@ -239,62 +437,71 @@ def build_srv_cache(
     OptionError
         If ``settings.joints == "common"`` and the readable motions share no root joint, or
         ``motions`` does not match ``files``.
+    FilesNotSeenError
+        ``stages`` whose workers do not see a file as this process does.
     """
     files = [os.fspath(f) for f in files]
     if motions is not None and len(motions) != len(files):
         raise OptionError("motions", f"expected one motion per file ({len(files)}); got {len(motions)}")
-    prepared: list[PreparedMotion] = []
-    skipped: list[dict[str, str]] = []
-    if motions is not None:
-        results: Iterable[Any] = (_prepare_one(f, settings, m) for f, m in zip(files, motions, strict=True))
-    elif mapper is not None:
-        results = mapper(functools.partial(_prepare_one, settings=settings), files)
+    if stages is None or motions is not None:
+        stages = HereStages()
+        items: list[ChunkItem] = [
+            (f, None if motions is None else motions[k], None) for k, f in enumerate(files)
+        ]
     else:
-        results = (_prepare_one(f, settings) for f in files)
-    for k, res in enumerate(results):
-        if isinstance(res, PreparedMotion):
-            prepared.append(res)
-        else:
-            skipped.append(res)
+        items = [(f, None, file_fingerprint(f)) for f in files]
+    size = max(1, int(stages.chunk_size))
+    chunks = [items[k : k + size] for k in range(0, len(items), size)]
+    done = [0]
+
+    def read(k: int) -> None:
+        done[0] += len(chunks[k])
         if progress is not None:
-            progress("read", k + 1, len(files))
-    if settings.joints == "common":
-        prepared = restrict_to_common_joints(prepared)
-    # groups by joint names, in order of first appearance; motions sorted by group
-    keys: dict[tuple[str, ...], int] = {}
-    for p in prepared:
-        keys.setdefault(p.joint_names, len(keys))
-    order = sorted(range(len(prepared)), key=lambda i: (keys[prepared[i].joint_names], i))
-    prepared = [prepared[i] for i in order]
-    group_of = np.array([keys[p.joint_names] for p in prepared], dtype=np.int64)
-    weights = {}
-    for g in keys.values():
-        weights[g] = group_weights([p.motion for p, gg in zip(prepared, group_of, strict=True) if gg == g])
-    q: dict[str, list[np.ndarray]] = {r: [] for r in settings.representations}
-    info = []
-    for p, g in zip(prepared, group_of, strict=True):
-        arrs = srv_arrays(p, settings.representations, weights[int(g)])
-        for r in settings.representations:
-            q[r].append(arrs[r])
-        info.append(
-            {
-                "frames": p.original_frames,
-                "fps": round(float((p.original_frames - 1) / p.duration), 6) if p.duration > 0 else None,
-                "duration": p.duration,
-                "joints": p.motion.n_joints,
-                "notes": list(p.notes),
-            }
-        )
-    paths = [p.path for p in prepared]
+            progress("read", done[0], len(files))
+
+    prepared = stages.submit(_prepare_chunk, [(c, settings) for c in chunks])
+    try:
+        summary = [s for c in stages.gather(stages.then(_summarise_chunk, prepared), read) for s in c]
+        usable = [k for k, s in enumerate(summary) if "names" in s]
+        if settings.joints == "common" and usable:
+            common = common_joint_names([summary[k]["names"] for k in usable])
+            restricted = stages.then(_restrict_chunk, prepared, [(common,)] * len(prepared))
+            stages.release(prepared)
+            prepared = restricted
+            summary = [s for c in stages.gather(stages.then(_summarise_chunk, prepared)) for s in c]
+        # groups by joint names, in order of first appearance; motions sorted by group, then input
+        keys: dict[tuple[str, ...], int] = {}
+        for k in usable:
+            keys.setdefault(tuple(summary[k]["names"]), len(keys))
+        group_of_item = {k: keys[tuple(summary[k]["names"])] for k in usable}
+        order = sorted(usable, key=lambda k: (group_of_item[k], k))
+        weights: dict[int, tuple[np.ndarray, float]] = {}
+        for g in keys.values():  # = motion.group_weights of the group's motions, in this order
+            members = [summary[k] for k in order if group_of_item[k] == g]
+            weights[g] = (
+                np.mean([s["jw"] for s in members], axis=0),
+                float(np.mean([s["tw"] for s in members])),
+            )
+        item_weights = [weights[group_of_item[k]] if k in group_of_item else None for k in range(len(items))]
+        srv_args = [
+            (item_weights[k : k + size], tuple(settings.representations)) for k in range(0, len(items), size)
+        ]
+        srv = stages.then(_srv_chunk, prepared, srv_args)
+        arrays = [a for c in stages.gather(srv) for a in c]
+        stages.release(srv)
+    finally:
+        stages.release(prepared)
+    q: dict[str, list[np.ndarray]] = {r: [arrays[k][0][r] for k in order] for r in settings.representations}
+    paths = [files[k] for k in order]
     return SRVCache(
         names=_unique_names(paths),
         paths=paths,
-        groups=group_of,
+        groups=np.array([group_of_item[k] for k in order], dtype=np.int64),
         q=q,
-        info=info,
+        info=[arrays[k][1] for k in order],
         group_joints=[list(k) for k in keys],
         group_weights=[(weights[g][0].tolist(), weights[g][1]) for g in range(len(keys))],
-        skipped=skipped,
+        skipped=[s["skipped"] for s in summary if "skipped" in s],
         ignored=[os.fspath(i) for i in ignored],
         settings=settings,
     )

@@ -6,9 +6,13 @@
 
 Tiles are Dask tasks that receive their SRV arrays with the task (scattered once; no shared
 file system needed); the driver gathers them ``as_completed`` with a bounded number in
-flight. Same function, same inputs: every engine gives bit-identical matrices. A
-``"local"`` cluster also reads and prepares the files (``Engine.map``: its workers see the
-driver's files); on ``"dask"`` the driver reads them.
+flight. Same function, same inputs: every engine gives bit-identical matrices.
+
+A Dask engine also reads and prepares the files and computes their SRV arrays on its workers
+(:meth:`DaskEngine.stages`, chunks of :data:`PREPARE_CHUNK` files per task; the prepared
+motions stay on the workers, only summaries and the SRV arrays come back) when its workers see
+the driver's files: always for ``"local"``; for ``"dask"`` when every worker finds each file
+with the driver's size and modification time (else the driver reads them, and says so).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import logging
+import os
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -24,10 +29,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from elastic_motion.apps.database.cache import Stages, file_fingerprint
 from elastic_motion.apps.database.tiles import compute_tile, pair_distance
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["ENGINES", "ClusterUnavailableError", "Engine", "Task", "open_engine"]
+__all__ = ["ENGINES", "ClusterUnavailableError", "DaskStages", "Engine", "Task", "open_engine"]
 
 #: Engine names accepted by :func:`open_engine`.
 ENGINES = ("serial", "local", "dask")
@@ -57,7 +63,7 @@ class Engine(Protocol):
 
     def share(self, arrays: list[np.ndarray]) -> list[Any]: ...
 
-    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> Iterator[Any]: ...
+    def stages(self, files: Sequence[str]) -> tuple[Stages | None, str | None]: ...
 
     def run(
         self, tasks: list[Task], args_of: Callable[[Task], tuple]
@@ -79,9 +85,9 @@ class SerialEngine:
         """Handles of the SRV arrays that tasks receive (here: the arrays themselves)."""
         return arrays
 
-    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> Iterator[Any]:
-        """``fn(item)`` for each item, in order, here."""
-        return (fn(x) for x in items)
+    def stages(self, files: Sequence[str]) -> tuple[Stages | None, str | None]:
+        """Where the files are prepared: here (``None``), and no note."""
+        return None, None
 
     def run(
         self, tasks: list[Task], args_of: Callable[[Task], tuple]
@@ -133,13 +139,20 @@ class DaskEngine:
         self.name = name
         self.cluster = None
         if name == "local":
-            self.cluster = LocalCluster(
-                n_workers=n_workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.CRITICAL,  # task errors still reach the driver as exceptions
-            )
+            import dask
+
+            # Dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536, which turns off
+            # glibc's adaptive mmap threshold: every array above 128 kB is then mmap'ed and
+            # unmapped, and reading and preparing the files took 20-25 % more CPU on a worker
+            # than here (measured). Our workers hold a few MB each: keep glibc's defaults.
+            with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+                self.cluster = LocalCluster(
+                    n_workers=n_workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.CRITICAL,  # task errors still reach the driver as exceptions
+                )
             self.client = Client(self.cluster)
         else:
             if not scheduler:
@@ -176,29 +189,37 @@ class DaskEngine:
             self._arrays[f.key] = a
         return futures
 
-    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> Iterator[Any]:
-        """``fn(item)`` for each item, in order, computed on the workers in chunks of
-        :data:`MAP_CHUNK` items (one task each; at most ``4 * workers`` tasks in flight).
+    def stages(self, files: Sequence[str]) -> tuple[Stages | None, str | None]:
+        """Where :func:`~elastic_motion.apps.database.cache.build_srv_cache` runs its stages: on
+        the workers (:class:`DaskStages`) when they see the driver's files, else here (None).
 
-        For work that reads local files (the preparation of a ``"local"`` run): the workers
-        must see the same file system as the driver."""
-        chunks = [list(items[k : k + MAP_CHUNK]) for k in range(0, len(items), MAP_CHUNK)]
-        window = max(2, 4 * self.n_workers)
-        futures = [
-            self.client.submit(_map_chunk, fn, c, pure=False, key=f"elastic-map-{uuid.uuid4().hex}")
-            for c in chunks[:window]
-        ]
-        for k in range(len(chunks)):
-            if k + window < len(chunks):
-                futures.append(
-                    self.client.submit(
-                        _map_chunk, fn, chunks[k + window], pure=False, key=f"elastic-map-{uuid.uuid4().hex}"
+        ``"local"``: its workers share the driver's file system. ``"dask"``: every worker stats
+        each file (:func:`~elastic_motion.apps.database.cache.file_fingerprint`, one
+        ``Client.run``); any file missing or different there means the driver reads them all.
+        Returns the stages and a sentence saying where and why (for the report)."""
+        if self.name == "local":
+            where = f"read, prepared and SRV computed on the {self.n_workers} local workers"
+            return DaskStages(self), where
+        paths = [os.fspath(f) for f in files]
+        mine = [file_fingerprint(f) for f in paths]
+        try:
+            theirs = _bounded(
+                lambda: self.client.run(_fingerprints, paths), max(self.timeout, 30.0), self.scheduler
+            )
+        except Exception as exc:  # a worker that cannot answer: read here, as before
+            return (
+                None,
+                f"read on the driver: the workers could not check the files ({type(exc).__name__}: {exc})",
+            )
+        for worker, prints in sorted(theirs.items()):
+            for path, a, b in zip(paths, mine, prints, strict=True):
+                if a != b:
+                    return None, (
+                        f"read on the driver: worker {worker} does not see {path} as the driver does "
+                        "(no shared file system)"
                     )
-                )
-            results = futures[k].result()
-            futures[k].release()
-            futures[k] = None
-            yield from results
+        where = f"read, prepared and SRV computed on the {len(theirs)} workers (they see the driver's files)"
+        return DaskStages(self), where
 
     def _with_arrays(self, args: tuple) -> tuple:
         """``args`` with every scattered future replaced by the driver's own array."""
@@ -299,12 +320,77 @@ class DaskEngine:
 
 #: Times a tile whose worker or data was lost is resubmitted by the driver (with its arrays).
 MAX_RESUBMITS = 3
-#: Items per task of :meth:`DaskEngine.map` (files read and prepared per task: 20-50 ms each).
-MAP_CHUNK = 8
+#: Files per preparation task of :class:`DaskStages` (read and prepared: 20-50 ms each).
+PREPARE_CHUNK = 8
 
 
-def _map_chunk(fn: Callable[[Any], Any], items: list[Any]) -> list[Any]:
-    return [fn(x) for x in items]
+def _fingerprints(paths: list[str]) -> list[tuple[int, int] | None]:
+    return [file_fingerprint(p) for p in paths]
+
+
+class DaskStages:
+    """The stages of :func:`~elastic_motion.apps.database.cache.build_srv_cache` as Dask tasks
+    (:class:`~elastic_motion.apps.database.cache.Stages`): handles are futures, a stage that
+    follows another runs where its input is (Dask's data locality), so the prepared motions
+    never leave the workers. A worker lost mid-way costs its tasks only (Dask reruns them from
+    the files); no worker left for ``timeout`` seconds is :class:`ClusterUnavailableError`.
+
+    Attributes
+    ----------
+    tasks_by_worker : dict of str -> int
+        Tasks gathered, by the address of the worker that holds the result.
+    """
+
+    chunk_size = PREPARE_CHUNK
+
+    def __init__(self, engine: DaskEngine) -> None:
+        self.engine = engine
+        self.tasks_by_worker: dict[str, int] = {}
+
+    def _submit(self, fn: Callable[..., Any], *args: Any) -> Any:
+        key = f"elastic-{fn.__name__.strip('_').replace('_', '-')}-{uuid.uuid4().hex}"
+        return self.engine.client.submit(fn, *args, key=key, pure=False)
+
+    def submit(self, fn: Callable[..., Any], args: Sequence[tuple]) -> list[Any]:
+        return [self._submit(fn, *a) for a in args]
+
+    def then(
+        self, fn: Callable[..., Any], handles: Sequence[Any], args: Sequence[tuple] | None = None
+    ) -> list[Any]:
+        args = args if args is not None else [()] * len(handles)
+        return [self._submit(fn, h, *a) for h, a in zip(handles, args, strict=True)]
+
+    def gather(self, handles: Sequence[Any], on_done: Callable[[int], None] | None = None) -> list[Any]:
+        from distributed import as_completed
+
+        if not handles:
+            return []
+        index = {f.key: k for k, f in enumerate(handles)}
+        out: list[Any] = [None] * len(handles)
+        ac = as_completed(list(handles))
+        idle_since: float | None = None
+        while not ac.is_empty():
+            batch = ac.next_batch(block=False)
+            if not batch:
+                idle_since = self.engine._watchdog(idle_since)
+                time.sleep(0.01)
+                continue
+            idle_since = None
+            for fut in batch:
+                k = index[fut.key]
+                out[k] = fut.result()  # a task's error is raised here, with its note naming the file
+                if on_done is not None:
+                    on_done(k)
+        with contextlib.suppress(Exception):  # diagnostics only
+            for keys in self.engine.client.who_has(list(handles)).values():
+                for w in keys[:1]:
+                    self.tasks_by_worker[w] = self.tasks_by_worker.get(w, 0) + 1
+        return out
+
+    def release(self, handles: Sequence[Any]) -> None:
+        for f in handles:
+            with contextlib.suppress(Exception):
+                f.release()
 
 
 def _lost(exc: BaseException) -> bool:

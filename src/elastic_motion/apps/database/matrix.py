@@ -29,7 +29,7 @@ from typing import Any, Literal
 import numpy as np
 
 from elastic_motion.apps.database import storage
-from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
+from elastic_motion.apps.database.cache import FilesNotSeenError, SRVCache, build_srv_cache
 from elastic_motion.apps.database.engines import Engine, Task, open_engine
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
@@ -226,17 +226,24 @@ def _load_or_build_cache(
     resuming: bool,
     progress: Progress | None,
     eng: Engine,
-) -> tuple[SRVCache, bool]:
+) -> tuple[SRVCache, dict[str, Any]]:
+    """The run's SRV cache (reused when resuming) and where it came from (for the report:
+    ``cache_reused``, ``read_where``, ``read_note``, ``read_tasks_by_worker``)."""
     cache_path = out / storage.CACHE
     cache = None
     if resuming and cache_path.exists():
         with contextlib.suppress(Exception):  # unreadable: rebuilt below (same inputs, same numbers)
             cache = SRVCache.load(cache_path)
     if cache is not None:
-        return cache, True
-    # a local cluster's workers see the driver's files: they read and prepare them too
-    mapper = eng.map if eng.name == "local" else None
-    cache = build_srv_cache(files, settings, ignored=ignored, progress=progress, mapper=mapper)
+        return cache, {"cache_reused": True, "read_where": None}
+    # a Dask engine whose workers see the files reads, prepares and computes the SRV there
+    stages, note = eng.stages([os.fspath(f) for f in files])
+    where = "driver" if stages is None else "workers"
+    try:
+        cache = build_srv_cache(files, settings, ignored=ignored, progress=progress, stages=stages)
+    except FilesNotSeenError as exc:  # a worker joined that does not see them: read them here
+        where, note = "driver", f"read on the driver: {exc}"
+        cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
     if len(cache) == 0:  # before anything is written
         raise OptionError(
             "inputs",
@@ -246,7 +253,10 @@ def _load_or_build_cache(
         )
     out.mkdir(parents=True, exist_ok=True)
     cache.save(cache_path)
-    return cache, False
+    info: dict[str, Any] = {"cache_reused": False, "read_where": where, "read_note": note}
+    if where == "workers":
+        info["read_tasks_by_worker"] = dict(getattr(stages, "tasks_by_worker", {}))
+    return cache, info
 
 
 def _run(
@@ -262,7 +272,7 @@ def _run(
     manifest_path = out / storage.MANIFEST
     manifest = storage.read_json(manifest_path) if manifest_path.exists() else None
     t_read = time.perf_counter()
-    cache, cache_reused = _load_or_build_cache(
+    cache, read_info = _load_or_build_cache(
         out, files, ignored, settings, manifest is not None, progress, eng
     )
     t_read = time.perf_counter() - t_read
@@ -379,7 +389,7 @@ def _run(
     run_info["seconds_tiles"] = round(wall, 3)
     run_info["seconds_tile_work"] = round(tile_seconds, 3)
     run_info["seconds_read"] = round(t_read, 3)
-    run_info["cache_reused"] = cache_reused
+    run_info.update(read_info)
     run_info["pairs_per_second"] = (
         round(run_info["pairs_computed"] / wall, 3) if wall > 0 and run_info["pairs_computed"] else None
     )

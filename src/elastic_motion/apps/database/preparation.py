@@ -17,7 +17,7 @@ module adds the database's own steps, in this order:
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Sequence, Set
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -28,7 +28,14 @@ from elastic_motion.apps.prepare import MotionPreparation, PrepareOptions, close
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 
-__all__ = ["PreparedMotion", "heading_relative_root", "prepare_motion", "restrict_to_common_joints"]
+__all__ = [
+    "PreparedMotion",
+    "common_joint_names",
+    "heading_relative_root",
+    "prepare_motion",
+    "restrict_prepared",
+    "restrict_to_common_joints",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,8 +144,52 @@ def prepare_motion(
     return PreparedMotion(os.fspath(path), m, original, duration, tuple(notes), report)
 
 
+def common_joint_names(joint_names: Sequence[Sequence[str]]) -> frozenset[str]:
+    """The joint names all motions have, for ``joints='common'``.
+
+    Parameters
+    ----------
+    joint_names : sequence of sequence of str
+        Joint names of each motion (:attr:`PreparedMotion.joint_names`), root first; at least one.
+
+    Returns
+    -------
+    frozenset of str
+
+    Raises
+    ------
+    OptionError
+        When the motions share no root joint (``joints='common'`` cannot compare them).
+    """
+    common = set(joint_names[0])
+    for names in joint_names[1:]:
+        common &= set(names)
+    roots = sorted({names[0] for names in joint_names})
+    if len(roots) != 1 or not common:
+        raise OptionError(
+            "joints",
+            "expected motions sharing a root joint for joints='common'; got roots "
+            f"{roots} (compare them in separate runs or with joints='all')",
+        )
+    return frozenset(common)
+
+
+def restrict_prepared(prepared: PreparedMotion, common: Set[str]) -> PreparedMotion:
+    """``prepared`` on the joints of ``common`` whose chain to the root is in it too
+    (:func:`~elastic_motion.apps.prepare.closed_joint_set`), with a note when that drops any;
+    ``prepared`` itself when it keeps them all."""
+    keep = closed_joint_set(prepared.motion.skeleton, common)
+    if len(keep) == len(prepared.joint_names):
+        return prepared
+    note = f"{Path(prepared.path).stem}: kept the {len(keep)} joints shared by all motions"
+    return replace(prepared, motion=mm.select_joints(prepared.motion, keep), notes=(*prepared.notes, note))
+
+
 def restrict_to_common_joints(prepared: Sequence[PreparedMotion]) -> list[PreparedMotion]:
     """The prepared motions restricted to the joints all of them have (closed towards the root).
+
+    :func:`common_joint_names` of the set, then :func:`restrict_prepared` of each motion (the
+    two steps a distributed preparation runs apart: names on the driver, motions on workers).
 
     Parameters
     ----------
@@ -157,25 +208,8 @@ def restrict_to_common_joints(prepared: Sequence[PreparedMotion]) -> list[Prepar
     prepared = list(prepared)
     if not prepared:
         return []
-    common = set(prepared[0].joint_names)
-    for p in prepared[1:]:
-        common &= set(p.joint_names)
-    roots = sorted({p.joint_names[0] for p in prepared})
-    if len(roots) != 1 or not common:
-        raise OptionError(
-            "joints",
-            "expected motions sharing a root joint for joints='common'; got roots "
-            f"{roots} (compare them in separate runs or with joints='all')",
-        )
-    out = []
-    for p in prepared:
-        keep = closed_joint_set(p.motion.skeleton, common)
-        if len(keep) == len(p.joint_names):
-            out.append(p)
-            continue
-        note = f"{Path(p.path).stem}: kept the {len(keep)} joints shared by all motions"
-        out.append(replace(p, motion=mm.select_joints(p.motion, keep), notes=(*p.notes, note)))
-    return out
+    common = common_joint_names([p.joint_names for p in prepared])
+    return [restrict_prepared(p, common) for p in prepared]
 
 
 def heading_relative_root(motion: Motion) -> Motion:

@@ -1,0 +1,161 @@
+"""Options and helpers shared by the database sub-commands (``matrix``, ``search``,
+``classify``, ``mean``, ``cluster``, ``index``, ``pca``): the preparation and warp options,
+``--method``, the settings they make, the error line and the report.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from elastic_motion.cli_commands._argparse import EXIT_BAD_INPUT, add_alias, handle_error, print_error
+from elastic_motion.cli_commands._common import CommandError, add_warp_options, emit_report, joints_arg
+from elastic_motion.errors import OptionError, ParseError
+
+#: Curve representations (``--method``) of the database commands (``euler`` is accepted for
+#: ``euler-elastic``, the name of the other commands).
+METHODS = ("lie", "euler-elastic")
+METHOD_KEYS = {"lie": "lie", "euler-elastic": "euler", "euler": "euler"}
+#: Linkages of ``cluster --linkage``.
+LINKAGES = ("average", "complete", "single", "weighted")
+#: Removed in this release (shown in the deprecation notes of the old spellings).
+ALIAS_UNTIL = "0.3"
+
+#: Python argument names (``OptionError.option``) -> the flag that sets them; ``None``: the
+#: message already starts with the file it concerns.
+FLAGS: dict[str, str | None] = {
+    "representation": "--method",
+    "representations": "--method",
+    "n_samples": "--samples",
+    "joints": "--joints",
+    "warp": "--warp",
+    "neighbourhood": "--neighbourhood",
+    "tile_size": "--tile-size",
+    "out_dir": "--output",
+    "k": "-k",
+    "n_clusters": "--clusters",
+    "method": "--method",
+    "linkage": "--linkage",
+    "labels": "--labels",
+    "scheduler": "--scheduler",
+    "engine": "--engine",
+    "inputs": "inputs",
+}
+
+
+def alias(p: argparse.ArgumentParser, old: str, new: str) -> None:
+    add_alias(p, old, new, until=ALIAS_UNTIL)
+
+
+def add_preparation(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=64,
+        help="cells of the common time grid: each motion is resampled to SAMPLES + 1 frames uniformly "
+        "over its duration (default: 64)",
+    )
+    p.add_argument(
+        "--joints",
+        default="all",
+        help="'all' (every joint: matrix groups motions by skeleton, mean needs one skeleton), 'common' "
+        "(the joints all motions share), 'map' (every skeleton on a 13-joint common body through joint-name "
+        "maps: CMU BVH/ASF, Bandai, DeepMimic) or a comma-separated list of joint names (default: all)",
+    )
+    p.add_argument("--keep-fingers", action="store_true", help="keep finger/thumb joints (default: dropped)")
+    p.add_argument(
+        "--no-align",
+        action="store_true",
+        help="do not remove the heading and floor position of the root at frame 0 (default: removed)",
+    )
+    alias(p, "--no-align-heading", "--no-align")
+
+
+def joints_option(value: str) -> str | tuple[str, ...]:
+    return joints_arg(value, ("all", "common", "map"))
+
+
+def add_warp(p: argparse.ArgumentParser) -> None:
+    from elastic_motion.apps.database.settings import DEFAULT_WARP
+
+    # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
+    add_warp_options(p, defaults=DEFAULT_WARP, sampling=False, coarse_to_fine=True)
+
+
+def add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
+    """``--method`` (the curve representation), with the old spelling ``--repr``."""
+    if several:
+        p.add_argument(
+            "--method",
+            default="lie,euler",
+            metavar="{lie,euler-elastic}[,...]",
+            help="curve representations, comma-separated: lie (R^3 x SO(3)^J) and/or euler-elastic (Euler "
+            "angles, radians; 'euler' also accepted) (default: lie,euler)",
+        )
+    else:
+        p.add_argument(
+            "--method",
+            default="lie",
+            metavar="{lie,euler-elastic}",
+            help="curve representation: lie (R^3 x SO(3)^J) or euler-elastic (Euler angles, radians; 'euler' "
+            "also accepted) (default: lie)",
+        )
+    alias(p, "--repr", "--method")
+
+
+def methods(value: str, *, several: bool) -> tuple[str, ...]:
+    """The stored keys (``lie``, ``euler``) of ``--method``'s value."""
+    got = tuple(v.strip() for v in value.split(",") if v.strip()) if several else (value,)
+    keys = tuple(METHOD_KEYS.get(m, m) for m in got)
+    if not got or any(m not in METHOD_KEYS for m in got) or len(set(keys)) != len(keys):
+        if not several and value in LINKAGES:
+            raise CommandError(
+                f"--method: expected a curve representation, one of {', '.join(METHODS)}; got {value!r}, a "
+                f"linkage (use --linkage {value})"
+            )
+        what = "distinct entries of" if several else "one of"
+        raise CommandError(f"--method: expected {what} {', '.join(METHODS)}; got {value!r}")
+    return keys
+
+
+def database_settings(args: argparse.Namespace, reps: tuple[str, ...]):
+    from elastic_motion.apps.database import DatabaseSettings
+    from elastic_motion.warp import WarpOptions
+
+    return DatabaseSettings(
+        n_samples=args.samples,
+        representations=reps,
+        warp=WarpOptions(
+            method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
+        ),
+        joints=joints_option(args.joints),
+        drop_fingers=not args.keep_fingers,
+        align_heading=not args.no_align,
+        tile_size=getattr(args, "tile_size", 32),
+    )
+
+
+def fail(command: str, exc: BaseException) -> int:
+    """Print ``elastic-motion CMD: error: FILE-OR-OPTION: expected ...; got ...``; return the exit code.
+
+    An :class:`~elastic_motion.errors.OptionError` is shown with the flag that sets the option.
+    """
+    if isinstance(exc, OptionError) and exc.option in FLAGS:
+        flag = FLAGS[exc.option]
+        print_error(command, exc.message if flag is None else f"{flag}: {exc.message}")
+        return EXIT_BAD_INPUT
+    if isinstance(exc, OSError) and exc.errno is None and exc.args:  # our own FILE: expected ...; got ...
+        print_error(command, str(exc))
+        return EXIT_BAD_INPUT
+    return handle_error(command, exc)
+
+
+#: Exceptions a database command reports as an error line (others are bugs and propagate).
+USER_ERRORS = (CommandError, ValueError, KeyError, OSError, ParseError)
+
+
+def emit(args: argparse.Namespace, command: str, body: dict, inputs, outputs, lines: list[str]) -> None:
+    """The shared report: header (command, version, time, inputs, outputs) + ``body``."""
+    from elastic_motion.apps.report import report_header
+
+    report = {**report_header(command, inputs=inputs, outputs=outputs), **body}
+    emit_report(args, report, [str(p) for p in inputs], "\n".join(lines))
