@@ -257,6 +257,36 @@ def test_a_z_up_file_lands_upright(mocap_dir, tmp_path, capsys):
     assert code == 0 and "warning:" in out
 
 
+@pytest.mark.mocap
+def test_a_bvh_file_is_labelled_by_one_up_axis_detection(mocap_dir, tmp_path, monkeypatch):
+    """The preparation reads a BVH file's up axis once (it was detected when read and again
+    by the check, the larger part of reading a file); the labels and the warning are those of
+    read_motion and up_axis_warning."""
+    import elastic_motion.apps.prepare as prepare_module
+    import elastic_motion.motion.axes as axes
+    import elastic_motion.motion.bvh as bvh
+
+    src = mocap_dir / "cmu" / "bvh" / "49_08.bvh"  # cartwheels: lying down, a warning
+    zfile = write_bvh(set_up_axis(read_motion(src), "z"), tmp_path / "49_08_zup.bvh")
+    expected = [(read_motion(f).up_axis, axes.up_axis_warning(read_motion(f))) for f in (src, zfile)]
+    calls = []
+    real = axes.detect_up_axis
+
+    def counting(motion, **kw):
+        calls.append(motion.name)
+        return real(motion, **kw)
+
+    for module in (axes, bvh, prepare_module):
+        monkeypatch.setattr(module, "detect_up_axis", counting)
+    for f, (label, warning) in zip((src, zfile), expected, strict=True):
+        calls.clear()
+        _, prep = load_motion(f, PrepareOptions(align=False))
+        assert len(calls) == 1
+        assert prep.up_axis_in == label
+        if warning:  # the same warning, under the preparation's label
+            assert any(warning.split(": ", 1)[1] in n for n in prep.notes)
+
+
 def test_the_package_face_is_lazy_and_complete():
     """``import elastic_motion`` loads no numerical stack (the CLI starts fast); every name of
     ``elastic_motion.api.__all__`` is reachable as ``em.NAME``; submodules import as usual."""

@@ -54,6 +54,8 @@ from elastic_motion.motion import (
     UNITS,
     Motion,
     Skeleton,
+    UpAxisEstimate,
+    detect_up_axis,
     finger_joints,
     group_weights,
     has_reference_root,
@@ -330,12 +332,14 @@ def _label_of(source: Source, label: str | None, k: int | None = None) -> str:
     return Path(source).stem
 
 
-def _read(source: Source, options: PrepareOptions) -> tuple[Motion, str | None]:
+def _read(source: Source, options: PrepareOptions) -> tuple[Motion, str | None, UpAxisEstimate | None]:
+    """The motion, its path (None for a Motion) and, for a BVH file labelled by detection,
+    the up-axis estimate that labelled it (computed once, reused by the check)."""
     if isinstance(source, Motion):
         m = source
         if options.up is not None and m.up_axis != options.up:
             m = m.replace(up_axis=options.up)
-        return m, None
+        return m, None, None
     if not isinstance(source, str | os.PathLike):
         raise OptionError("motions", f"expected a path or a Motion; got {type(source).__name__}")
     path = Path(source)
@@ -345,15 +349,20 @@ def _read(source: Source, options: PrepareOptions) -> tuple[Motion, str | None]:
         raise OptionError("motions", f"{os.fspath(source)}: expected a motion file; got a folder")
     kw: dict[str, Any] = {}
     ext = path.suffix.lower()
+    estimate = None
     if ext == ".bvh":
         if options.units is not None:
             kw["units"] = options.units
-        if options.up is not None:
-            kw["up_axis"] = options.up
+        # the up axis given, or detected here as read_bvh would (once: the check reuses it)
+        kw["up_axis"] = options.up or "y"
     m = read_motion(path, **kw)
+    if ext == ".bvh" and options.up is None:
+        estimate = detect_up_axis(m)
+        if estimate.up_axis != m.up_axis:
+            m = m.replace(up_axis=estimate.up_axis)
     if ext != ".bvh" and options.up is not None and m.up_axis != options.up:
         m = m.replace(up_axis=options.up)
-    return m.replace(name=m.name or path.stem), os.fspath(source)
+    return m.replace(name=m.name or path.stem), os.fspath(source), estimate
 
 
 def load_motion(
@@ -391,13 +400,13 @@ def load_motion(
         A malformed file (from the reader).
     """
     opts = options or PrepareOptions()
-    m, path = _read(source, opts)
+    m, path, estimate = _read(source, opts)
     name = _label_of(source, label)
     notes: list[str] = []
     if opts.check_up_axis:
         # BVH files are labelled by detection when read; a label given by the user (--up, a
         # Motion built in code) or a format without detection is checked here
-        warning = up_axis_warning(m.replace(name=name))
+        warning = up_axis_warning(m.replace(name=name), estimate=estimate)
         if warning:
             notes.append(f"warning: {warning}")
     frames_read = m.n_frames
