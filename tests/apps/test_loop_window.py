@@ -135,7 +135,7 @@ def test_auto_window_of_cmu_cartwheels_changes_a_third_of_the_whole_clip(mocap_d
 
 
 def test_contact_rows_jacobian_matches_central_differences():
-    from elastic_motion.apps.loop_contacts import ContactConstraints
+    from elastic_motion.apps.loop_contacts import ContactConstraints, _Row
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -143,7 +143,12 @@ def test_contact_rows_jacobian_matches_central_differences():
     mask[10:25] = True  # an interior contact
     mask[40:] = True  # a contact reaching the last frame: rows relative to it
     contacts = Contacts(("foot",), np.array([3]), mask, 0.0, np.array([0.0]), m.fps, "y")
-    cc = ContactConstraints(m, contacts)
+    # two rows on the foot's end site (point J + 0): an absolute height, a relative position
+    sites = [
+        _Row(4, "foot end site", (30, 31), 30, 1, -1, 0.0),
+        _Row(4, "foot end site", (35, 36), 35, 0, 49, 0.0),
+    ]
+    cc = ContactConstraints(m, contacts, more_rows=sites)
     rng = np.random.default_rng(1)
     rot = m.rotations @ SO3G.exp(rng.normal(size=(m.n_frames, 4, 3)) * 0.1)
     eu = m.root_translation + rng.normal(size=(m.n_frames, 3)) * 0.01
@@ -151,7 +156,7 @@ def test_contact_rows_jacobian_matches_central_differences():
     assert (frames[:, 1] == 49).any() and (frames[:, 1] == -1).any()
     np.testing.assert_allclose(g, cc.residual(rot, eu), atol=1e-12)
     eps = 1e-6
-    for r in range(0, len(cc), 5):
+    for r in [*range(0, len(cc), 5), len(cc) - 2, len(cc) - 1]:
         for s_ in range(2):
             f = frames[r, s_]
             if f < 0:

@@ -59,6 +59,7 @@ from elastic_motion.apps.loop_contacts import (
     ContactConstraints,
     contact_grid,
     fine_contacts,
+    floor_rows,
     grid_step,
     lift_correction,
     row_plants,
@@ -122,6 +123,10 @@ LIFT_TIME = 0.15
 #: (the floor is a robust estimate, the 2nd percentile of the lowest point: the input goes
 #: under it on a few frames); deeper, the body is raised there (not on the seam frames).
 FLOOR_TOLERANCE = 0.01
+#: Rounds of the floor's active set (joints the loop takes under the floor pinned at their
+#: deepest frame, solved again) and the most rows it adds.
+FLOOR_ROUNDS = 2
+MAX_FLOOR_PINS = 40
 #: Kept contacts missed by at most this (metres) where the constrained projection stopped
 #: short are accepted: the loop is closed exactly from there (``contacts_kept["polished"]``),
 #: if that closing keeps them within twice this, and leg IK plants the feet again (a third of
@@ -362,7 +367,14 @@ def _free(motion: Motion, free: str | Sequence[str] | None) -> list[str]:
 
 
 def _solve_with_contacts(
-    lie, motion: Motion, contacts: Contacts, *, max_release: int, solve, c1: bool = False
+    lie,
+    motion: Motion,
+    contacts: Contacts,
+    *,
+    max_release: int,
+    solve,
+    c1: bool = False,
+    more_rows: Sequence = (),
 ):
     """Close ``lie`` with the contacts kept; release contacts that conflict with closure.
 
@@ -398,7 +410,7 @@ def _solve_with_contacts(
     attempts = 0
     while True:
         kept = dataclasses.replace(contacts, mask=mask)
-        extra = ContactConstraints(motion, kept, lift_from=lift_from, c1=c1)
+        extra = ContactConstraints(motion, kept, more_rows=more_rows, lift_from=lift_from, c1=c1)
         res = solve(lie, extra)
         attempts += 1
         if res.converged or len(released) >= max_release or attempts > 3 or not len(extra):
@@ -407,7 +419,7 @@ def _solve_with_contacts(
         rot, eu = vals[:, 3:].reshape(-1, motion.n_joints, 3, 3), vals[:, :3]
         if np.abs(extra.residual(rot, eu)).max() <= POLISH_MISS:
             break  # nearly held: the caller closes exactly from here, releasing nothing
-        misses = extra.gave_way(rot, eu)
+        misses = [g for g in extra.gave_way(rot, eu) if g["joint"] in contacts.joints]  # no floor pins
         if not misses:
             break
         worst = max(g["largest_miss_m"] for g in misses)
@@ -422,6 +434,24 @@ def _solve_with_contacts(
     # (a heel whose last contact was left to its toe has no rows to lift)
     with_rows = {r.name for r in extra.rows if r.interval[1] == f_count}
     return res, extra, released, [x for x in lifting if x["joint"] in with_rows]
+
+
+def _floor_per_frame(motion: Motion, found: Contacts) -> np.ndarray:
+    """Per frame, the height (metres) a kept-contacts loop may not go under: the floor, or
+    the input's own lowest point there if lower, but never more than :data:`FLOOR_TOLERANCE`
+    under the floor."""
+    unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    heights = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)]
+    lowest_in = heights.min(axis=1) * unit
+    return np.minimum(found.floor, np.maximum(lowest_in, found.floor - FLOOR_TOLERANCE))
+
+
+def _kept_mask(contacts: Contacts, released: Sequence[dict]) -> np.ndarray:
+    """``contacts.mask`` without the released contacts (on the same frames)."""
+    mask = np.array(contacts.mask)
+    for g in released:
+        mask[g["frames"][0] : g["frames"][1], contacts.joints.index(g["joint"])] = False
+    return mask
 
 
 def _plant_and_lift(
@@ -462,10 +492,7 @@ def _plant_and_lift(
             "skating_after_m_s": ik.skating_after.mean_speed,
             "max_position_change_m": ik.max_position_change * unit,
         }
-    lowest_in = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)].min(axis=1)
-    floor = found.floor / unit
-    floor = np.minimum(floor, np.maximum(lowest_in, floor - FLOOR_TOLERANCE / unit))
-    out, lift = lift_out_of_floor(out, floor, fixed=seam)
+    out, lift = lift_out_of_floor(out, _floor_per_frame(motion, found) / unit, fixed=seam)
     report["lifted_max_m"] = float(lift.max() * unit)
     return out
 
@@ -515,11 +542,32 @@ def _close_keeping_contacts(
     )  # fmt: skip
     lie_c = to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)
     t_keep = time.perf_counter()
+    pins: list = []
     with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
         res, extra, released, lifting = _solve_with_contacts(
             lie_c, coarse, found_c, max_release=max_release,
             solve=lambda curve, ex: project(curve, ex, stall=6), c1=c1,
         )  # fmt: skip
+        # an active set for the floor: joints the loop takes under it get a row at their
+        # deepest frame (the input's height there) and the projection is solved again, the
+        # contacts kept so far kept and none released; pins that do not fit are dropped
+        kept_c = dataclasses.replace(found_c, mask=_kept_mask(found_c, released))
+        floor_c = _floor_per_frame(coarse, found)
+        for _ in range(FLOOR_ROUNDS):
+            new = floor_rows(coarse, from_lie_curve(res.curve, coarse), floor_c, extra.rows)
+            if not res.converged or not new or len(pins) + len(new) > MAX_FLOOR_PINS:
+                break
+            # (a few rows more than a solve that converged: at most twice its iterations)
+            cap = 2 * res.iterations + 4
+            again = _solve_with_contacts(
+                lie_c, coarse, kept_c, max_release=0,
+                solve=lambda curve, ex, cap=cap: project(curve, ex, stall=6, iterations=cap), c1=c1,
+                more_rows=pins + new,
+            )  # fmt: skip
+            if not again[0].converged:
+                break
+            pins += new
+            res, extra, _, lifting = again
 
     def worst_miss(r: ClosingResult) -> float:
         v = np.asarray(r.curve.values)
@@ -554,6 +602,9 @@ def _close_keeping_contacts(
         "polished": polished,
         "released": [on_clip(r) for r in released],
         "lifted_early": [on_clip(r) for r in lifting],
+        "floor_pins": [
+            {"joint": r.name.removesuffix(" above the floor"), "frame": int(grid[r.frame])} for r in pins
+        ],
         "gave_way": [on_clip(g) for g in extra.gave_way(vals[:, 3:].reshape(-1, j, 3, 3), vals[:, :3])],
     }
     if not res.converged:
@@ -613,9 +664,10 @@ def _close_clip(
         found = detect_contacts(motion, contact_options) if contacts == "keep" else None
         out = None
 
-        def project(curve, extra=None, stall=None):
+        def project(curve, extra=None, stall=None, iterations=None):
             return project_closed(
-                curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1),
+                curve, factors=mask, c1=c1, tol=min(tol, 1e-9),
+                max_iter=max(min(max_iter, iterations or max_iter), 1),
                 rotation_names=list(names), extra=extra, stall_iterations=stall,
             )  # fmt: skip
 
@@ -866,7 +918,10 @@ def loop_motion(
         (``contacts_kept["lifted_early"]``); one that still conflicts with closure is
         released and named in the notes and ``contacts_kept["released"]``. Between the grid's
         frames and after a polished solve leg and arm IK plant feet and hands on every frame
-        (``contacts_kept["planted_by_ik"]``, the seam frames untouched). One that is kept but
+        (``contacts_kept["planted_by_ik"]``, the seam frames untouched). Points the loop
+        takes under the floor are pinned at their deepest frames and the projection solved
+        again (``contacts_kept["floor_pins"]``); what is still under is lifted out
+        (``contacts_kept["lifted_max_m"]``). One that is kept but
         missed is listed in
         ``contacts_kept["gave_way"]``; when the projection still fails the clip is closed
         without contacts (a note says so). With ``window="auto"`` the candidates are ranked

@@ -44,6 +44,9 @@ subject to closure *and* the input's contacts
   (``lift_from`` of :func:`contact_rows`) keeps its floor-plane rows to the end but no
   height rows over its last frames: closing puts the first pose, that joint in the air,
   on the last frame, and the joint rises there without sliding.
+* **The floor.** :func:`floor_rows`: rows on the joints and end sites a solved loop takes
+  under the floor, at the deepest frame of each dip (an active set; end site ``J + e`` of a
+  row is ``p_parent + G_parent offset``, its ancestors the parent's chain and the parent).
 * **Gave way.** When contacts and closure cannot all hold, the projection's least-squares
   multipliers spread the conflict; :func:`contact_residuals` reports, per contact, the
   largest distance (m) between the loop's joint and its constrained position.
@@ -61,7 +64,7 @@ import numpy as np
 from elastic_motion.closing_kkt import ExtraConstraints
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
-from elastic_motion.motion.contacts import Contacts
+from elastic_motion.motion.contacts import Contacts, _runs
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
 
 __all__ = [
@@ -70,6 +73,7 @@ __all__ = [
     "contact_grid",
     "contact_rows",
     "fine_contacts",
+    "floor_rows",
     "grid_step",
     "lift_correction",
     "row_plants",
@@ -156,9 +160,17 @@ def contact_rows(
 
 
 def _fk(motion: Motion, rot: np.ndarray, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions ``(F, J + E, 3)`` of the joints, then the end sites (motion's unit), and the
+    joints' global rotations ``(F, J, 3, 3)``. A row's point ``J + e`` is end site ``e``."""
     trans = motion.local_translations().copy()
     trans[:, 0] = root
-    return joint_positions_and_rotations(motion.skeleton.parents, trans, rot)
+    pos, glob = joint_positions_and_rotations(motion.skeleton.parents, trans, rot)
+    sk = motion.skeleton
+    if sk.end_site_parents.size:
+        ep = sk.end_site_parents
+        sites = pos[:, ep] + np.einsum("fejk,ek->fej", glob[:, ep], sk.end_site_offsets)
+        pos = np.concatenate([pos, sites], axis=1)
+    return pos, glob
 
 
 class ContactConstraints(ExtraConstraints):
@@ -198,8 +210,9 @@ class ContactConstraints(ExtraConstraints):
         self.target = np.array([r.target for r in self.rows], dtype=np.float64)
         # proper ancestors of each row's joint, padded with -1: (R, depth)
         chains = []
-        for k in self.joint:
-            chain, p = [], parents[k]
+        n_joints = motion.n_joints
+        for k in self.joint:  # an end site J + e: its parent joint and that joint's ancestors
+            chain, p = [], (parents[k] if k < n_joints else motion.skeleton.end_site_parents[k - n_joints])
             while p >= 0:
                 chain.append(int(p))
                 p = parents[p]
@@ -397,4 +410,49 @@ def row_plants(
         plant = out.setdefault(r.name, np.full((motion.n_frames, 3), np.nan))
         base = pos[r.anchor, r.joint, r.axis] if r.anchor >= 0 else 0.0
         plant[r.frame, r.axis] = (r.target + base) / scale
+    return out
+
+
+def floor_rows(
+    motion: Motion, closed: Motion, floor: np.ndarray, rows: Sequence[_Row], *, tol: float = 0.005
+) -> list[_Row]:
+    """Rows that put back above the floor the joints a closed loop takes under it.
+
+    Per joint or end site and run of frames where ``closed`` has it more than ``tol`` under
+    ``floor`` (and ``motion`` does not), one row at the run's deepest frame: the joint's
+    height is the input's there (an active set, like the joint limits': the projection is
+    solved again with these rows). Not on the first and last frames (the seam fixes them),
+    nor on a frame whose height ``rows`` already constrain for that joint.
+
+    Parameters
+    ----------
+    motion, closed : Motion
+        The prepared clip and its loop on the same frames.
+    floor : ndarray, shape (F,)
+        Per frame, the height no joint may go under (metres).
+    rows : sequence of rows
+        The rows the loop was solved with.
+
+    Returns
+    -------
+    list of rows
+        Named ``"<joint> above the floor"``, interval ``(f, f + 1)``, metres.
+    """
+    up = _AXES.index(motion.up_axis)
+    scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    h_in = _fk(motion, motion.rotations, motion.root_translation)[0][..., up] * scale
+    h_out = _fk(closed, closed.rotations, closed.root_translation)[0][..., up] * scale
+    under = (h_out < floor[:, None] - tol) & (h_in >= floor[:, None] - tol)
+    under[[0, -1]] = False
+    for r in rows:
+        if r.axis == up and r.anchor < 0:
+            under[r.frame, r.joint] = False
+    sk = motion.skeleton
+    names = list(sk.names) + [f"{sk.names[p]} end site" for p in sk.end_site_parents]
+    out = []
+    for j in np.flatnonzero(under.any(axis=0)):
+        name = names[j]
+        for a, b in _runs(under[:, j]):
+            f = a + int(np.argmin(h_out[a:b, j]))
+            out.append(_Row(int(j), f"{name} above the floor", (f, f + 1), f, up, -1, float(h_in[f, j])))
     return out
