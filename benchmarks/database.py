@@ -495,16 +495,18 @@ RETRIEVAL_CANDIDATES = {
 }
 
 
-def _rotvec(r: np.ndarray) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec().reshape(*r.shape[:-2], 3)
+def _pose_features(r: np.ndarray) -> np.ndarray:
+    """``(R - I) / sqrt(2)`` flattened, ``(..., 9)``: continuous in ``R`` (a rotation vector
+    flips sign at pi, and Bandai's upper legs sit at 180 degrees from their rest: their pose
+    term was mostly those flips), and for small angles ``|f(R_a) - f(R_b)|`` is the angle
+    between them, as the rotation vectors' difference is."""
+    return (r - np.eye(3)).reshape(*r.shape[:-2], 9) / np.sqrt(2.0)
 
 
 def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
     """SRV arrays of prepared windows for one candidate of :data:`RETRIEVAL_CANDIDATES`.
 
-    The pose term appends ``sqrt(pose) * w_j^(1/2) * rotvec(R_j)`` of the non-root joints at
+    The pose term appends ``sqrt(pose) * w_j^(1/2) * (R_j - I) / sqrt(2)`` of the non-root joints at
     the cell midpoints to the SRV array (the DP then warps it like an SRV component)."""
     from elastic_motion.apps.database.preparation import heading_relative_root
     from elastic_motion.curves import srv_transform
@@ -524,7 +526,7 @@ def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
             q = srv_transform(to_euler_curve(m)).q
         lam = spec.get("pose", 0.0)
         if lam:
-            pose = _rotvec(m.rotations[:, 1:]) * np.sqrt(jw[1:])[None, :, None]
+            pose = _pose_features(m.rotations[:, 1:]) * np.sqrt(jw[1:])[None, :, None]
             pose = 0.5 * (pose[1:] + pose[:-1]).reshape(len(q), -1)
             q = np.concatenate([q, np.sqrt(lam) * pose], axis=1)
         out.append(np.ascontiguousarray(q))
