@@ -533,31 +533,49 @@ def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
     return out
 
 
+def retrieval_windows(mocap: Path, which: str, max_windows: int) -> tuple[list, list, dict]:
+    """The 1-second windows of the retrieval protocol and their labels: ``which`` is ``"cmu"``
+    (task ``category``) or ``"bandai"`` (``content``; ``style`` of the walks, None else).
+    Returns the window names, the motions and the labels per task."""
+    paths = (
+        sorted((mocap / "bandai").glob("*.bvh"))
+        if which == "bandai"
+        else [mocap / "cmu" / "bvh" / f"{c}.bvh" for c in CMU_CLIPS]
+    )
+    names, motions, clips = cut_windows(paths, 1.0, max_windows)
+    if which == "cmu":
+        return names, motions, {"category": [cmu_label(c) for c in clips]}
+    lab = [bandai_labels(c) for c in clips]
+    return (
+        names,
+        motions,
+        {
+            "content": [x[0] for x in lab],
+            "style": [x[1] if x[0] == "walk" else None for x in lab],
+        },
+    )
+
+
+def retrieval_accuracies(prep: list, tasks: dict, neighbourhood: int) -> dict:
+    """1-NN accuracy per task of every :data:`RETRIEVAL_CANDIDATES` distance and of DTW on the
+    Euler frames, for prepared windows."""
+    acc = {}
+    for name, spec in RETRIEVAL_CANDIDATES.items():
+        d = distance_matrix(candidate_srvs(prep, spec), WarpOptions("dp", neighbourhood))
+        acc[name] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
+    d = dtw_matrix([to_euler_curve(p.motion).values for p in prep], parallel=False)
+    acc["dtw (euler frames)"] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
+    return acc
+
+
 def retrieval(mocap: Path, n_samples: int = 32, max_windows: int = 6, neighbourhood: int = 6) -> dict:
     """Cross-dataset protocol: pick the candidate with the best accuracy on one dataset (CMU:
     category; Bandai: mean of content and style), report it on the other; DTW beside."""
     data = {}
     for which in ("cmu", "bandai"):
-        paths = (
-            sorted((mocap / "bandai").glob("*.bvh"))
-            if which == "bandai"
-            else [mocap / "cmu" / "bvh" / f"{c}.bvh" for c in CMU_CLIPS]
-        )
-        names, motions, clips = cut_windows(paths, 1.0, max_windows)
+        names, motions, tasks = retrieval_windows(mocap, which, max_windows)
         prep = [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, motions, strict=True)]
-        if which == "cmu":
-            tasks = {"category": [cmu_label(c) for c in clips]}
-        else:
-            lab = [bandai_labels(c) for c in clips]
-            tasks = {"content": [x[0] for x in lab], "style": [x[1] if x[0] == "walk" else None for x in lab]}
-        acc = {}
-        for name, spec in RETRIEVAL_CANDIDATES.items():
-            d = distance_matrix(candidate_srvs(prep, spec), WarpOptions("dp", neighbourhood))
-            acc[name] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
-        ef = [to_euler_curve(p.motion).values for p in prep]
-        d = dtw_matrix(ef, parallel=False)
-        acc["dtw (euler frames)"] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
-        data[which] = {"windows": len(prep), "accuracy": acc}
+        data[which] = {"windows": len(prep), "accuracy": retrieval_accuracies(prep, tasks, neighbourhood)}
 
     def score(which: str, name: str) -> float:
         return float(np.mean(list(data[which]["accuracy"][name].values())))

@@ -172,36 +172,18 @@ def reparam() -> dict:
 
 def retrieval(n_samples: int = 32, max_windows: int = 6, neighbourhood: int = 6) -> dict:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from database import CMU_CLIPS, RETRIEVAL_CANDIDATES, candidate_srvs, cut_windows
-    from elastic_motion.apps.database import distance_matrix, prepare_motion
-    from elastic_motion.apps.statistics import bandai_labels, cmu_label, dtw_matrix, knn_evaluate
-    from elastic_motion.motion import to_euler_curve
+    from database import RETRIEVAL_CANDIDATES, retrieval_accuracies, retrieval_windows
+    from elastic_motion.apps.database import prepare_motion
 
     data: dict = {}
     for which in ("cmu", "bandai"):
-        paths = (
-            sorted((MOCAP / "bandai").glob("*.bvh"))
-            if which == "bandai"
-            else [MOCAP / "cmu" / "bvh" / f"{c}.bvh" for c in CMU_CLIPS]
-        )
-        names, motions, clips = cut_windows(paths, 1.0, max_windows)
-        if which == "cmu":
-            tasks = {"category": [cmu_label(c) for c in clips]}
-        else:
-            lab = [bandai_labels(c) for c in clips]
-            tasks = {"content": [x[0] for x in lab], "style": [x[1] if x[0] == "walk" else None for x in lab]}
+        names, motions, tasks = retrieval_windows(MOCAP, which, max_windows)
         data[which] = {"windows": len(names)}
         for c in LEVELS:
             t0 = time.perf_counter()
             ms = [m if c == 0 else smooth_motion(m, c * m.duration / n_samples) for m in motions]
             prep = [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, ms, strict=True)]
-            acc = {}
-            for name, spec in RETRIEVAL_CANDIDATES.items():
-                d = distance_matrix(candidate_srvs(prep, spec), WarpOptions("dp", neighbourhood))
-                acc[name] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
-            d = dtw_matrix([to_euler_curve(p.motion).values for p in prep], parallel=False)
-            acc["dtw (euler frames)"] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
-            data[which][str(c)] = acc
+            data[which][str(c)] = retrieval_accuracies(prep, tasks, neighbourhood)
             print(f"{which} smoothing {c}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
 
     cands = list(RETRIEVAL_CANDIDATES)

@@ -259,3 +259,19 @@ def test_auto_landmarks_on_the_obstacle_walks_drop_what_the_prior_meets(mocap_di
     assert all(abs(d["offset_s"]) <= d["window_s"] for d in rep["dropped"])
     assert [list(p) for p in res.landmarks] == [[d["time_a_s"], d["target_b_s"]] for d in rep["pairs"]]
     assert any(n.startswith("landmarks auto: dropped") for n in res.notes)
+
+
+def test_a_knee_crossings_uncertainty_is_the_linear_interpolation_error():
+    """A parabola: second differences ``2 q``, so the zero interpolated between frames k and
+    k + 1 is off by at most ``2 q / (8 |d[k+1] - d[k]|)`` frames; the true zero is within it."""
+    from elastic_motion.apps.landmarks import _crossings
+
+    q, p, r = 0.05, 0.5, -3.0
+    f = np.arange(20, dtype=float)
+    d = q * f**2 + p * f + r
+    ((frame, err),) = _crossings(d, 0.1, upward=True)
+    k = int(np.floor(frame))
+    assert err == pytest.approx(2 * q / (8 * abs(d[k + 1] - d[k])))
+    true_zero = (-p + np.sqrt(p * p - 4 * q * r)) / (2 * q)
+    assert abs(frame - true_zero) <= err
+    assert abs(frame - true_zero) > 0.25 * err  # the bound is not loose by more than 4x

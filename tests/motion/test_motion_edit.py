@@ -353,3 +353,5 @@ def test_fade_change_scales_the_change_and_keeps_fixed_frames_exactly():
     )
     with pytest.raises(ValueError, match="weight"):
         fade_change(before, after, w[:-1])
+    with pytest.raises(ValueError, match="fixed"):
+        fixed_frames_weight(21, (0, 21), 4)

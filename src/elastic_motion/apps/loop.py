@@ -446,14 +446,6 @@ def _floor_per_frame(motion: Motion, found: Contacts) -> np.ndarray:
     return np.minimum(found.floor, np.maximum(lowest_in, found.floor - FLOOR_TOLERANCE))
 
 
-def _kept_mask(contacts: Contacts, released: Sequence[dict]) -> np.ndarray:
-    """``contacts.mask`` without the released contacts (on the same frames)."""
-    mask = np.array(contacts.mask)
-    for g in released:
-        mask[g["frames"][0] : g["frames"][1], contacts.joints.index(g["joint"])] = False
-    return mask
-
-
 def _plant_and_lift(
     motion: Motion,
     out: Motion,
@@ -551,7 +543,7 @@ def _close_keeping_contacts(
         # an active set for the floor: joints the loop takes under it get a row at their
         # deepest frame (the input's height there) and the projection is solved again, the
         # contacts kept so far kept and none released; pins that do not fit are dropped
-        kept_c = dataclasses.replace(found_c, mask=_kept_mask(found_c, released))
+        kept_c = fine_contacts(found_c, np.arange(coarse.n_frames), released)  # on its own frames
         floor_c = _floor_per_frame(coarse, found)
         for _ in range(FLOOR_ROUNDS):
             new = floor_rows(coarse, from_lie_curve(res.curve, coarse), floor_c, extra.rows)

@@ -159,14 +159,17 @@ def contact_rows(
     return rows
 
 
-def _fk(motion: Motion, rot: np.ndarray, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions ``(F, J + E, 3)`` of the joints, then the end sites (motion's unit), and the
-    joints' global rotations ``(F, J, 3, 3)``. A row's point ``J + e`` is end site ``e``."""
+def _fk(
+    motion: Motion, rot: np.ndarray, root: np.ndarray, end_sites: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Positions ``(F, J + E, 3)`` of the joints, then the end sites (motion's unit; ``(F, J,
+    3)`` without them), and the joints' global rotations ``(F, J, 3, 3)``. A row's point
+    ``J + e`` is end site ``e``."""
     trans = motion.local_translations().copy()
     trans[:, 0] = root
     pos, glob = joint_positions_and_rotations(motion.skeleton.parents, trans, rot)
     sk = motion.skeleton
-    if sk.end_site_parents.size:
+    if end_sites and sk.end_site_parents.size:
         ep = sk.end_site_parents
         sites = pos[:, ep] + np.einsum("fejk,ek->fej", glob[:, ep], sk.end_site_offsets)
         pos = np.concatenate([pos, sites], axis=1)
@@ -208,6 +211,7 @@ class ContactConstraints(ExtraConstraints):
         self.axis = np.array([r.axis for r in self.rows], dtype=np.int64)
         self.anchor = np.array([r.anchor for r in self.rows], dtype=np.int64)
         self.target = np.array([r.target for r in self.rows], dtype=np.float64)
+        self._sites = bool((self.joint >= motion.n_joints).any())  # FK of end sites: only if used
         # proper ancestors of each row's joint, padded with -1: (R, depth)
         chains = []
         n_joints = motion.n_joints
@@ -226,7 +230,7 @@ class ContactConstraints(ExtraConstraints):
         return len(self.rows)
 
     def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
-        pos = _fk(self.motion, rot, eu)[0] * self.scale
+        pos = _fk(self.motion, rot, eu, self._sites)[0] * self.scale
         val = pos[self.frame, self.joint, self.axis]
         rel = self.anchor >= 0
         val[rel] -= pos[self.anchor[rel], self.joint[rel], self.axis[rel]]
@@ -235,7 +239,7 @@ class ContactConstraints(ExtraConstraints):
     def evaluate(
         self, rot: np.ndarray, eu: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        pos, glob = _fk(self.motion, rot, eu)
+        pos, glob = _fk(self.motion, rot, eu, self._sites)
         pos = pos * self.scale
         r_count, m = len(self.rows), rot.shape[1]
         parents = self.motion.skeleton.parents
@@ -358,7 +362,8 @@ def lift_correction(fine: Motion, grid: np.ndarray, before: Motion, after: Motio
 
 
 def fine_contacts(contacts: Contacts, grid: np.ndarray, released: Sequence[dict]) -> Contacts:
-    """A clip's contacts without those released on its grid (whole contacts of the clip's frames).
+    """A clip's contacts without those released on its grid (whole contacts of the clip's frames;
+    ``grid = arange(F)``: released on the clip's own frames).
 
     ``released`` items carry ``joint`` and ``frames`` ``[a, b)`` on the grid's frames
     (:func:`elastic_motion.apps.loop._solve_with_contacts`); every contact of the clip that

@@ -624,7 +624,10 @@ def fixed_frames_weight(n_frames: int, fixed: Sequence[int], width: int) -> np.n
     idx = np.arange(n_frames)
     if not len(fixed):
         return np.ones(n_frames)
-    dist = np.min(np.abs(idx[:, None] - (np.asarray(fixed) % n_frames)[None, :]), axis=1)
+    frames = np.asarray(fixed, dtype=np.int64)
+    if (frames >= n_frames).any() or (frames < -n_frames).any():
+        raise ValueError(f"fixed: expected frames in [-{n_frames}, {n_frames}); got {list(fixed)}")
+    dist = np.min(np.abs(idx[:, None] - (frames % n_frames)[None, :]), axis=1)
     return smoothstep(dist / (width + 1.0))
 
 
