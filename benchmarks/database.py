@@ -24,6 +24,16 @@ the CMU dendrogram ``docs/images/database_dendrogram.png``.
 
 Usage: ``python benchmarks/database.py [--mocap ../shared/mocap] [--quick] [--no-target-run]``
 
+Issue 15, ``--issue15 retrieval``: the retrieval study of ``docs/database.md`` ("Retrieval
+quality: protocol and results"). Protocol 2, written down before the new candidates'
+accuracies were computed: the 1-second windows (31 CMU, 50 Bandai), N = 32, DP neighbourhood
+6, 1-NN leave-one-window-out and mean average precision, DTW on the Euler frames as the
+baseline; candidates ``RETRIEVAL_CANDIDATES`` + ``RETRIEVAL_CANDIDATES_2`` (label-free:
+balanced pose weight, cyclic matching); reported (1) for the pre-declared hypothesis
+``RETRIEVAL_HYPOTHESIS``, (2) by cross-dataset selection (best on CMU reported on Bandai and
+the reverse), (3) by nested leave-one-window-out selection inside each dataset and task
+(candidate chosen on the windows of the other clips only).
+
 The scale targets of issue 15 (the 1000 x 200-frame all-pairs run at the database defaults,
 measured end to end, its energy check against the exact DP, the Dask speed-ups) are in
 ``benchmarks/database_scale.py``; the ``--issue15 scale, scale10, scale_quality, speedup``
@@ -481,7 +491,9 @@ def markdown(r: dict) -> str:
 #: The candidate distances of the retrieval study, fixed before any accuracy was looked at
 #: (docs/database.md, "Retrieval quality"): Lie SRV variants (root, joint weights, a pose term)
 #: and the Euler SRV. Keys: rep (lie/euler), heading (heading-relative root), tscale (factor of
-#: the translation weight), jpow (joint weights ** jpow: 0 = uniform), pose (weight of the pose term).
+#: the translation weight), jpow (joint weights ** jpow: 0 = uniform), pose (weight of the pose
+#: term, or ``"balanced"``: ``preparation.balanced_pose_weight``), cyclic (best cyclic shift:
+#: ``distance_matrix(cyclic=True)``).
 RETRIEVAL_CANDIDATES = {
     "lie": {},
     "lie, heading-relative root": {"heading": True},
@@ -494,21 +506,33 @@ RETRIEVAL_CANDIDATES = {
     "euler": {"rep": "euler"},
 }
 
+#: Protocol 2 (docs/database.md, "Retrieval quality"): candidates added after the diagnosis,
+#: fixed before any of their accuracies was computed. All label-free: the pose weight is
+#: balanced on the unlabelled windows (``preparation.balanced_pose_weight``), "cyclic" matches
+#: every cyclic shift of the window (phase-free, ``distance_matrix(cyclic=True)``).
+RETRIEVAL_CANDIDATES_2 = {
+    "lie + pose balanced": {"pose": "balanced"},
+    "euler + pose balanced": {"rep": "euler", "pose": "balanced"},
+    "lie, cyclic": {"cyclic": True},
+    "lie + pose balanced, cyclic": {"pose": "balanced", "cyclic": True},
+    "euler, cyclic": {"rep": "euler", "cyclic": True},
+    "euler + pose balanced, cyclic": {"rep": "euler", "pose": "balanced", "cyclic": True},
+    "lie, heading-relative root + pose balanced, cyclic": {
+        "heading": True,
+        "pose": "balanced",
+        "cyclic": True,
+    },
+}
 
-def _pose_features(r: np.ndarray) -> np.ndarray:
-    """``(R - I) / sqrt(2)`` flattened, ``(..., 9)``: continuous in ``R`` (a rotation vector
-    flips sign at pi, and Bandai's upper legs sit at 180 degrees from their rest: their pose
-    term was mostly those flips), and for small angles ``|f(R_a) - f(R_b)|`` is the angle
-    between them, as the rotation vectors' difference is."""
-    return (r - np.eye(3)).reshape(*r.shape[:-2], 9) / np.sqrt(2.0)
+#: Protocol 2's pre-declared hypothesis (from the diagnosis: the pose term and the gait phase).
+RETRIEVAL_HYPOTHESIS = "lie + pose balanced, cyclic"
 
 
-def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
-    """SRV arrays of prepared windows for one candidate of :data:`RETRIEVAL_CANDIDATES`.
-
-    The pose term appends ``sqrt(pose) * w_j^(1/2) * (R_j - I) / sqrt(2)`` of the non-root joints at
-    the cell midpoints to the SRV array (the DP then warps it like an SRV component)."""
-    from elastic_motion.apps.database.preparation import heading_relative_root
+def srvs_and_poses(prepared: list, spec: dict) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The SRV arrays and the pose arrays (``preparation.pose_arrays``: ``w_j^(1/2) (R_j - I) /
+    sqrt(2)`` of the non-root joints on the cells) of prepared windows for one candidate's root
+    and weights."""
+    from elastic_motion.apps.database.preparation import heading_relative_root, pose_arrays
     from elastic_motion.curves import srv_transform
     from elastic_motion.motion import group_weights, to_lie_curve
 
@@ -518,19 +542,71 @@ def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
     jw, tw = group_weights(ms)
     jw = np.asarray(jw) ** spec.get("jpow", 1.0)
     tw = tw * spec.get("tscale", 1.0)
-    out = []
+    srvs, poses = [], []
     for m in ms:
         if spec.get("rep", "lie") == "lie":
             q = srv_transform(to_lie_curve(m, jw, translation_weight=tw)).q
         else:
             q = srv_transform(to_euler_curve(m)).q
-        lam = spec.get("pose", 0.0)
-        if lam:
-            pose = _pose_features(m.rotations[:, 1:]) * np.sqrt(jw[1:])[None, :, None]
-            pose = 0.5 * (pose[1:] + pose[:-1]).reshape(len(q), -1)
-            q = np.concatenate([q, np.sqrt(lam) * pose], axis=1)
-        out.append(np.ascontiguousarray(q))
-    return out
+        srvs.append(q)
+        poses.append(pose_arrays(m, jw))
+    return srvs, poses
+
+
+def candidate_pose_weight(prepared: list, spec: dict) -> float:
+    """The weight of the candidate's pose term (``preparation.balanced_pose_weight`` for ``"balanced"``)."""
+    from elastic_motion.apps.database.preparation import balanced_pose_weight
+
+    lam = spec.get("pose", 0.0)
+    return balanced_pose_weight(*srvs_and_poses(prepared, spec)) if lam == "balanced" else float(lam)
+
+
+def candidate_srvs(prepared: list, spec: dict) -> list[np.ndarray]:
+    """SRV arrays of prepared windows for one candidate of :data:`RETRIEVAL_CANDIDATES` (or
+    :data:`RETRIEVAL_CANDIDATES_2`).
+
+    The pose term appends ``sqrt(pose) * w_j^(1/2) * (R_j - I) / sqrt(2)`` of the non-root joints at
+    the cell midpoints to the SRV array (the DP then warps it like an SRV component);
+    ``pose="balanced"`` takes the weight from ``preparation.balanced_pose_weight`` of these
+    windows (no labels)."""
+    from elastic_motion.apps.database.preparation import balanced_pose_weight, with_pose_term
+
+    srvs, poses = srvs_and_poses(prepared, spec)
+    lam = spec.get("pose", 0.0)
+    if lam == "balanced":
+        lam = balanced_pose_weight(srvs, poses)
+    if not lam:
+        return [np.ascontiguousarray(q) for q in srvs]
+    return [with_pose_term(q, p, lam) for q, p in zip(srvs, poses, strict=True)]
+
+
+def cyclic_dtw_matrix(frames: list[np.ndarray]) -> np.ndarray:
+    """DTW on the frames with the same best cyclic shift (an informational row, not the baseline)."""
+    m = len(frames)
+    fs = np.stack(frames)
+    best = np.full((m, m), np.inf)
+    for s in range(fs.shape[1]):
+        d = dtw_matrix(list(fs) + list(np.roll(fs, s, axis=1)), parallel=False)[:m, m:]
+        best = np.minimum(best, d)
+    np.fill_diagonal(best, 0.0)
+    return np.minimum(best, best.T)
+
+
+def mean_average_precision(d: np.ndarray, labels: list) -> float:
+    """Mean over the labelled windows of the average precision of their ranking of the other
+    labelled windows (same label = relevant); windows without another of their label skipped."""
+    valid = [i for i, lab in enumerate(labels) if lab]
+    aps = []
+    for i in valid:
+        others = [j for j in valid if j != i]
+        rel = np.array([labels[j] == labels[i] for j in others])
+        if not rel.any():
+            continue
+        order = np.argsort(d[i, others], kind="stable")
+        hits = rel[order]
+        prec = np.cumsum(hits) / np.arange(1, len(hits) + 1)
+        aps.append(float(prec[hits].mean()))
+    return float(np.mean(aps))
 
 
 def retrieval_windows(mocap: Path, which: str, max_windows: int) -> tuple[list, list, dict]:
@@ -556,37 +632,120 @@ def retrieval_windows(mocap: Path, which: str, max_windows: int) -> tuple[list, 
     )
 
 
-def retrieval_accuracies(prep: list, tasks: dict, neighbourhood: int) -> dict:
-    """1-NN accuracy per task of every :data:`RETRIEVAL_CANDIDATES` distance and of DTW on the
-    Euler frames, for prepared windows."""
-    acc = {}
-    for name, spec in RETRIEVAL_CANDIDATES.items():
-        d = distance_matrix(candidate_srvs(prep, spec), WarpOptions("dp", neighbourhood))
-        acc[name] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
-    d = dtw_matrix([to_euler_curve(p.motion).values for p in prep], parallel=False)
-    acc["dtw (euler frames)"] = {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()}
-    return acc
+def retrieval_matrices(prep: list, neighbourhood: int, candidates: dict) -> dict:
+    """Distance matrix of every candidate (the database's pair distances, phase-free with
+    ``cyclic``: ``tiles.pair_distances(cyclic=True)``, every cyclic shift of either window)."""
+    warp = WarpOptions("dp", neighbourhood)
+    return {
+        name: distance_matrix(candidate_srvs(prep, spec), warp, cyclic=bool(spec.get("cyclic")))
+        for name, spec in candidates.items()
+    }
+
+
+def library_matrix(names: list, motions: list, n_samples: int, neighbourhood: int) -> np.ndarray:
+    """The hypothesis through the database's own path, as ``elastic-motion matrix --pose-weight
+    balanced --cyclic`` computes it: ``build_srv_cache`` (pose term appended with the balanced
+    weight of the group) and ``distance_matrix(cyclic=True)``; the windows in input order."""
+    settings = DatabaseSettings(
+        n_samples=n_samples,
+        representations=("lie",),
+        warp=WarpOptions("dp", neighbourhood),
+        pose_weight="balanced",
+        cyclic=True,
+    )
+    cache = build_srv_cache(names, settings, motions=motions)
+    assert cache.names == names and len(cache.pose_weights["lie"]) == 1, "one skeleton, input order"
+    return distance_matrix(cache.q["lie"], settings.warp, cyclic=True)
+
+
+def retrieval_accuracies(prep: list, tasks: dict, neighbourhood: int, candidates: dict | None = None) -> dict:
+    """1-NN accuracy per task of every candidate distance (default :data:`RETRIEVAL_CANDIDATES`)
+    and of DTW on the Euler frames, for prepared windows."""
+    mats = retrieval_matrices(prep, neighbourhood, RETRIEVAL_CANDIDATES if candidates is None else candidates)
+    mats["dtw (euler frames)"] = dtw_matrix([to_euler_curve(p.motion).values for p in prep], parallel=False)
+    return {n: {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()} for n, d in mats.items()}
+
+
+def _inner_score(d: np.ndarray, labels: list) -> tuple[float, float]:
+    return knn_evaluate(d, labels, 1).accuracy, mean_average_precision(d, labels)
+
+
+def nested_selection(mats: dict, labels: list, clips: list, candidates: list) -> dict:
+    """Nested leave-one-window-out: for each labelled window ``i``, every candidate is scored
+    on the windows of the *other clips* only (1-NN leave-one-out accuracy, ties by mean
+    average precision, then list order); the best classifies ``i`` against all other windows."""
+    valid = [i for i, lab in enumerate(labels) if lab]
+    correct, picks = [], {}
+    for i in valid:
+        inner = [k for k in range(len(labels)) if clips[k] != clips[i]]
+        sub = [labels[k] for k in inner]
+        scores = {c: _inner_score(mats[c][np.ix_(inner, inner)], sub) for c in candidates}
+        pick = max(candidates, key=lambda c: (*scores[c], -candidates.index(c)))
+        picks[pick] = picks.get(pick, 0) + 1
+        row = mats[pick][i].copy()
+        row[i] = np.inf
+        row[[k for k in range(len(labels)) if not labels[k]]] = np.inf
+        correct.append(labels[int(np.argmin(row))] == labels[i])
+    return {"accuracy": float(np.mean(correct)), "evaluated": len(correct), "picks": picks}
 
 
 def retrieval(mocap: Path, n_samples: int = 32, max_windows: int = 6, neighbourhood: int = 6) -> dict:
-    """Cross-dataset protocol: pick the candidate with the best accuracy on one dataset (CMU:
-    category; Bandai: mean of content and style), report it on the other; DTW beside."""
+    """Protocol 2 (docs/database.md, "Retrieval quality"; fixed before the new candidates'
+    accuracies were computed): the windows, metrics and DTW baseline of protocol 1, the
+    candidates of :data:`RETRIEVAL_CANDIDATES` and :data:`RETRIEVAL_CANDIDATES_2`, reported
+
+    1. the pre-declared hypothesis :data:`RETRIEVAL_HYPOTHESIS` as it is;
+    2. cross-dataset selection: the candidate with the best CMU category accuracy is reported
+       on Bandai, the best on Bandai (mean of content and style) on CMU (ties: mean average
+       precision, then list order);
+    3. nested leave-one-window-out inside each dataset and task (:func:`nested_selection`).
+
+    1-NN leave-one-window-out accuracy and mean average precision (:func:`mean_average_precision`)
+    per task; ceilings: the windows whose label no other window has can never be right."""
+    cands = {**RETRIEVAL_CANDIDATES, **RETRIEVAL_CANDIDATES_2}
+    names_c = list(cands)
     data = {}
     for which in ("cmu", "bandai"):
         names, motions, tasks = retrieval_windows(mocap, which, max_windows)
+        clips = [n.split("#")[0] for n in names]
         prep = [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, motions, strict=True)]
-        data[which] = {"windows": len(prep), "accuracy": retrieval_accuracies(prep, tasks, neighbourhood)}
+        mats = retrieval_matrices(prep, neighbourhood, cands)
+        frames = [to_euler_curve(p.motion).values for p in prep]
+        mats["dtw (euler frames)"] = dtw_matrix(frames, parallel=False)
+        mats["dtw, cyclic (not a candidate)"] = cyclic_dtw_matrix(frames)
+        lib = library_matrix(names, motions, n_samples, neighbourhood)
+        lib_diff = float(np.max(np.abs(lib - mats[RETRIEVAL_HYPOTHESIS])))
+        lams = {n: candidate_pose_weight(prep, sp) for n, sp in cands.items() if sp.get("pose") == "balanced"}
+        data[which] = {
+            "windows": len(prep),
+            "clips": len(set(clips)),
+            "ceiling": {
+                t: sum(1 for lab in y if lab and y.count(lab) > 1) / sum(1 for lab in y if lab)
+                for t, y in tasks.items()
+            },
+            "balanced_pose_weight": lams,
+            "library_max_abs_difference": lib_diff,
+            "accuracy": {
+                n: {t: knn_evaluate(d, y, 1).accuracy for t, y in tasks.items()} for n, d in mats.items()
+            },
+            "map": {n: {t: mean_average_precision(d, y) for t, y in tasks.items()} for n, d in mats.items()},
+            "nested": {t: nested_selection(mats, y, clips, names_c) for t, y in tasks.items()},
+        }
 
-    def score(which: str, name: str) -> float:
-        return float(np.mean(list(data[which]["accuracy"][name].values())))
+    def score(which: str, name: str) -> tuple:
+        acc, mp = data[which]["accuracy"][name], data[which]["map"][name]
+        return float(np.mean(list(acc.values()))), float(np.mean(list(mp.values())))
 
-    cands = list(RETRIEVAL_CANDIDATES)  # ties: the first (simplest) candidate in this order
-    pick_cmu = max(cands, key=lambda c: (score("cmu", c), -cands.index(c)))
-    pick_bandai = max(cands, key=lambda c: (score("bandai", c), -cands.index(c)))
+    pick_cmu = max(names_c, key=lambda c: (*score("cmu", c), -names_c.index(c)))
+    pick_bandai = max(names_c, key=lambda c: (*score("bandai", c), -names_c.index(c)))
     return {
-        "protocol": "tune on one dataset, report on the other (1-NN, leave-one-window-out, 1-s windows)",
+        "protocol": "protocol 2 (docs/database.md): hypothesis, cross-dataset selection, nested "
+        "leave-one-window-out selection; 1-NN leave-one-window-out, 1-s windows",
         "n_samples": n_samples,
         "neighbourhood": neighbourhood,
+        "candidates_1": list(RETRIEVAL_CANDIDATES),
+        "candidates_2": list(RETRIEVAL_CANDIDATES_2),
+        "hypothesis": RETRIEVAL_HYPOTHESIS,
         "data": data,
         "picked_on_cmu": pick_cmu,
         "reported_on_bandai": data["bandai"]["accuracy"][pick_cmu],
@@ -894,22 +1053,47 @@ def markdown15(r: dict) -> str:
     lines = []
     if "retrieval" in r:
         rt = r["retrieval"]
+        c, b = rt["data"]["cmu"], rt["data"]["bandai"]
         lines += [
-            f"### Retrieval (protocol: {rt['protocol']}; N = {rt['n_samples']}, "
+            f"### Retrieval ({rt['protocol']}; N = {rt['n_samples']}, "
             f"DP neighbourhood {rt['neighbourhood']})",
+            "",
+            "1-NN accuracy (mean average precision); * = protocol 2's new candidates.",
             "",
             "| distance | CMU category | Bandai content | Bandai style (walks) |",
             "|---|---|---|---|",
         ]
-        for name in rt["data"]["cmu"]["accuracy"]:
-            c = rt["data"]["cmu"]["accuracy"][name]["category"]
-            b = rt["data"]["bandai"]["accuracy"][name]
-            lines.append(f"| {name} | {c:.3f} | {b['content']:.3f} | {b['style']:.3f} |")
+        for name in c["accuracy"]:
+            star = " *" if name in rt.get("candidates_2", ()) else ""
+            lines.append(
+                f"| {name}{star} | "
+                f"{c['accuracy'][name]['category']:.3f} ({c['map'][name]['category']:.3f}) | "
+                f"{b['accuracy'][name]['content']:.3f} ({b['map'][name]['content']:.3f}) | "
+                f"{b['accuracy'][name]['style']:.3f} ({b['map'][name]['style']:.3f}) |"
+            )
         lines.append(
-            f"\nPicked on CMU: **{rt['picked_on_cmu']}** -> Bandai content "
-            f"{rt['reported_on_bandai']['content']:.3f}, style {rt['reported_on_bandai']['style']:.3f}. "
-            f"Picked on Bandai: **{rt['picked_on_bandai']}** -> "
-            f"CMU {rt['reported_on_cmu']['category']:.3f}."
+            f"| ceiling | {c['ceiling']['category']:.3f} | {b['ceiling']['content']:.3f} | "
+            f"{b['ceiling']['style']:.3f} |"
+        )
+        n = {**c["nested"], **b["nested"]}
+        lines.append(
+            f"| nested selection | {n['category']['accuracy']:.3f} | {n['content']['accuracy']:.3f} | "
+            f"{n['style']['accuracy']:.3f} |"
+        )
+        lines.append(
+            f"\nWindows: CMU {c['windows']} of {c['clips']} clips, Bandai {b['windows']} of {b['clips']} "
+            f"clips. Hypothesis: **{rt['hypothesis']}**. Picked on CMU: **{rt['picked_on_cmu']}** -> "
+            f"Bandai content {rt['reported_on_bandai']['content']:.3f}, style "
+            f"{rt['reported_on_bandai']['style']:.3f}. Picked on Bandai: **{rt['picked_on_bandai']}** -> "
+            f"CMU {rt['reported_on_cmu']['category']:.3f}. Nested picks: "
+            + "; ".join(f"{t}: {v['picks']}" for t, v in n.items())
+            + ". Balanced pose weights: CMU "
+            + ", ".join(f"{k} {v:.2f}" for k, v in c["balanced_pose_weight"].items())
+            + "; Bandai "
+            + ", ".join(f"{k} {v:.2f}" for k, v in b["balanced_pose_weight"].items())
+            + f". The hypothesis through the database's path (`--pose-weight balanced --cyclic`): "
+            f"largest difference {c['library_max_abs_difference']:.1e} (CMU), "
+            f"{b['library_max_abs_difference']:.1e} (Bandai)."
         )
     if "search" in r:
         lines += [
@@ -961,7 +1145,9 @@ def markdown15(r: dict) -> str:
         lines += [
             "",
             f"### Dask speed-up ({sp['motions']} windows of 200 frames, {sp['pairs']} pairs, "
-            f"N = {sp['n_samples']})",
+            f"N = {sp['n_samples']}; earlier settings and release, measured "
+            f"{r.get('meta', {}).get('speedup', {}).get('date', '?')}: the current numbers are "
+            "`benchmarks/database_scale.py`'s)",
             "",
             "| engine | seconds | speed-up |",
             "|---|---|---|",
@@ -989,7 +1175,8 @@ def markdown15(r: dict) -> str:
         tr = r[key]
         meta = r.get("meta", {}).get(sec, {})
         lines.append(
-            f"\n1000 x 200 all pairs (measured, N = {tr['n_samples']}, DP neighbourhood "
+            f"\n1000 x 200 all pairs (earlier settings and release, {meta.get('date', '?')}; current: "
+            f"benchmarks/database_scale.py; measured, N = {tr['n_samples']}, DP neighbourhood "
             f"{tr.get('neighbourhood', 6)}, Lie, {tr['engine']}): read + SRV "
             f"{tr['seconds_read_and_srv']:.0f} s, tiles {tr['seconds_tiles']:.0f} s, "
             f"total {tr['seconds_total']:.0f} s "

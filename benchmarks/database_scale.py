@@ -23,10 +23,18 @@ Sections (``--sections``, comma-separated; default all, in this order):
    seconds of the pair phase, the matrices compared bit for bit. Also serial with numba's
    default threads (the batched kernel shares a tile's pairs among them). With both Dask
    engines the files are read, prepared and their SRV computed on the workers too (the
-   ``read on`` column). Skipped with a message when ``distributed`` is not installed (extra
-   ``cluster``).
-5. ``small``: ``--engine local`` on a small input (40 windows) against serial: the cluster is
-   not started when it would not pay for its start (``tiles.cluster_worth_it``).
+   ``read on`` column). Each engine runs in a new Python process, as ``elastic-motion matrix``
+   does (imports not timed; code and kernels load within the run; the ``LocalCluster``'s
+   workers are forked from it); the separately started workers are started with ``--preload
+   elastic_motion.apps.database.engines`` and the engine's Dask settings (a config file:
+   ``engines.QUIET_DASK``, glibc's malloc defaults), as a running cluster would be, their
+   start not timed. ``--repeat N`` runs the section N times (all kept in ``speedup_runs``);
+   each run records the load average and the CPU seconds other jobs took meanwhile
+   (``cpu_seconds_others``). Skipped with a message when ``distributed`` is not installed
+   (extra ``cluster``).
+5. ``small``: ``--engine local`` on a small input (40 windows) against serial, each in a new
+   process: the cluster is not started when it would not pay for its start
+   (``tiles.cluster_worth_it``); also what a cluster started anyway costs (``local_forced``).
 
 Prints a table and writes ``benchmarks/results/database_scale.json``. The machine is shared:
 the JSON records the load average before and after each section.
@@ -41,6 +49,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import shutil
@@ -137,8 +146,9 @@ def per_pair(inputs: list[Path], pairs: int) -> dict:
 
 
 def run_matrix(src: Path, out: Path, engine: str, workers: int, **kw) -> dict:
-    """``compute_matrix`` of the folder, timed end to end."""
+    """``compute_matrix`` of the folder, timed end to end (the load average before and after)."""
     shutil.rmtree(out, ignore_errors=True)
+    before = load("before")["load_average"]
     t0 = time.perf_counter()
     res = compute_matrix([src], out, settings(), engine=engine, n_workers=workers, **kw)
     wall = time.perf_counter() - t0
@@ -159,7 +169,71 @@ def run_matrix(src: Path, out: Path, engine: str, workers: int, **kw) -> dict:
         "read_where": run.get("read_where"),
         "seconds_pairs": t["tiles_seconds"],
         "seconds_other": round(wall - t["read_seconds"] - t["tiles_seconds"], 2),
+        "load_average_before_after": [before, load("after")["load_average"]],
     }
+
+
+def run_fresh(
+    src: Path,
+    out: Path,
+    engine: str,
+    workers: int,
+    numba_threads: int | None = None,
+    helpers: list[subprocess.Popen] = (),
+    **kw,
+) -> dict:
+    """:func:`run_matrix` in a new Python process (as a command-line run: nothing loaded or
+    started before it; ``numba_threads``: ``numba.set_num_threads`` first). Also the CPU
+    seconds of the machine during the run, of the run (with ``helpers``: the separately started
+    scheduler and workers) and of the rest (``cpu_seconds_others``: other jobs)."""
+    code = (
+        "import json, sys\n"
+        f"sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})\n"
+        "from pathlib import Path\n"
+        "import numba\n"
+        "from database_scale import run_matrix\n"
+        f"if {numba_threads!r}:\n"
+        f"    numba.set_num_threads({numba_threads!r})\n"
+        f"r = run_matrix(Path({str(src)!r}), Path({str(out)!r}), {engine!r}, {workers!r}, **{kw!r})\n"
+        "if r['engine'] == 'local':\n"
+        "    from elastic_motion.apps.database.engines import local_start_method\n"
+        "    r['worker_start'] = local_start_method()\n"
+        "print('RESULT ' + json.dumps(r))\n"
+    )
+    cpu0 = _cpu_seconds(helpers)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    cpu1 = _cpu_seconds(helpers)
+    lines = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
+    if proc.returncode or not lines:
+        raise RuntimeError(f"{engine} run failed:\n{proc.stderr[-3000:]}")
+    r = json.loads(lines[-1][len("RESULT ") :])
+    r["cpu_seconds_machine"] = round(cpu1[0] - cpu0[0], 2)
+    r["cpu_seconds_ours"] = round(cpu1[1] - cpu0[1], 2)
+    # CPU the machine spent on other work during the run (other jobs): the noise of its timings
+    r["cpu_seconds_others"] = round(r["cpu_seconds_machine"] - r["cpu_seconds_ours"], 2)
+    return r
+
+
+def _cpu_seconds(helpers: list[subprocess.Popen]) -> tuple[float, float]:
+    """(CPU seconds of the whole machine, of this process, its finished children and ``helpers``)."""
+    import resource
+
+    import psutil
+
+    t = psutil.cpu_times()
+    machine = (
+        sum(t) - t.idle - getattr(t, "iowait", 0.0) - getattr(t, "guest", 0.0) - getattr(t, "guest_nice", 0.0)
+    )
+    own = sum(resource.getrusage(w).ru_utime + resource.getrusage(w).ru_stime
+              for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))  # fmt: skip
+    for h in helpers:  # a `dask worker` is a nanny process and its worker process
+        with contextlib.suppress(psutil.Error):
+            top = psutil.Process(h.pid)
+            for q in [top, *top.children(recursive=True)]:
+                with contextlib.suppress(psutil.Error):
+                    c = q.cpu_times()
+                    own += c.user + c.system
+    return machine, own
 
 
 def quality(out: Path, sample: int) -> dict:
@@ -202,10 +276,16 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+#: What the separately started workers preload: the code and kernels of a database run
+#: (``engines.dask_setup``), loaded when they start, as a long-running cluster's workers would be.
+PRELOAD = "elastic_motion.apps.database.engines"
+
+
 def start_dask(n_workers: int, config_dir: Path) -> tuple[str, list[subprocess.Popen], float]:
     """A ``dask scheduler`` and ``n_workers`` single-threaded ``dask worker`` processes on
-    127.0.0.1 (subprocesses; their Dask config file written to ``config_dir``); returns the
-    address, the processes and the start-up seconds."""
+    127.0.0.1 (subprocesses; their Dask config file written to ``config_dir``; ``--preload``
+    :data:`PRELOAD`); returns the address, the processes and the start-up seconds (until the
+    workers have joined, preloads done)."""
     from distributed import Client
 
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
@@ -213,9 +293,11 @@ def start_dask(n_workers: int, config_dir: Path) -> tuple[str, list[subprocess.P
     # defaults instead of Dask's MALLOC_TRIM_THRESHOLD_=65536 (20-25 % more CPU reading files)
     conf = config_dir
     conf.mkdir(parents=True, exist_ok=True)
-    (conf / "elastic-motion.yaml").write_text(
-        "distributed:\n  nanny:\n    pre-spawn-environ:\n      MALLOC_TRIM_THRESHOLD_: null\n"
-    )
+    # and the quieter book-keeping of engine "local" (engines.QUIET_DASK)
+    from elastic_motion.apps.database.engines import QUIET_DASK
+
+    settings = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None, **QUIET_DASK}
+    (conf / "elastic-motion.yaml").write_text(json.dumps(_nested(settings), indent=1))  # JSON is YAML
     env["DASK_CONFIG"] = str(conf)
     env.pop("MALLOC_TRIM_THRESHOLD_", None)
     port = _free_port()
@@ -233,7 +315,7 @@ def start_dask(n_workers: int, config_dir: Path) -> tuple[str, list[subprocess.P
         procs.append(
             subprocess.Popen(
                 [sys.executable, "-m", "distributed.cli.dask_worker", addr, "--nthreads", "1",
-                 "--nworkers", "1", "--no-dashboard"],
+                 "--nworkers", "1", "--no-dashboard", "--preload", PRELOAD],
                 **quiet,
             )
         )  # fmt: skip
@@ -252,6 +334,18 @@ def start_dask(n_workers: int, config_dir: Path) -> tuple[str, list[subprocess.P
         stop(procs)
         raise
     return addr, procs, time.perf_counter() - t0
+
+
+def _nested(dotted: dict) -> dict:
+    """``{"a.b.c": v}`` as ``{"a": {"b": {"c": v}}}`` (a Dask config file)."""
+    out: dict = {}
+    for key, value in dotted.items():
+        *parents, last = key.split(".")
+        node = out
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[last] = value
+    return out
 
 
 def stop(procs: list[subprocess.Popen]) -> None:
@@ -273,26 +367,25 @@ def speedup(src: Path, tmp: Path) -> dict:
     import numba
 
     rows: dict[str, dict] = {}
-    numba.set_num_threads(1)
-    try:
-        rows["serial, 1 thread"] = run_matrix(src, tmp / "sp_serial1", "serial", 1)
-    finally:
-        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    rows[f"serial, {numba.config.NUMBA_NUM_THREADS} numba threads"] = run_matrix(
+    # each engine in a fresh process, as `elastic-motion matrix` runs it (imports not timed; the
+    # code and kernels load within the run: the serial run's and the forked workers' own)
+    rows["serial, 1 thread"] = run_fresh(src, tmp / "sp_serial1", "serial", 1, numba_threads=1)
+    rows[f"serial, {numba.config.NUMBA_NUM_THREADS} numba threads"] = run_fresh(
         src, tmp / "sp_serialN", "serial", 1
     )
-    rows["LocalCluster, 2 workers"] = run_matrix(src, tmp / "sp_local", "local", 2, force_cluster=True)
+    rows["LocalCluster, 2 workers"] = run_fresh(src, tmp / "sp_local", "local", 2, force_cluster=True)
     rows["LocalCluster, 2 workers"]["note"] = "start-up included in seconds_other"
     addr, procs, startup = start_dask(2, tmp / "dask-config")
     try:
-        rows["dask scheduler + 2 dask workers (127.0.0.1)"] = run_matrix(
-            src, tmp / "sp_dask", "dask", 2, scheduler=addr, connect_timeout=30
+        rows["dask scheduler + 2 dask workers (127.0.0.1)"] = run_fresh(
+            src, tmp / "sp_dask", "dask", 2, helpers=procs, scheduler=addr, connect_timeout=30
         )
     finally:
         stop(procs)
     rows["dask scheduler + 2 dask workers (127.0.0.1)"]["seconds_cluster_start_not_included"] = round(
         startup, 2
     )
+    rows["dask scheduler + 2 dask workers (127.0.0.1)"]["worker_preload"] = PRELOAD
     ref = np.load(tmp / "sp_serial1" / "distances_lie.npy")
     base = rows["serial, 1 thread"]
     dirs = dict(zip(rows, ["sp_serial1", "sp_serialN", "sp_local", "sp_dask"], strict=True))
@@ -312,18 +405,21 @@ def speedup(src: Path, tmp: Path) -> dict:
 
 
 def small(src: Path, tmp: Path, m: int) -> dict:
-    """``--engine local`` on ``m`` windows against serial (the cluster is started only when worth it)."""
+    """``--engine local`` on ``m`` windows against serial (the cluster is started only when worth
+    it), each in a new process."""
     part = tmp / "small_inputs"
     part.mkdir(exist_ok=True)
     for f in sorted(src.glob("*.bvh"))[:m]:
         shutil.copy(f, part / f.name)
-    out = {"serial": run_matrix(part, tmp / "small_serial", "serial", 1)}
+    out = {"serial": run_fresh(part, tmp / "small_serial", "serial", 1)}  # each in a new process
     try:
         import distributed  # noqa: F401
     except ImportError:
         out["local"] = {"skipped": "distributed is not installed"}
         return out
-    out["local"] = run_matrix(part, tmp / "small_local", "local", 2)
+    out["local"] = run_fresh(part, tmp / "small_local", "local", 2)
+    # what the cluster would have cost (for the threshold of tiles.cluster_worth_it)
+    out["local_forced"] = run_fresh(part, tmp / "small_forced", "local", 2, force_cluster=True)
     return out
 
 
@@ -397,17 +493,22 @@ def markdown(r: dict) -> str:
                 f"### Dask speed-ups ({sp['motions']} motions, {sp['pairs']} pairs, against serial on one "
                 "thread)",
                 "",
-                "| engine | total s | read + SRV s | read on | pairs s | speed-up total | speed-up read | "
-                "speed-up pairs | identical |",
-                "|---|---|---|---|---|---|---|---|---|",
+                "| run | engine | total s | read + SRV s | read on | pairs s | speed-up total | "
+                "speed-up read | speed-up pairs | identical | load before -> after (others' CPU) |",
+                "|---|---|---|---|---|---|---|---|---|---|---|",
             ]
-            for name, x in sp["rows"].items():
-                lines.append(
-                    f"| {name} | {x['seconds_total']:.1f} | {x['seconds_read_and_srv']:.1f} | "
-                    f"{x.get('read_where', '?')} | {x['seconds_pairs']:.1f} | {x['speedup_total']:.2f} | "
-                    f"{x.get('speedup_read', float('nan')):.2f} | {x['speedup_pairs']:.2f} | "
-                    f"{x['identical_to_serial']} |"
-                )
+            for k, run in enumerate(r.get("speedup_runs") or [sp]):
+                for name, x in run["rows"].items():
+                    la = x.get("load_average_before_after")
+                    la = f"{la[0][0]:.2f} -> {la[1][0]:.2f}" if la else "?"
+                    if "cpu_seconds_others" in x:
+                        la += f" ({x['cpu_seconds_others']:.1f} s)"
+                    lines.append(
+                        f"| {k + 1} | {name} | {x['seconds_total']:.1f} | {x['seconds_read_and_srv']:.1f} | "
+                        f"{x.get('read_where', '?')} | {x['seconds_pairs']:.1f} | {x['speedup_total']:.2f} | "
+                        f"{x.get('speedup_read', float('nan')):.2f} | {x['speedup_pairs']:.2f} | "
+                        f"{x['identical_to_serial']} | {la} |"
+                    )
             d = sp["rows"].get("dask scheduler + 2 dask workers (127.0.0.1)", {})
             if "seconds_cluster_start_not_included" in d:
                 lines.append(
@@ -428,6 +529,8 @@ def markdown(r: dict) -> str:
                 else f"--engine local skipped: {loc['skipped']}"
             ),
         ]
+        if "local_forced" in sm:
+            lines.append(f"(a local cluster started anyway: {sm['local_forced']['seconds_total']:.1f} s)")
     meta = r.get("meta", {})
     if meta:
         lines += ["", "Load average (1, 5, 15 min) after each section: "]
@@ -455,6 +558,9 @@ def main() -> None:
     )
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--speedup-motions", type=int, default=400)
+    parser.add_argument(
+        "--repeat", type=int, default=1, help="runs of the speedup section (all kept in speedup_runs)"
+    )
     parser.add_argument("--sample", type=int, default=300, help="pairs of the quality check")
     parser.add_argument("--inputs", type=Path, default=None, help="keep the generated windows here (reused)")
     parser.add_argument("--quick", action="store_true", help="small sizes (a smoke test of the script)")
@@ -522,7 +628,13 @@ def main() -> None:
                     np.load(o / "distances_lie.npy").tobytes() == ref for o in outs
                 )
             elif section == "speedup":
-                result["speedup"] = speedup(sub, tmp)
+                result["speedup_runs"] = []
+                for k in range(max(1, args.repeat)):
+                    result["speedup"] = speedup(sub, tmp)
+                    result["speedup"]["date"] = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
+                    result["speedup_runs"].append(result["speedup"])
+                    if len(result["speedup_runs"]) > 1:
+                        print(f"  run {k + 1}:\n" + markdown({"speedup": result["speedup"]}), flush=True)
             elif section == "small":
                 result["small"] = small(src, tmp, 40)
             result["meta"][section] = {

@@ -8,7 +8,7 @@ import pytest
 from blend_testlib import walker
 
 from elastic_motion.apps.blend import blend_motions
-from elastic_motion.apps.cleanup import _ease, carry_contacts, cleanup_footskate
+from elastic_motion.apps.cleanup import _ease, carry_contacts, cleanup_footskate, find_legs, settle_offset
 from elastic_motion.apps.metrics import bone_length_error, contact_skating
 from elastic_motion.motion import drop_tpose, forward_kinematics, read_motion, trim
 from elastic_motion.motion.contacts import ContactOptions, Contacts, detect_contacts
@@ -92,6 +92,47 @@ def test_cleanup_strength_goes_part_of_the_way_and_keeps_the_floor():
     assert cleanup_footskate(m, under, smooth=0.0, strength=0.0).skating_after.below_floor < 1e-6
     with pytest.raises(ValueError, match="strength"):
         cleanup_footskate(m, c, strength=1.5)
+
+
+def test_settle_moves_the_body_down_to_the_floor_not_the_stance_knees():
+    m = walker(duration=1.5)
+    legs, _ = find_legs(m)
+    names = ("LeftFoot", "RightFoot")
+    mask = np.zeros((m.n_frames, 2), dtype=bool)
+    mask[8:20, 0] = True
+    mask[24:38, 1] = True
+    pos = forward_kinematics(m)
+    idx = [m.skeleton.index(n) for n in names]
+    ground = np.array([pos[mask[:, k], j, 1].mean() for k, j in enumerate(idx)])
+    c = Contacts(names, np.array(idx), mask, 0.0, ground, 30.0, "y")
+    root = m.root_translation.copy()
+    root[:, 1] -= 0.04  # the blend sank 4 cm into the floor
+    sunk = m.replace(root_translation=root)
+    base = settle_offset(m, c, legs, sigma=0.5)
+    # a vertical shift of the motion comes back in full (and only it)
+    np.testing.assert_allclose(settle_offset(sunk, c, legs, sigma=0.5), base + 0.04, atol=1e-12)
+    # unsmoothed, each planted frame's offset puts its planted joint at its ground height
+    raw = settle_offset(sunk, c, legs, sigma=0.0)
+    np.testing.assert_allclose(pos[8:20, idx[0], 1] - 0.04 + raw[8:20], ground[0], atol=1e-12)
+    np.testing.assert_allclose(pos[24:38, idx[1], 1] - 0.04 + raw[24:38], ground[1], atol=1e-12)
+    # the clean-up then lifts the body back: the sunk motion is cleaned exactly like the
+    # original, where without settling its stance knees bend to lift the feet
+    settled = cleanup_footskate(sunk, c, smooth=0.0, settle=0.5)
+    lift = base + 0.04
+    assert settled.settle_offset == pytest.approx(lift[np.argmax(np.abs(lift))], abs=1e-12)
+    assert settled.summary()["settle_offset_m"] == settled.settle_offset
+    same = cleanup_footskate(m, c, smooth=0.0, settle=0.5).motion
+    np.testing.assert_allclose(settled.motion.rotations, same.rotations, atol=1e-9)
+    np.testing.assert_allclose(settled.motion.root_translation, same.root_translation, atol=1e-9)
+    plain = cleanup_footskate(sunk, c, smooth=0.0)
+    assert plain.settle_offset == 0.0
+    knees = [leg.knee for leg in legs]
+    rel = np.swapaxes(same.rotations[:, knees], -1, -2) @ plain.motion.rotations[:, knees]
+    bend = np.degrees(np.arccos(np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
+    assert bend.max() > 5.0
+    assert bone_length_error(settled.motion).max_relative < 1e-9
+    no_contacts = Contacts(names, np.array(idx), np.zeros_like(mask), 0.0, ground, 30.0, "y")
+    assert not settle_offset(sunk, no_contacts, legs, sigma=0.5).any()
 
 
 def test_cleanup_lifts_a_foot_out_of_the_floor():

@@ -814,6 +814,9 @@ _SMOOTHING = (0.4, 0.3, 0.2, 0.15, 0.1, 0.07, 0.05, 0.035, 0.025, 0.0)
 _SKATE_GOAL = 0.95
 #: Bisection steps for the fraction of the way to the plants (1/64 resolution).
 _STRENGTH_STEPS = 6
+#: The clean-up first moves the whole blend vertically, as slowly as this (s, Gaussian), so
+#: its planted feet stand at their ground heights (``cleanup_footskate(settle=...)``).
+_SETTLE = 1.0
 #: A loop's floor after the last closing: lift and close again while a foot is deeper (m).
 _LOOP_FLOOR_TOL = 0.005
 _LOOP_FLOOR_ROUNDS = 3
@@ -868,7 +871,7 @@ def _cleanup(
     own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
     goal = _SKATE_GOAL * min(own)
     for smooth in _SMOOTHING:
-        res = cleanup_footskate(result, carried, smooth=smooth)
+        res = cleanup_footskate(result, carried, smooth=smooth, settle=_SETTLE)
         if not res.applied or res.skating_after.mean_speed <= goal:
             break
     if res.applied and res.skating_after.mean_speed < goal:
@@ -876,7 +879,7 @@ def _cleanup(
         lo, hi = 0.0, 1.0
         for _ in range(_STRENGTH_STEPS):
             mid = 0.5 * (lo + hi)
-            trial = cleanup_footskate(result, carried, smooth=res.smooth, strength=mid)
+            trial = cleanup_footskate(result, carried, smooth=res.smooth, strength=mid, settle=_SETTLE)
             if trial.skating_after.mean_speed <= goal:
                 hi, res = mid, trial
             else:
@@ -886,7 +889,8 @@ def _cleanup(
             "clean-up: contacts carried through the warps and enforced by leg IK; skating "
             f"{res.skating_before.mean_speed:.3g} -> {res.skating_after.mean_speed:.3g} m/s (inputs "
             + ", ".join(f"{x:.3g}" for x in own)
-            + f"), change smoothed over {res.smooth:g} s, {100 * res.strength:.0f} % of it kept; "
+            + f"), body settled vertically by up to {res.settle_offset:+.3g} m, "
+            f"change smoothed over {res.smooth:g} s, {100 * res.strength:.0f} % of it kept; "
             f"largest change {res.max_position_change:.3g} m, {res.max_rotation_change_deg:.3g} deg"
         )
     else:

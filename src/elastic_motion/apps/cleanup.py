@@ -237,6 +237,9 @@ class CleanupResult:
         The smoothing of the change used (seconds, :func:`cleanup_footskate`).
     strength : float
         The fraction of the way to the plants (:func:`cleanup_footskate`).
+    settle_offset : float
+        Largest vertical root offset of the settling step (signed, metres; 0 when off:
+        :func:`settle_offset`).
     """
 
     motion: Motion
@@ -251,6 +254,7 @@ class CleanupResult:
     notes: tuple[str, ...] = field(default=())
     smooth: float = 0.0
     strength: float = 1.0
+    settle_offset: float = 0.0
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready (speeds in m/s, lengths in m)."""
@@ -264,6 +268,7 @@ class CleanupResult:
             "max_root_offset_m": self.max_root_offset,
             "smooth_s": self.smooth,
             "strength": self.strength,
+            "settle_offset_m": self.settle_offset,
             "contacts": self.contacts.summary(),
             "notes": list(self.notes),
         }
@@ -328,6 +333,46 @@ def _plants(p: np.ndarray, mask: np.ndarray, min_height: float | None, up: int) 
     return out
 
 
+def settle_offset(
+    motion: Motion, contacts: Contacts, legs: Sequence[LegChain], *, sigma: float
+) -> np.ndarray:
+    """Vertical root offset ``(F,)`` (motion's unit) that puts the planted ankles and toes of
+    ``legs`` at their ground heights (``contacts.floor + contacts.ground_height``), as slowly
+    as ``sigma`` allows.
+
+    On each frame with a planted joint of known ground height the offset is the mean of
+    ``ground - height`` over those joints; between such frames it is interpolated linearly
+    (held at the ends); then smoothed by a Gaussian of standard deviation ``sigma`` seconds.
+    A slow vertical translation of the whole body changes no joint angle and the root's
+    velocity by little (its SRV distance to the motion is small), where lifting each stance
+    foot by IK bends the knees. Zeros when no planted joint has a ground height.
+    """
+    from scipy.ndimage import gaussian_filter1d
+
+    sk = motion.skeleton
+    up = _AXES.index(motion.up_axis)
+    pos, _ = joint_positions_and_rotations(sk.parents, motion.local_translations(), motion.rotations)
+    total = np.zeros(motion.n_frames)
+    count = np.zeros(motion.n_frames)
+    for leg in legs:
+        for j in (leg.ankle, leg.toe):
+            if j < 0 or sk.names[j] not in contacts.joints:
+                continue
+            k = contacts.joints.index(sk.names[j])
+            g = contacts.ground_height[k]
+            m = contacts.mask[:, k]
+            if not np.isfinite(g) or not m.any():
+                continue
+            total[m] += contacts.floor + g - pos[m, j, up]
+            count[m] += 1
+    known = count > 0
+    if not known.any():
+        return np.zeros(motion.n_frames)
+    frames = np.arange(motion.n_frames)
+    need = np.interp(frames, frames[known], total[known] / count[known])
+    return gaussian_filter1d(need, sigma * motion.fps, mode="nearest") if sigma > 0 else need
+
+
 def _given(plants: Mapping[str, np.ndarray], name: str, p: np.ndarray) -> np.ndarray | None:
     """A joint's given plants ``(F, 3)``, its own position ``p`` where a coordinate is NaN."""
     if name not in plants:
@@ -349,6 +394,7 @@ def cleanup_footskate(
     plants: Mapping[str, np.ndarray] | None = None,
     fixed: Sequence[int] = (),
     knee_hinge: bool = True,
+    settle: float = 0.0,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
 
@@ -382,6 +428,12 @@ def cleanup_footskate(
     knee_hinge : bool, default True
         As ``hinge`` of :func:`elastic_motion.motion.ik.solve_legs`: False keeps each frame's
         own knee plane (small corrections of a motion whose knees are right, e.g. a loop's).
+    settle : float, default 0
+        Seconds; when positive, first a slow vertical root offset puts the planted ankles and
+        toes at their ground heights (:func:`settle_offset`, Gaussian of this standard
+        deviation): a blend whose feet sink into the floor or float above it is moved as a
+        whole, which its legs' angles and the elastic distance do not see, instead of bending
+        every stance leg by IK. 0: none (the plants' heights are then reached by the IK).
 
     Returns
     -------
@@ -405,8 +457,16 @@ def cleanup_footskate(
     up = _AXES.index(motion.up_axis)
     width = max(1, round(blend_time * motion.fps))
     parents = sk.parents
-    pos, _ = joint_positions_and_rotations(parents, motion.local_translations(), motion.rotations)
-    pos_all = forward_kinematics(motion, end_sites=True)
+    base = motion
+    settled = np.zeros(motion.n_frames)
+    if settle > 0:
+        settled = settle_offset(motion, contacts, found, sigma=settle)
+        if settled.any():
+            root = motion.root_translation.copy()
+            root[:, up] += settled
+            base = motion.replace(root_translation=root)
+    pos, _ = joint_positions_and_rotations(parents, base.local_translations(), base.rotations)
+    pos_all = forward_kinematics(base, end_sites=True)
 
     def col(j: int) -> tuple[np.ndarray, float | None]:
         name = sk.names[j]
@@ -483,8 +543,8 @@ def cleanup_footskate(
         return CleanupResult(motion, contacts, before, before, 0.0, 0.0, 0.0, (), False, tuple(notes))
 
     # 1. root correction, 2. leg IK, 3. toe turns
-    offset = root_correction(motion, found, targets, sigma=blend_time / 2)
-    out = motion.replace(root_translation=motion.root_translation + offset) if offset.any() else motion
+    offset = root_correction(base, found, targets, sigma=blend_time / 2)
+    out = base.replace(root_translation=base.root_translation + offset) if offset.any() else base
     out = solve_legs(out, found, targets, hinge=knee_hinge)
     for leg, turn in zip(found, turns, strict=True):
         if turn is not None:
@@ -522,10 +582,11 @@ def cleanup_footskate(
         skating_after=after,
         max_position_change=dpos,
         max_rotation_change_deg=drot,
-        max_root_offset=float(np.linalg.norm(offset, axis=1).max()),
+        max_root_offset=float(np.linalg.norm(out.root_translation - motion.root_translation, axis=1).max()),
         legs=tuple(used),
         applied=True,
         notes=tuple(notes),
         smooth=float(smooth),
         strength=float(strength),
+        settle_offset=float(settled[np.argmax(np.abs(settled))]),
     )

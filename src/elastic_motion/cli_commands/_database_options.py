@@ -39,6 +39,8 @@ FLAGS: dict[str, str | None] = {
     "scheduler": "--scheduler",
     "engine": "--engine",
     "inputs": "inputs",
+    "pose_weight": "--pose-weight",
+    "cyclic": "--cyclic",
 }
 
 
@@ -79,6 +81,35 @@ def add_warp(p: argparse.ArgumentParser) -> None:
 
     # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
     add_warp_options(p, defaults=DEFAULT_WARP, sampling=False, coarse_to_fine=True)
+
+
+def add_distance_terms(p: argparse.ArgumentParser) -> None:
+    """``--pose-weight`` and ``--cyclic`` (``DatabaseSettings.pose_weight`` / ``cyclic``)."""
+    p.add_argument(
+        "--pose-weight",
+        default="0",
+        metavar="{balanced,W}",
+        help="weight of a pose term beside the SRV (the joints' rotations, which the SRV does not see): "
+        "'balanced' (as much mean squared pair distance as the SRV term over the database; no labels) or a "
+        "number >= 0; 0: the SRV alone (default: 0)",
+    )
+    p.add_argument(
+        "--cyclic",
+        action="store_true",
+        help="phase-free matching: the least distance over the cyclic shifts of either motion's cells "
+        "(windows of periodic motions started at different phases; 2 x SAMPLES times the cost; needs --warp "
+        "dp) (default: off)",
+    )
+
+
+def pose_weight_option(value: str) -> float | str:
+    """``--pose-weight``: ``"balanced"`` or a number (validated by ``DatabaseSettings``)."""
+    if value == "balanced":
+        return value
+    try:
+        return float(value)
+    except ValueError:
+        raise CommandError(f"--pose-weight: expected 'balanced' or a number >= 0; got {value!r}") from None
 
 
 def add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
@@ -131,6 +162,8 @@ def database_settings(args: argparse.Namespace, reps: tuple[str, ...]):
         drop_fingers=not args.keep_fingers,
         align_heading=not args.no_align,
         tile_size=getattr(args, "tile_size", 32),
+        pose_weight=pose_weight_option(getattr(args, "pose_weight", "0")),
+        cyclic=getattr(args, "cyclic", False),
     )
 
 

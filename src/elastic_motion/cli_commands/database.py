@@ -33,6 +33,7 @@ from elastic_motion.cli_commands._common import (
 from elastic_motion.cli_commands._database_options import (
     LINKAGES,
     USER_ERRORS,
+    add_distance_terms,
     add_method,
     add_preparation,
     add_warp,
@@ -42,6 +43,7 @@ from elastic_motion.cli_commands._database_options import (
     fail,
     joints_option,
     methods,
+    pose_weight_option,
 )
 
 
@@ -118,6 +120,7 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p)
     add_preparation(p)
     add_warp(p)
+    add_distance_terms(p)
     p.set_defaults(func=run_matrix)
 
 
@@ -190,6 +193,7 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p)
     add_preparation(p)
     add_warp(p)
+    add_distance_terms(p)
     p.set_defaults(func=run_search)
 
 
@@ -198,6 +202,10 @@ def _run_within(args: argparse.Namespace) -> int:
 
     bar = progress_for("search", args)
     try:
+        if args.cyclic or pose_weight_option(args.pose_weight) != 0:
+            raise CommandError(
+                "--within: expected neither --cyclic nor --pose-weight (partial matching is on the SRV)"
+            )
         (method,) = methods(args.method, several=False)
         res = find_within(
             args.query,

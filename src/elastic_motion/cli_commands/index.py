@@ -11,6 +11,7 @@ import argparse
 from elastic_motion.cli_commands._common import add_json_option, add_quiet_option, progress_for
 from elastic_motion.cli_commands._database_options import (
     USER_ERRORS,
+    add_distance_terms,
     add_method,
     add_preparation,
     add_warp,
@@ -43,6 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p)
     add_preparation(p)
     add_warp(p)
+    add_distance_terms(p)
     p.set_defaults(func=run)
 
 

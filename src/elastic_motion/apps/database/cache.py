@@ -21,7 +21,7 @@ import io
 import json
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -30,9 +30,12 @@ import numpy as np
 from elastic_motion._io import atomic_write_bytes
 from elastic_motion.apps.database.preparation import (
     PreparedMotion,
+    balanced_pose_weight,
     common_joint_names,
+    pose_arrays,
     prepare_motion,
     restrict_prepared,
+    with_pose_term,
 )
 from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
 from elastic_motion.apps.progress import Progress
@@ -77,6 +80,10 @@ class SRVCache:
     group_weights : list of (list of float, float)
         Lie inner-product weights ``(joint weights (J,), translation weight (1/m^2))`` of
         each group.
+    pose_weights : dict of str -> list of float
+        With ``settings.pose_weight``: the weight ``lam`` of the pose term of each group per
+        representation (the arrays of ``q`` are then ``[SRV | sqrt(lam) pose]``,
+        :func:`~elastic_motion.apps.database.preparation.with_pose_term`); empty otherwise.
     skipped : list of dict
         ``{"path", "reason"}`` for unreadable or unusable files.
     ignored : list of str
@@ -94,6 +101,7 @@ class SRVCache:
     skipped: list[dict[str, str]]
     ignored: list[str]
     settings: DatabaseSettings
+    pose_weights: dict[str, list[float]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -112,6 +120,7 @@ class SRVCache:
             "skipped": self.skipped,
             "ignored": self.ignored,
             "settings": self.settings.to_json(),
+            **({"pose_weights": self.pose_weights} if self.pose_weights else {}),
         }
         buf = io.BytesIO()
         np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
@@ -150,6 +159,7 @@ class SRVCache:
             skipped=meta["skipped"],
             ignored=meta["ignored"],
             settings=settings,
+            pose_weights={r: [float(x) for x in v] for r, v in meta.get("pose_weights", {}).items()},
         )
 
 
@@ -163,7 +173,11 @@ def _unique_names(paths: Sequence[str]) -> list[str]:
 
 
 def srv_arrays(
-    prepared: PreparedMotion, representations: Sequence[str], weights: tuple[np.ndarray, float] | None
+    prepared: PreparedMotion,
+    representations: Sequence[str],
+    weights: tuple[np.ndarray, float] | None,
+    *,
+    pose: bool = False,
 ) -> dict[str, np.ndarray]:
     """SRV arrays of one prepared motion.
 
@@ -174,6 +188,9 @@ def srv_arrays(
     representations : sequence of {"lie", "euler"}
     weights : (ndarray of shape (J,), float) or None
         Lie inner-product weights (joints, translation); None: the motion's own defaults.
+    pose : bool, default False
+        Also ``"pose"``: :func:`~elastic_motion.apps.database.preparation.pose_arrays` with
+        the same joint weights (the pose term of ``DatabaseSettings.pose_weight``, unweighted).
 
     Returns
     -------
@@ -182,13 +199,13 @@ def srv_arrays(
     """
     out = {}
     m = prepared.motion
+    sk = m.skeleton
+    jw, tw = weights if weights is not None else (default_joint_weights(sk), default_translation_weight(sk))
     for r in representations:
-        if r == "lie":
-            jw, tw = weights if weights is not None else (None, None)
-            curve = to_lie_curve(m, jw, translation_weight=tw)
-        else:
-            curve = to_euler_curve(m)
+        curve = to_lie_curve(m, jw, translation_weight=tw) if r == "lie" else to_euler_curve(m)
         out[r] = np.ascontiguousarray(srv_transform(curve).q)
+    if pose:
+        out["pose"] = pose_arrays(m, jw)
     return out
 
 
@@ -307,16 +324,17 @@ def _srv_chunk(
     prepared: list[PreparedMotion | dict[str, str]],
     weights: list[tuple[np.ndarray, float] | None],
     representations: tuple[str, ...],
+    pose: bool = False,
 ) -> list[tuple[dict[str, np.ndarray], dict[str, Any]] | None]:
-    """Per item: its SRV arrays (:func:`srv_arrays` with its group's ``weights``) and its info;
-    None for a skipped file. An error names the file (as a note)."""
+    """Per item: its SRV arrays (:func:`srv_arrays` with its group's ``weights``, and its pose
+    array when ``pose``) and its info; None for a skipped file. An error names the file (as a note)."""
     out: list[tuple[dict[str, np.ndarray], dict[str, Any]] | None] = []
     for p, w in zip(prepared, weights, strict=True):
         if not isinstance(p, PreparedMotion):
             out.append(None)
             continue
         try:
-            out.append((srv_arrays(p, representations, w), _motion_info(p)))
+            out.append((srv_arrays(p, representations, w, pose=pose), _motion_info(p)))
         except Exception as exc:
             exc.add_note(f"while computing the SRV of {p.path} for a database")
             raise
@@ -483,8 +501,10 @@ def build_srv_cache(
                 float(np.mean([s["tw"] for s in members])),
             )
         item_weights = [weights[group_of_item[k]] if k in group_of_item else None for k in range(len(items))]
+        pose = bool(settings.pose_weight)
         srv_args = [
-            (item_weights[k : k + size], tuple(settings.representations)) for k in range(0, len(items), size)
+            (item_weights[k : k + size], tuple(settings.representations), pose)
+            for k in range(0, len(items), size)
         ]
         srv = stages.then(_srv_chunk, prepared, srv_args)
         arrays = [a for c in stages.gather(srv) for a in c]
@@ -492,11 +512,20 @@ def build_srv_cache(
     finally:
         stages.release(prepared)
     q: dict[str, list[np.ndarray]] = {r: [arrays[k][0][r] for k in order] for r in settings.representations}
+    groups = np.array([group_of_item[k] for k in order], dtype=np.int64)
+    pose_weights: dict[str, list[float]] = {}
+    if settings.pose_weight:
+        poses = [arrays[k][0]["pose"] for k in order]
+        pose_weights = {r: _pose_weights(q[r], poses, groups, len(keys), settings) for r in q}
+        q = {
+            r: [with_pose_term(a, b, pose_weights[r][g]) for a, b, g in zip(q[r], poses, groups, strict=True)]
+            for r in q
+        }
     paths = [files[k] for k in order]
     return SRVCache(
         names=_unique_names(paths),
         paths=paths,
-        groups=np.array([group_of_item[k] for k in order], dtype=np.int64),
+        groups=groups,
         q=q,
         info=[arrays[k][1] for k in order],
         group_joints=[list(k) for k in keys],
@@ -504,4 +533,26 @@ def build_srv_cache(
         skipped=[s["skipped"] for s in summary if "skipped" in s],
         ignored=[os.fspath(i) for i in ignored],
         settings=settings,
+        pose_weights=pose_weights,
     )
+
+
+def _pose_weights(
+    srvs: list[np.ndarray],
+    poses: list[np.ndarray],
+    groups: np.ndarray,
+    n_groups: int,
+    settings: DatabaseSettings,
+) -> list[float]:
+    """The pose term's weight per skeleton group: ``settings.pose_weight``, or with
+    ``"balanced"`` :func:`~elastic_motion.apps.database.preparation.balanced_pose_weight` of
+    the group's motions (a group of one motion: 1, nothing to balance it against)."""
+    if settings.pose_weight != "balanced":
+        return [float(settings.pose_weight)] * n_groups
+    out = []
+    for g in range(n_groups):
+        idx = np.flatnonzero(groups == g)
+        out.append(
+            balanced_pose_weight([srvs[k] for k in idx], [poses[k] for k in idx]) if len(idx) > 1 else 1.0
+        )
+    return out

@@ -4,9 +4,18 @@
 * ``"local"``: a Dask ``LocalCluster`` of ``n_workers`` single-threaded processes started here.
 * ``"dask"``: an existing Dask scheduler at ``scheduler``.
 
-Tiles are Dask tasks that receive their SRV arrays with the task (scattered once; no shared
-file system needed); the driver gathers them ``as_completed`` with a bounded number in
-flight. Same function, same inputs: every engine gives bit-identical matrices.
+Tiles are Dask tasks that receive the SRV arrays of a representation as one object scattered
+once to every worker (no shared file system needed; one dependency per task, not one per
+motion); the driver gathers them ``as_completed`` with a bounded number in flight, the
+costliest tiles first (:func:`order_tiles`: the last ones are the small diagonal tiles, so
+the workers finish together). Same function, same inputs: every engine gives bit-identical
+matrices.
+
+``"local"`` forks its workers from this process on Linux (:func:`local_start_method`): they start
+in about 0.1 s with the code and the compiled kernels this process has loaded, instead of 1-2 s
+for spawned interpreters that import everything again. Workers started with ``dask worker``
+load the code and kernels at start with ``--preload elastic_motion.apps.database.engines``
+(:func:`dask_setup`), else on their first tasks.
 
 A Dask engine also reads and prepares the files and computes their SRV arrays on its workers
 (:meth:`DaskEngine.stages`, chunks of :data:`PREPARE_CHUNK` files per task; the prepared
@@ -21,6 +30,7 @@ import contextlib
 import itertools
 import logging
 import os
+import sys
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -33,7 +43,16 @@ from elastic_motion.apps.database.cache import Stages, file_fingerprint
 from elastic_motion.apps.database.tiles import compute_tile, pair_distance
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["ENGINES", "ClusterUnavailableError", "DaskStages", "Engine", "Task", "open_engine"]
+__all__ = [
+    "ENGINES",
+    "ClusterUnavailableError",
+    "DaskStages",
+    "Engine",
+    "Task",
+    "dask_setup",
+    "local_start_method",
+    "open_engine",
+]
 
 #: Engine names accepted by :func:`open_engine`.
 ENGINES = ("serial", "local", "dask")
@@ -61,7 +80,7 @@ class Engine(Protocol):
     name: str
     n_workers: int
 
-    def share(self, arrays: list[np.ndarray]) -> list[Any]: ...
+    def share(self, arrays: list[np.ndarray]) -> Any: ...
 
     def stages(self, files: Sequence[str]) -> tuple[Stages | None, str | None]: ...
 
@@ -81,8 +100,8 @@ class SerialEngine:
     #: Why this engine runs (e.g. a local cluster that would not have paid for its start).
     note: str | None = None
 
-    def share(self, arrays: list[np.ndarray]) -> list[Any]:
-        """Handles of the SRV arrays that tasks receive (here: the arrays themselves)."""
+    def share(self, arrays: list[np.ndarray]) -> Any:
+        """The handle of the SRV arrays that tasks receive (here: the list itself)."""
         return arrays
 
     def stages(self, files: Sequence[str]) -> tuple[Stages | None, str | None]:
@@ -95,20 +114,35 @@ class SerialEngine:
         """Yield ``(task, tile, seconds)`` for each task, in order."""
         for t in tasks:
             t0 = time.perf_counter()
-            res = compute_tile(*args_of(t))
+            res = tile_of(*args_of(t))
             yield t, res, time.perf_counter() - t0
 
     def close(self) -> None:
         """Nothing to release."""
 
 
+def _single_threaded_worker() -> None:
+    """One numba thread and one BLAS thread in this worker process (as Dask's nanny sets for
+    spawned workers with ``OMP_NUM_THREADS=1`` ...; a forked worker inherits the driver's pools):
+    two single-threaded workers then share two cores without oversubscribing them."""
+    import numba
+
+    numba.set_num_threads(1)
+    with contextlib.suppress(ImportError):
+        from threadpoolctl import threadpool_limits
+
+        global _BLAS_LIMIT
+        _BLAS_LIMIT = threadpool_limits(1, user_api="blas")  # kept: the limit holds while referenced
+
+
+_BLAS_LIMIT: Any = None
+
+
 def _warm_up() -> None:
     """Load (or compile) the DP kernels in this process, for writable and for read-only arrays
     (arrays received from the scheduler are read-only: another numba specialisation), with one
     numba thread, as the tiles run on a worker (:func:`_timed_tile`)."""
-    import numba
-
-    numba.set_num_threads(1)
+    _single_threaded_worker()
     q = np.zeros((4, 2))
     q[:, 0] = 1.0
     r = q[::-1].copy()
@@ -119,10 +153,87 @@ def _warm_up() -> None:
     pair_distance(q, r, warp)
 
 
+def _warm_up_preparation() -> None:
+    """Load the code and compiled kernels of reading, preparing and the SRV (a small BVH file
+    written to a temporary folder, prepared as a database does)."""
+    import tempfile
+
+    from elastic_motion.apps.database import cache
+    from elastic_motion.apps.database.settings import DatabaseSettings
+    from elastic_motion.motion import Motion, Skeleton, write_bvh
+    from elastic_motion.motion.rotations import euler_to_matrix
+
+    rot = ("Zrotation", "Yrotation", "Xrotation")
+    sk = Skeleton(
+        ["Hips", "Spine", "LeftLeg", "RightLeg"],
+        [-1, 0, 0, 0],
+        [[0, 0, 0], [0, 0.3, 0], [0.1, -0.1, 0], [-0.1, -0.1, 0]],
+        [("Xposition", "Yposition", "Zposition", *rot)] + [rot] * 3,
+        end_site_parents=[2, 3],
+        end_site_offsets=[[0, -0.5, 0]] * 2,
+    )
+    s = np.linspace(0.0, 1.0, 24)
+    ang = np.zeros((24, 4, 3))
+    ang[:, :, 2] = 0.3 * np.sin(2 * np.pi * s)[:, None]
+    root = np.stack([0 * s, 0.9 + 0 * s, s], axis=1)
+    settings = DatabaseSettings(n_samples=8)
+    with tempfile.TemporaryDirectory(prefix="elastic-motion-warm-") as d:
+        path = os.path.join(d, "warm.bvh")
+        write_bvh(Motion(sk, 30.0, root, euler_to_matrix(ang, "ZYX"), metres_per_unit=1.0), path)
+        prepared = cache._prepare_chunk([(path, None, None)], settings)
+        summary = cache._summarise_chunk(prepared)
+        if "names" in summary[0]:
+            w = (np.asarray(summary[0]["jw"]), float(summary[0]["tw"]))
+            cache._srv_chunk(prepared, [w], tuple(settings.representations))
+
+
+def dask_setup(worker: Any = None) -> None:
+    """Dask's preload hook: ``dask worker ADDRESS --preload elastic_motion.apps.database.engines``
+    loads the code and compiled kernels of a database run when the worker starts (reading,
+    preparing, SRV, the DP of the tiles, one numba thread), so its first tasks do not."""
+    with contextlib.suppress(Exception):  # a warm-up only: the tasks load what they need anyway
+        _warm_up_preparation()
+    _warm_up()
+
+
+def tile_of(
+    rows: np.ndarray,
+    cols: np.ndarray,
+    q: Sequence[np.ndarray],
+    g_rows: np.ndarray,
+    g_cols: np.ndarray,
+    warp: WarpOptions,
+    cyclic: bool = False,
+    *,
+    numba_threads: int | None = None,
+) -> np.ndarray:
+    """:func:`~elastic_motion.apps.database.tiles.compute_tile` of motions ``rows`` against
+    ``cols``, their SRV arrays taken from ``q`` (all the motions of the representation: what a
+    task receives, :meth:`DaskEngine.share`); ``cyclic``: phase-free matching."""
+    return compute_tile(
+        rows,
+        cols,
+        [q[i] for i in rows],
+        [q[j] for j in cols],
+        g_rows,
+        g_cols,
+        warp,
+        numba_threads,
+        cyclic=cyclic,
+    )
+
+
 def _timed_tile(*args: Any) -> tuple[np.ndarray, float]:
     t0 = time.perf_counter()
-    res = compute_tile(*args, numba_threads=1)
+    res = tile_of(*args, numba_threads=1)
     return res, time.perf_counter() - t0
+
+
+def order_tiles(tasks: Sequence[Task], cost: Callable[[Task], float]) -> list[Task]:
+    """``tasks`` by decreasing ``cost`` (ties in the given order): the longest first, so with
+    several workers the last tasks are the shortest and no worker waits long for another at
+    the end (longest processing time first)."""
+    return [t for _, _, t in sorted(((-cost(t), k, t) for k, t in enumerate(tasks)), key=lambda x: x[:2])]
 
 
 class DaskEngine:
@@ -138,6 +249,7 @@ class DaskEngine:
             ) from exc
         self.name = name
         self.cluster = None
+        self.start_method: str | None = None
         if name == "local":
             import dask
 
@@ -145,7 +257,14 @@ class DaskEngine:
             # glibc's adaptive mmap threshold: every array above 128 kB is then mmap'ed and
             # unmapped, and reading and preparing the files took 20-25 % more CPU on a worker
             # than here (measured). Our workers hold a few MB each: keep glibc's defaults.
-            with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+            self.start_method = local_start_method()
+            with dask.config.set(
+                {
+                    **QUIET_DASK,
+                    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                    "distributed.worker.multiprocessing-method": self.start_method,
+                }
+            ):
                 self.cluster = LocalCluster(
                     n_workers=n_workers,
                     threads_per_worker=1,
@@ -175,19 +294,22 @@ class DaskEngine:
             info = self.client.scheduler_info()
         self.n_workers = max(1, len(info.get("workers", {})))
         self.scheduler = self.client.scheduler.address
-        # load the compiled kernels on every worker once, before any tile is timed
-        self.client.run(_warm_up)
+        # one numba and one BLAS thread per worker; the kernels load with the first tasks (a
+        # forked worker has those this process had loaded, a preloaded one has them all)
+        self.client.run(_single_threaded_worker)
         self._arrays: dict[str, np.ndarray] = {}
 
-    def share(self, arrays: list[np.ndarray]) -> list[Any]:
-        """Scatter the SRV arrays once, to every worker (``broadcast``): tasks get futures, so an
-        array travels to each worker once instead of once per tile (no shared file system
-        needed), and a worker lost mid-run loses no data the others need. The driver keeps the
-        arrays too, so a task whose data is gone all the same is resubmitted with its arrays."""
-        futures = self.client.scatter(arrays, hash=False, broadcast=True)
-        for f, a in zip(futures, arrays, strict=True):
-            self._arrays[f.key] = a
-        return futures
+    def share(self, arrays: list[np.ndarray]) -> Any:
+        """Scatter the SRV arrays of a representation once, to every worker (``broadcast``), as
+        one object: tasks get its future, so the arrays travel to each worker once instead of
+        once per tile (no shared file system needed), each tile depends on one key instead of
+        one per motion (400 motions: 0.23 s to scatter them one by one, measured), and a
+        worker lost mid-run loses no data the others need. The driver keeps the list too, so a
+        task whose data is gone all the same is resubmitted with the arrays themselves."""
+        arrays = list(arrays)
+        [future] = self.client.scatter([arrays], hash=False, broadcast=True)
+        self._arrays[future.key] = arrays
+        return future
 
     def stages(self, files: Sequence[str]) -> tuple[Stages | None, str | None]:
         """Where :func:`~elastic_motion.apps.database.cache.build_srv_cache` runs its stages: on
@@ -222,7 +344,7 @@ class DaskEngine:
         return DaskStages(self), where
 
     def _with_arrays(self, args: tuple) -> tuple:
-        """``args`` with every scattered future replaced by the driver's own array."""
+        """``args`` with every scattered future replaced by the driver's own arrays."""
 
         def own(x: Any) -> Any:
             key = getattr(x, "key", None)
@@ -245,8 +367,6 @@ class DaskEngine:
         left for ``timeout`` seconds the run stops with :class:`ClusterUnavailableError`
         (finished tiles are kept; run again to resume).
         """
-        from distributed import as_completed
-
         window = max(2, 4 * self.n_workers)  # tasks in flight: bounded memory on the driver
         pending = iter(tasks)
         task_of: dict[str, tuple[Task, int]] = {}
@@ -263,13 +383,12 @@ class DaskEngine:
             task_of[fut.key] = (t, attempt)
             return fut
 
-        ac = as_completed([submit(t) for t in itertools.islice(pending, window)])
+        ac = _Completed([submit(t) for t in itertools.islice(pending, window)])
         idle_since: float | None = None
         while not ac.is_empty():
-            batch = ac.next_batch(block=False)
+            batch = ac.next_batch(WAIT_SECONDS)
             if not batch:
                 idle_since = self._watchdog(idle_since)
-                time.sleep(0.02)
                 continue
             idle_since = None
             for fut in batch:
@@ -318,6 +437,41 @@ class DaskEngine:
                 self.cluster.close()
 
 
+#: Seconds the driver blocks waiting for a task to finish before it checks that the cluster still
+#: has workers (it used to poll every 10-20 ms: CPU taken from the workers on a small machine).
+WAIT_SECONDS = 0.5
+
+
+class _Completed:
+    """Futures handed back as they finish, waiting without polling (``distributed.wait`` with a
+    timeout, so the caller can check the cluster between waits): ``as_completed`` with a
+    blocking ``next_batch(timeout)``."""
+
+    def __init__(self, futures: Sequence[Any]) -> None:
+        self._pending: dict[str, Any] = {f.key: f for f in futures}
+
+    def add(self, future: Any) -> None:
+        self._pending[future.key] = future
+
+    def is_empty(self) -> bool:
+        return not self._pending
+
+    def next_batch(self, timeout: float) -> list[Any]:
+        """The futures finished (done, failed or cancelled) within ``timeout`` s; [] if none."""
+        from distributed import wait
+
+        futures = list(self._pending.values())
+        if not any(f.done() for f in futures):
+            try:
+                wait(futures, timeout=timeout, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                return []
+        done = [f for f in futures if f.done()]
+        for f in done:
+            del self._pending[f.key]
+        return done
+
+
 #: Times a tile whose worker or data was lost is resubmitted by the driver (with its arrays).
 MAX_RESUBMITS = 3
 #: Files per preparation task of :class:`DaskStages` (read and prepared: 20-50 ms each).
@@ -361,19 +515,16 @@ class DaskStages:
         return [self._submit(fn, h, *a) for h, a in zip(handles, args, strict=True)]
 
     def gather(self, handles: Sequence[Any], on_done: Callable[[int], None] | None = None) -> list[Any]:
-        from distributed import as_completed
-
         if not handles:
             return []
         index = {f.key: k for k, f in enumerate(handles)}
         out: list[Any] = [None] * len(handles)
-        ac = as_completed(list(handles))
+        ac = _Completed(list(handles))
         idle_since: float | None = None
         while not ac.is_empty():
-            batch = ac.next_batch(block=False)
+            batch = ac.next_batch(WAIT_SECONDS)
             if not batch:
                 idle_since = self.engine._watchdog(idle_since)
-                time.sleep(0.01)
                 continue
             idle_since = None
             for fut in batch:
@@ -450,6 +601,66 @@ def _connect(client_cls: Any, scheduler: str, timeout: float) -> Any:
             f"scheduler: expected a Dask scheduler at {scheduler!r}; got an answer that is not Dask's "
             f"({type(exc).__name__}: {exc})"
         ) from exc
+
+
+#: Dask settings of the ``"local"`` cluster (its scheduler, nannies and workers): its periodic
+#: book-keeping less often (no statistical profiler sampling each worker's thread every 10 ms,
+#: event-loop ticks every second instead of 20 ms, system and memory monitors every 1-2 s). On
+#: 2 cores shared by the driver, the scheduler and both workers, that book-keeping took CPU from
+#: the tiles: the driver's event loop used 1.3 s of CPU during the 20 s pair phase of 400 motions
+#: and the workers' tiles took 9 % longer than serially; with these, 0.8 s and 4 % (measured).
+#: Give separately started workers the same in a Dask config file (``docs/database.md``).
+QUIET_DASK = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.scheduler.work-stealing-interval": "500ms",
+}
+
+#: How :func:`local_start_method` starts the local cluster's workers on Linux when Dask's
+#: ``distributed.worker.multiprocessing-method`` is left at its default (``"spawn"``).
+LOCAL_START_METHOD = "fork"
+
+
+def local_start_method() -> str:
+    """How the ``"local"`` engine starts its worker processes: ``"fork"`` on Linux, else Dask's
+    configured ``distributed.worker.multiprocessing-method`` (default ``"spawn"``).
+
+    A forked worker starts in about 0.1 s with what this process has imported and compiled;
+    a spawned one starts a new interpreter that imports Dask, NumPy, numba and this package
+    and loads the kernels again: 1-2 s of both cores on the 2-core reference machine, a tenth
+    of the read phase of 400 motions (measured: start 1.0 s, kernels 1.0-1.4 s, close 0.3-0.7
+    s, against 0.1, 0.01 and 0.02 s forked). Spawn is kept where forking is unsafe: outside
+    Linux, when Dask's setting is not the default, and once numba's thread pool runs in this
+    process with a layer other than its workqueue (the nannies fork from a thread that is not
+    the main one: GNU OpenMP does not survive it, and TBB may be left broken in the child; seen
+    hanging a second cluster after a serial run here). A matrix run starts its engine before
+    any DP runs in this process, so ``--engine local`` forks; a program that ran serial DPs
+    first gets spawned workers.
+    """
+    try:
+        import dask
+    except ImportError:  # pragma: no cover - no Dask: open_engine says so
+        return "spawn"
+
+    configured = dask.config.get("distributed.worker.multiprocessing-method", "spawn")
+    if configured != "spawn" or not sys.platform.startswith("linux"):
+        return configured
+    if _numba_threading_layer() not in (None, "workqueue"):
+        return "spawn"
+    return LOCAL_START_METHOD
+
+
+def _numba_threading_layer() -> str | None:
+    """numba's threading layer if it was started in this process, else None."""
+    numba = sys.modules.get("numba")
+    if numba is None:
+        return None
+    try:
+        return str(numba.threading_layer())
+    except ValueError:  # not started yet: a forked child starts its own
+        return None
 
 
 def open_engine(

@@ -30,10 +30,16 @@ import numpy as np
 
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.cache import FilesNotSeenError, SRVCache, build_srv_cache
-from elastic_motion.apps.database.engines import Engine, Task, open_engine
+from elastic_motion.apps.database.engines import Engine, Task, local_start_method, open_engine, order_tiles
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
-from elastic_motion.apps.database.tiles import block, cluster_worth_it, tile_blocks
+from elastic_motion.apps.database.tiles import (
+    LOCAL_CLUSTER_STARTUP,
+    LOCAL_CLUSTER_STARTUP_FORKED,
+    block,
+    cluster_worth_it,
+    tile_blocks,
+)
 from elastic_motion.apps.progress import Progress
 from elastic_motion.errors import OptionError
 
@@ -210,7 +216,16 @@ def compute_matrix(
     if engine == "local" and not force_cluster:
         n = len(files)
         n_pairs = n * (n - 1) // 2 * len(settings.representations)
-        worth = cluster_worth_it(n_pairs, settings.n_samples, settings.warp, n_workers=max(2, n_workers))
+        if settings.cyclic:  # every cyclic shift of either motion: 2 n_samples plain pairs each
+            n_pairs *= 2 * settings.n_samples
+        forked = local_start_method() == "fork"  # forked workers start in a fraction of a second
+        worth = cluster_worth_it(
+            n_pairs,
+            settings.n_samples,
+            settings.warp,
+            n_workers=max(2, n_workers),
+            startup=LOCAL_CLUSTER_STARTUP_FORKED if forked else LOCAL_CLUSTER_STARTUP,
+        )
     eng = open_engine(engine, scheduler, n_workers, connect_timeout, worth_it=worth)
     try:
         return _run(out, files, ignored, settings, ident, eng, progress)
@@ -341,21 +356,15 @@ def _run(
 
     warp = settings.warp
     groups = cache.groups
-    handles: dict[str, list[Any]] = {}
+    handles: dict[str, Any] = {}
 
     def args_of(t: Task) -> tuple:
         if t.rep not in handles:
             handles[t.rep] = eng.share(cache.q[t.rep])
-        qs = handles[t.rep]
-        return (
-            t.rows,
-            t.cols,
-            [qs[i] for i in t.rows],
-            [qs[j] for j in t.cols],
-            groups[t.rows],
-            groups[t.cols],
-            warp,
-        )
+        return (t.rows, t.cols, handles[t.rep], groups[t.rows], groups[t.cols], warp, settings.cyclic)
+
+    if eng.n_workers > 1:  # the longest tiles first: the workers finish together
+        todo = order_tiles(todo, lambda t: _pairs_in(t.rows, t.cols, groups))
 
     t_tiles = time.perf_counter()
     tile_seconds = 0.0

@@ -30,11 +30,14 @@ from elastic_motion.motion import Motion
 
 __all__ = [
     "PreparedMotion",
+    "balanced_pose_weight",
     "common_joint_names",
     "heading_relative_root",
+    "pose_arrays",
     "prepare_motion",
     "restrict_prepared",
     "restrict_to_common_joints",
+    "with_pose_term",
 ]
 
 
@@ -313,3 +316,73 @@ def database_curves(prepared: Sequence[PreparedMotion], method: str) -> list:
         jw, tw = mm.group_weights([p.motion for p in prepared])
         return [mm.to_lie_curve(p.motion, jw, translation_weight=tw) for p in prepared]
     return [mm.to_euler_curve(p.motion) for p in prepared]
+
+
+def pose_arrays(motion: Motion, joint_weights: Sequence[float] | np.ndarray) -> np.ndarray:
+    """The pose term of a motion on its cells: what the SRV forgets (it sees velocities).
+
+    Per cell ``[f, f+1]`` and non-root joint ``j``: ``sqrt(w_j) (R_j - I) / sqrt(2)`` of its
+    local rotation, the mean of the cell's two frames, flattened (9 numbers a joint). The map
+    ``R -> (R - I) / sqrt(2)`` is continuous (a rotation vector flips sign at 180 degrees,
+    where e.g. Bandai's upper legs sit relative to their rest), and its distance between two
+    rotations about one axis is ``2 sin(angle / 2)``: the angle between them for small angles.
+    Appended to an SRV array (:func:`with_pose_term`), the DP warps it with the SRV.
+
+    Parameters
+    ----------
+    motion : Motion
+        ``F`` frames (a prepared motion: ``n_samples + 1``).
+    joint_weights : array_like, shape (J,)
+        The Lie inner-product weights of the joints (``group_weights``); the root's is unused.
+
+    Returns
+    -------
+    ndarray, shape (F - 1, 9 (J - 1))
+    """
+    w = np.asarray(joint_weights, dtype=np.float64)
+    r = np.asarray(motion.rotations, dtype=np.float64)[:, 1:]
+    if w.shape != (r.shape[1] + 1,):
+        raise OptionError(
+            "joint_weights", f"expected one weight per joint, shape ({r.shape[1] + 1},); got {w.shape}"
+        )
+    f = (r - np.eye(3)).reshape(len(r), -1, 9) / np.sqrt(2.0) * np.sqrt(w[1:])[None, :, None]
+    return 0.5 * (f[1:] + f[:-1]).reshape(len(r) - 1, -1)
+
+
+def balanced_pose_weight(srvs: Sequence[np.ndarray], poses: Sequence[np.ndarray]) -> float:
+    """Label-free weight ``lam`` of the pose term for a set of motions.
+
+    ``lam = sum_k |S_k - mean S|^2 / sum_k |P_k - mean P|^2`` over the set's SRV arrays
+    ``S_k`` and pose arrays ``P_k`` (:func:`pose_arrays`; each of one shape): with it, the mean
+    squared distance of the weighted pose terms over all pairs of the set (unwarped) equals
+    that of the SRV terms (``sum_{k<l} |x_k - x_l|^2 = M sum_k |x_k - mean x|^2``). It uses
+    no labels: only the motions of the set.
+
+    Parameters
+    ----------
+    srvs, poses : sequences of ndarray
+        One SRV array and one pose array per motion, at least two motions.
+
+    Returns
+    -------
+    float
+        ``> 0``; 0 when every pose array is the same (no pose to weigh).
+    """
+    s = np.stack([np.asarray(x, dtype=np.float64) for x in srvs])
+    p = np.stack([np.asarray(x, dtype=np.float64) for x in poses])
+    if len(s) != len(p) or len(s) < 2:
+        raise OptionError(
+            "poses", f"expected one pose array per SRV array, at least two; got {len(p)} and {len(s)}"
+        )
+    den = float(np.sum((p - p.mean(axis=0)) ** 2))
+    return float(np.sum((s - s.mean(axis=0)) ** 2)) / den if den > 0 else 0.0
+
+
+def with_pose_term(srv: np.ndarray, pose: np.ndarray, weight: float) -> np.ndarray:
+    """The SRV array with the pose term appended: ``[q | sqrt(weight) * pose]``, C-contiguous.
+
+    The squared ``L^2`` distance of two such arrays is the SRV term's plus ``weight`` times the
+    pose term's, and the DP warps both (``docs/database.md``, "Retrieval quality")."""
+    if weight < 0:
+        raise OptionError("weight", f"expected a pose weight >= 0; got {weight!r}")
+    return np.ascontiguousarray(np.concatenate([srv, np.sqrt(weight) * np.asarray(pose)], axis=1))

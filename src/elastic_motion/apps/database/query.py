@@ -16,7 +16,7 @@ import numpy as np
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
 from elastic_motion.apps.database.files import find_motion_files
-from elastic_motion.apps.database.preparation import prepare_motion
+from elastic_motion.apps.database.preparation import prepare_motion, with_pose_term
 from elastic_motion.apps.database.settings import DatabaseSettings, canonical_method, public_method
 from elastic_motion.apps.database.tiles import pair_distance, pair_distances, single_threaded_blas
 from elastic_motion.apps.progress import Progress
@@ -153,7 +153,10 @@ def _query_srv(
         weights = (np.asarray(jw), float(tw))
     else:
         weights = group_weights([p.motion])
-    qq = srv_arrays(p, [key], weights)[key]
+    arrays = srv_arrays(p, [key], weights, pose=bool(settings.pose_weight))
+    qq = arrays[key]
+    if settings.pose_weight and g >= 0:  # the database's pose weight (balanced over its motions)
+        qq = with_pose_term(qq, arrays["pose"], cache.pose_weights[key][g])
     return qq, g, p.notes, p.joint_names
 
 
@@ -211,7 +214,9 @@ def query_distances(
         for n0 in range(0, len(members), QUERY_BATCH):
             chunk = members[n0 : n0 + QUERY_BATCH]
             pairs = np.column_stack([np.zeros(len(chunk), dtype=np.int64), chunk])
-            out[chunk] = pair_distances([qq], cache.q[key], pairs, cache.settings.warp)
+            out[chunk] = pair_distances(
+                [qq], cache.q[key], pairs, cache.settings.warp, cyclic=cache.settings.cyclic
+            )
             if progress is not None:
                 progress("query", n0 + len(chunk), len(members))
     return QueryResult(
@@ -399,7 +404,7 @@ def knn_search(
             for i in order:
                 if len(found) >= k and lb[i] > found[k - 1][0]:
                     break
-                d = pair_distance(qq, cache.q[key][i], cache.settings.warp)
+                d = pair_distance(qq, cache.q[key][i], cache.settings.warp, cyclic=cache.settings.cyclic)
                 computed[i] = True
                 found.append((d, int(i)))
                 found.sort()

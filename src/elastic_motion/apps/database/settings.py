@@ -8,6 +8,10 @@ of the run, ``srv_cache.npz`` and ``report.json``)::
               "sample_fps": 30.0, "landmark_weight": 100.0},
      "joints": "all", "drop_fingers": true, "align_heading": true, "tile_size": 32}
 
+plus ``"pose_weight"`` and ``"cyclic": true`` when they are set (written only then, so a file
+of the default distance reads as before in earlier releases; a missing field reads as its
+default, the numbers the file was computed with).
+
 Format 1 (releases before :class:`~elastic_motion.warp.WarpOptions`) stored the warp as
 ``"pair": {"warp": "dp", "neighbourhood": 6, "coarse_to_fine": false}``;
 :meth:`DatabaseSettings.from_json` reads it as the same numbers (``warp`` -> ``method``), so
@@ -124,6 +128,21 @@ class DatabaseSettings:
         Remove the yaw and floor position of the root at frame 0 before comparing.
     tile_size : int, default 32
         Motions per tile side (a tile holds up to ``tile_size**2`` pairs).
+    pose_weight : float or "balanced", default 0
+        Weight ``lam`` of a pose term beside the SRV (``docs/database.md``, "Retrieval
+        quality"): each cell's array gets ``sqrt(lam) * pose`` appended
+        (:func:`~elastic_motion.apps.database.preparation.pose_arrays`: the non-root joints'
+        ``(R - I) / sqrt(2)``, weighted like the Lie joints), so the squared distance is the
+        SRV term's plus ``lam`` times the pose term's, both under the same warp. The SRV sees
+        velocities only; the pose term sees where the joints are. ``"balanced"``: ``lam`` such
+        that both terms have the same mean squared pair distance over the database's motions
+        (:func:`~elastic_motion.apps.database.preparation.balanced_pose_weight`, per skeleton
+        group; no labels). 0: the SRV alone.
+    cyclic : bool, default False
+        Phase-free matching: the distance is the least over the ``n_samples`` cyclic shifts of
+        either motion's cells of the elastic distance (exact DP of every shift, both ways:
+        ``2 n_samples`` times the cost of a pair). For windows of periodic motions (gait)
+        started at different phases. Needs ``warp.method == "dp"``.
 
     Raises
     ------
@@ -138,6 +157,8 @@ class DatabaseSettings:
     drop_fingers: bool = True
     align_heading: bool = True
     tile_size: int = 32
+    pose_weight: float | str = 0.0
+    cyclic: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
@@ -166,6 +187,22 @@ class DatabaseSettings:
             object.__setattr__(self, "joints", names)
         if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, int) or self.tile_size < 1:
             raise OptionError("tile_size", f"expected an integer >= 1; got {self.tile_size!r}")
+        if self.pose_weight != "balanced":
+            try:
+                lam = float(self.pose_weight)  # type: ignore[arg-type]
+            except (TypeError, ValueError):
+                lam = float("nan")
+            if isinstance(self.pose_weight, bool) or not (lam >= 0 and lam < float("inf")):
+                raise OptionError(
+                    "pose_weight", f"expected a number >= 0 or 'balanced'; got {self.pose_weight!r}"
+                )
+            object.__setattr__(self, "pose_weight", lam)
+        if not isinstance(self.cyclic, bool):
+            raise OptionError("cyclic", f"expected True or False; got {self.cyclic!r}")
+        if self.cyclic and self.warp.method != "dp":
+            raise OptionError(
+                "cyclic", f"phase-free matching needs the DP warp (warp 'dp'); got warp {self.warp.method!r}"
+            )
 
     def to_json(self) -> dict[str, Any]:
         """Plain-JSON form (module docstring): lists for tuples, the warp options as a dict."""
@@ -177,6 +214,9 @@ class DatabaseSettings:
             "drop_fingers": self.drop_fingers,
             "align_heading": self.align_heading,
             "tile_size": self.tile_size,
+            # only when set: files of the default distance stay readable by earlier releases
+            **({"pose_weight": self.pose_weight} if self.pose_weight else {}),
+            **({"cyclic": True} if self.cyclic else {}),
         }
 
     @classmethod

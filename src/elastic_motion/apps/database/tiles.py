@@ -18,6 +18,7 @@ import numpy as np
 from elastic_motion._threads import single_threaded_blas
 from elastic_motion.apps.database.settings import DEFAULT_WARP
 from elastic_motion.apps.progress import Progress
+from elastic_motion.errors import OptionError
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -32,7 +33,9 @@ __all__ = [
 ]
 
 
-def pair_distance(q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WARP) -> float:
+def pair_distance(
+    q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WARP, *, cyclic: bool = False
+) -> float:
     """Distance of two SRV arrays on the same uniform grid.
 
     Parameters
@@ -41,6 +44,9 @@ def pair_distance(q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WA
         Cell values on ``linspace(0, 1, n + 1)`` (orthonormal coordinates).
     warp : WarpOptions, default :data:`~elastic_motion.apps.database.settings.DEFAULT_WARP`
         ``method``, ``neighbourhood`` and ``coarse_to_fine`` are used.
+    cyclic : bool, default False
+        Phase-free: the least distance over the ``n`` cyclic shifts of either array's cells
+        (:func:`pair_distances`; the DP alone).
 
     Returns
     -------
@@ -52,6 +58,8 @@ def pair_distance(q0: np.ndarray, q1: np.ndarray, warp: WarpOptions = DEFAULT_WA
         (``method="dp"``, no coarse to fine) runs in the batched kernel of
         :func:`pair_distances` (same DP, same numbers as one call per pair).
     """
+    if cyclic:
+        return float(pair_distances([q0], [q1], np.zeros((1, 2), dtype=np.int64), warp, cyclic=True)[0])
     if warp.method == "none":
         d = q0 - q1
         return float(math.sqrt(np.einsum("ij,ij->", d, d) / q0.shape[0]))
@@ -72,6 +80,8 @@ def pair_distances(
     q1: Sequence[np.ndarray],
     pairs: np.ndarray,
     warp: WarpOptions = DEFAULT_WARP,
+    *,
+    cyclic: bool = False,
 ) -> np.ndarray:
     """Distances of many pairs ``(q0[a], q1[b])`` for ``(a, b)`` in ``pairs``, as :func:`pair_distance`.
 
@@ -82,6 +92,12 @@ def pair_distances(
     pairs : ndarray of int, shape (P, 2)
         ``(index into q0, index into q1)``; both arrays of a pair have the same D.
     warp : WarpOptions
+    cyclic : bool, default False
+        Phase-free matching (``DatabaseSettings.cyclic``): ``min_s min(d(q0, roll(q1, s)),
+        d(q1, roll(q0, s)))`` over the ``n`` cyclic shifts ``s`` of the cells (``np.roll``
+        along time), with the exact DP of every shift in the batched kernel (``2 n`` times the
+        cost of a pair). Symmetric in the two arrays; never above the distance without shifts
+        (``s = 0``). Needs ``warp.method == "dp"`` without coarse to fine.
 
     Returns
     -------
@@ -94,6 +110,11 @@ def pair_distances(
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     out = np.empty(len(pairs))
+    if cyclic and not _batched(warp):
+        raise OptionError(
+            "cyclic",
+            f"phase-free matching needs the DP alone (warp 'dp', no coarse to fine); got {warp.method!r}",
+        )
     if not _batched(warp):
         for p, (a, b) in enumerate(pairs):
             out[p] = pair_distance(q0[a], q1[b], warp)
@@ -107,12 +128,20 @@ def pair_distances(
         sel = pairs[idx]
         ua, ia = np.unique(sel[:, 0], return_inverse=True)
         ub, ib = np.unique(sel[:, 1], return_inverse=True)
-        e = dp_energies(
-            np.stack([q0[a] for a in ua]),
-            np.stack([q1[b] for b in ub]),
-            np.column_stack([ia.ravel(), ib.ravel()]),
-            neighbourhood=warp.neighbourhood,
-        )
+        a_arr = np.stack([q0[a] for a in ua])
+        b_arr = np.stack([q1[b] for b in ub])
+        ab = np.column_stack([ia.ravel(), ib.ravel()])
+        e = dp_energies(a_arr, b_arr, ab, neighbourhood=warp.neighbourhood)
+        if cyclic:
+            ba = ab[:, ::-1].copy()
+            for s in range(1, a_arr.shape[1]):
+                e = np.minimum(
+                    e, dp_energies(a_arr, np.roll(b_arr, s, axis=1), ab, neighbourhood=warp.neighbourhood)
+                )
+                e = np.minimum(
+                    e, dp_energies(b_arr, np.roll(a_arr, s, axis=1), ba, neighbourhood=warp.neighbourhood)
+                )
+            e = np.minimum(e, dp_energies(b_arr, a_arr, ba, neighbourhood=warp.neighbourhood))
         out[idx] = np.sqrt(np.maximum(e, 0.0))
     return out
 
@@ -126,6 +155,8 @@ def compute_tile(
     g_cols: np.ndarray,
     warp: WarpOptions,
     numba_threads: int | None = None,
+    *,
+    cyclic: bool = False,
 ) -> np.ndarray:
     """Distances of one tile: motions ``rows`` against motions ``cols``.
 
@@ -141,6 +172,8 @@ def compute_tile(
     numba_threads : int, optional
         Threads of numba's parallel DP inside this call (1 on single-threaded Dask
         workers, so two workers do not oversubscribe two cores). Results do not depend on it.
+    cyclic : bool, default False
+        Phase-free matching (:func:`pair_distances`).
 
     Returns
     -------
@@ -168,7 +201,7 @@ def compute_tile(
     todo = np.argwhere(upper & (g_rows[:, None] == g_cols[None, :]))
     if len(todo):
         with single_threaded_blas():
-            out[todo[:, 0], todo[:, 1]] = pair_distances(q_rows, q_cols, todo, warp)
+            out[todo[:, 0], todo[:, 1]] = pair_distances(q_rows, q_cols, todo, warp, cyclic=cyclic)
     return out
 
 
@@ -177,6 +210,7 @@ def distance_matrix(
     warp: WarpOptions = DEFAULT_WARP,
     groups: Sequence[int] | None = None,
     *,
+    cyclic: bool = False,
     progress: Progress | None = None,
 ) -> np.ndarray:
     """All-pairs distances of in-memory SRV arrays, serially (no files, no resume).
@@ -189,6 +223,8 @@ def distance_matrix(
     warp : WarpOptions, default ``DEFAULT_WARP`` (DP, neighbourhood 10)
     groups : sequence of int, optional
         Skeleton group per entry (default: all one group).
+    cyclic : bool, default False
+        Phase-free matching (:func:`pair_distances`).
     progress : callable, optional
         ``progress("pairs", rows done, M)``.
 
@@ -201,7 +237,9 @@ def distance_matrix(
     out = np.zeros((m, m))
     for i in range(m):
         idx = np.arange(i, m)
-        row = compute_tile(np.array([i]), idx, [q[i]], [q[j] for j in idx], g[[i]], g[idx], warp)
+        row = compute_tile(
+            np.array([i]), idx, [q[i]], [q[j] for j in idx], g[[i]], g[idx], warp, cyclic=cyclic
+        )
         out[i, i:] = row[0]
         out[i:, i] = row[0]
         if progress is not None:
@@ -222,8 +260,16 @@ def block(i: int, tile_size: int, n_motions: int) -> np.ndarray:
 
 
 #: Seconds to start a 2-worker Dask ``LocalCluster`` and load the kernels on it, measured on the
-#: 2-core reference machine (38 clips: 10.1 s with ``--engine local`` against 4.0 s serial).
+#: 2-core reference machine (38 clips: 10.1 s with ``--engine local`` against 4.0 s serial),
+#: with spawned workers.
 LOCAL_CLUSTER_STARTUP = 6.0
+#: The same with workers forked from the driver (``engines.local_start_method``, Linux): what a
+#: cluster costs beyond a serial run on the 2-core reference machine, fitted to runs in new
+#: processes (``benchmarks/database_scale.py``, section ``small``, and 120 / 200 windows):
+#: 40 windows (780 pairs) 1.5-1.6 s against 1.3 s serially, 80 windows 2.3-2.5 s against 2.5 s,
+#: 120 windows 3.6-3.8 s against 4.2-4.3 s, 200 windows 7.2-7.3 s against 8.3-8.4 s. With
+#: 1.2 s, 2 workers start from about 100 windows of 64 cells (neighbourhood 10).
+LOCAL_CLUSTER_STARTUP_FORKED = 1.2
 #: Seconds per DP pair at 64 cells with neighbourhood 6 on one core, batched kernel
 #: (``benchmarks/database_scale.py``, section ``per_pair``: 0.175 ms; 0.48 ms with neighbourhood 10).
 SECONDS_PER_PAIR_64 = 0.18e-3
@@ -252,14 +298,20 @@ def estimated_serial_seconds(n_pairs: int, n_samples: int, warp: WarpOptions = D
 
 
 def cluster_worth_it(
-    n_pairs: int, n_samples: int, warp: WarpOptions = DEFAULT_WARP, *, n_workers: int = 2
+    n_pairs: int,
+    n_samples: int,
+    warp: WarpOptions = DEFAULT_WARP,
+    *,
+    n_workers: int = 2,
+    startup: float | None = None,
 ) -> tuple[bool, str]:
     """Whether a local Dask cluster would finish before a serial run; and the sentence to report.
 
     With ``W`` workers the cluster takes about ``startup + serial / W``; it wins when
-    ``serial > startup * W / (W - 1)`` (``startup``: :data:`LOCAL_CLUSTER_STARTUP`). For the
-    engine of a matrix run (``engine="local"``): when this is False, run serially and report
-    the sentence, so ``--engine local`` never loses to serial on small inputs.
+    ``serial > startup * W / (W - 1)`` (``startup``: default :data:`LOCAL_CLUSTER_STARTUP`,
+    spawned workers; :data:`LOCAL_CLUSTER_STARTUP_FORKED` for forked ones). For the engine of a
+    matrix run (``engine="local"``): when this is False, run serially and report the sentence,
+    so ``--engine local`` never loses to serial on small inputs.
 
     Returns
     -------
@@ -267,10 +319,11 @@ def cluster_worth_it(
     """
     serial = estimated_serial_seconds(n_pairs, n_samples, warp)
     w = max(2, int(n_workers))
-    limit = LOCAL_CLUSTER_STARTUP * w / (w - 1)
+    startup = LOCAL_CLUSTER_STARTUP if startup is None else float(startup)
+    limit = startup * w / (w - 1)
     if serial > limit:
         return True, f"local cluster of {w} workers: about {serial:.0f} s of pair work serially"
     return False, (
         f"local cluster not started: {n_pairs} pairs take about {serial:.1f} s serially, less than "
-        f"the {LOCAL_CLUSTER_STARTUP:g} s a cluster needs to start (ran serially)"
+        f"the {startup:g} s a cluster needs to start (ran serially)"
     )

@@ -1,0 +1,159 @@
+"""The retrieval distance in the database commands (issue 15, ``docs/database.md``, "Retrieval
+quality"): the pose term beside the SRV (``DatabaseSettings.pose_weight``, balanced without
+labels) and phase-free matching (``DatabaseSettings.cyclic``), in the cache, the matrix, the
+index, search and the CLI.
+
+Synthetic BVH clips of ``test_database.synthetic_motion`` (4 joints, 16-30 frames).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_database import synthetic_motion
+
+from elastic_motion.apps.database import (
+    DatabaseSettings,
+    build_index,
+    compute_matrix,
+    knn_search,
+    pair_distance,
+    pair_distances,
+    query_distances,
+)
+from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
+from elastic_motion.apps.database.preparation import (
+    balanced_pose_weight,
+    pose_arrays,
+    prepare_motion,
+    with_pose_term,
+)
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import write_bvh
+from elastic_motion.warp import WarpOptions
+
+WARP = WarpOptions(method="dp", neighbourhood=4)
+PLAIN = DatabaseSettings(n_samples=10, representations=("lie",), warp=WARP)
+RETRIEVAL = DatabaseSettings(
+    n_samples=10, representations=("lie", "euler"), warp=WARP, pose_weight="balanced", cyclic=True
+)
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("clips")
+    for kind in (0, 1):
+        for v in range(4):
+            write_bvh(synthetic_motion(kind, v, frames=16 + 4 * v), d / f"k{kind}_v{v}.bvh")
+    return d
+
+
+def _brute_cyclic(q0: np.ndarray, q1: np.ndarray) -> float:
+    """Independent: every cyclic shift of either array, one plain DP pair each."""
+    n = q0.shape[0]
+    return min(
+        min(pair_distance(q0, np.roll(q1, s, axis=0), WARP), pair_distance(q1, np.roll(q0, s, axis=0), WARP))
+        for s in range(n)
+    )
+
+
+def test_cyclic_distance_is_the_least_over_the_shifts_of_either_array() -> None:
+    rng = np.random.default_rng(0)
+    q = [rng.normal(size=(9, 4)) for _ in range(4)]
+    q.append(np.roll(q[0], 4, axis=0))  # the first started at another phase
+    pairs = np.array([(a, b) for a in range(5) for b in range(5) if a != b])
+    got = pair_distances(q, q, pairs, WARP, cyclic=True)
+    plain = pair_distances(q, q, pairs, WARP)
+    for (a, b), d in zip(pairs, got, strict=True):
+        assert d == _brute_cyclic(q[a], q[b])
+    sym = {(a, b): d for (a, b), d in zip(pairs, got, strict=True)}
+    assert all(sym[a, b] == sym[b, a] for a, b in sym)
+    assert (got <= plain).all() and (got < plain - 1e-3).any()
+    assert pair_distance(q[0], q[4], WARP, cyclic=True) == 0.0 < pair_distance(q[0], q[4], WARP)
+    with pytest.raises(OptionError, match="cyclic: phase-free matching needs the DP alone"):
+        pair_distance(q[0], q[1], WarpOptions(method="dp+refine"), cyclic=True)
+
+
+def test_settings_of_the_retrieval_distance() -> None:
+    s = DatabaseSettings(pose_weight="balanced", cyclic=True)
+    assert DatabaseSettings.from_json(s.to_json()) == s
+    assert "pose_weight" not in DatabaseSettings().to_json()  # default files read as before
+    assert DatabaseSettings(pose_weight="2").pose_weight == 2.0
+    for bad, msg in (
+        ({"pose_weight": -1}, "pose_weight: expected a number >= 0 or 'balanced'"),
+        ({"pose_weight": "heavy"}, "pose_weight: expected a number >= 0 or 'balanced'"),
+        ({"cyclic": "yes"}, "cyclic: expected True or False"),
+        ({"cyclic": True, "warp": "dp+refine"}, "cyclic: phase-free matching needs the DP warp"),
+    ):
+        with pytest.raises(OptionError, match=msg):
+            DatabaseSettings(**bad)
+
+
+def test_the_cache_appends_the_balanced_pose_term(clips: Path, tmp_path: Path) -> None:
+    files = sorted(str(f) for f in clips.glob("*.bvh"))
+    plain = build_srv_cache(files, PLAIN)
+    cache = build_srv_cache(files, DatabaseSettings(**{**_fields(PLAIN), "pose_weight": "balanced"}))
+    # independently: the pose arrays of the prepared motions with the group's joint weights
+    jw = np.asarray(plain.group_weights[0][0])
+    poses = [pose_arrays(prepare_motion(f, 10).motion, jw) for f in plain.paths]
+    lam = balanced_pose_weight(plain.q["lie"], poses)
+    assert lam > 0 and cache.pose_weights == {"lie": [pytest.approx(lam, rel=1e-12)]}
+    for a, b, p in zip(cache.q["lie"], plain.q["lie"], poses, strict=True):
+        np.testing.assert_allclose(a, with_pose_term(b, p, lam), rtol=0, atol=1e-12)
+    # a given weight is used as it is; the cache keeps the weights through save and load
+    fixed = build_srv_cache(files, DatabaseSettings(**{**_fields(PLAIN), "pose_weight": 0.5}))
+    np.testing.assert_allclose(
+        fixed.q["lie"][3], with_pose_term(plain.q["lie"][3], poses[3], 0.5), atol=1e-12
+    )
+    cache.save(tmp_path / "c.npz")
+    back = SRVCache.load(tmp_path / "c.npz")
+    assert back.pose_weights == cache.pose_weights and back.settings == cache.settings
+
+
+def _fields(s: DatabaseSettings) -> dict:
+    return {k: getattr(s, k) for k in s.__dataclass_fields__}
+
+
+def test_matrix_query_search_and_index_agree(clips: Path, tmp_path: Path) -> None:
+    res = compute_matrix([clips], tmp_path / "m", RETRIEVAL)
+    d = res.distances["lie"]
+    names = res.names
+    idx = tmp_path / "idx"
+    build_index([clips], idx, RETRIEVAL)
+    for query in sorted(clips.glob("*.bvh"))[::3]:
+        row = names.index(query.stem)
+        for db in (idx, clips):
+            q = query_distances(query, db, "lie", RETRIEVAL)
+            np.testing.assert_allclose(q.distances, d[row], rtol=1e-12, atol=1e-12)
+        brute = query_distances(query, idx, "euler")
+        for k in (1, 3):
+            hit = knn_search(query, idx, k, "euler")
+            assert hit.indices.tolist() == brute.nearest(k).tolist()
+            assert hit.distances.tolist() == brute.distances[brute.nearest(k)].tolist()
+
+
+def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None:
+    from elastic_motion.cli import main
+
+    opts = ["--samples", "10", "--neighbourhood", "4", "--warp", "dp", "--method", "lie", "--quiet"]
+    out = tmp_path / "m"
+    assert main(["matrix", str(clips), "-o", str(out), *opts, "--pose-weight", "balanced", "--cyclic"]) == 0
+    api = compute_matrix(
+        [clips], tmp_path / "api", DatabaseSettings(**{**_fields(RETRIEVAL), "representations": ("lie",)})
+    )
+    np.testing.assert_array_equal(np.load(out / "distances_lie.npy"), api.distances["lie"])
+    query = str(clips / "k1_v2.bvh")
+    capsys.readouterr()
+    assert main(["search", query, str(clips), "-k", "2", *opts, "--pose-weight", "1", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["settings"]["pose_weight"] == 1.0 and len(rep["results"]) == 2
+    assert main(["matrix", str(clips), "-o", str(tmp_path / "x"), *opts, "--pose-weight", "heavy"]) != 0
+    assert "--pose-weight: expected 'balanced' or a number >= 0; got 'heavy'" in capsys.readouterr().err
+    bad = [*opts[:-3], "--warp", "dp+refine", "--cyclic", "--quiet"]
+    assert main(["matrix", str(clips), "-o", str(tmp_path / "y"), *bad]) != 0
+    assert "--cyclic: phase-free matching needs the DP warp" in capsys.readouterr().err
+    assert main(["search", query, str(clips), "--within", "--cyclic", "--quiet"]) != 0
+    assert "--within: expected neither --cyclic nor --pose-weight" in capsys.readouterr().err
