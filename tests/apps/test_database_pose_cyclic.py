@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from database_testlib import needs_dask
 from test_database import synthetic_motion
 
 from elastic_motion.apps.database import (
@@ -133,6 +134,16 @@ def test_matrix_query_search_and_index_agree(clips: Path, tmp_path: Path) -> Non
             hit = knn_search(query, idx, k, "euler")
             assert hit.indices.tolist() == brute.nearest(k).tolist()
             assert hit.distances.tolist() == brute.distances[brute.nearest(k)].tolist()
+
+
+@needs_dask
+def test_local_cluster_gives_the_serial_matrix(clips: Path, tmp_path: Path) -> None:
+    """The pose arrays are made on the workers (with the files), the weight on the driver."""
+    serial = compute_matrix([clips], tmp_path / "serial", RETRIEVAL)
+    local = compute_matrix([clips], tmp_path / "local", RETRIEVAL, engine="local", force_cluster=True)
+    assert local.report["runs"][-1]["read_where"] == "workers"
+    for r in RETRIEVAL.representations:
+        np.testing.assert_array_equal(local.distances[r], serial.distances[r])
 
 
 def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None:
