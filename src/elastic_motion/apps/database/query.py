@@ -18,7 +18,7 @@ from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_ar
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.preparation import prepare_motion, with_pose_term
 from elastic_motion.apps.database.settings import DatabaseSettings, canonical_method, public_method
-from elastic_motion.apps.database.tiles import pair_distance, pair_distances, single_threaded_blas
+from elastic_motion.apps.database.tiles import pair_distances, single_threaded_blas
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
@@ -28,6 +28,8 @@ __all__ = ["QueryResult", "SearchResult", "knn_search", "query_distances"]
 
 #: Pairs of a query solved in one call of the batched DP (progress is reported between calls).
 QUERY_BATCH = 64
+#: Largest batch of pair distances the exact k-nearest search computes in one call.
+KNN_BATCH = 32
 
 
 @dataclass(frozen=True, eq=False)
@@ -400,14 +402,26 @@ def knn_search(
         norms = cache_norms(cache, key)
         lb[members] = lower_bounds(part_norms(qq), norms[members][:, :, : qq.shape[1]])  # one group: one D
         order = members[np.lexsort((members, lb[members]))]
+        # in batches of growing size (k, then doubling up to KNN_BATCH): one compiled call per
+        # batch instead of one per pair; a batch holds only entries whose bound is below the
+        # current k-th distance, so at most a batch more is computed than one by one
+        pos, step = 0, k
         with single_threaded_blas():
-            for i in order:
-                if len(found) >= k and lb[i] > found[k - 1][0]:
+            while pos < len(order):
+                batch = order[pos : pos + step]
+                if len(found) >= k:
+                    batch = batch[lb[batch] <= found[k - 1][0]]  # a prefix: the bounds are sorted
+                if not len(batch):
                     break
-                d = pair_distance(qq, cache.q[key][i], cache.settings.warp, cyclic=cache.settings.cyclic)
-                computed[i] = True
-                found.append((d, int(i)))
+                pairs = np.column_stack([np.zeros(len(batch), dtype=np.int64), batch])
+                ds = pair_distances(
+                    [qq], cache.q[key], pairs, cache.settings.warp, cyclic=cache.settings.cyclic
+                )
+                computed[batch] = True
+                found.extend((float(d), int(i)) for d, i in zip(ds, batch, strict=True))
                 found.sort()
+                pos += step
+                step = min(2 * step, KNN_BATCH)
     top = found[:k]
     return SearchResult(
         query=os.fspath(query),
