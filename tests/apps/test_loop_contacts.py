@@ -182,6 +182,32 @@ def test_contacts_are_lifted_first_and_the_worst_missed_released_after_a_failed_
     assert {r.name for r in extra.rows} == {"foot"}
 
 
+def test_the_lift_window_is_measured_in_the_clips_time_on_a_coarse_grid():
+    """On grid frames (``select_frames`` keeps the clip's fps) the last LIFT_TIME of the clip
+    is lifted, not LIFT_TIME worth of grid frames (4 times longer on every 4th frame)."""
+    from types import SimpleNamespace
+
+    from elastic_motion.apps.loop import LIFT_TIME, _solve_with_contacts
+    from elastic_motion.motion import select_frames
+    from elastic_motion.motion.contacts import Contacts
+
+    fine = periodic(f=121, fps=120.0)
+    grid = contact_grid(fine.n_frames, fine.fps, 1 / 30)
+    m = select_frames(fine, grid)
+    mask = np.zeros((len(grid), 1), dtype=bool)
+    mask[len(grid) // 2 :, 0] = True  # planted over the second half, not at the start
+    c = Contacts(("foot",), np.array([3]), mask, 0.0, np.zeros(1), fine.fps, "y")
+    flat = np.concatenate([m.root_translation, m.rotations.reshape(len(grid), -1)], axis=1)
+
+    def solve(lie, extra):
+        return SimpleNamespace(converged=True, curve=SimpleNamespace(values=flat))
+
+    *_, lifting = _solve_with_contacts(None, m, c, max_release=0, solve=solve, grid=grid)
+    start = grid[lifting[0]["frames"][0]]
+    assert start == grid[np.searchsorted(grid, 121 - round(LIFT_TIME * 120))]
+    assert 0 < (120 - start) / 120 <= LIFT_TIME + 1 / 30
+
+
 def test_row_plants_are_the_rows_targets_and_released_contacts_are_dropped_whole():
     from elastic_motion.apps.loop_contacts import fine_contacts, row_plants
     from elastic_motion.motion import forward_kinematics

@@ -355,3 +355,23 @@ def test_fade_change_scales_the_change_and_keeps_fixed_frames_exactly():
         fade_change(before, after, w[:-1])
     with pytest.raises(ValueError, match="fixed"):
         fixed_frames_weight(21, (0, 21), 4)
+
+
+@pytest.mark.parametrize("n, width", [(12, 3), (5, 10), (1, 4), (2, 2)])
+def test_eased_envelope_is_the_largest_eased_bump_even_on_clips_shorter_than_its_width(n, width):
+    """``out[i] = max_j w(|i - j|) x[j]`` with ``w(d) = smoothstep(1 - d / (width + 1))`` for
+    ``d <= width`` (1 at 0), also when the clip is shorter than the easing."""
+    from elastic_motion.motion.edit import eased_envelope, smoothstep
+
+    x = np.random.default_rng(n + width).uniform(0.0, 1.0, n)
+    want = np.array(
+        [
+            max(
+                x[j] * (1.0 if i == j else float(smoothstep(np.array(1.0 - abs(i - j) / (width + 1.0)))))
+                for j in range(n)
+                if abs(i - j) <= width
+            )
+            for i in range(n)
+        ]
+    )
+    np.testing.assert_allclose(eased_envelope(x, width), want, rtol=0, atol=1e-15)

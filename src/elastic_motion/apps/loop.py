@@ -375,8 +375,13 @@ def _solve_with_contacts(
     solve,
     c1: bool = False,
     more_rows: Sequence = (),
+    grid: np.ndarray | None = None,
 ):
     """Close ``lie`` with the contacts kept; release contacts that conflict with closure.
+
+    ``motion`` may be a clip's grid frames (``select_frames``, its ``fps`` the clip's): ``grid``
+    gives their frame numbers in the clip (default: every frame), so :data:`LIFT_TIME` is
+    measured in the clip's time.
 
     A contact on the last frame of a joint that is in the air on the first is kept in the
     floor plane only over its last :data:`LIFT_TIME` (closing puts the first pose, that
@@ -402,10 +407,13 @@ def _solve_with_contacts(
     lift_from: dict[str, int] = {}
     lifting: list[dict] = []
     f_count = mask.shape[0]
+    frames = np.arange(f_count) if grid is None else np.asarray(grid)
+    # the first grid frame of the clip's last round(LIFT_TIME fps) frames (at least one)
+    lift_start = int(np.searchsorted(frames, frames[-1] + 1 - max(1, round(LIFT_TIME * motion.fps))))
     for k, name in enumerate(contacts.joints):
         if mask[-1, k] and not mask[0, k]:
             a = int(np.flatnonzero(~mask[:, k])[-1]) + 1
-            lift_from[name] = max(a + 1, f_count - max(1, round(LIFT_TIME * motion.fps)))
+            lift_from[name] = max(a + 1, lift_start)
             lifting.append({"joint": name, "frames": [lift_from[name], f_count]})
     attempts = 0
     while True:
@@ -538,7 +546,7 @@ def _close_keeping_contacts(
     with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
         res, extra, released, lifting = _solve_with_contacts(
             lie_c, coarse, found_c, max_release=max_release,
-            solve=lambda curve, ex: project(curve, ex, stall=6), c1=c1,
+            solve=lambda curve, ex: project(curve, ex, stall=6), c1=c1, grid=grid,
         )  # fmt: skip
         # an active set for the floor: joints the loop takes under it get a row at their
         # deepest frame (the input's height there) and the projection is solved again, the
@@ -554,7 +562,7 @@ def _close_keeping_contacts(
             again = _solve_with_contacts(
                 lie_c, coarse, kept_c, max_release=0,
                 solve=lambda curve, ex, cap=cap: project(curve, ex, stall=6, iterations=cap), c1=c1,
-                more_rows=pins + new,
+                more_rows=pins + new, grid=grid,
             )  # fmt: skip
             if not again[0].converged:
                 break

@@ -608,7 +608,7 @@ def eased_envelope(x: np.ndarray, width: int) -> np.ndarray:
     frames (a change needed on one frame, spread so that it does not jump)."""
     f = x.shape[0]
     out = np.array(x, dtype=np.float64)
-    for k in range(1, width + 1):
+    for k in range(1, min(width, f - 1) + 1):  # (no frame is farther than f - 1 away)
         w = float(smoothstep(np.array(1.0 - k / (width + 1.0))))
         out[k:] = np.maximum(out[k:], w * x[: f - k])
         out[: f - k] = np.maximum(out[: f - k], w * x[k:])
