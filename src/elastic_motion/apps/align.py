@@ -319,11 +319,15 @@ class LandmarkPlan:
         :data:`AUTO_LANDMARK_WEIGHT`).
     notes : tuple of str
         How the pairs were found (``"auto"``: paired by phase, how many left unpaired).
+    pairing : PhasePairing or None
+        ``"auto"``: the phase pairing the pairs come from (pinned and dropped events, why:
+        :func:`elastic_motion.apps.landmarks.phase_landmarks`); None otherwise.
     """
 
     pairs: list[tuple[float, float]]
     options: WarpOptions
     notes: tuple[str, ...] = ()
+    pairing: Any = None
 
 
 def plan_landmarks(
@@ -379,7 +383,9 @@ def plan_landmarks(
         )
         pairs = list(pairing.times)
         if not pairs:
-            return LandmarkPlan([], options, ("landmarks auto: no events to pair; warp without landmarks",))
+            return LandmarkPlan(
+                [], options, ("landmarks auto: no events to pair; warp without landmarks",), pairing
+            )
         return LandmarkPlan(
             pairs,
             options.replace(landmark_weight=max(options.landmark_weight, AUTO_LANDMARK_WEIGHT)),
@@ -387,6 +393,7 @@ def plan_landmarks(
                 f"landmarks auto: {len(pairs)} events paired by phase (prior: the warp without "
                 f"landmarks), {len(pairing.skipped)} left unpaired",
             ),
+            pairing,
         )
     arr = np.asarray(landmarks, dtype=np.float64)
     if arr.size == 0:

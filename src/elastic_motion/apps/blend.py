@@ -424,18 +424,6 @@ def _blend_skeleton(ms: Sequence[Motion], w: np.ndarray, mode: str) -> Skeleton:
     return Skeleton(sk.names, sk.parents, offsets, sk.channels, sk.end_site_parents, es)
 
 
-def _auto_pairing(a: Motion, b: Motion, srv_a, srv_b, options: WarpOptions, kinds, max_pairs):
-    """The phase pairing behind ``landmarks="auto"`` (for the report): the same events and
-    prior as :func:`elastic_motion.apps.align.plan_landmarks` (the warp without landmarks of
-    the same curves and options), so the same pairs. Costs one more DP solve of the prior:
-    ``plan_landmarks`` does not hand its pairing on."""
-    from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, phase_landmarks
-
-    prior = solve_warp(srv_a, srv_b, options)
-    kinds = tuple(kinds) if kinds else DEFAULT_PAIR_KINDS
-    return phase_landmarks(a, b, kinds, prior=np.asarray(prior.vertices), max_pairs=max_pairs)
-
-
 def _pairing_notes(pairing) -> list[str]:
     """One note for the pinned pairs and one for the dropped ones, seconds ``A:B``."""
     out = []
@@ -615,8 +603,7 @@ def blend_motions(
             plan = plan_landmarks(
                 landmarks, ms[0], ms[1], sa, sb, opts, kinds=landmark_kinds, max_pairs=max_pairs
             )
-            if isinstance(landmarks, str) and landmarks == "auto":
-                landmark_pairing = _auto_pairing(ms[0], ms[1], sa, sb, opts, landmark_kinds, max_pairs)
+            landmark_pairing = plan.pairing
             pairs, opts = plan.pairs, plan.options
             notes.extend(plan.notes)
             if landmark_pairing is not None:
@@ -842,7 +829,7 @@ def _cleanup(
     notes: list[str],
 ) -> tuple[CleanupResult | None, Motion | None]:
     """Step 7: carry the inputs' contacts to the blend and enforce them (:mod:`.cleanup`)."""
-    from elastic_motion.apps.cleanup import carry_contacts, cleanup_footskate
+    from elastic_motion.apps.cleanup import carry_contacts, cleanup_footskate, find_legs, settle_offset
     from elastic_motion.motion.contacts import detect_contacts
 
     opts = _contact_options(contacts)
@@ -870,8 +857,10 @@ def _cleanup(
 
     own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
     goal = _SKATE_GOAL * min(own)
+    legs, _ = find_legs(result)
+    lift = settle_offset(result, carried, legs, sigma=_SETTLE)  # the same for every trial below
     for smooth in _SMOOTHING:
-        res = cleanup_footskate(result, carried, smooth=smooth, settle=_SETTLE)
+        res = cleanup_footskate(result, carried, smooth=smooth, settle=lift)
         if not res.applied or res.skating_after.mean_speed <= goal:
             break
     if res.applied and res.skating_after.mean_speed < goal:
@@ -879,7 +868,7 @@ def _cleanup(
         lo, hi = 0.0, 1.0
         for _ in range(_STRENGTH_STEPS):
             mid = 0.5 * (lo + hi)
-            trial = cleanup_footskate(result, carried, smooth=res.smooth, strength=mid, settle=_SETTLE)
+            trial = cleanup_footskate(result, carried, smooth=res.smooth, strength=mid, settle=lift)
             if trial.skating_after.mean_speed <= goal:
                 hi, res = mid, trial
             else:

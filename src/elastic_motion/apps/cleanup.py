@@ -394,7 +394,7 @@ def cleanup_footskate(
     plants: Mapping[str, np.ndarray] | None = None,
     fixed: Sequence[int] = (),
     knee_hinge: bool = True,
-    settle: float = 0.0,
+    settle: float | np.ndarray = 0.0,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
 
@@ -428,12 +428,14 @@ def cleanup_footskate(
     knee_hinge : bool, default True
         As ``hinge`` of :func:`elastic_motion.motion.ik.solve_legs`: False keeps each frame's
         own knee plane (small corrections of a motion whose knees are right, e.g. a loop's).
-    settle : float, default 0
+    settle : float or ndarray of shape (F,), default 0
         Seconds; when positive, first a slow vertical root offset puts the planted ankles and
         toes at their ground heights (:func:`settle_offset`, Gaussian of this standard
         deviation): a blend whose feet sink into the floor or float above it is moved as a
         whole, which its legs' angles and the elastic distance do not see, instead of bending
-        every stance leg by IK. 0: none (the plants' heights are then reached by the IK).
+        every stance leg by IK. 0: none (the plants' heights are then reached by the IK). An
+        array: that offset (motion's unit), e.g. :func:`settle_offset` computed once for
+        several calls. Applied in full whatever ``strength`` (like the floor).
 
     Returns
     -------
@@ -458,13 +460,22 @@ def cleanup_footskate(
     width = max(1, round(blend_time * motion.fps))
     parents = sk.parents
     base = motion
-    settled = np.zeros(motion.n_frames)
-    if settle > 0:
-        settled = settle_offset(motion, contacts, found, sigma=settle)
-        if settled.any():
-            root = motion.root_translation.copy()
-            root[:, up] += settled
-            base = motion.replace(root_translation=root)
+    if isinstance(settle, np.ndarray):
+        settled = np.asarray(settle, dtype=np.float64)
+        if settled.shape != (motion.n_frames,) or not np.isfinite(settled).all():
+            raise ValueError(
+                f"settle: expected {motion.n_frames} finite offsets (one a frame); got {settled.shape}"
+            )
+    elif not (np.isfinite(settle) and settle >= 0):
+        raise ValueError(f"settle: expected seconds >= 0 or an offset per frame; got {settle!r}")
+    else:
+        settled = (
+            settle_offset(motion, contacts, found, sigma=settle) if settle > 0 else np.zeros(motion.n_frames)
+        )
+    if settled.any():
+        root = motion.root_translation.copy()
+        root[:, up] += settled
+        base = motion.replace(root_translation=root)
     pos, _ = joint_positions_and_rotations(parents, base.local_translations(), base.rotations)
     pos_all = forward_kinematics(base, end_sites=True)
 
