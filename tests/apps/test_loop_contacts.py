@@ -347,8 +347,9 @@ def test_kept_contacts_are_bounded_and_checked(mocap_dir):
     from elastic_motion.errors import OptionError
 
     path = mocap_dir / "deepmimic/humanoid3d_run.txt"
-    with pytest.raises(OptionError, match="contact_step"):
-        loop_motion(path, contact_step=-0.1)
+    for bad in (-0.1, "0.1", float("nan")):
+        with pytest.raises(OptionError, match="contact_step"):
+            loop_motion(path, contact_step=bad)
     rows = loop_motion(path, contact_step=0.0).contacts_kept["rows"]
     assert rows > 6
     with (

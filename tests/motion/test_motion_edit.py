@@ -20,6 +20,7 @@ from elastic_motion.motion import (
     read_bvh,
     read_motion,
     resample,
+    select_frames,
     select_joints,
     set_up_axis,
     to_metres,
@@ -353,6 +354,8 @@ def test_fade_change_scales_the_change_and_keeps_fixed_frames_exactly():
     )
     with pytest.raises(ValueError, match="weight"):
         fade_change(before, after, w[:-1])
+    with pytest.raises(ValueError, match="after: expected 21 frames"):
+        fade_change(before, select_frames(after, np.arange(20)), w)
     with pytest.raises(ValueError, match="fixed"):
         fixed_frames_weight(21, (0, 21), 4)
 

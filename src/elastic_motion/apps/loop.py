@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -971,7 +972,11 @@ def loop_motion(
         raise OptionError("solver", f"expected one of {list(CLOSING_SOLVERS)}; got {solver!r}")
     if contacts is None:
         contacts = "keep" if method == "lie" and solver == "kkt" else "report"
-    if not (math.isfinite(contact_step) and contact_step >= 0):
+    if (
+        isinstance(contact_step, bool)
+        or not isinstance(contact_step, numbers.Real)
+        or not (math.isfinite(contact_step) and contact_step >= 0)
+    ):
         raise OptionError("contact_step", f"expected a non-negative number of seconds; got {contact_step!r}")
     if contacts not in LOOP_CONTACTS:
         raise OptionError("contacts", f"expected one of {list(LOOP_CONTACTS)}; got {contacts!r}")

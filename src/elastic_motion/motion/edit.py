@@ -637,6 +637,11 @@ def fade_change(before: Motion, after: Motion, weight: np.ndarray) -> Motion:
     The change is each joint's ``log(R_before^T R_after)`` and the root offset, scaled
     linearly; frames of weight 1 are ``after``'s exactly, of weight 0 ``before``'s exactly.
     """
+    if after.n_frames != before.n_frames or after.n_joints != before.n_joints:
+        raise ValueError(
+            f"after: expected {before.n_frames} frames of {before.n_joints} joints like before; "
+            f"got {after.n_frames} of {after.n_joints}"
+        )
     w = np.asarray(weight, dtype=np.float64)
     if w.shape != (before.n_frames,):
         raise ValueError(f"weight: expected shape ({before.n_frames},); got {w.shape}")
