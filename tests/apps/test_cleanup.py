@@ -94,6 +94,32 @@ def test_cleanup_strength_goes_part_of_the_way_and_keeps_the_floor():
         cleanup_footskate(m, c, strength=1.5)
 
 
+def test_settle_offset_formula_floor_mean_interpolation_and_seconds():
+    """Independently of the clean-up: on each frame the mean over the planted joints of
+    ``floor + ground - height``, linear between such frames (held at the ends), then a
+    Gaussian of ``sigma`` seconds (``sigma * fps`` frames)."""
+    from scipy.ndimage import gaussian_filter1d
+
+    m = walker(duration=1.5)
+    legs, _ = find_legs(m)
+    names = ("LeftFoot", "RightFoot")
+    idx = [m.skeleton.index(n) for n in names]
+    mask = np.zeros((m.n_frames, 2), dtype=bool)
+    mask[8:20, 0] = True
+    mask[16:30, 1] = True  # both planted on 16..19: their mean
+    floor, ground = 0.1, np.array([0.03, 0.05])
+    c = Contacts(names, np.array(idx), mask, floor, ground, m.fps, "y")
+    h = forward_kinematics(m)[:, idx, 1]
+    need = np.where(mask, floor + ground - h, 0.0).sum(axis=1) / np.maximum(mask.sum(axis=1), 1)
+    known = mask.any(axis=1)
+    f = np.arange(m.n_frames)
+    raw = np.interp(f, f[known], need[known])
+    np.testing.assert_allclose(settle_offset(m, c, legs, sigma=0.0), raw, atol=1e-12)
+    np.testing.assert_allclose(
+        settle_offset(m, c, legs, sigma=0.2), gaussian_filter1d(raw, 0.2 * m.fps, mode="nearest"), atol=1e-12
+    )
+
+
 def test_settle_moves_the_body_down_to_the_floor_not_the_stance_knees():
     m = walker(duration=1.5)
     legs, _ = find_legs(m)

@@ -150,6 +150,12 @@ def test_each_representation_is_scattered_once_as_one_object() -> None:
         # resubmitted after a loss: the driver's own arrays replace the future
         args = eng._with_arrays((np.arange(2), handle))
         assert args[1] is eng._arrays[handle.key] and args[1] == arrays
+        # ... only its rows' and columns' arrays (not the whole database)
+        only = eng._with_arrays((np.arange(2), handle), keep=[1])[1]
+        assert only[0] is None and only[1] is arrays[1] and len(only) == len(arrays)
+        sparse = eng._with_arrays((handle,), keep=[0, 1, 1, 2, 3])[0]
+        tile_args = (np.arange(2), np.arange(1, 4), sparse, np.zeros(2, int), np.zeros(3, int))
+        assert engines.tile_of(*tile_args, WarpOptions(method="none")).tobytes() == here.tobytes()
     finally:
         eng.close()
 
@@ -214,3 +220,27 @@ def test_forked_workers_make_a_local_cluster_worth_it_on_smaller_inputs(
         monkeypatch.setattr(matrix, "local_start_method", lambda method=method: method)
         res = compute_matrix([db], tmp_path / method, SETTINGS, engine="local")
         assert seen[-1] == expected and res.report["engine"] == "serial"  # 8 clips: never worth it
+
+
+@needs_dask
+def test_a_future_cancelled_while_the_driver_waits_is_handed_back() -> None:
+    """``_Completed.next_batch``: ``distributed.wait`` raises when a future it waits on is
+    cancelled; the batch hands the future back (``run`` then resubmits or reports it)."""
+    import threading
+    import time
+
+    eng = engines.open_engine("local", None, 1, 30.0)
+    try:
+        fut = eng.client.submit(time.sleep, 5.0, pure=False)
+        done = engines._Completed([fut])
+        timer = threading.Timer(0.3, fut.cancel)
+        timer.start()
+        batch = []
+        for _ in range(20):
+            batch = done.next_batch(1.0)
+            if batch:
+                break
+        timer.join()
+        assert batch == [fut] and fut.cancelled() and done.is_empty()
+    finally:
+        eng.close()

@@ -88,6 +88,10 @@ def test_settings_of_the_retrieval_distance() -> None:
         ({"pose_weight": "heavy"}, "pose_weight: expected a number >= 0 or 'balanced'"),
         ({"cyclic": "yes"}, "cyclic: expected True or False"),
         ({"cyclic": True, "warp": "dp+refine"}, "cyclic: phase-free matching needs the DP warp"),
+        (
+            {"cyclic": True, "warp": WarpOptions(method="dp", coarse_to_fine=True)},
+            "cyclic: phase-free matching needs the DP warp .*got warp 'dp' with coarse to fine",
+        ),
     ):
         with pytest.raises(OptionError, match=msg):
             DatabaseSettings(**bad)
@@ -168,3 +172,7 @@ def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None
     assert "--cyclic: phase-free matching needs the DP warp" in capsys.readouterr().err
     assert main(["search", query, str(clips), "--within", "--cyclic", "--quiet"]) != 0
     assert "--within: expected neither --cyclic nor --pose-weight" in capsys.readouterr().err
+    # resuming without --cyclic names what changed (the field is written only when set)
+    argv = ["matrix", str(clips), "-o", str(out), *opts, "--pose-weight", "balanced"]
+    assert main(argv) != 0
+    assert "cyclic: True -> None" in capsys.readouterr().err

@@ -106,3 +106,15 @@ def test_cyclic_matrix_is_phase_free():
     assert d[0, 1] == pytest.approx(0.0, abs=1e-12) and plain[0, 1] > 0.5
     np.testing.assert_array_equal(d, d.T)
     assert np.all(d <= plain + 1e-12)
+
+
+def test_pose_arrays_average_the_two_frames_of_each_cell():
+    """A cell's pose is the mean of its two frames' (each frame's pose measured on a still
+    motion): the map R -> (R - I) / sqrt(2) is linear in R."""
+    rng = np.random.default_rng(4)
+    ang = rng.uniform(-2.5, 2.5, (2, 3, 3))
+    w = np.array([1.0, 3.0, 0.25])
+    moving = pose_arrays(_motion(ang), w)
+    still = [pose_arrays(_motion(np.stack([a, a])), w) for a in ang]
+    np.testing.assert_allclose(moving, 0.5 * (still[0] + still[1]), atol=1e-14)
+    assert not np.allclose(still[0], still[1])

@@ -323,12 +323,15 @@ def test_smooth_motion_matches_a_gaussian_filter_inside_and_commutes_with_frames
 
 def test_fade_change_scales_the_change_and_keeps_fixed_frames_exactly():
     from elastic_motion.groups import SO3
-    from elastic_motion.motion.edit import fade_change, fixed_frames_weight
+    from elastic_motion.motion.edit import fade_change, fixed_frames_weight, smoothstep
     from elastic_motion.motion.skeleton import Motion, Skeleton
 
     w = fixed_frames_weight(21, (0, -1), 4)
     assert w[0] == 0.0 and w[-1] == 0.0 and (w[5:16] == 1.0).all()
     assert (np.diff(w[:6]) > 0).all() and np.allclose(w, w[::-1])  # rising, symmetric
+    assert w[2] == pytest.approx(
+        float(smoothstep(np.array(2 / 5))), abs=1e-15
+    )  # smoothstep of d / (width + 1)
     sk = Skeleton(
         names=("root", "foot"), parents=[-1, 0], offsets=[[0, 0, 0], [0, -1.0, 0]],
         channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),

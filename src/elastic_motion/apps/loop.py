@@ -538,7 +538,7 @@ def _close_keeping_contacts(
     found_c = dataclasses.replace(found, mask=found.mask[grid]) if coarse is not motion else found
     # bounded before the Gram matrix of the rows is made (3 rows per contact frame at most)
     limits.check_option(
-        "contacts", "the rows of the kept contacts (3 per contact frame) at", 3 * int(found_c.mask.sum()),
+        "contacts", "rows of the kept contacts (3 per contact frame):", 3 * int(found_c.mask.sum()),
         "max_constraint_rows",
     )  # fmt: skip
     lie_c = to_lie_curve(coarse, joint_weights, translation_weight=translation_weight)

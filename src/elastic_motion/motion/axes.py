@@ -64,7 +64,8 @@ __all__ = [
 DIRECTIONS = ("+x", "-x", "+y", "-y", "+z", "-z")
 _AXES = "xyz"
 
-#: Default minimum score margin for a confident estimate (real clips: 0.4 and above).
+#: Default minimum score margin for a confident estimate (the real clips of ../shared/mocap:
+#: 0.34 and above, the least a DeepMimic get-up with its hands on the floor).
 MIN_MARGIN = 0.3
 _FLOOR_TOL = 0.1  # body sizes: lowest point within this of the floor level counts as on it
 _SUPPORT_TOL = 0.15  # body sizes: points this close to the lowest one support the body

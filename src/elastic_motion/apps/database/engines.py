@@ -122,20 +122,18 @@ class SerialEngine:
 
 
 def _single_threaded_worker() -> None:
-    """One numba thread and one BLAS thread in this worker process (as Dask's nanny sets for
-    spawned workers with ``OMP_NUM_THREADS=1`` ...; a forked worker inherits the driver's pools):
-    two single-threaded workers then share two cores without oversubscribing them."""
+    """One BLAS thread in this worker process (as Dask's nanny sets for spawned workers with
+    ``OMP_NUM_THREADS=1`` ...; a forked worker inherits the driver's pools), so two workers
+    share two cores without oversubscribing them. numba's thread count is per calling thread:
+    set here for this one (warm-up), and by each tile's task itself (``compute_tile(...,
+    numba_threads=1)``)."""
     import numba
 
     numba.set_num_threads(1)
     with contextlib.suppress(ImportError):
         from threadpoolctl import threadpool_limits
 
-        global _BLAS_LIMIT
-        _BLAS_LIMIT = threadpool_limits(1, user_api="blas")  # kept: the limit holds while referenced
-
-
-_BLAS_LIMIT: Any = None
+        threadpool_limits(1, user_api="blas")  # process-wide, until changed again
 
 
 def _warm_up() -> None:
@@ -343,16 +341,20 @@ class DaskEngine:
         where = f"read, prepared and SRV computed on the {len(theirs)} workers (they see the driver's files)"
         return DaskStages(self), where
 
-    def _with_arrays(self, args: tuple) -> tuple:
-        """``args`` with every scattered future replaced by the driver's own arrays."""
+    def _with_arrays(self, args: tuple, keep: Sequence[int] | None = None) -> tuple:
+        """``args`` with every scattered future replaced by the driver's own arrays; with
+        ``keep``, only those motions' arrays (None for the others: a resubmitted tile carries
+        its rows and columns, not the whole database)."""
 
         def own(x: Any) -> Any:
             key = getattr(x, "key", None)
-            if isinstance(key, str) and key in self._arrays:
-                return self._arrays[key]
-            if isinstance(x, list):
-                return [own(v) for v in x]
-            return x
+            if not (isinstance(key, str) and key in self._arrays):
+                return x
+            arrays = self._arrays[key]
+            if keep is None:
+                return arrays
+            wanted = set(int(i) for i in keep)
+            return [a if i in wanted else None for i, a in enumerate(arrays)]
 
         return tuple(own(a) for a in args)
 
@@ -372,7 +374,7 @@ class DaskEngine:
         task_of: dict[str, tuple[Task, int]] = {}
 
         def submit(t: Task, attempt: int = 0):
-            args = args_of(t) if attempt == 0 else self._with_arrays(args_of(t))
+            args = args_of(t) if attempt == 0 else self._with_arrays(args_of(t), [*t.rows, *t.cols])
             fut = self.client.submit(
                 _timed_tile,
                 *args,
@@ -440,6 +442,8 @@ class DaskEngine:
 #: Seconds the driver blocks waiting for a task to finish before it checks that the cluster still
 #: has workers (it used to poll every 10-20 ms: CPU taken from the workers on a small machine).
 WAIT_SECONDS = 0.5
+#: Futures the driver waits on at a time (the oldest pending ones).
+WAIT_AT_MOST = 64
 
 
 class _Completed:
@@ -462,10 +466,15 @@ class _Completed:
 
         futures = list(self._pending.values())
         if not any(f.done() for f in futures):
+            # the oldest ones only: waiting on every pending future costs the driver time
+            # growing with their number, each call (quadratic over a run of many chunks); a
+            # later one that finishes first is picked up within `timeout`
             try:
-                wait(futures, timeout=timeout, return_when="FIRST_COMPLETED")
+                wait(futures[:WAIT_AT_MOST], timeout=timeout, return_when="FIRST_COMPLETED")
             except TimeoutError:
                 return []
+            except Exception:  # e.g. a future cancelled meanwhile: handed back below, as done
+                pass
         done = [f for f in futures if f.done()]
         for f in done:
             del self._pending[f.key]

@@ -142,7 +142,8 @@ class DatabaseSettings:
         Phase-free matching: the distance is the least over the ``n_samples`` cyclic shifts of
         either motion's cells of the elastic distance (exact DP of every shift, both ways:
         ``2 n_samples`` times the cost of a pair). For windows of periodic motions (gait)
-        started at different phases. Needs ``warp.method == "dp"``.
+        started at different phases. Needs the exact DP (``warp.method == "dp"``, no
+        ``coarse_to_fine``).
 
     Raises
     ------
@@ -199,9 +200,10 @@ class DatabaseSettings:
             object.__setattr__(self, "pose_weight", lam)
         if not isinstance(self.cyclic, bool):
             raise OptionError("cyclic", f"expected True or False; got {self.cyclic!r}")
-        if self.cyclic and self.warp.method != "dp":
+        if self.cyclic and (self.warp.method != "dp" or self.warp.coarse_to_fine):
+            got = f"warp {self.warp.method!r}" + (" with coarse to fine" if self.warp.coarse_to_fine else "")
             raise OptionError(
-                "cyclic", f"phase-free matching needs the DP warp (warp 'dp'); got warp {self.warp.method!r}"
+                "cyclic", f"phase-free matching needs the DP warp (warp 'dp', no coarse to fine); got {got}"
             )
 
     def to_json(self) -> dict[str, Any]:

@@ -113,7 +113,8 @@ def pair_distances(
     if cyclic and not _batched(warp):
         raise OptionError(
             "cyclic",
-            f"phase-free matching needs the DP alone (warp 'dp', no coarse to fine); got {warp.method!r}",
+            f"phase-free matching needs the DP alone (warp 'dp', no coarse to fine); got {warp.method!r}"
+            + (" with coarse to fine" if warp.coarse_to_fine else ""),
         )
     if not _batched(warp):
         for p, (a, b) in enumerate(pairs):
