@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import needs_dask
+from database_testlib import needs_dask, synthetic_motion, write_clips
 
 from elastic_motion.apps.database import (
     ClusterUnavailableError,
@@ -36,7 +36,7 @@ from elastic_motion.apps.database import (
     tile_blocks,
 )
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import Motion, Skeleton, write_bvh
+from elastic_motion.motion import write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.warp import WarpOptions
 
@@ -48,39 +48,11 @@ SRC = Path(__file__).resolve().parents[2] / "src"
 # --------------------------------------------------------------------------------------------
 
 
-def synthetic_motion(kind: int, variant: int, *, frames: int = 30, extra_joint: bool = False) -> Motion:
-    """A 4-joint (5 with ``extra_joint``) clip: ``kind`` sets frequency/amplitude, ``variant``
-    a time warp and a small phase change."""
-    names = ["Hips", "Spine", "LeftLeg", "RightLeg"] + (["Head"] if extra_joint else [])
-    parents = [-1, 0, 0, 0] + ([1] if extra_joint else [])
-    offsets = [[0, 0, 0], [0, 0.3, 0], [0.1, -0.1, 0], [-0.1, -0.1, 0]] + (
-        [[0, 0.3, 0]] if extra_joint else []
-    )
-    rot = ("Zrotation", "Yrotation", "Xrotation")
-    channels = [("Xposition", "Yposition", "Zposition", *rot)] + [rot] * (len(names) - 1)
-    sk = Skeleton(
-        names, parents, offsets, channels, end_site_parents=[2, 3], end_site_offsets=[[0, -0.5, 0]] * 2
-    )
-    s = np.linspace(0.0, 1.0, frames)
-    s = s + 0.08 * variant * np.sin(np.pi * s) / (1 + variant)  # time warp
-    freq, amp = [(1.0, 0.6), (2.0, 0.25), (1.5, 0.4)][kind]
-    ph = 0.05 * variant
-    j = len(names)
-    ang = np.zeros((frames, j, 3))
-    for k in range(j):
-        ang[:, k, 2] = amp * np.sin(2 * np.pi * freq * s + ph + k)
-        ang[:, k, 1] = 0.3 * amp * np.cos(2 * np.pi * freq * s + k)
-    root = np.stack([0.02 * np.sin(4 * np.pi * s), 0.9 + 0.02 * s, (1.0 + 0.3 * kind) * s], axis=1)
-    return Motion(sk, 30.0, root, euler_to_matrix(ang, "ZYX"), metres_per_unit=1.0)
-
-
 @pytest.fixture(scope="module")
 def db_dir(tmp_path_factory) -> Path:
     """7 readable clips (2 kinds x 3 + 1 with another skeleton) and 2 bad files."""
     d = tmp_path_factory.mktemp("db")
-    for kind in (0, 1):
-        for v in range(3):
-            write_bvh(synthetic_motion(kind, v, frames=24 + 4 * v), d / f"k{kind}_v{v}.bvh")
+    write_clips(d, kinds=(0, 1), variants=3, frames=24, step=4)
     write_bvh(synthetic_motion(0, 1, extra_joint=True), d / "other_skeleton.bvh")
     (d / "broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n")
     (d / "empty.bvh").write_bytes(b"")

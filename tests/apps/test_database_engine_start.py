@@ -18,8 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import needs_dask
-from test_database import synthetic_motion
+from database_testlib import assert_same_as_serial, needs_dask, synthetic_motion
 
 from elastic_motion.apps.database import DatabaseSettings, compute_matrix, engines, matrix
 from elastic_motion.apps.database.engines import SerialEngine, Task, order_tiles
@@ -106,6 +105,7 @@ def test_local_engine_equals_serial_bit_for_bit(db: Path, tmp_path: Path) -> Non
     assert local.report["runs"][-1]["read_where"] == "workers"
     for r in SETTINGS.representations:
         assert np.asarray(local.distances[r]).tobytes() == np.asarray(serial.distances[r]).tobytes()
+    assert_same_as_serial(local, serial)
 
 
 def test_dask_setup_loads_the_kernels_of_a_run_in_a_fresh_process() -> None:

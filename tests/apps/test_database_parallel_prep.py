@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import needs_dask
+from database_testlib import assert_same_as_serial, needs_dask
 
 from elastic_motion.apps.database import DatabaseSettings, SRVCache, build_srv_cache, cache, compute_matrix
 from elastic_motion.motion import drop_tpose, group_weights, read_motion, select_frames, write_bvh
@@ -64,20 +64,7 @@ def serial_run(db: Path, tmp_path_factory: pytest.TempPathFactory):
 
 
 def _same_as_serial(res, serial) -> None:
-    assert res.complete and len(res.names) == len(serial.names) >= 10
-    for r in SETTINGS.representations:
-        assert np.asarray(res.distances[r]).tobytes() == np.asarray(serial.distances[r]).tobytes()
-    a, b = (SRVCache.load(Path(x.out_dir) / "srv_cache.npz") for x in (res, serial))
-    assert (a.names, a.paths, a.groups.tolist(), a.info, a.skipped) == (
-        b.names,
-        b.paths,
-        b.groups.tolist(),
-        b.info,
-        b.skipped,
-    )
-    assert a.group_weights == b.group_weights
-    for r in a.q:
-        assert all(x.tobytes() == y.tobytes() for x, y in zip(a.q[r], b.q[r], strict=True))
+    assert_same_as_serial(res, serial, min_motions=10)
 
 
 def test_serial_preparation_runs_here_and_names_the_bad_file(

@@ -13,8 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import needs_dask
-from test_database import synthetic_motion
+from database_testlib import assert_same_as_serial, needs_dask, write_clips
 
 from elastic_motion.apps.database import (
     DatabaseSettings,
@@ -33,7 +32,6 @@ from elastic_motion.apps.database.preparation import (
     with_pose_term,
 )
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import write_bvh
 from elastic_motion.warp import WarpOptions
 
 WARP = WarpOptions(method="dp", neighbourhood=4)
@@ -46,9 +44,7 @@ RETRIEVAL = DatabaseSettings(
 @pytest.fixture(scope="module")
 def clips(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("clips")
-    for kind in (0, 1):
-        for v in range(4):
-            write_bvh(synthetic_motion(kind, v, frames=16 + 4 * v), d / f"k{kind}_v{v}.bvh")
+    write_clips(d, kinds=(0, 1), variants=4, frames=16, step=4)
     return d
 
 
@@ -148,6 +144,7 @@ def test_local_cluster_gives_the_serial_matrix(clips: Path, tmp_path: Path) -> N
     assert local.report["runs"][-1]["read_where"] == "workers"
     for r in RETRIEVAL.representations:
         np.testing.assert_array_equal(local.distances[r], serial.distances[r])
+    assert_same_as_serial(local, serial)
 
 
 def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None:

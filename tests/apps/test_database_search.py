@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_database import synthetic_motion
+from database_testlib import synthetic_motion, write_clips
 
 from elastic_motion.apps.database import (
     DatabaseSettings,
@@ -41,9 +41,7 @@ SETTINGS = DatabaseSettings(n_samples=12, warp=WarpOptions(method="dp", neighbou
 def many_dir(tmp_path_factory) -> Path:
     """24 clips of 3 kinds, 8 variants each (time warps, phases, lengths), one skeleton."""
     d = tmp_path_factory.mktemp("many")
-    for kind in (0, 1, 2):
-        for v in range(8):
-            write_bvh(synthetic_motion(kind, v, frames=20 + 2 * v), d / f"k{kind}_v{v}.bvh")
+    write_clips(d, kinds=(0, 1, 2), variants=8, frames=20, step=2)
     return d
 
 
