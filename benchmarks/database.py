@@ -36,7 +36,8 @@ the reverse), (3) by nested leave-one-window-out selection inside each dataset a
 
 The scale targets of issue 15 (the 1000 x 200-frame all-pairs run at the database defaults,
 measured end to end, its energy check against the exact DP, the Dask speed-ups) are in
-``benchmarks/database_scale.py``; the ``--issue15 scale, scale10, scale_quality, speedup``
+``benchmarks/database_scale.py`` (also the Dask speed-ups: the JSON's ``speedup`` entry here is
+an earlier release's, printed with its date); the ``--issue15 scale, scale10, scale_quality``
 sections here run the same pipeline with the earlier benchmark's settings (neighbourhood 6,
 tiles of 64) and are kept for comparison with the numbers measured before.
 """
@@ -868,102 +869,6 @@ def pca_bench(mocap: Path, tmp: Path) -> dict:
     return out
 
 
-def dask_scheduler_engine_speedup(cmu: Path, tmp: Path, m: int = 240, n_samples: int = 64) -> dict:
-    """All pairs of ``m`` 200-frame windows: serial (one numba thread) against a LocalCluster
-    (2 workers) and against a separately started ``dask scheduler`` + 2 ``dask worker``s."""
-    import subprocess
-    import sys
-
-    import numba
-
-    rng = np.random.default_rng(1)
-    clips = [drop_tpose(read_motion(cmu / f"{c}.bvh")) for c in CMU_CLIPS]
-    clips = [c for c in clips if c.fps == 120 and c.n_frames >= 200]
-    src = tmp / "speedup_inputs"
-    src.mkdir()
-    for k in range(m):
-        clip = clips[k % len(clips)]
-        s = int(rng.integers(0, clip.n_frames - 200 + 1))
-        write_bvh(select_frames(clip, slice(s, s + 200)), src / f"w{k:04d}.bvh")
-    s = DatabaseSettings(
-        n_samples=n_samples, tile_size=40, representations=("lie",), warp=WarpOptions("dp", 6)
-    )
-    rows = {}
-    default = numba.get_num_threads()
-    numba.set_num_threads(1)
-    t0 = time.perf_counter()
-    compute_matrix([src], tmp / "sp_serial", s)
-    rows["serial (1 thread)"] = time.perf_counter() - t0
-    numba.set_num_threads(default)
-    t0 = time.perf_counter()
-    compute_matrix([src], tmp / "sp_local", s, engine="local", n_workers=2)
-    rows["local (2 workers, incl. start-up)"] = time.perf_counter() - t0
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
-    port = 8786 + int(rng.integers(100, 900))
-    procs = [
-        subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "distributed.cli.dask_scheduler",
-                "--host",
-                "127.0.0.1",
-                "--port",
-                str(port),
-                "--dashboard-address",
-                ":0",
-            ],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-    ]
-    try:
-        time.sleep(4)
-        for _ in range(2):
-            procs.append(
-                subprocess.Popen(
-                    [
-                        sys.executable,
-                        "-m",
-                        "distributed.cli.dask_worker",
-                        f"tcp://127.0.0.1:{port}",
-                        "--nthreads",
-                        "1",
-                        "--nworkers",
-                        "1",
-                        "--no-dashboard",
-                    ],
-                    env=env,
-                    stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL,
-                )
-            )
-        time.sleep(6)
-        t0 = time.perf_counter()
-        compute_matrix([src], tmp / "sp_dask", s, engine="dask", scheduler=f"tcp://127.0.0.1:{port}")
-        rows["dask scheduler + 2 workers (127.0.0.1)"] = time.perf_counter() - t0
-    finally:
-        for p in procs[::-1]:
-            p.terminate()
-        for p in procs:
-            p.wait(timeout=30)
-    ref = np.load(tmp / "sp_serial" / "distances_lie.npy")
-    same = {
-        k: bool(np.load(tmp / d / "distances_lie.npy").tobytes() == ref.tobytes())
-        for k, d in (("local", "sp_local"), ("dask", "sp_dask"))
-    }
-    base = rows["serial (1 thread)"]
-    return {
-        "motions": m,
-        "pairs": m * (m - 1) // 2,
-        "n_samples": n_samples,
-        "seconds": rows,
-        "speedup": {k: base / v for k, v in rows.items()},
-        "identical_to_serial": same,
-    }
-
-
 def scale_quality(cmu: Path, tmp: Path, pairs: int = 200, n_samples: int = 64) -> dict:
     """Energy of the scale run's pair distance (DP, neighbourhood 6, N = 64) above finer solves of
     the same SRV arrays, on a sample of pairs of 200-frame windows: the DP with neighbourhood 10
@@ -1023,8 +928,6 @@ def issue15(args, cmu: Path) -> dict:
                 result["partial"] = partial_bench(args.mocap, tmp)
             elif section == "pca":
                 result["pca"] = pca_bench(args.mocap, tmp)
-            elif section == "speedup":
-                result["speedup"] = dask_scheduler_engine_speedup(cmu, tmp)
             elif section == "scale_quality":
                 result["scale_quality"] = scale_quality(cmu, tmp)
             elif section == "scale10":
@@ -1204,7 +1107,7 @@ def main() -> None:
         "--issue15",
         default=None,
         metavar="SECTIONS",
-        help="only these issue-15 sections, comma-separated: retrieval, search, partial, pca, speedup, "
+        help="only these issue-15 sections, comma-separated: retrieval, search, partial, pca, "
         "scale, scale_quality (written to database_issue15.json beside --out)",
     )
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks" / "results" / "database.json")
