@@ -231,6 +231,13 @@ def test_row_plants_are_the_rows_targets_and_released_contacts_are_dropped_whole
     np.testing.assert_allclose(shifted["foot"][45:59, 0], p[45:59, 3, 0] + 0.3, atol=1e-12)
     np.testing.assert_allclose(shifted["foot"][45:59, 1], p[45:59, 3, 1], atol=1e-12)  # height absolute
     np.testing.assert_allclose(shifted["foot"][5:20], p[5:20, 3], atol=1e-12)
+    # in the motion's own unit (rows are in metres): the same clip in centimetres
+    from elastic_motion.motion.edit import to_metres
+
+    cm = to_metres(m.replace(metres_per_unit=100.0)).replace(metres_per_unit=0.01)
+    in_cm = row_plants(cm, c, cm.replace(root_translation=cm.root_translation + np.array([30.0, 0.0, 0.0])))
+    np.testing.assert_allclose(in_cm["foot"][45:59, 0], 100 * (p[45:59, 3, 0] + 0.3), atol=1e-9)
+    np.testing.assert_allclose(in_cm["foot"][5:20], 100 * p[5:20, 3], atol=1e-9)
     # released on a grid: every contact of the clip overlapping the released grid frames goes
     grid = np.arange(0, 60, 3)
     kept = fine_contacts(c, grid, [{"joint": "foot", "frames": [2, 4]}])  # grid frames 6..9
