@@ -242,3 +242,66 @@ def test_cmu_obstacle_walks_by_every_method(mocap_dir):
     assert max(out[("lie", "none")]["distances"]["result_to_inputs"]) > max(d["result_to_inputs"])
     slide = {k: v["foot_sliding"]["result"]["mean_speed_m_s"] for k, v in out.items()}
     assert slide[("lie", "dp")] < slide[("euler-linear", "none")]
+
+
+def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
+    """``_anchor_poses`` pulls a blend's joints back to the aligned inputs' weighted geodesic
+    mean by the slow part of the difference: a constant offset of the knee goes entirely
+    (a wrong sign would double it), a fast wiggle (frame-rate alternation) stays."""
+    from elastic_motion.apps.blend import _anchor_poses, _sample_rotations
+
+    a = walker(duration=2.0, freq=1.0, amp=0.5, speed=1.0, name="A")
+    b = walker(duration=2.0, freq=1.0, amp=0.7, speed=1.0, phase=0.3, name="B")
+    f = a.n_frames
+    times = [a.times, b.times]
+    w = np.array([0.3, 0.7])
+    joints = np.arange(a.n_joints)
+    ra, rb = (_sample_rotations(m, joints, t) for m, t in zip((a, b), times, strict=True))
+    mean = ra @ SO3G.exp(0.7 * SO3G.log(np.swapaxes(ra, -1, -2) @ rb))
+    knee = list(a.skeleton.names).index("LeftLeg")
+    offset = np.zeros((f, a.n_joints, 3))
+    offset[:, knee, 0] = 0.25  # a constant drift: 14.3 degrees
+    body = a.replace(rotations=mean @ SO3G.exp(offset))
+    out, drift = _anchor_poses(body, [a, b], times, w)
+    np.testing.assert_allclose(out.rotations, mean, atol=1e-9)
+    assert drift == pytest.approx(np.degrees(0.25), rel=1e-9)
+    wiggle = offset.copy()
+    wiggle[:, knee, 0] = 0.02 * (-1.0) ** np.arange(f)
+    out2, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(wiggle)), [a, b], times, w)
+    left = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out2.rotations[:, knee])[:, 0]
+    # the fast part is the blend's own: kept (its frame-to-frame swing, whatever the edges add)
+    assert np.median(np.abs(np.diff(left))) / 2 > 0.95 * 0.02
+
+
+def test_lie_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir):
+    """Bandai normal x tired, Lie + warp: the SRV blend's knees drifted up to 16 degrees
+    backwards where both inputs stand straight (never backwards); anchored, they stay within
+    3 degrees of straight, and the blend keeps its distance to the inputs."""
+    from elastic_motion.apps.cleanup import find_legs
+    from elastic_motion.motion.ik import _angle as angle_between
+    from elastic_motion.motion.ik import _bend_axis_local
+    from elastic_motion.motion.kinematics import joint_positions_and_rotations
+
+    files = [mocap_dir / "bandai" / f"dataset-1_walk_{s}_001.bvh" for s in ("normal", "tired")]
+    if not all(p.is_file() for p in files):
+        pytest.skip("Bandai walks not found")
+    res = blend_motions(files, 0.5, method="lie", warp="dp", contacts="off")
+    assert any(n.startswith("poses anchored") for n in res.notes)
+
+    def signed_bends(m):
+        pos, glob = joint_positions_and_rotations(m.skeleton.parents, m.local_translations(), m.rotations)
+        out = []
+        for leg in find_legs(m)[0]:
+            a, b, c = pos[:, leg.hip], pos[:, leg.knee], pos[:, leg.ankle]
+            hinge = glob[:, leg.knee] @ _bend_axis_local(glob[:, leg.knee], a, b, c)
+            sign = np.sign(np.einsum("fi,fi->f", np.cross(c - a, b - a), hinge))
+            out.append(np.degrees(np.pi - angle_between(a - b, c - b)) * sign)
+        return np.concatenate(out)
+
+    inputs_min = min(signed_bends(m).min() for m in res.prepared.motions)
+    assert inputs_min > -1.0
+    assert signed_bends(res.motion).min() > -3.0
+    d = distance_table(
+        [*res.prepared.motions, res.motion], prepare=PrepareOptions(joints="common", drop_tpose=False)
+    ).matrix
+    assert max(d[2, 0], d[2, 1]) < 1.15 * d[0, 1] / 2

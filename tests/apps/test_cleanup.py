@@ -220,11 +220,13 @@ def test_real_walks_skate_no_more_than_their_inputs(mocap_dir):
     assert cl is not None and cl.applied
     inputs = [contact_skating(m, detect_contacts(m)).mean_speed for m in res.prepared.motions]
     assert cl.skating_after.mean_speed <= 1.1 * min(inputs)
-    # the least change that skates no more than 0.95x the lesser input (apps.blend._SKATE_GOAL):
-    # the smoothest (0.4 and 0.3 s skate more), then the least fraction of the way to the plants
+    # the least change that skates no more than 0.95x the lesser input (apps.blend._SKATE_GOAL).
+    # The pose-anchored blend (apps.blend._anchor_poses) already skates less than that (before
+    # the anchoring it skated more, and the clean-up took 0.2 s and part of the plants'
+    # way), so the clean-up takes the smoothest change and the least fraction (1/64)
     goal = 0.95 * min(inputs)
-    assert goal * 0.97 <= cl.skating_after.mean_speed <= goal
-    assert cl.smooth == 0.2 and 0.1 < cl.strength < 1.0
+    assert cl.skating_before.mean_speed <= goal and cl.skating_after.mean_speed <= goal
+    assert cl.smooth == 0.4 and cl.strength == 1 / 64
     assert f"{100 * cl.strength:.0f} % of it kept" in " ".join(res.notes)
     assert cl.skating_after.below_floor <= 0.01
     assert bone_length_error(res.motion).max_relative < 1e-9

@@ -280,3 +280,33 @@ def test_trim(files, capsys, tmp_path):
         capsys, "blend", files["a"], files["b"], "-o", tmp_path / "x.bvh", "--trim", "0.5", ":"
     )
     assert code == 2 and "START:STOP" in err
+
+
+def test_distance_cubic_interpolation_cli_equals_api_and_resolves_sub_frame_shifts(files, capsys, tmp_path):
+    """``distance --interpolation cubic --sample-fps 120`` is ``distance_table(...,
+    interpolation="cubic")``; a clip against itself played half a frame later measures far
+    closer than with the default geodesic sampling (whose DP works on the clip's own grid)."""
+    from elastic_motion.apps.distance import distance_table
+    from elastic_motion.motion import read_bvh
+    from elastic_motion.motion.edit import resample_at_times
+    from elastic_motion.warp import WarpOptions
+
+    b = read_bvh(files["b"])
+    half = resample_at_times(b, b.times, np.clip(b.times + 0.5 / b.fps, 0.0, b.duration), fps=b.fps)
+    shifted = write_bvh(half, tmp_path / "b_half.bvh")
+    argv = ("distance", files["a"], files["b"], shifted, "--json")
+    code, stdout, err = run(capsys, *argv, "--interpolation", "cubic", "--sample-fps", "120")
+    assert code == 0, err
+    cli = np.array(json.loads(stdout)["distances"])
+    api = distance_table(
+        [files["a"], files["b"], shifted], warp=WarpOptions(sample_fps=120.0), interpolation="cubic"
+    ).matrix
+    np.testing.assert_allclose(cli, api, rtol=1e-12)
+    code, stdout, _ = run(capsys, *argv)
+    default = np.array(json.loads(stdout)["distances"])
+    assert cli[1, 2] < 0.5 * default[1, 2] and cli[1, 2] < 0.2 * cli[0, 1]
+    with pytest.raises(SystemExit) as exc:
+        run(capsys, *argv, "--interpolation", "spline")
+    assert exc.value.code == 2 and "--interpolation" in capsys.readouterr().err
+    with pytest.raises(Exception, match="interpolation"):
+        distance_table([files["a"], files["b"]], interpolation="spline")

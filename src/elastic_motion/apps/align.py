@@ -109,6 +109,7 @@ def motion_curves(
     fps: float | None = None,
     which: Sequence[int] | None = None,
     smoothing: float = DEFAULT_SAMPLE_SMOOTHING,
+    interpolation: str = "geodesic",
 ) -> list[DiscreteCurve]:
     """The curves of prepared motions in the representation of ``method``.
 
@@ -125,6 +126,15 @@ def motion_curves(
     smoothing : float, default ``WarpOptions().sample_smoothing`` (1/60 s)
         With ``fps`` given: Gaussian low-pass of each motion before it is sampled, standard
         deviation in seconds (module docstring); 0: none. Ignored without ``fps``.
+    interpolation : {"geodesic", "cubic"}, default "geodesic"
+        With ``fps`` given: ``"geodesic"`` downsamples to at most ``fps`` (a motion at a lower
+        rate stays as it is); ``"cubic"`` samples every motion at exactly ``fps``, above its
+        own rate too, by cubic splines through its smoothed frames
+        (:func:`elastic_motion.motion.edit.resample_cubic`). A piecewise-geodesic curve on a
+        clip's own 30 fps grid cannot be matched to the same motion sampled between its
+        frames (a sub-frame shift, which a DP on that grid cannot represent, and cut
+        corners); on a finer grid of a smooth interpolant it can, so distances resolve
+        changes much smaller than the sampling floor (``benchmarks/blend_quality.py``).
 
     Returns
     -------
@@ -132,6 +142,8 @@ def motion_curves(
         Over the curve joints; points ``(3 + 9 J,)`` (lie) or ``(3 + 3 J,)`` (euler).
     """
     _check_method(method)
+    if interpolation not in ("geodesic", "cubic"):
+        raise OptionError("interpolation", f"expected 'geodesic' or 'cubic'; got {interpolation!r}")
     idx = range(len(prepared.motions)) if which is None else list(which)
     out = []
     ref_angles = None
@@ -139,7 +151,9 @@ def motion_curves(
         m = prepared.curve_motion(k)
         if fps is not None and smoothing > 0:
             m = smooth_motion(m, smoothing)
-        if fps is not None and m.fps > fps * (1 + 1e-9):
+        if fps is not None and interpolation == "cubic":
+            m = resample(m, fps, interpolation="cubic")
+        elif fps is not None and m.fps > fps * (1 + 1e-9):
             m = resample(m, fps)
         if method == "lie":
             out.append(

@@ -87,6 +87,7 @@ def distance_table(
     warp: str | WarpOptions | None = None,
     prepare: PrepareOptions | None = None,
     progress: Progress | None = None,
+    interpolation: str = "geodesic",
 ) -> DistanceTable:
     """All pairwise distances of ``K >= 2`` motions, serially (``K (K - 1) / 2`` DP solves).
 
@@ -103,6 +104,13 @@ def distance_table(
         The preparation step (:mod:`elastic_motion.apps.prepare`).
     progress : callable, optional
         ``progress("distances", done, total)``.
+    interpolation : {"geodesic", "cubic"}, default "geodesic"
+        How the curves are sampled at ``warp.sample_fps``
+        (:func:`elastic_motion.apps.align.motion_curves`): ``"cubic"`` samples every motion at
+        exactly that rate by cubic splines, so with a rate above the clips' own (e.g. 120 on
+        30 fps clips) a motion and the same motion played between its frames measure about
+        2.5 times closer (``benchmarks/blend_quality.py``); the DP then costs about
+        ``(sample_fps / fps)^2`` times more.
 
     Returns
     -------
@@ -110,6 +118,8 @@ def distance_table(
     """
     _check_method(method)
     opts = warp_options(warp)
+    if interpolation not in ("geodesic", "cubic"):
+        raise OptionError("interpolation", f"expected 'geodesic' or 'cubic'; got {interpolation!r}")
     report = progress or null_progress
     if not isinstance(motions, PreparedMotions):
         motions = list(motions)
@@ -117,7 +127,9 @@ def distance_table(
     if n < 2:
         raise OptionError("motions", f"expected at least 2 motions; got {n}")
     prep = prepare_motions(motions, prepare, labels=labels)
-    curves = motion_curves(prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
+    curves = motion_curves(
+        prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing, interpolation=interpolation
+    )
     srvs = [srv_transform(c) for c in curves]
     k = len(srvs)
     d = np.zeros((k, k))

@@ -36,6 +36,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("inputs", nargs="+", metavar="FILE", help="two or more motion files")
     p.add_argument("--method", choices=("lie", "euler-elastic"), default="lie", help="curve representation")
     add_warp_options(p)
+    p.add_argument(
+        "--interpolation",
+        choices=("geodesic", "cubic"),
+        default="geodesic",
+        help="how the curves are sampled at --sample-fps: geodesic (default; at most the clips' own "
+        "rate) or cubic (cubic splines at exactly --sample-fps, above the clips' rate too: e.g. "
+        "--sample-fps 120 resolves sub-frame timing on 30 fps clips, at about 16x the DP's cost)",
+    )
     add_joint_options(p)
     add_input_options(p, writes_bvh=False)
     add_json_option(p)
@@ -53,7 +61,13 @@ def run(args: argparse.Namespace) -> int:
     prep = prepare_inputs(args, inputs)
     bar = progress_for("distance", args)
     try:
-        table = distance_table(prep, method=args.method, warp=warp_options(args), progress=bar)
+        table = distance_table(
+            prep,
+            method=args.method,
+            warp=warp_options(args),
+            progress=bar,
+            interpolation=args.interpolation,
+        )
     finally:
         bar.close()
     report = report_header("distance", inputs, [], table.notes)
