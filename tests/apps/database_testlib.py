@@ -45,6 +45,17 @@ def assert_same_as_serial(res, serial, *, min_motions: int = 2) -> None:
         assert all(x.tobytes() == y.tobytes() for x, y in zip(a.q[r], b.q[r], strict=True))
 
 
+def assert_local_cluster_is_serial(folder: Path, tmp_path: Path, settings) -> None:
+    """A forced ``engine="local"`` run over ``folder`` reads its files on the workers and is
+    the serial run bit for bit (:func:`assert_same_as_serial`)."""
+    from elastic_motion.apps.database import compute_matrix
+
+    serial = compute_matrix([folder], tmp_path / "serial", settings)
+    local = compute_matrix([folder], tmp_path / "local", settings, engine="local", force_cluster=True)
+    assert local.report["runs"][-1]["read_where"] == "workers"
+    assert_same_as_serial(local, serial)
+
+
 def synthetic_motion(kind: int, variant: int, *, frames: int = 30, extra_joint: bool = False) -> Motion:
     """A 4-joint (5 with ``extra_joint``) clip: ``kind`` sets frequency/amplitude, ``variant``
     a time warp and a small phase change."""

@@ -310,3 +310,5 @@ def test_distance_cubic_interpolation_cli_equals_api_and_resolves_sub_frame_shif
     assert exc.value.code == 2 and "--interpolation" in capsys.readouterr().err
     with pytest.raises(Exception, match="interpolation"):
         distance_table([files["a"], files["b"]], interpolation="spline")
+    with pytest.raises(Exception, match=r"sample_fps: .*max_frames"):
+        distance_table([files["a"], files["b"]], warp=WarpOptions(sample_fps=1e9), interpolation="cubic")

@@ -18,7 +18,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import assert_same_as_serial, needs_dask, synthetic_motion
+from database_testlib import (
+    assert_local_cluster_is_serial,
+    needs_dask,
+    synthetic_motion,
+)
 
 from elastic_motion.apps.database import DatabaseSettings, compute_matrix, engines, matrix
 from elastic_motion.apps.database.engines import SerialEngine, Task, order_tiles
@@ -100,12 +104,7 @@ def test_local_workers_are_forked_from_a_fresh_driver_single_threaded_and_quiet(
 
 @needs_dask
 def test_local_engine_equals_serial_bit_for_bit(db: Path, tmp_path: Path) -> None:
-    serial = compute_matrix([db], tmp_path / "serial", SETTINGS)
-    local = compute_matrix([db], tmp_path / "local", SETTINGS, engine="local", force_cluster=True)
-    assert local.report["runs"][-1]["read_where"] == "workers"
-    for r in SETTINGS.representations:
-        assert np.asarray(local.distances[r]).tobytes() == np.asarray(serial.distances[r]).tobytes()
-    assert_same_as_serial(local, serial)
+    assert_local_cluster_is_serial(db, tmp_path, SETTINGS)
 
 
 def test_dask_setup_loads_the_kernels_of_a_run_in_a_fresh_process() -> None:

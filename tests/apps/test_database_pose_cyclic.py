@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import assert_same_as_serial, needs_dask, write_clips
+from database_testlib import assert_local_cluster_is_serial, needs_dask, write_clips
 
 from elastic_motion.apps.database import (
     DatabaseSettings,
@@ -139,12 +139,7 @@ def test_matrix_query_search_and_index_agree(clips: Path, tmp_path: Path) -> Non
 @needs_dask
 def test_local_cluster_gives_the_serial_matrix(clips: Path, tmp_path: Path) -> None:
     """The pose arrays are made on the workers (with the files), the weight on the driver."""
-    serial = compute_matrix([clips], tmp_path / "serial", RETRIEVAL)
-    local = compute_matrix([clips], tmp_path / "local", RETRIEVAL, engine="local", force_cluster=True)
-    assert local.report["runs"][-1]["read_where"] == "workers"
-    for r in RETRIEVAL.representations:
-        np.testing.assert_array_equal(local.distances[r], serial.distances[r])
-    assert_same_as_serial(local, serial)
+    assert_local_cluster_is_serial(clips, tmp_path, RETRIEVAL)
 
 
 def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None:

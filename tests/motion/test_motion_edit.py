@@ -383,11 +383,14 @@ def test_eased_envelope_is_the_largest_eased_bump_even_on_clips_shorter_than_its
     np.testing.assert_allclose(eased_envelope(x, width), want, rtol=0, atol=1e-15)
 
 
-def test_resample_cubic_passes_through_the_frames_and_beats_geodesic_between_them():
+def test_cubic_resampling_passes_through_the_frames_and_beats_geodesic_between_them():
     """Cubic resampling: exact at the frames, exact for a cubic root path, far closer than
     geodesic interpolation to a rotation whose angular speed varies, and proper rotations."""
     from elastic_motion.groups import SO3
-    from elastic_motion.motion.edit import resample_cubic
+    from elastic_motion.motion.edit import resample_at_times
+
+    def resample_cubic(m, times, fps):
+        return resample_at_times(m, m.times, times, fps=fps, interpolation="cubic")
 
     so3 = SO3()
     fps, f = 30.0, 31
@@ -408,7 +411,7 @@ def test_resample_cubic_passes_through_the_frames_and_beats_geodesic_between_the
 
     mid = (np.arange(f - 1) + 0.5) / fps
     cub = resample_cubic(m, mid, fps=fps)
-    geo = resample_at_times_(m, mid, fps)
+    geo = resample_at_times(m, m.times, mid, fps=fps)
     truth = rot_at(mid)
     err_c = geodesic_deg(cub.rotations[:, 0], truth).max()
     err_g = geodesic_deg(geo.rotations[:, 0], truth).max()
@@ -426,9 +429,13 @@ def test_resample_cubic_passes_through_the_frames_and_beats_geodesic_between_the
     np.testing.assert_allclose(up.rotations[::4], m.rotations, atol=1e-12)
     with pytest.raises(ValueError, match="interpolation"):
         resample(m, 60.0, interpolation="spline")
+    with pytest.raises(ValueError, match="interpolation"):
+        resample_at_times(m, m.times, mid, fps=fps, interpolation="spline")
+    # an upsample is bounded before it allocates, naming the option and the limit
+    from elastic_motion import limits
+    from elastic_motion.errors import OptionError
 
-
-def resample_at_times_(m, times: np.ndarray, fps: float):
-    from elastic_motion.motion.edit import resample_at_times
-
-    return resample_at_times(m, m.times, times, fps=fps)
+    with pytest.raises(OptionError, match=r"fps: .*max_frames.*got 1000000001"):
+        resample(m, 1e9, interpolation="cubic")
+    with limits.override(max_samples=200), pytest.raises(OptionError, match=r"max_samples.*got 242"):
+        resample(m, 120.0, interpolation="cubic")

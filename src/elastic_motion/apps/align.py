@@ -61,7 +61,7 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
-from elastic_motion.motion.edit import smooth_motion
+from elastic_motion.motion.edit import resampled_frames, smooth_motion
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
 from elastic_motion.warp.options import DEFAULT_SAMPLE_SMOOTHING
 
@@ -130,7 +130,7 @@ def motion_curves(
         With ``fps`` given: ``"geodesic"`` downsamples to at most ``fps`` (a motion at a lower
         rate stays as it is); ``"cubic"`` samples every motion at exactly ``fps``, above its
         own rate too, by cubic splines through its smoothed frames
-        (:func:`elastic_motion.motion.edit.resample_cubic`). A piecewise-geodesic curve on a
+        (:func:`elastic_motion.motion.edit.resample_at_times`). A piecewise-geodesic curve on a
         clip's own 30 fps grid cannot be matched to the same motion sampled between its
         frames (a sub-frame shift, which a DP on that grid cannot represent, and cut
         corners); on a finer grid of a smooth interpolant it can, so distances resolve
@@ -152,6 +152,8 @@ def motion_curves(
         if fps is not None and smoothing > 0:
             m = smooth_motion(m, smoothing)
         if fps is not None and interpolation == "cubic":
+            # (may sample above the clip's rate: bounded before it allocates, naming the option)
+            resampled_frames(m, fps, "sample_fps")
             m = resample(m, fps, interpolation="cubic")
         elif fps is not None and m.fps > fps * (1 + 1e-9):
             m = resample(m, fps)

@@ -42,7 +42,6 @@ __all__ = [
     "place_on_floor",
     "resample",
     "resample_at_times",
-    "resample_cubic",
     "select_frames",
     "select_joints",
     "set_up_axis",
@@ -162,13 +161,25 @@ def _check_target_times(src: np.ndarray, dst: np.ndarray) -> None:
 
 
 def resample_at_times(
-    motion: Motion, source_times: np.ndarray, target_times: np.ndarray, *, fps: float
+    motion: Motion,
+    source_times: np.ndarray,
+    target_times: np.ndarray,
+    *,
+    fps: float,
+    interpolation: str = "geodesic",
 ) -> Motion:
     """Sample a motion whose frames sit at ``source_times`` at ``target_times``.
 
-    Rotations are interpolated along the geodesic of SO(3) between the two neighbouring
-    frames, ``R = R_k exp(s log(R_k^T R_k+1))``, ``s`` the fraction of the interval
-    (slerp; the shorter arc); translations linearly.
+    ``interpolation="geodesic"``: rotations along the geodesic of SO(3) between the two
+    neighbouring frames, ``R = R_k exp(s log(R_k^T R_k+1))``, ``s`` the fraction of the
+    interval (slerp; the shorter arc); translations linearly.
+
+    ``interpolation="cubic"``: each rotation matrix's entries and the translations by a
+    not-a-knot cubic spline through the frames (:class:`scipy.interpolate.CubicSpline`), the
+    matrices then projected to the nearest rotation (polar factor by SVD, determinant +1).
+    Exact at the frames and twice continuously differentiable between them, so a motion
+    sampled between its frames keeps its velocity peaks where the geodesic cuts their
+    corners. Motions of fewer than 4 frames are sampled geodesically.
 
     Parameters
     ----------
@@ -179,12 +190,15 @@ def resample_at_times(
         Times to sample, within ``[source_times[0], source_times[-1]]``.
     fps : float
         Frame rate recorded on the result.
+    interpolation : {"geodesic", "cubic"}, default "geodesic"
 
     Returns
     -------
     Motion
         ``N`` frames.
     """
+    if interpolation not in ("geodesic", "cubic"):
+        raise ValueError(f"interpolation: expected 'geodesic' or 'cubic'; got {interpolation!r}")
     src = np.asarray(source_times, dtype=np.float64)
     dst = np.asarray(target_times, dtype=np.float64)
     if src.shape != (motion.n_frames,):
@@ -192,6 +206,8 @@ def resample_at_times(
     if motion.n_frames > 1 and not (np.diff(src) > 0).all():
         raise ValueError("source_times: expected strictly increasing times")
     _check_target_times(src, dst)
+    if interpolation == "cubic" and motion.n_frames >= 4:
+        return _cubic_at_times(motion, src, np.clip(dst, src[0], src[-1]), fps)
     if motion.n_frames == 1:
         k = np.zeros(dst.size, dtype=int)
         s = np.zeros(dst.size)
@@ -233,9 +249,9 @@ def resample(motion: Motion, fps: float, *, interpolation: str = "geodesic") -> 
         New frame rate (> 0).
     interpolation : {"geodesic", "cubic"}, default "geodesic"
         ``"geodesic"``: rotations along the geodesic between neighbouring frames, translations
-        linearly (:func:`resample_at_times`). ``"cubic"``: :func:`resample_cubic`, which keeps
-        what lies between frames (no corner of a piecewise-geodesic curve): for sampling a
-        motion *above* its own rate, or at times between its frames.
+        linearly; ``"cubic"``: cubic splines, which keep what lies between frames (no corner
+        of a piecewise-geodesic curve): for sampling a motion *above* its own rate
+        (:func:`resample_at_times`).
 
     Returns
     -------
@@ -246,57 +262,36 @@ def resample(motion: Motion, fps: float, *, interpolation: str = "geodesic") -> 
     fps = float(fps)
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
-    if interpolation not in ("geodesic", "cubic"):
-        raise ValueError(f"interpolation: expected 'geodesic' or 'cubic'; got {interpolation!r}")
+    n = resampled_frames(motion, fps, "fps")
+    return resample_at_times(motion, motion.times, np.arange(n) / fps, fps=fps, interpolation=interpolation)
+
+
+def resampled_frames(motion: Motion, fps: float, option: str) -> int:
+    """The frame count of :func:`resample` at ``fps``, checked before anything is allocated:
+    ``OptionError(option, ...)`` beyond the limit ``max_frames``, or ``max_samples`` for its
+    frames x joints (:mod:`elastic_motion.limits`)."""
+    from elastic_motion import limits
+
     n = math.floor(motion.duration * fps + 1e-6) + 1
-    if interpolation == "cubic":
-        return resample_cubic(motion, np.arange(n) / fps, fps=fps)
-    return resample_at_times(motion, motion.times, np.arange(n) / fps, fps=fps)
+    limits.check_option(option, "a resampled frame count of", n, "max_frames")
+    limits.check_option(option, "frames x joints of a resampled clip of", n * motion.n_joints, "max_samples")
+    return n
 
 
-def resample_cubic(motion: Motion, target_times: np.ndarray, *, fps: float) -> Motion:
-    """Sample a motion at ``target_times`` (seconds, within its span) by cubic splines.
-
-    Each rotation matrix's entries and the translations are interpolated by a not-a-knot
-    cubic spline through the frames (:class:`scipy.interpolate.CubicSpline`); the matrices
-    are then projected to the nearest rotation (polar factor by SVD, determinant +1). The
-    curve passes through every frame (exact at the frames' times) and is twice continuously
-    differentiable between them, so a motion sampled between its frames keeps its velocity
-    peaks where geodesic interpolation cuts their corners. Motions of fewer than 4 frames
-    fall back to :func:`resample_at_times`.
-
-    Parameters
-    ----------
-    motion : Motion
-    target_times : array_like, shape (N,)
-        Within ``[0, motion.duration]``.
-    fps : float
-        Frame rate recorded on the result.
-
-    Returns
-    -------
-    Motion
-        ``N`` frames.
-    """
+def _cubic_at_times(motion: Motion, src: np.ndarray, dst: np.ndarray, fps: float) -> Motion:
+    """:func:`resample_at_times` with ``interpolation="cubic"`` (checked times, >= 4 frames)."""
     from scipy.interpolate import CubicSpline
 
-    src = motion.times
-    dst = np.asarray(target_times, dtype=np.float64)
-    if motion.n_frames < 4:
-        return resample_at_times(motion, src, dst, fps=fps)
-    _check_target_times(src, dst)
-    dst = np.clip(dst, src[0], src[-1])
-    j = motion.n_joints
-    mats = CubicSpline(src, motion.rotations.reshape(motion.n_frames, -1), axis=0)(dst)
+    f, j = motion.n_frames, motion.n_joints
+    mats = CubicSpline(src, motion.rotations.reshape(f, -1), axis=0)(dst)
     u, _, vt = np.linalg.svd(mats.reshape(dst.size, j, 3, 3))
     det = np.linalg.det(u @ vt)
     u[..., :, 2] *= det[..., None]  # the nearest rotation, not a reflection
-    rot = u @ vt
     root = CubicSpline(src, motion.root_translation, axis=0)(dst)
     jt = motion.joint_translations
     if jt is not None:
-        jt = CubicSpline(src, jt.reshape(motion.n_frames, -1), axis=0)(dst).reshape((dst.size, *jt.shape[1:]))
-    return motion.replace(rotations=rot, root_translation=root, joint_translations=jt, fps=float(fps))
+        jt = CubicSpline(src, jt.reshape(f, -1), axis=0)(dst).reshape((dst.size, *jt.shape[1:]))
+    return motion.replace(rotations=u @ vt, root_translation=root, joint_translations=jt, fps=float(fps))
 
 
 def _point_reflected(x: np.ndarray, k: int) -> np.ndarray:
