@@ -271,6 +271,26 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     left = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out2.rotations[:, knee])[:, 0]
     # the fast part is the blend's own: kept (its frame-to-frame swing, whatever the edges add)
     assert np.median(np.abs(np.diff(left))) / 2 > 0.95 * 0.02
+    # a drift of every speed: exactly its 1 s Gaussian (sigma in seconds, at the clip's fps) goes
+    from scipy.ndimage import gaussian_filter1d
+
+    tt = np.arange(f) / a.fps
+    slow = offset.copy()
+    slow[:, knee, 0] = 0.2 * np.sin(2 * np.pi * 0.4 * tt) + 0.05 * np.sin(2 * np.pi * 3.0 * tt)
+    out3, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(slow)), [a, b], times, w)
+    kept = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out3.rotations[:, knee])[:, 0]
+    x = slow[:, knee, 0]
+    np.testing.assert_allclose(kept, x - gaussian_filter1d(x, 1.0 * a.fps, mode="nearest"), atol=1e-9)
+
+
+def test_extrapolated_blends_are_not_anchored(pair):
+    """Beyond the inputs the mean pose is extrapolated too: no anchor (it bent Bandai knees 48
+    degrees backwards at s = 1.5); the note says so."""
+    res = blend_motions(list(pair), 1.5, method="lie", warp="dp", extrapolate=True, contacts="off")
+    assert "poses not anchored: the weights extrapolate beyond the inputs" in res.notes
+    assert not any(n.startswith("poses anchored") for n in res.notes)
+    inside = blend_motions(list(pair), 0.7, method="lie", warp="dp", contacts="off")
+    assert any(n.startswith("poses anchored") for n in inside.notes)
 
 
 def test_lie_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir):

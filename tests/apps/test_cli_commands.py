@@ -312,3 +312,7 @@ def test_distance_cubic_interpolation_cli_equals_api_and_resolves_sub_frame_shif
         distance_table([files["a"], files["b"]], interpolation="spline")
     with pytest.raises(Exception, match=r"sample_fps: .*max_frames"):
         distance_table([files["a"], files["b"]], warp=WarpOptions(sample_fps=1e9), interpolation="cubic")
+    from elastic_motion import limits
+
+    with limits.override(max_dp_nodes=100), pytest.raises(Exception, match=r"sample_fps: .*241 x 289 nodes"):
+        distance_table([files["a"], files["b"]], warp=WarpOptions(sample_fps=120.0), interpolation="cubic")

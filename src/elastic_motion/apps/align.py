@@ -61,7 +61,7 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
-from elastic_motion.motion.edit import resampled_frames, smooth_motion
+from elastic_motion.motion.edit import check_interpolation, resampled_frames, smooth_motion
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
 from elastic_motion.warp.options import DEFAULT_SAMPLE_SMOOTHING
 
@@ -142,8 +142,7 @@ def motion_curves(
         Over the curve joints; points ``(3 + 9 J,)`` (lie) or ``(3 + 3 J,)`` (euler).
     """
     _check_method(method)
-    if interpolation not in ("geodesic", "cubic"):
-        raise OptionError("interpolation", f"expected 'geodesic' or 'cubic'; got {interpolation!r}")
+    check_interpolation(interpolation, OptionError)
     idx = range(len(prepared.motions)) if which is None else list(which)
     out = []
     ref_angles = None
@@ -151,7 +150,7 @@ def motion_curves(
         m = prepared.curve_motion(k)
         if fps is not None and smoothing > 0:
             m = smooth_motion(m, smoothing)
-        if fps is not None and interpolation == "cubic":
+        if fps is not None and interpolation == "cubic" and not math.isclose(m.fps, fps):
             # (may sample above the clip's rate: bounded before it allocates, naming the option)
             resampled_frames(m, fps, "sample_fps")
             m = resample(m, fps, interpolation="cubic")

@@ -140,6 +140,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, PowerGroup
 from elastic_motion.motion import Motion, Skeleton, from_euler_curve, from_lie_curve
 from elastic_motion.motion.contacts import ContactOptions
+from elastic_motion.motion.edit import smooth_change
 from elastic_motion.warp import WarpOptions
 
 __all__ = ["BlendMetrics", "BlendResult", "blend_metrics", "blend_motions"]
@@ -353,16 +354,12 @@ def _anchor_poses(
     input's time (s) at every output frame; ``w``: the blend weights ``(K,)``. Returns the
     anchored motion and the largest correction in degrees. The root translation is kept.
     """
-    from scipy.ndimage import gaussian_filter1d
-
     joints = np.arange(body.n_joints)
     rots = [_sample_rotations(m, joints, t) for m, t in zip(inputs, times, strict=True)]
     mean = _blend_rotations(rots, w)
-    rel = _SO3.log(np.swapaxes(body.rotations, -1, -2) @ mean)  # (F, J, 3), body frame
-    if body.n_frames > 1:
-        rel = gaussian_filter1d(rel, _POSE_ANCHOR * body.fps, axis=0, mode="nearest")
-    drift = float(np.degrees(np.linalg.norm(rel, axis=-1).max()))
-    return body.replace(rotations=body.rotations @ _SO3.exp(rel)), drift
+    out = smooth_change(body, body.replace(rotations=mean), _POSE_ANCHOR * body.fps)
+    drift = _SO3.log(np.swapaxes(body.rotations, -1, -2) @ out.rotations)
+    return out, float(np.degrees(np.linalg.norm(drift, axis=-1).max()))
 
 
 def _blend_rotations_varying(rots: list[np.ndarray], s: np.ndarray) -> np.ndarray:
@@ -695,11 +692,16 @@ def blend_motions(
     # (the Lie method only: the Euler methods are paper 001's baselines, whose mean pose would
     # be the Euler angles' mean, not the geodesic one)
     if method == "lie" and knots is None:
-        body, drift = _anchor_poses(body, [prep.curve_motion(k) for k in range(len(ms))], times, w)
-        notes.append(
-            f"poses anchored: the SRV blend's slow drift from the aligned inputs' mean pose (up to "
-            f"{drift:.3g} deg, Gaussian {_POSE_ANCHOR:g} s) removed"
-        )
+        if ((w >= 0.0) & (w <= 1.0)).all():
+            body, drift = _anchor_poses(body, [prep.curve_motion(k) for k in range(len(ms))], times, w)
+            notes.append(
+                f"poses anchored: the SRV blend's slow drift from the aligned inputs' mean pose (up to "
+                f"{drift:.3g} deg, Gaussian {_POSE_ANCHOR:g} s) removed"
+            )
+        else:
+            # an extrapolated mean pose is no anchor: beyond the inputs it bends joints further
+            # than either (knees 48 degrees backwards at s = 1.5 on Bandai normal x tired)
+            notes.append("poses not anchored: the weights extrapolate beyond the inputs")
 
     # 5. assemble the full skeleton: curve joints from the curve, the others blended per frame
     out_sk = _blend_skeleton(ms, w, skeleton)
@@ -903,10 +905,10 @@ def _cleanup(
 
     own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
     goal = _SKATE_GOAL * min(own)
-    legs, _ = find_legs(result)
+    legs, leg_notes = find_legs(result)  # once, for every trial below
     lift = settle_offset(result, carried, legs, sigma=_SETTLE)  # the same for every trial below
     for smooth in _SMOOTHING:
-        res = cleanup_footskate(result, carried, smooth=smooth, settle=lift)
+        res = cleanup_footskate(result, carried, smooth=smooth, settle=lift, legs=legs)
         if not res.applied or res.skating_after.mean_speed <= goal:
             break
     if res.applied and res.skating_after.mean_speed < goal:
@@ -914,7 +916,9 @@ def _cleanup(
         lo, hi = 0.0, 1.0
         for _ in range(_STRENGTH_STEPS):
             mid = 0.5 * (lo + hi)
-            trial = cleanup_footskate(result, carried, smooth=res.smooth, strength=mid, settle=lift)
+            trial = cleanup_footskate(
+                result, carried, smooth=res.smooth, strength=mid, settle=lift, legs=legs
+            )
             if trial.skating_after.mean_speed <= goal:
                 hi, res = mid, trial
             else:
@@ -929,7 +933,7 @@ def _cleanup(
             f"largest change {res.max_position_change:.3g} m, {res.max_rotation_change_deg:.3g} deg"
         )
     else:
-        notes += [f"clean-up: {n}" for n in res.notes]
+        notes += [f"clean-up: {n}" for n in (*leg_notes, *res.notes)]
     return res, None
 
 

@@ -49,7 +49,13 @@ from elastic_motion.apps.metrics import ContactSkating, contact_skating
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions, Contacts, _clean_runs, _runs
-from elastic_motion.motion.edit import eased_envelope, fade_change, fixed_frames_weight, smoothstep
+from elastic_motion.motion.edit import (
+    eased_envelope,
+    fade_change,
+    fixed_frames_weight,
+    smooth_change,
+    smoothstep,
+)
 from elastic_motion.motion.ik import (
     LegChain,
     leg_chain,
@@ -294,22 +300,6 @@ def _ease(values: np.ndarray, known: np.ndarray, width: int) -> np.ndarray:
     eased = (wl.reshape(shape) * vl + wr.reshape(shape) * vr) * scale.reshape(shape)
     out = np.where(known.reshape(shape), values, eased)
     return out
-
-
-def _smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion:
-    """``after`` with its change from ``before`` (root offset, rotation logs) smoothed in time."""
-    from scipy.ndimage import gaussian_filter1d
-
-    if before.n_frames < 2:
-        return after
-    rel = _SO3.log(np.swapaxes(before.rotations, -1, -2) @ after.rotations)
-    rel = gaussian_filter1d(rel, sigma_frames, axis=0, mode="nearest")
-    off = gaussian_filter1d(
-        after.root_translation - before.root_translation, sigma_frames, axis=0, mode="nearest"
-    )
-    return after.replace(
-        rotations=before.rotations @ _SO3.exp(rel), root_translation=before.root_translation + off
-    )
 
 
 def _foot_low(pos_all: np.ndarray, sk, ankle: int, up: int) -> np.ndarray:
@@ -561,7 +551,7 @@ def cleanup_footskate(
         if turn is not None:
             out = turn_joint(out, leg.ankle, turn)
     if smooth > 0:
-        out = _smooth_change(motion, out, smooth * motion.fps)
+        out = smooth_change(motion, out, smooth * motion.fps)
     # last, exactly: no point of a foot below the floor (the smoothing may have lowered one)
     p_out = forward_kinematics(out, end_sites=True)
     lift = []

@@ -31,11 +31,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastic_motion import limits
 from elastic_motion.apps.align import _check_method, motion_curves, warp_options
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.curves import srv_transform
 from elastic_motion.errors import OptionError
+from elastic_motion.motion.edit import check_interpolation, resampled_frames
 from elastic_motion.warp import WarpOptions, optimal_warp, warp_energy
 
 __all__ = ["DistanceTable", "distance_table", "format_table", "motion_distance"]
@@ -118,8 +120,7 @@ def distance_table(
     """
     _check_method(method)
     opts = warp_options(warp)
-    if interpolation not in ("geodesic", "cubic"):
-        raise OptionError("interpolation", f"expected 'geodesic' or 'cubic'; got {interpolation!r}")
+    check_interpolation(interpolation, OptionError)
     report = progress or null_progress
     if not isinstance(motions, PreparedMotions):
         motions = list(motions)
@@ -127,6 +128,17 @@ def distance_table(
     if n < 2:
         raise OptionError("motions", f"expected at least 2 motions; got {n}")
     prep = prepare_motions(motions, prepare, labels=labels)
+    if interpolation == "cubic" and opts.method != "none" and not opts.coarse_to_fine:
+        # cubic curves may be sampled above the clips' rate: bound the largest DP table before
+        # the curves are built (the solver checks each table too, but only after them)
+        longest = sorted(resampled_frames(m, opts.sample_fps, "sample_fps") for m in prep.motions)[-2:]
+        limits.check_option(
+            "sample_fps",
+            f"a time-warp table of {longest[0]} x {longest[1]} nodes (lower the frame rate, or use "
+            "the coarse-to-fine DP) of",
+            longest[0] * longest[1],
+            "max_dp_nodes",
+        )
     curves = motion_curves(
         prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing, interpolation=interpolation
     )

@@ -45,6 +45,7 @@ __all__ = [
     "select_frames",
     "select_joints",
     "set_up_axis",
+    "smooth_change",
     "smooth_motion",
     "smoothstep",
     "to_metres",
@@ -148,6 +149,21 @@ def trim(motion: Motion, start: float | None = None, stop: float | None = None) 
     return select_frames(motion, keep)
 
 
+#: How a motion is sampled between its frames (:func:`resample_at_times`).
+INTERPOLATIONS = ("geodesic", "cubic")
+
+
+def check_interpolation(interpolation: str, error: type = ValueError) -> str:
+    """``interpolation`` if it is one of :data:`INTERPOLATIONS`; else ``error("interpolation", ...)``
+    (an :class:`~elastic_motion.errors.OptionError`) or ``ValueError("interpolation: ...")``."""
+    if interpolation not in INTERPOLATIONS:
+        msg = f"expected one of {list(INTERPOLATIONS)}; got {interpolation!r}"
+        if error is ValueError:
+            raise ValueError(f"interpolation: {msg}")
+        raise error("interpolation", msg)
+    return interpolation
+
+
 def _check_target_times(src: np.ndarray, dst: np.ndarray) -> None:
     """Raise unless ``dst`` is a non-empty 1-D array of times within ``[src[0], src[-1]]``."""
     if dst.ndim != 1 or dst.size == 0:
@@ -197,8 +213,7 @@ def resample_at_times(
     Motion
         ``N`` frames.
     """
-    if interpolation not in ("geodesic", "cubic"):
-        raise ValueError(f"interpolation: expected 'geodesic' or 'cubic'; got {interpolation!r}")
+    check_interpolation(interpolation, ValueError)
     src = np.asarray(source_times, dtype=np.float64)
     dst = np.asarray(target_times, dtype=np.float64)
     if src.shape != (motion.n_frames,):
@@ -284,14 +299,12 @@ def _cubic_at_times(motion: Motion, src: np.ndarray, dst: np.ndarray, fps: float
 
     f, j = motion.n_frames, motion.n_joints
     mats = CubicSpline(src, motion.rotations.reshape(f, -1), axis=0)(dst)
-    u, _, vt = np.linalg.svd(mats.reshape(dst.size, j, 3, 3))
-    det = np.linalg.det(u @ vt)
-    u[..., :, 2] *= det[..., None]  # the nearest rotation, not a reflection
+    rot = _SO3.project(mats.reshape(dst.size, j, 3, 3))  # the nearest rotations
     root = CubicSpline(src, motion.root_translation, axis=0)(dst)
     jt = motion.joint_translations
     if jt is not None:
         jt = CubicSpline(src, jt.reshape(f, -1), axis=0)(dst).reshape((dst.size, *jt.shape[1:]))
-    return motion.replace(rotations=u @ vt, root_translation=root, joint_translations=jt, fps=float(fps))
+    return motion.replace(rotations=rot, root_translation=root, joint_translations=jt, fps=float(fps))
 
 
 def _point_reflected(x: np.ndarray, k: int) -> np.ndarray:
@@ -683,6 +696,25 @@ def fixed_frames_weight(n_frames: int, fixed: Sequence[int], width: int) -> np.n
         raise ValueError(f"fixed: expected frames in [-{n_frames}, {n_frames}); got {list(fixed)}")
     dist = np.min(np.abs(idx[:, None] - (frames % n_frames)[None, :]), axis=1)
     return smoothstep(dist / (width + 1.0))
+
+
+def smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion:
+    """``after`` with its change from ``before`` smoothed in time: each joint's rotation change
+    ``log(R_before^T R_after)`` and the root offset ``after - before`` through a Gaussian of
+    ``sigma_frames`` standard deviation (frames; ends held, ``mode="nearest"``), then applied to
+    ``before`` again. Same skeleton and frames."""
+    from scipy.ndimage import gaussian_filter1d
+
+    if before.n_frames < 2 or sigma_frames <= 0:
+        return after
+    rel = _SO3.log(np.swapaxes(before.rotations, -1, -2) @ after.rotations)
+    rel = gaussian_filter1d(rel, sigma_frames, axis=0, mode="nearest")
+    off = gaussian_filter1d(
+        after.root_translation - before.root_translation, sigma_frames, axis=0, mode="nearest"
+    )
+    return after.replace(
+        rotations=before.rotations @ _SO3.exp(rel), root_translation=before.root_translation + off
+    )
 
 
 def fade_change(before: Motion, after: Motion, weight: np.ndarray) -> Motion:
