@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import needs_dask, synthetic_motion, write_clips
+from database_testlib import assert_same_as_serial, needs_dask, synthetic_motion, write_clips
 
 from elastic_motion.apps.database import (
     ClusterUnavailableError,
@@ -393,11 +393,7 @@ def test_local_cluster_equals_serial_bit_for_bit(serial_run, db_dir: Path, tmp_p
     assert res.complete and res.report["engine"] == "local" and res.report["workers"] == 2
     assert _arrays(res.out_dir) == _arrays(serial_run.out_dir)
     # the files were read and prepared on the workers: the same cache, skipped files included
-    from elastic_motion.apps.database import SRVCache
-
-    a, b = (SRVCache.load(Path(d) / "srv_cache.npz") for d in (res.out_dir, serial_run.out_dir))
-    assert (a.names, a.paths, a.skipped, a.info) == (b.names, b.paths, b.skipped, b.info)
-    assert all(x.tobytes() == y.tobytes() for r in a.q for x, y in zip(a.q[r], b.q[r], strict=True))
+    assert_same_as_serial(res, serial_run)
 
 
 _KILLER = textwrap.dedent(

@@ -78,7 +78,8 @@ try:
     probe = set(eng.client.run(lambda: getattr(sys.modules[engines.__name__], "_test_probe", None)).values())
     threads = set(eng.client.run(lambda: numba.get_num_threads()).values())
     quiet = set(eng.client.run(lambda: dask.config.get("distributed.worker.profile.enabled")).values())
-    print(eng.start_method, sorted(map(str, probe)), sorted(threads), sorted(quiet))
+    layer = engines._numba_threading_layer()
+    print(layer, eng.start_method, sorted(map(str, probe)), sorted(threads), sorted(quiet))
 finally:
     eng.close()
 """
@@ -86,20 +87,19 @@ finally:
 
 @needs_dask
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers are forked on Linux only")
-@pytest.mark.parametrize(
-    ("case", "expected"),
-    [
-        ("fresh", f"fork ['{PROBE}'] [1] [False]"),  # as `elastic-motion matrix --engine local`
-        ("after-threads", "spawn ['None'] [1] [False]"),  # TBB running here: spawned, and it works
-    ],
-)
-def test_local_workers_are_forked_from_a_fresh_driver_single_threaded_and_quiet(
-    case: str, expected: str
-) -> None:
+@pytest.mark.parametrize("case", ["fresh", "after-threads"])
+def test_local_workers_are_forked_from_a_fresh_driver_single_threaded_and_quiet(case: str) -> None:
+    """``fresh``: as `elastic-motion matrix --engine local`, forked. ``after-threads``: numba's
+    pool already running here; TBB or OpenMP (fork-unsafe) -> spawned, and it works; numba's
+    own workqueue (where neither is installed) -> forked."""
     code = _ENGINE_CHECK.format(probe=PROBE)
     out = subprocess.run([sys.executable, "-c", code, case], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-3000:]
-    assert out.stdout.strip().splitlines()[-1] == expected
+    layer, result = out.stdout.strip().splitlines()[-1].split(" ", 1)
+    assert (layer == "None") == (case == "fresh")
+    forked = layer in ("None", "workqueue")
+    expected = f"fork ['{PROBE}'] [1] [False]" if forked else "spawn ['None'] [1] [False]"
+    assert result == expected
 
 
 @needs_dask
@@ -221,6 +221,29 @@ def test_forked_workers_make_a_local_cluster_worth_it_on_smaller_inputs(
         assert seen[-1] == expected and res.report["engine"] == "serial"  # 8 clips: never worth it
 
 
+def test_a_cyclic_run_is_costed_as_two_n_samples_plain_pairs_per_pair(
+    db: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Whether a local cluster pays off: a cyclic pair is the exact DP of every shift of
+    either motion, 2 n_samples plain pairs (``tiles.pair_distances(cyclic=True)``)."""
+    import dataclasses
+
+    from elastic_motion.apps.database import tiles
+
+    pairs: list[int] = []
+
+    def spy(n_pairs, *args, **kw):
+        pairs.append(n_pairs)
+        return tiles.cluster_worth_it(n_pairs, *args, **kw)
+
+    monkeypatch.setattr(matrix, "cluster_worth_it", spy)
+    n, reps = 8, len(SETTINGS.representations)
+    for cyclic in (False, True):
+        s = dataclasses.replace(SETTINGS, cyclic=cyclic)
+        compute_matrix([db], tmp_path / f"c{cyclic}", s, engine="local")
+    assert pairs == [n * (n - 1) // 2 * reps, n * (n - 1) // 2 * reps * 2 * SETTINGS.n_samples]
+
+
 @needs_dask
 def test_a_future_cancelled_while_the_driver_waits_is_handed_back() -> None:
     """``_Completed.next_batch``: ``distributed.wait`` raises when a future it waits on is
@@ -241,5 +264,36 @@ def test_a_future_cancelled_while_the_driver_waits_is_handed_back() -> None:
                 break
         timer.join()
         assert batch == [fut] and fut.cancelled() and done.is_empty()
+    finally:
+        eng.close()
+
+
+def _fail_fast(_: int) -> None:
+    raise ValueError("file m3.bvh: unreadable")
+
+
+def _sleep_long(_: int) -> int:
+    import time
+
+    time.sleep(60)
+    return 1
+
+
+@needs_dask
+def test_an_abandoned_stage_cancels_its_other_tasks() -> None:
+    """A stage whose gather raises (a task's error, or FilesNotSeenError before the driver
+    reads the files itself) cancels its unfinished tasks: they do not keep the workers busy."""
+    eng = engines.open_engine("local", None, 1, 30.0)
+    try:
+        import time
+
+        stages = engines.DaskStages(eng)
+        fail = stages.submit(_fail_fast, [(0,)])  # first on the one worker thread
+        slow = stages.submit(_sleep_long, [(1,), (2,)])
+        t0 = time.perf_counter()
+        with pytest.raises(ValueError, match=r"m3\.bvh"):
+            stages.gather([*slow, *fail])
+        assert time.perf_counter() - t0 < 30.0
+        assert [f.status for f in slow] == ["cancelled", "cancelled"]
     finally:
         eng.close()

@@ -2,9 +2,9 @@
 
 With a Dask engine the files are read, prepared and their SRV arrays computed on the workers
 (``cache.build_srv_cache`` with ``DaskEngine.stages``), with the numbers of a serial run bit for
-bit. The driver's own preparation functions are wrapped with counters here: the worker
-processes (spawned, so they import the unwrapped module) do not see the wrappers, so a count
-above zero means that work ran in the driver. Real CMU windows (``mocap_dir``, skipped when
+bit. The driver's own preparation functions are wrapped with counters here: a spawned worker
+imports the unwrapped module, and a forked one counts in its own copy of the counters, so a
+count above zero means that work ran in the driver. Real CMU windows (``mocap_dir``, skipped when
 absent) and one malformed file.
 """
 

@@ -168,3 +168,56 @@ def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None
     argv = ["matrix", str(clips), "-o", str(out), *opts, "--pose-weight", "balanced"]
     assert main(argv) != 0
     assert "cyclic: True -> None" in capsys.readouterr().err
+    # against a stored database its own settings are used: other flags are named, not silent
+    plain = tmp_path / "plain"
+    assert main(["matrix", str(clips), "-o", str(plain), *opts]) == 0
+    capsys.readouterr()
+    assert main(["search", query, str(plain), "-k", "2", *opts, "--cyclic", "--pose-weight", "balanced"]) == 0
+    text = capsys.readouterr().out
+    assert "note: --pose-weight balanced ignored: the database was built with pose weight 0.0" in text
+    assert "note: --cyclic ignored: the database was built without it" in text
+    assert main(["search", query, str(out), "-k", "2", *opts, "--cyclic", "--pose-weight", "balanced"]) == 0
+    assert "ignored" not in capsys.readouterr().out  # the same as stored: nothing to say
+
+
+def test_each_skeleton_group_gets_its_own_balanced_weight(tmp_path: Path) -> None:
+    """One balanced weight per skeleton group, from that group's motions only (with the group's
+    joint weights); a group of one motion gets 1 (nothing to balance it against). A query is
+    measured with its own group's weight: it equals its matrix row."""
+    import dataclasses
+
+    from database_testlib import synthetic_motion
+
+    from elastic_motion.motion import write_bvh
+
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    for k in range(4):
+        write_bvh(synthetic_motion(k % 2, k, frames=14 + 2 * k), clips / f"a{k}.bvh")
+    for k in range(3):
+        write_bvh(synthetic_motion(2, k, frames=15 + 3 * k, extra_joint=True), clips / f"b{k}.bvh")
+    lone = synthetic_motion(1, 2, frames=17, extra_joint=True)
+    sk = dataclasses.replace(lone.skeleton, names=("Hips", "Spine", "LeftLeg", "RightLeg", "Neck"))
+    write_bvh(lone.replace(skeleton=sk), clips / "c0.bvh")
+    files = sorted(str(f) for f in clips.glob("*.bvh"))
+    settings = DatabaseSettings(**{**_fields(PLAIN), "pose_weight": "balanced"})
+    plain = build_srv_cache(files, PLAIN)
+    cache = build_srv_cache(files, settings)
+    assert plain.groups.tolist() == cache.groups.tolist() == [0] * 4 + [1] * 3 + [2]
+    want = []
+    for g in range(2):
+        idx = np.flatnonzero(plain.groups == g)
+        jw = np.asarray(plain.group_weights[g][0])
+        poses = [pose_arrays(prepare_motion(plain.paths[k], 10).motion, jw) for k in idx]
+        want.append(balanced_pose_weight([plain.q["lie"][k] for k in idx], poses))
+    assert want[0] != pytest.approx(want[1])
+    assert cache.pose_weights["lie"] == [
+        pytest.approx(want[0], rel=1e-12),
+        pytest.approx(want[1], rel=1e-12),
+        1.0,
+    ]
+    res = compute_matrix([clips], tmp_path / "out", settings)
+    d = np.asarray(res.distances["lie"])
+    for row in (1, 5):
+        q = query_distances(files[row], res.out_dir, "lie", settings)
+        np.testing.assert_allclose(q.distances, d[row], rtol=1e-12, atol=1e-12)

@@ -85,6 +85,8 @@ def test_balanced_weight_edge_cases():
     assert balanced_pose_weight(s, [np.ones((3, 4))] * 2) == 0.0
     with pytest.raises(OptionError):
         balanced_pose_weight(s[:1], [np.ones((3, 4))])
+    with pytest.raises(OptionError, match=r"poses: .*item 1 has \(2, 4\)"):  # named, before any stack
+        balanced_pose_weight(s, [np.ones((3, 4)), np.ones((2, 4))])
     with pytest.raises(OptionError):
         with_pose_term(s[0], np.ones((3, 4)), -1.0)
     with pytest.raises(OptionError):

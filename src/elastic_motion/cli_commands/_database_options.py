@@ -87,7 +87,7 @@ def add_distance_terms(p: argparse.ArgumentParser) -> None:
     """``--pose-weight`` and ``--cyclic`` (``DatabaseSettings.pose_weight`` / ``cyclic``)."""
     p.add_argument(
         "--pose-weight",
-        default="0",
+        default=None,
         metavar="{balanced,W}",
         help="weight of a pose term beside the SRV (the joints' rotations, which the SRV does not see): "
         "'balanced' (as much mean squared pair distance as the SRV term over the database; no labels) or a "
@@ -96,14 +96,18 @@ def add_distance_terms(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--cyclic",
         action="store_true",
+        default=None,  # None: not given (a stored database's own setting is then no surprise)
         help="phase-free matching: the least distance over the cyclic shifts of either motion's cells "
         "(windows of periodic motions started at different phases; 2 x SAMPLES times the cost; needs --warp "
         "dp) (default: off)",
     )
 
 
-def pose_weight_option(value: str) -> float | str:
-    """``--pose-weight``: ``"balanced"`` or a number (validated by ``DatabaseSettings``)."""
+def pose_weight_option(value: str | None) -> float | str:
+    """``--pose-weight``: ``"balanced"`` or a number (validated by ``DatabaseSettings``); not
+    given (None): 0."""
+    if value is None:
+        return 0.0
     if value == "balanced":
         return value
     try:
@@ -162,9 +166,31 @@ def database_settings(args: argparse.Namespace, reps: tuple[str, ...]):
         drop_fingers=not args.keep_fingers,
         align_heading=not args.no_align,
         tile_size=getattr(args, "tile_size", 32),
-        pose_weight=pose_weight_option(getattr(args, "pose_weight", "0")),
-        cyclic=getattr(args, "cyclic", False),
+        pose_weight=pose_weight_option(getattr(args, "pose_weight", None)),
+        cyclic=bool(getattr(args, "cyclic", False)),
     )
+
+
+def stored_terms_notes(args: argparse.Namespace, stored) -> list[str]:
+    """Notes for ``--pose-weight`` / ``--cyclic`` given against a database that was built with
+    other values (a matrix folder or an index: its stored settings ``stored`` are used)."""
+    notes = []
+    given = getattr(args, "pose_weight", None)
+    if given is not None:
+        want = pose_weight_option(given)
+        have = stored.pose_weight
+        same = want == have if "balanced" in (want, have) else float(want) == float(have)
+        if not same:
+            notes.append(
+                f"--pose-weight {given} ignored: the database was built with pose weight {have!r} and is "
+                "measured as it was built (build it again with the option to use it)"
+            )
+    if getattr(args, "cyclic", None) and not stored.cyclic:
+        notes.append(
+            "--cyclic ignored: the database was built without it and is measured as it was built "
+            "(build it again with --cyclic to use it)"
+        )
+    return notes
 
 
 def fail(command: str, exc: BaseException) -> int:

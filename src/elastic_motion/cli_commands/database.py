@@ -44,6 +44,7 @@ from elastic_motion.cli_commands._database_options import (
     joints_option,
     methods,
     pose_weight_option,
+    stored_terms_notes,
 )
 
 
@@ -247,6 +248,8 @@ def run_search(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     s = res.summary()
+    ignored = stored_terms_notes(args, res.settings)
+    s["notes"] = [*s["notes"], *ignored]
     results = s["results"]
     lines = [f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}" for r in results]
     if not results:
@@ -260,6 +263,7 @@ def run_search(args: argparse.Namespace) -> int:
             f"exact {args.k} nearest: full DP on {s['computed']} of {s['candidates']} motions "
             f"({100 * s['fraction_pruned']:.0f}% pruned by the bounds)"
         )
+    lines += [f"note: {n}" for n in ignored]
     body = {
         "query": args.query,
         "representation": method,

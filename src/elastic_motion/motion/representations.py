@@ -182,9 +182,18 @@ def group_weights(motions: Sequence[Motion]) -> tuple[np.ndarray, float]:
     motions = list(motions)
     if not motions:
         raise ValueError("motions: expected at least one motion to take weights from; got none")
-    jw = np.mean([default_joint_weights(m.skeleton) for m in motions], axis=0)
-    tw = float(np.mean([default_translation_weight(m.skeleton) for m in motions]))
-    return jw, tw
+    return mean_weights(
+        [default_joint_weights(m.skeleton) for m in motions],
+        [default_translation_weight(m.skeleton) for m in motions],
+    )
+
+
+def mean_weights(
+    joint_weights: Sequence[np.ndarray], translation_weights: Sequence[float]
+) -> tuple[np.ndarray, float]:
+    """:func:`group_weights` from the motions' defaults already computed (e.g. on the workers
+    that read the files): their means, ``(J,)`` and a float, in this order of motions."""
+    return np.mean(joint_weights, axis=0), float(np.mean(translation_weights))
 
 
 def lie_group_for(

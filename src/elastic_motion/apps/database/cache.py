@@ -48,6 +48,7 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
+from elastic_motion.motion.representations import mean_weights
 
 __all__ = [
     "FilesNotSeenError",
@@ -496,10 +497,7 @@ def build_srv_cache(
         weights: dict[int, tuple[np.ndarray, float]] = {}
         for g in keys.values():  # = motion.group_weights of the group's motions, in this order
             members = [summary[k] for k in order if group_of_item[k] == g]
-            weights[g] = (
-                np.mean([s["jw"] for s in members], axis=0),
-                float(np.mean([s["tw"] for s in members])),
-            )
+            weights[g] = mean_weights([s["jw"] for s in members], [s["tw"] for s in members])
         item_weights = [weights[group_of_item[k]] if k in group_of_item else None for k in range(len(items))]
         pose = bool(settings.pose_weight)
         srv_args = [

@@ -530,17 +530,24 @@ class DaskStages:
         out: list[Any] = [None] * len(handles)
         ac = _Completed(list(handles))
         idle_since: float | None = None
-        while not ac.is_empty():
-            batch = ac.next_batch(WAIT_SECONDS)
-            if not batch:
-                idle_since = self.engine._watchdog(idle_since)
-                continue
-            idle_since = None
-            for fut in batch:
-                k = index[fut.key]
-                out[k] = fut.result()  # a task's error is raised here, with its note naming the file
-                if on_done is not None:
-                    on_done(k)
+        try:
+            while not ac.is_empty():
+                batch = ac.next_batch(WAIT_SECONDS)
+                if not batch:
+                    idle_since = self.engine._watchdog(idle_since)
+                    continue
+                idle_since = None
+                for fut in batch:
+                    k = index[fut.key]
+                    out[k] = fut.result()  # a task's error is raised here, with its note naming the file
+                    if on_done is not None:
+                        on_done(k)
+        except BaseException:
+            # the stage is abandoned (e.g. FilesNotSeenError: the driver reads the files itself):
+            # its other tasks must not go on using the workers, whatever still refers to them
+            with contextlib.suppress(Exception):
+                self.engine.client.cancel([f for f in handles if not f.done()])
+            raise
         with contextlib.suppress(Exception):  # diagnostics only
             for keys in self.engine.client.who_has(list(handles)).values():
                 for w in keys[:1]:

@@ -368,14 +368,25 @@ def balanced_pose_weight(srvs: Sequence[np.ndarray], poses: Sequence[np.ndarray]
     float
         ``> 0``; 0 when every pose array is the same (no pose to weigh).
     """
-    s = np.stack([np.asarray(x, dtype=np.float64) for x in srvs])
-    p = np.stack([np.asarray(x, dtype=np.float64) for x in poses])
-    if len(s) != len(p) or len(s) < 2:
+    if len(srvs) != len(poses) or len(srvs) < 2:
         raise OptionError(
-            "poses", f"expected one pose array per SRV array, at least two; got {len(p)} and {len(s)}"
+            "poses", f"expected one pose array per SRV array, at least two; got {len(poses)} and {len(srvs)}"
         )
-    den = float(np.sum((p - p.mean(axis=0)) ** 2))
-    return float(np.sum((s - s.mean(axis=0)) ** 2)) / den if den > 0 else 0.0
+    den = _spread(poses, "poses")
+    return _spread(srvs, "srvs") / den if den > 0 else 0.0
+
+
+def _spread(arrays: Sequence[np.ndarray], name: str) -> float:
+    """``sum_k |x_k - mean x|^2`` of arrays of one shape, in two passes over them: memory of
+    one array, not of the whole set (a database's group can hold thousands)."""
+    shape = np.shape(arrays[0])
+    total = np.zeros(shape)
+    for k, x in enumerate(arrays):
+        if np.shape(x) != shape:
+            raise OptionError(name, f"expected arrays of one shape {shape}; item {k} has {np.shape(x)}")
+        total += x
+    mean = total / len(arrays)
+    return float(sum(np.sum((np.asarray(x, dtype=np.float64) - mean) ** 2) for x in arrays))
 
 
 def with_pose_term(srv: np.ndarray, pose: np.ndarray, weight: float) -> np.ndarray:
