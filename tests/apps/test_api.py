@@ -58,6 +58,20 @@ def test_blend_same_numbers_and_file_from_both_doors(cmu, capsys, tmp_path):
 
 
 @pytest.mark.mocap
+def test_blend_without_anchoring_from_both_doors(cmu, capsys, tmp_path):
+    """``--no-anchor`` is ``anchor=False``: the same file, and not the anchored one."""
+    cli_out, rep = tmp_path / "cli.bvh", tmp_path / "cli.json"
+    argv = ("blend", *cmu, "-o", cli_out, "--no-anchor", "--no-metrics", "--json", rep, "-q")
+    code, _, err = run(capsys, *argv)
+    assert code == 0, err
+    assert json.loads(rep.read_text())["pose_anchor_deg"] is None
+    api_out = em.write(em.blend(list(cmu), 0.5, anchor=False), tmp_path / "api.bvh")
+    assert api_out.read_bytes() == cli_out.read_bytes()
+    anchored = em.write(em.blend(list(cmu), 0.5), tmp_path / "anchored.bvh")
+    assert anchored.read_bytes() != cli_out.read_bytes()
+
+
+@pytest.mark.mocap
 def test_paths_and_motions_give_the_same_blend(cmu):
     by_path = em.blend(list(cmu), 0.5)
     by_motion = em.blend([read_motion(p) for p in cmu], 0.5)

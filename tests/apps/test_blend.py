@@ -283,6 +283,48 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     np.testing.assert_allclose(kept, x - gaussian_filter1d(x, 1.0 * a.fps, mode="nearest"), atol=1e-9)
 
 
+def test_euler_anchor_removes_the_slow_part_of_the_angles_drift():
+    """``_anchor_euler`` works in the Euler method's own space: each angle's difference from the
+    inputs' mean loses exactly its 1 s Gaussian (a constant offset entirely, a wrong sign would
+    double it); the root position is never touched."""
+    from scipy.ndimage import gaussian_filter1d
+
+    from elastic_motion.apps.blend import _anchor_euler
+
+    fps, f, j = 30.0, 90, 4
+    rng = np.random.default_rng(3)
+    mean = rng.normal(size=(f, 3 + 3 * j))
+    tt = np.arange(f) / fps
+    drift = np.zeros((f, 3 + 3 * j))
+    drift[:, :3] = 0.5  # the root: kept whatever its offset
+    drift[:, 3] = 0.3  # constant: removed entirely
+    drift[:, 4] = 0.2 * np.sin(2 * np.pi * 0.4 * tt) + 0.05 * np.sin(2 * np.pi * 3.0 * tt)
+    out, largest = _anchor_euler(mean + drift, mean, fps)
+    np.testing.assert_allclose(out[:, :3], mean[:, :3] + 0.5, atol=1e-12)
+    np.testing.assert_allclose(out[:, 3], mean[:, 3], atol=1e-12)
+    x = drift[:, 4]
+    slow = gaussian_filter1d(x, fps, mode="nearest")
+    np.testing.assert_allclose(out[:, 4] - mean[:, 4], x - slow, atol=1e-12)
+    np.testing.assert_allclose(out[:, 5:], mean[:, 5:], atol=1e-12)
+    assert largest == pytest.approx(np.degrees(0.3), rel=1e-12)
+
+
+@pytest.mark.parametrize("method", ["lie", "euler-elastic"])
+def test_anchor_off_gives_the_plain_srv_blend(pair, method):
+    """``anchor=False``: no note, no correction; the anchored blend differs from it only by a
+    slow change (the fast part of the motion is the SRV blend's own)."""
+    plain = blend_motions(list(pair), 0.5, method=method, warp="dp", contacts="off", anchor=False)
+    anchored = blend_motions(list(pair), 0.5, method=method, warp="dp", contacts="off")
+    assert plain.pose_anchor_deg is None and not any("anchored" in n for n in plain.notes)
+    assert anchored.pose_anchor_deg is not None and anchored.pose_anchor_deg > 0.1
+    assert anchored.summary()["pose_anchor_deg"] == anchored.pose_anchor_deg
+    change = SO3G.log(np.swapaxes(plain.motion.rotations, -1, -2) @ anchored.motion.rotations)
+    assert np.abs(change).max() > 1e-3
+    # a 1 s Gaussian leaves frame-to-frame steps far below the change itself
+    assert np.abs(np.diff(change, axis=0)).max() < 0.1 * np.abs(change).max()
+    np.testing.assert_allclose(plain.motion.root_translation, anchored.motion.root_translation, atol=1e-12)
+
+
 def test_extrapolated_blends_are_not_anchored(pair):
     """Beyond the inputs the mean pose is extrapolated too: no anchor (it bent Bandai knees 48
     degrees backwards at s = 1.5); the note says so."""
@@ -293,10 +335,12 @@ def test_extrapolated_blends_are_not_anchored(pair):
     assert any(n.startswith("poses anchored") for n in inside.notes)
 
 
-def test_lie_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir):
-    """Bandai normal x tired, Lie + warp: the SRV blend's knees drifted up to 16 degrees
-    backwards where both inputs stand straight (never backwards); anchored, they stay within
-    3 degrees of straight, and the blend keeps its distance to the inputs."""
+@pytest.mark.parametrize("method", ["lie", "euler-elastic"])
+def test_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir, method):
+    """Bandai normal x tired, with the warp: the SRV blend's knees drifted up to 16 (Lie) and
+    29 (Euler) degrees backwards where both inputs stand straight (never backwards);
+    anchored, they stay within 3 degrees of straight, and the blend keeps its distance to the
+    inputs."""
     from elastic_motion.apps.cleanup import find_legs
     from elastic_motion.motion.ik import _angle as angle_between
     from elastic_motion.motion.ik import _bend_axis_local
@@ -305,7 +349,7 @@ def test_lie_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir):
     files = [mocap_dir / "bandai" / f"dataset-1_walk_{s}_001.bvh" for s in ("normal", "tired")]
     if not all(p.is_file() for p in files):
         pytest.skip("Bandai walks not found")
-    res = blend_motions(files, 0.5, method="lie", warp="dp", contacts="off")
+    res = blend_motions(files, 0.5, method=method, warp="dp", contacts="off")
     assert any(n.startswith("poses anchored") for n in res.notes)
 
     def signed_bends(m):
@@ -321,6 +365,8 @@ def test_lie_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir):
     inputs_min = min(signed_bends(m).min() for m in res.prepared.motions)
     assert inputs_min > -1.0
     assert signed_bends(res.motion).min() > -3.0
+    plain = blend_motions(res.prepared, 0.5, method=method, warp="dp", contacts="off", anchor=False)
+    assert signed_bends(plain.motion).min() < -10.0  # what the anchoring is for
     d = distance_table(
         [*res.prepared.motions, res.motion], prepare=PrepareOptions(joints="common", drop_tpose=False)
     ).matrix

@@ -48,12 +48,17 @@ What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s)
    each at its own timing, and the result's duration is ``(1 - s) d_A + s d_B``. (If
    extrapolation makes ``T`` decrease somewhere, the result is played uniformly over the
    blended duration instead; a note says so.)
-   **Pose anchoring** (``"lie"``): the SRV blend integrates blended velocities, so its joint
-   angles drift slowly from the aligned inputs' poses (knees bent backwards by up to 16
-   degrees where both inputs stand straight, on Bandai normal x tired). The slow part
-   (Gaussian, 1 s) of each joint's difference from the weighted geodesic mean of the inputs'
-   rotations at the matched times is removed (``_anchor_poses``); the blend's velocities,
-   which the elastic distance measures, barely change. A note gives the largest correction.
+   **Pose anchoring** (``anchor=True``, the default; ``"lie"`` and ``"euler-elastic"`` with
+   constant weights in ``[0, 1]``): the SRV blend integrates blended velocities, so its joint
+   angles drift slowly from the aligned inputs' poses (on Bandai normal x tired, knees bent
+   backwards by up to 16 degrees in the Lie blend and 29 in the Euler one, where both inputs
+   stand straight). The slow part (Gaussian, 1 s) of each joint's difference from the inputs'
+   weighted mean pose at the matched times is removed: the geodesic mean of the local
+   rotations for ``"lie"`` (``_anchor_poses``), the mean of the Euler angles, the method's
+   own space, for ``"euler-elastic"`` (``_anchor_euler``). The blend's velocities, which the
+   elastic distance measures, barely change; the root translation is kept. A note and
+   ``BlendResult.pose_anchor_deg`` give the largest correction. ``anchor=False`` gives the
+   papers' plain SRV blend (``examples/paper_figures.py`` reproduces the papers with it).
 5. Finger joints (not on the curves, see :mod:`.align`) get the geodesic blend of A's and
    B's local rotations at the matched times; per-frame translations of non-root joints
    (position channels), linear blends.
@@ -189,6 +194,9 @@ class BlendResult:
         (:meth:`elastic_motion.apps.landmarks.PhasePairing.summary`): each pinned pair with
         its offset from the warp without landmarks, its timing window and why; each dropped
         pair and skipped event with the reason. None otherwise.
+    pose_anchor_deg : float or None
+        The largest correction of the pose anchoring (step 4, degrees: of a joint's rotation
+        for ``"lie"``, of one Euler angle for ``"euler-elastic"``); None when not anchored.
     """
 
     motion: Motion
@@ -207,6 +215,7 @@ class BlendResult:
     cycles: Any = None
     loop: Any = None
     landmark_pairing: dict | None = None
+    pose_anchor_deg: float | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -229,6 +238,7 @@ class BlendResult:
             "cleanup": None if self.cleanup is None else self.cleanup.summary(),
             "cycles": None if self.cycles is None else self.cycles.summary(),
             "loop": None if self.loop is None else self.loop.summary(),
+            "pose_anchor_deg": self.pose_anchor_deg,
         }
 
 
@@ -337,10 +347,10 @@ def _per_frame(wf: np.ndarray, k: int, n: int, ndim_extra: int) -> np.ndarray | 
 #: The SRV blend integrates blended velocities, so its joint angles drift from the aligned
 #: inputs' poses: on Bandai normal x tired the knees of the Lie + warp blend bent backwards by
 #: up to 16 degrees where both inputs stand straight, 16 degrees from their mean pose on
-#: average. The drift is slow, so it is taken out by a slow correction (Gaussian of this
-#: standard deviation, s) toward the weighted geodesic mean of the aligned inputs' local
-#: rotations: the knees' range is the inputs' again, while the velocities, which the elastic
-#: distance measures, barely change (0.03 d(A, B) / 2 on that pair).
+#: average (the Euler + warp blend: 29 degrees backwards). The drift is slow, so it is taken
+#: out by a slow correction (Gaussian of this standard deviation, s) toward the inputs'
+#: weighted mean pose: the knees' range is the inputs' again, while the velocities, which the
+#: elastic distance measures, barely change (0.03 d(A, B) / 2 on that pair).
 _POSE_ANCHOR = 1.0
 
 
@@ -360,6 +370,21 @@ def _anchor_poses(
     out = smooth_change(body, body.replace(rotations=mean), _POSE_ANCHOR * body.fps)
     drift = _SO3.log(np.swapaxes(body.rotations, -1, -2) @ out.rotations)
     return out, float(np.degrees(np.linalg.norm(drift, axis=-1).max()))
+
+
+def _anchor_euler(values: np.ndarray, mean: np.ndarray, fps: float) -> tuple[np.ndarray, float]:
+    """The Euler-angle blend ``values`` ``(F, 3 + 3 J)`` (root position, then angles in radians)
+    with the slow part (:data:`_POSE_ANCHOR`) of its angles' difference from ``mean``, the
+    weighted mean of the aligned inputs' angles, removed; the root position is kept. Returns
+    the anchored values and the largest correction of one angle, in degrees."""
+    from scipy.ndimage import gaussian_filter1d
+
+    out = values.copy()
+    if values.shape[0] < 2:
+        return out, 0.0
+    drift = gaussian_filter1d(values[:, 3:] - mean[:, 3:], _POSE_ANCHOR * fps, axis=0, mode="nearest")
+    out[:, 3:] -= drift
+    return out, float(np.degrees(np.abs(drift).max()))
 
 
 def _blend_rotations_varying(rots: list[np.ndarray], s: np.ndarray) -> np.ndarray:
@@ -504,6 +529,7 @@ def blend_motions(
     cycles: bool = False,
     loop: bool = False,
     template_warps: Sequence[np.ndarray] | None = None,
+    anchor: bool = True,
 ) -> BlendResult:
     """Blend two or more motions.
 
@@ -559,6 +585,10 @@ def blend_motions(
     template_warps : sequence of ndarray of shape (V, 2), optional
         Warps ``phi_k`` (a common template's parameter -> input ``k``'s) found before, e.g. by
         a blend space (:mod:`elastic_motion.apps.blendspace`); no warp is solved then.
+    anchor : bool, default True
+        Pose anchoring (step 4 of the module docstring) for the elastic methods with constant
+        weights in ``[0, 1]``; False gives the papers' plain SRV blend (its joint angles may
+        drift from the inputs': knees bent backwards).
 
     Returns
     -------
@@ -685,23 +715,29 @@ def blend_motions(
     else:
         blended = weighted_blend(full, w, [None if v is _IDENTITY else v for v in warps])
         curve = DiscreteCurve(blended.evaluate(u), blended.group)
+    anchored = None  # the largest pose-anchoring correction (deg), when anchored
+    anchorable = anchor and knots is None and method != "euler-linear"
+    in_range = bool(((w >= 0.0) & (w <= 1.0)).all())
+    if anchorable and in_range and method == "euler-elastic":
+        mean = sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, full, local_u, strict=True))
+        values, anchored = _anchor_euler(curve.values, mean, prep.fps)
+        curve = DiscreteCurve(values, curve.group)
     like = prep.curve_motion(0)
     conv = from_lie_curve if method == "lie" else from_euler_curve
     body = conv(curve, like, fps=prep.fps)
     times = [lu * d for lu, d in zip(local_u, durations, strict=True)]
-    # (the Lie method only: the Euler methods are paper 001's baselines, whose mean pose would
-    # be the Euler angles' mean, not the geodesic one)
-    if method == "lie" and knots is None:
-        if ((w >= 0.0) & (w <= 1.0)).all():
-            body, drift = _anchor_poses(body, [prep.curve_motion(k) for k in range(len(ms))], times, w)
-            notes.append(
-                f"poses anchored: the SRV blend's slow drift from the aligned inputs' mean pose (up to "
-                f"{drift:.3g} deg, Gaussian {_POSE_ANCHOR:g} s) removed"
-            )
-        else:
-            # an extrapolated mean pose is no anchor: beyond the inputs it bends joints further
-            # than either (knees 48 degrees backwards at s = 1.5 on Bandai normal x tired)
-            notes.append("poses not anchored: the weights extrapolate beyond the inputs")
+    if anchorable and in_range and method == "lie":
+        body, anchored = _anchor_poses(body, [prep.curve_motion(k) for k in range(len(ms))], times, w)
+    if anchored is not None:
+        mean_pose = "geodesic mean pose" if method == "lie" else "mean Euler angles"
+        notes.append(
+            f"poses anchored: the SRV blend's slow drift from the aligned inputs' {mean_pose} (up to "
+            f"{anchored:.3g} deg, Gaussian {_POSE_ANCHOR:g} s) removed"
+        )
+    elif anchorable:
+        # an extrapolated mean pose is no anchor: beyond the inputs it bends joints further
+        # than either (knees 48 degrees backwards at s = 1.5 on Bandai normal x tired)
+        notes.append("poses not anchored: the weights extrapolate beyond the inputs")
 
     # 5. assemble the full skeleton: curve joints from the curve, the others blended per frame
     out_sk = _blend_skeleton(ms, w, skeleton)
@@ -808,6 +844,7 @@ def blend_motions(
         landmark_pairing=None if landmark_pairing is None else landmark_pairing.summary(),
         cycles=match,
         loop=loop_res,
+        pose_anchor_deg=anchored,
     )
 
 

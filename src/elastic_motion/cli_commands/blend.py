@@ -105,6 +105,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(implies --cycles; the loop command's closing, root 'travel') (default: off)",
     )
     p.add_argument(
+        "--no-anchor",
+        action="store_true",
+        help="keep the papers' plain SRV blend: do not remove its slow drift from the aligned "
+        "inputs' mean pose (lie, euler-elastic; default: anchored, see the report's notes)",
+    )
+    p.add_argument(
         "--no-metrics",
         action="store_true",
         help="skip the quality metrics in the report (saves three or more DP solves)",
@@ -154,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
             weight_curve=args.weight_curve,
             cycles=args.cycles,
             loop=args.loop,
+            anchor=not args.no_anchor,
         )
     finally:
         bar.close()
