@@ -96,6 +96,29 @@ def test_blendspace_weights_and_bad_input():
         blendspace(ms, [1.0, 2.0])
 
 
+def test_blendspace_passes_the_pose_anchoring_on(capsys, tmp_path):
+    """Every blend of the space is anchored unless ``anchor=False`` (``--no-anchor``)."""
+    import json
+
+    from elastic_motion.cli import main
+    from elastic_motion.motion import write_bvh
+
+    ms = [walker(duration=1.0, speed=s, phase=0.3 * s, name=f"w{s}") for s in (1.0, 1.5, 2.0)]
+    for anchor in (True, False):
+        space = blendspace(ms, [1.0, 2.0, 3.0], contacts="off", anchor=anchor)
+        res = space.at(1.5)
+        assert (res.pose_anchor_deg is not None) == anchor and space.summary()["anchor"] == anchor
+    files = []
+    for m in ms:
+        files.append(tmp_path / f"{m.name}.bvh")
+        write_bvh(m, files[-1])
+    out = tmp_path / "o.bvh"
+    argv = ["blendspace", *map(str, files), "--params", "1,2,3", "--at", "1.5", "-o", str(out)]
+    assert main([*argv, "--contacts", "off", "--no-anchor", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["pose_anchor_deg"] is None and report["blendspace"]["anchor"] is False
+
+
 def test_blendspace_refuses_different_skeletons():
     from blend_testlib import NAMES
 

@@ -72,6 +72,7 @@ class BlendSpace:
     method: str = "lie"
     contacts: Any = "auto"
     notes: tuple[str, ...] = field(default=())
+    anchor: bool = True
 
     def weights(self, p: float) -> np.ndarray:
         """Weights ``(N,)`` of parameter ``p`` (module docstring, step 4)."""
@@ -96,15 +97,19 @@ class BlendSpace:
         w = self.weights(p)
         if self.param_name == "speed_m_s" and 0 < w.max() < 1:
             w = self._speed_weights(float(p), w)
-        res = blend_motions(
+        return self._blend(w, metrics=metrics)
+
+    def _blend(self, w: np.ndarray, *, metrics: bool = False) -> BlendResult:
+        """The blend of weights ``w`` ``(N,)`` on the template's warps, with this space's options."""
+        return blend_motions(
             self.prepared,
             w,
             method=self.method,
             template_warps=self.warps,
             contacts=self.contacts,
             metrics=metrics,
+            anchor=self.anchor,
         )
-        return res
 
     def _speed_weights(self, p: float, w: np.ndarray) -> np.ndarray:
         i = int(np.flatnonzero(w > 0)[0])
@@ -113,10 +118,7 @@ class BlendSpace:
         for _ in range(12):
             trial = np.zeros_like(w)
             trial[i], trial[i + 1] = 1.0 - t, t
-            m = blend_motions(
-                self.prepared, trial, method=self.method, template_warps=self.warps, contacts=self.contacts
-            ).motion
-            v = motion_speed(m)
+            v = motion_speed(self._blend(trial).motion)
             if abs(v - p) <= 0.005 * p:
                 break
             lo, hi = (t, hi) if v < p else (lo, t)
@@ -132,6 +134,7 @@ class BlendSpace:
             "motions": list(self.prepared.labels),
             "params": self.params.tolist(),
             "method": self.method,
+            "anchor": self.anchor,
             "template_warps": [v.tolist() for v in self.warps],
             "notes": list(self.notes),
         }
@@ -145,6 +148,7 @@ def blendspace(
     prepare: PrepareOptions | None = None,
     contacts: Any = "auto",
     one_cycle: bool = False,
+    anchor: bool = True,
 ) -> BlendSpace:
     """Build a blend space (module docstring).
 
@@ -162,6 +166,8 @@ def blendspace(
         Keep one gait cycle of each motion (:func:`elastic_motion.apps.cycles.gait_cycles`:
         the cycle whose duration is the clip's median, from heel strike to heel strike of the
         same foot); a motion without a full cycle is kept whole (a note says so).
+    anchor : bool, default True
+        The pose anchoring of each blend (:func:`~elastic_motion.apps.blend.blend_motions`).
 
     Returns
     -------
@@ -232,6 +238,7 @@ def blendspace(
         method=method,
         contacts=contacts,
         notes=prep.notes + tuple(extra_notes) + notes,
+        anchor=anchor,
     )
 
 

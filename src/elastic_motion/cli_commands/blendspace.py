@@ -58,6 +58,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="auto",
         help="foot-skate clean-up of the blend (as `blend --contacts`; default: auto)",
     )
+    p.add_argument(
+        "--no-anchor",
+        action="store_true",
+        help="no pose anchoring of the blend (as `blend --no-anchor`; default: anchored)",
+    )
     add_input_options(p)
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("blendspace", run, a))
@@ -88,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         prepare=prepare_options(args, len(inputs)),
         contacts=args.contacts,
         one_cycle=args.one_cycle,
+        anchor=not args.no_anchor,
     )
     res = space.at(args.at)
     write_motion(res.motion, res.prepared, out, inputs)
