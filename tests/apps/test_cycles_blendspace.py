@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from blend_testlib import walker
@@ -117,6 +119,33 @@ def test_blendspace_passes_the_pose_anchoring_on(capsys, tmp_path):
     assert main([*argv, "--contacts", "off", "--no-anchor", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["pose_anchor_deg"] is None and report["blendspace"]["anchor"] is False
+
+
+def test_blendspace_speed_is_blended_once_per_trial(monkeypatch):
+    """``params="speed"``: the bisection's last blend is returned, not blended again (with
+    metrics: the same blend, metrics added)."""
+    import elastic_motion.apps.blendspace as bs
+
+    ms = [walker(duration=1.0, speed=s, name=f"w{s}") for s in (1.0, 1.5, 2.0)]
+    space = blendspace(ms, contacts="off")
+    calls = []
+    real = bs.blend_motions
+
+    def spy(prepared, w, **kw):
+        calls.append(np.array(w, dtype=float))
+        return real(prepared, w, **kw)
+
+    monkeypatch.setattr(bs, "blend_motions", spy)
+    p = 0.5 * (space.params[0] + space.params[1])
+    res = space.at(p)
+    assert abs(motion_speed(res.motion) - p) <= 0.005 * p
+    assert len(calls) >= 1 and all(not np.array_equal(x, y) for x, y in itertools.pairwise(calls))
+    np.testing.assert_array_equal(res.weights, calls[-1])
+    calls.clear()
+    with_metrics = space.at(p, metrics=True)
+    assert with_metrics.metrics is not None
+    assert all(not np.array_equal(x, y) for x, y in itertools.pairwise(calls))
+    np.testing.assert_array_equal(with_metrics.motion.rotations, res.motion.rotations)
 
 
 def test_blendspace_refuses_different_skeletons():

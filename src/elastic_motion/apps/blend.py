@@ -707,20 +707,27 @@ def blend_motions(
             notes.append(tnote)
     local_u = [np.clip(np.interp(u, v[:, 0], v[:, 1]), 0.0, 1.0) for v in warps]
     s_u = None if knots is None else np.interp(u, knots[:, 0], knots[:, 1])
+    # the inputs' weighted mean at the matched times, in R^d: the "euler-linear" blend, and the
+    # pose the Euler elastic blend is anchored to
+    # (a weight curve interpolates the poses frame by frame, _varying_blend: nothing drifts)
+    anchorable = anchor and knots is None and method != "euler-linear"
+    in_range = bool(((w >= 0.0) & (w <= 1.0)).all())
+    euler_anchor = method == "euler-elastic" and anchorable and in_range
+    linear_mean = (
+        sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, full, local_u, strict=True))
+        if euler_anchor or (method == "euler-linear" and knots is None)
+        else None
+    )
     if knots is not None:
         curve = _varying_blend(full, warps[1], knots, u)
     elif method == "euler-linear":
-        values = sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, full, local_u, strict=True))
-        curve = DiscreteCurve(values, full[0].group)
+        curve = DiscreteCurve(linear_mean, full[0].group)
     else:
         blended = weighted_blend(full, w, [None if v is _IDENTITY else v for v in warps])
         curve = DiscreteCurve(blended.evaluate(u), blended.group)
     anchored = None  # the largest pose-anchoring correction (deg), when anchored
-    anchorable = anchor and knots is None and method != "euler-linear"
-    in_range = bool(((w >= 0.0) & (w <= 1.0)).all())
-    if anchorable and in_range and method == "euler-elastic":
-        mean = sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, full, local_u, strict=True))
-        values, anchored = _anchor_euler(curve.values, mean, prep.fps)
+    if euler_anchor:
+        values, anchored = _anchor_euler(curve.values, linear_mean, prep.fps)
         curve = DiscreteCurve(values, curve.group)
     like = prep.curve_motion(0)
     conv = from_lie_curve if method == "lie" else from_euler_curve

@@ -24,12 +24,12 @@ Paper 000, sec. 5.3 (future work). What happens:
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from elastic_motion.apps.blend import BlendResult, blend_motions
+from elastic_motion.apps.blend import BlendResult, blend_metrics, blend_motions
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
@@ -96,7 +96,11 @@ class BlendSpace:
         the clean-up make it jump by a few per cent, so ``p`` is met to about 3 %)."""
         w = self.weights(p)
         if self.param_name == "speed_m_s" and 0 < w.max() < 1:
-            w = self._speed_weights(float(p), w)
+            w, met = self._speed_weights(float(p), w)
+            if met is not None:  # the bisection's last blend is the answer: not blended again
+                if metrics:
+                    met = replace(met, metrics=blend_metrics(met.motion, met.prepared, met.weights))
+                return met
         return self._blend(w, metrics=metrics)
 
     def _blend(self, w: np.ndarray, *, metrics: bool = False) -> BlendResult:
@@ -111,21 +115,24 @@ class BlendSpace:
             anchor=self.anchor,
         )
 
-    def _speed_weights(self, p: float, w: np.ndarray) -> np.ndarray:
+    def _speed_weights(self, p: float, w: np.ndarray) -> tuple[np.ndarray, BlendResult | None]:
+        """The weights between the two neighbours in ``w`` whose blend moves at ``p`` m/s, and
+        that blend when the bisection met ``p`` (None when it ran out of steps)."""
         i = int(np.flatnonzero(w > 0)[0])
         lo, hi = 0.0, 1.0
         t = w[i + 1] if i + 1 < len(w) else 0.0
         for _ in range(12):
             trial = np.zeros_like(w)
             trial[i], trial[i + 1] = 1.0 - t, t
-            v = motion_speed(self._blend(trial).motion)
+            res = self._blend(trial)
+            v = motion_speed(res.motion)
             if abs(v - p) <= 0.005 * p:
-                break
+                return trial, res
             lo, hi = (t, hi) if v < p else (lo, t)
             t = 0.5 * (lo + hi)
         out = np.zeros_like(w)
         out[i], out[i + 1] = 1.0 - t, t
-        return out
+        return out, None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready."""
