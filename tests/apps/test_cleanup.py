@@ -150,9 +150,11 @@ def test_settle_moves_the_body_down_to_the_floor_not_the_stance_knees():
     same = cleanup_footskate(m, c, smooth=0.0, settle=0.5).motion
     given = cleanup_footskate(sunk, c, smooth=0.0, settle=settle_offset(sunk, c, legs, sigma=0.5))
     np.testing.assert_array_equal(given.motion.rotations, settled.motion.rotations)
-    for bad in (-1.0, float("nan"), np.zeros(3)):
+    for bad in (-1.0, float("nan"), np.zeros(3), [0.0, 0.0], True, "0.5"):
         with pytest.raises(ValueError, match="settle: expected"):
             cleanup_footskate(sunk, c, settle=bad)
+    with pytest.raises(ValueError, match="sigma: expected"):
+        settle_offset(sunk, c, legs, sigma=-1.0)
     np.testing.assert_allclose(settled.motion.rotations, same.rotations, atol=1e-9)
     np.testing.assert_allclose(settled.motion.root_translation, same.root_translation, atol=1e-9)
     plain = cleanup_footskate(sunk, c, smooth=0.0)

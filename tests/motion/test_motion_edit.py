@@ -68,8 +68,9 @@ def test_resample_up_is_geodesic(walk):
     np.testing.assert_allclose(
         up.root_translation[1::2], 0.5 * (m.root_translation[:-1] + m.root_translation[1:])
     )
-    with pytest.raises(ValueError, match="fps: expected a positive frame rate"):
-        resample(m, 0)
+    for bad in (0, -30.0, float("inf"), float("nan")):  # refused before a frame count is computed
+        with pytest.raises(ValueError, match="fps: expected a positive frame rate"):
+            resample(m, bad)
 
 
 def test_trim_by_time(walk):

@@ -339,6 +339,8 @@ def settle_offset(
     """
     from scipy.ndimage import gaussian_filter1d
 
+    if not (np.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma: expected seconds >= 0; got {sigma!r}")
     sk = motion.skeleton
     up = _AXES.index(motion.up_axis)
     pos, _ = joint_positions_and_rotations(sk.parents, motion.local_translations(), motion.rotations)
@@ -450,13 +452,17 @@ def cleanup_footskate(
     width = max(1, round(blend_time * motion.fps))
     parents = sk.parents
     base = motion
-    if isinstance(settle, np.ndarray):
+    if np.ndim(settle) > 0:
         settled = np.asarray(settle, dtype=np.float64)
         if settled.shape != (motion.n_frames,) or not np.isfinite(settled).all():
             raise ValueError(
-                f"settle: expected {motion.n_frames} finite offsets (one a frame); got {settled.shape}"
+                f"settle: expected {motion.n_frames} finite offsets (one a frame); got shape {settled.shape}"
             )
-    elif not (np.isfinite(settle) and settle >= 0):
+    elif (
+        isinstance(settle, bool)  # True is not "1 s"
+        or not isinstance(settle, (int, float, np.integer, np.floating))
+        or not (np.isfinite(settle) and settle >= 0)
+    ):
         raise ValueError(f"settle: expected seconds >= 0 or an offset per frame; got {settle!r}")
     else:
         settled = (

@@ -275,8 +275,6 @@ def resample(motion: Motion, fps: float, *, interpolation: str = "geodesic") -> 
         kept when the duration is a multiple of the new frame time).
     """
     fps = float(fps)
-    if not (math.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
     n = resampled_frames(motion, fps, "fps")
     return resample_at_times(motion, motion.times, np.arange(n) / fps, fps=fps, interpolation=interpolation)
 
@@ -284,9 +282,13 @@ def resample(motion: Motion, fps: float, *, interpolation: str = "geodesic") -> 
 def resampled_frames(motion: Motion, fps: float, option: str) -> int:
     """The frame count of :func:`resample` at ``fps``, checked before anything is allocated:
     ``OptionError(option, ...)`` beyond the limit ``max_frames``, or ``max_samples`` for its
-    frames x joints (:mod:`elastic_motion.limits`)."""
+    frames x joints (:mod:`elastic_motion.limits`); ``OptionError(option, ...)`` too for a rate
+    that is not a positive finite number."""
     from elastic_motion import limits
+    from elastic_motion.errors import OptionError
 
+    if not (math.isfinite(fps) and fps > 0):
+        raise OptionError(option, f"expected a positive frame rate; got {fps!r}")
     n = math.floor(motion.duration * fps + 1e-6) + 1
     limits.check_option(option, "a resampled frame count of", n, "max_frames")
     limits.check_option(option, "frames x joints of a resampled clip of", n * motion.n_joints, "max_samples")
