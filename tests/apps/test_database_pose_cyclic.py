@@ -8,6 +8,7 @@ Synthetic BVH clips of ``test_database.synthetic_motion`` (4 joints, 16-30 frame
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -112,6 +113,10 @@ def test_the_cache_appends_the_balanced_pose_term(clips: Path, tmp_path: Path) -
     cache.save(tmp_path / "c.npz")
     back = SRVCache.load(tmp_path / "c.npz")
     assert back.pose_weights == cache.pose_weights and back.settings == cache.settings
+    # a cache that lost its pose weights is refused by name, not by a KeyError at query time
+    dataclasses.replace(cache, pose_weights={}).save(tmp_path / "damaged.npz")
+    with pytest.raises(OptionError, match=r"damaged\.npz: expected one pose weight per representation"):
+        SRVCache.load(tmp_path / "damaged.npz")
 
 
 def _fields(s: DatabaseSettings) -> dict:

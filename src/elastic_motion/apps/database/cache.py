@@ -149,6 +149,18 @@ class SRVCache:
             settings = DatabaseSettings.from_json(meta["settings"])
             n = len(meta["names"])
             q = {r: [z[f"q_{r}_{k}"] for k in range(n)] for r in settings.representations}
+        pose_weights = {r: [float(x) for x in v] for r, v in meta.get("pose_weights", {}).items()}
+        n_groups = len(meta["group_joints"])
+        if settings.pose_weight and any(
+            len(pose_weights.get(r, ())) != n_groups for r in settings.representations
+        ):
+            raise OptionError(
+                "srv_cache",
+                f"{os.fspath(path)}: expected one pose weight per representation "
+                f"{list(settings.representations)} and skeleton group ({n_groups}) for pose_weight="
+                f"{settings.pose_weight!r}; got {pose_weights} (a damaged cache: recompute with "
+                "overwrite=True / --overwrite)",
+            )
         return cls(
             names=meta["names"],
             paths=meta["paths"],
@@ -160,7 +172,7 @@ class SRVCache:
             skipped=meta["skipped"],
             ignored=meta["ignored"],
             settings=settings,
-            pose_weights={r: [float(x) for x in v] for r, v in meta.get("pose_weights", {}).items()},
+            pose_weights=pose_weights,
         )
 
 
