@@ -172,7 +172,7 @@ def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None
     # resuming without --cyclic names what changed (the field is written only when set)
     argv = ["matrix", str(clips), "-o", str(out), *opts, "--pose-weight", "balanced"]
     assert main(argv) != 0
-    assert "cyclic: True -> None" in capsys.readouterr().err
+    assert "cyclic: True -> False" in capsys.readouterr().err
     # against a stored database its own settings are used: other flags are named, not silent
     plain = tmp_path / "plain"
     assert main(["matrix", str(clips), "-o", str(plain), *opts]) == 0

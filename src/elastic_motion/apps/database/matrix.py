@@ -99,11 +99,13 @@ def _identity_diff(old: dict[str, Any] | None, new: dict[str, Any]) -> str:
         o, n = set(old.get("inputs") or ()), set(new["inputs"])
         diffs.append(f"inputs differ ({len(n - o)} new, {len(o - n)} missing)")
     so, sn = old.get("settings", {}), new["settings"]
+    # fields written only when set (pose_weight, cyclic) are at their defaults when absent
+    default = {"pose_weight": DatabaseSettings.pose_weight, "cyclic": DatabaseSettings.cyclic}
     for k in [*sn, *(k for k in so if k not in sn)]:  # a field set before and not now too
         if isinstance(sn.get(k), dict) and isinstance(so.get(k), dict):
             diffs += [f"{k}.{f}: {so[k].get(f)!r} -> {sn[k][f]!r}" for f in sn[k] if so[k].get(f) != sn[k][f]]
         elif so.get(k) != sn.get(k):
-            diffs.append(f"{k}: {so.get(k)!r} -> {sn.get(k)!r}")
+            diffs.append(f"{k}: {so.get(k, default.get(k))!r} -> {sn.get(k, default.get(k))!r}")
     return "; ".join(diffs) or "format differs"
 
 
