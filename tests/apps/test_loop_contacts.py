@@ -260,6 +260,26 @@ def test_kept_feet_do_not_push_the_body_into_the_floor(mocap_dir):
     assert res.seam_after.seam_angle_max_deg < 1e-3 and res.seam_after.seam_position_max_m < 1e-9
 
 
+def test_the_floor_per_frame_is_in_metres_whatever_the_clips_unit():
+    """``_floor_per_frame`` (metres): the floor, or the input's own lowest point there when
+    lower, at most FLOOR_TOLERANCE under the floor; the same clip in centimetres gives the same
+    metres (a unit factor applied twice, or not at all, would not)."""
+    from elastic_motion.apps.loop import FLOOR_TOLERANCE, _floor_per_frame
+    from elastic_motion.motion import forward_kinematics
+    from elastic_motion.motion.contacts import Contacts
+    from elastic_motion.motion.edit import to_metres
+
+    m = periodic(f=60)
+    lowest = forward_kinematics(m, end_sites=True)[..., 1].min(axis=1)
+    floor = float(np.median(lowest)) + 0.005  # under the floor on some frames, deeper on others
+    c = Contacts(("foot",), np.array([3]), np.zeros((60, 1), dtype=bool), floor, np.zeros(1), m.fps, "y")
+    want = np.minimum(floor, np.maximum(lowest, floor - FLOOR_TOLERANCE))
+    assert (want < floor).any() and (want == floor).any()
+    np.testing.assert_allclose(_floor_per_frame(m, c), want, atol=1e-12)
+    cm = to_metres(m.replace(metres_per_unit=100.0)).replace(metres_per_unit=0.01)
+    np.testing.assert_allclose(_floor_per_frame(cm, c), want, atol=1e-9)
+
+
 def test_floor_rows_pin_the_deepest_frame_of_each_dip_at_the_inputs_height():
     from elastic_motion.apps.loop_contacts import _Row, floor_rows
 
