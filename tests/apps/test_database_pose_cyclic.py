@@ -163,7 +163,7 @@ def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None
     rep = json.loads(capsys.readouterr().out)
     assert rep["settings"]["pose_weight"] == 1.0 and len(rep["results"]) == 2
     assert main(["matrix", str(clips), "-o", str(tmp_path / "x"), *opts, "--pose-weight", "heavy"]) != 0
-    assert "--pose-weight: expected 'balanced' or a number >= 0; got 'heavy'" in capsys.readouterr().err
+    assert "--pose-weight: expected a number >= 0 or 'balanced'; got 'heavy'" in capsys.readouterr().err
     bad = [*opts[:-3], "--warp", "dp+refine", "--cyclic", "--quiet"]
     assert main(["matrix", str(clips), "-o", str(tmp_path / "y"), *bad]) != 0
     assert "--cyclic: phase-free matching needs the DP warp" in capsys.readouterr().err
@@ -179,10 +179,52 @@ def test_cli_pose_weight_and_cyclic(clips: Path, tmp_path: Path, capsys) -> None
     capsys.readouterr()
     assert main(["search", query, str(plain), "-k", "2", *opts, "--cyclic", "--pose-weight", "balanced"]) == 0
     text = capsys.readouterr().out
-    assert "note: --pose-weight balanced ignored: the database was built with pose weight 0.0" in text
-    assert "note: --cyclic ignored: the database was built without it" in text
+    assert (
+        "note: settings ignored: pose_weight='balanced' (built with 0.0), cyclic=True (built with False); "
+        "a stored database is measured with the settings it was built with" in text
+    )
     assert main(["search", query, str(out), "-k", "2", *opts, "--cyclic", "--pose-weight", "balanced"]) == 0
     assert "ignored" not in capsys.readouterr().out  # the same as stored: nothing to say
+
+
+def test_a_stored_database_names_every_setting_it_does_not_use(clips: Path, tmp_path: Path, capsys) -> None:
+    """Against an index or a matrix folder the stored settings are used; each flag given (API:
+    each field of ``settings``) that differs from them is named, the flags not given never are
+    (the stored database was built with --samples 10: searching without --samples is not a
+    request for the default 64)."""
+    from elastic_motion.apps.database import is_stored_database
+    from elastic_motion.cli import main
+
+    opts = ["--samples", "10", "--neighbourhood", "4", "--method", "lie", "--quiet"]
+    idx = tmp_path / "idx"
+    assert main(["index", str(clips), "-o", str(idx), *opts]) == 0
+    assert is_stored_database(idx) and not is_stored_database(clips) and not is_stored_database([idx, idx])
+    query = str(clips / "k1_v2.bvh")
+    capsys.readouterr()
+    assert main(["search", query, str(idx), "-k", "2", "--json"]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert not any("ignored" in n for n in plain["notes"])
+    argv = ["search", query, str(idx), "-k", "2", "--samples", "12", "--keep-fingers", "--warp", "dp+refine"]
+    assert main([*argv, "--neighbourhood", "4", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["notes"][0].startswith(
+        "settings ignored: n_samples=12 (built with 10), drop_fingers=False (built with True), "
+        "warp.method='dp+refine' (built with 'dp');"
+    )
+    assert rep["results"] == plain["results"] and rep["settings"] == plain["settings"]
+    # the API: the fields of the settings given that differ from the stored ones
+    stored = DatabaseSettings(
+        n_samples=10, representations=("lie",), warp=WarpOptions(method="dp", neighbourhood=4)
+    )
+    assert knn_search(query, idx, 2, "lie", stored).notes == knn_search(query, idx, 2, "lie").notes
+    asked = dataclasses.replace(stored, n_samples=12, align_heading=False)
+    notes = query_distances(query, idx, "lie", asked).notes
+    assert notes[0].startswith(
+        "settings ignored: n_samples=12 (built with 10), align_heading=False (built with True);"
+    )
+    assert knn_search(query, idx, 2, "lie", asked).notes[0] == notes[0]
+    # a database of files is read with the settings given: nothing is ignored
+    assert not any("ignored" in n for n in query_distances(query, clips, "lie", asked).notes)
 
 
 def test_each_skeleton_group_gets_its_own_balanced_weight(tmp_path: Path) -> None:

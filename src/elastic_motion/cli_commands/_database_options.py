@@ -103,19 +103,6 @@ def add_distance_terms(p: argparse.ArgumentParser) -> None:
     )
 
 
-def pose_weight_option(value: str | None) -> float | str:
-    """``--pose-weight``: ``"balanced"`` or a number (validated by ``DatabaseSettings``); not
-    given (None): 0."""
-    if value is None:
-        return 0.0
-    if value == "balanced":
-        return value
-    try:
-        return float(value)
-    except ValueError:
-        raise CommandError(f"--pose-weight: expected 'balanced' or a number >= 0; got {value!r}") from None
-
-
 def add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
     """``--method`` (the curve representation), with the old spelling ``--repr``."""
     if several:
@@ -152,45 +139,71 @@ def methods(value: str, *, several: bool) -> tuple[str, ...]:
     return keys
 
 
-def database_settings(args: argparse.Namespace, reps: tuple[str, ...]):
-    from elastic_motion.apps.database import DatabaseSettings
-    from elastic_motion.warp import WarpOptions
-
-    return DatabaseSettings(
-        n_samples=args.samples,
-        representations=reps,
-        warp=WarpOptions(
-            method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
-        ),
-        joints=joints_option(args.joints),
-        drop_fingers=not args.keep_fingers,
-        align_heading=not args.no_align,
-        tile_size=getattr(args, "tile_size", 32),
-        pose_weight=pose_weight_option(getattr(args, "pose_weight", None)),
-        cyclic=bool(getattr(args, "cyclic", False)),
+def defaults_unset(p: argparse.ArgumentParser) -> None:
+    """Make the preparation, warp and distance-term flags of ``p`` default to None ("not given"),
+    for a command that may read a stored database, which uses its own settings: only the
+    flags given are then compared with them (:func:`given_fields`). :func:`database_settings`
+    fills the others with :class:`~elastic_motion.apps.database.DatabaseSettings`' defaults,
+    the values the help text shows."""
+    p.set_defaults(
+        samples=None,
+        joints=None,
+        keep_fingers=None,
+        no_align=None,
+        warp=None,
+        neighbourhood=None,
+        coarse_to_fine=None,
     )
 
 
-def stored_terms_notes(args: argparse.Namespace, stored) -> list[str]:
-    """Notes for ``--pose-weight`` / ``--cyclic`` given against a database that was built with
-    other values (a matrix folder or an index: its stored settings ``stored`` are used)."""
-    notes = []
-    given = getattr(args, "pose_weight", None)
-    if given is not None:
-        want = pose_weight_option(given)
-        have = stored.pose_weight
-        same = want == have if "balanced" in (want, have) else float(want) == float(have)
-        if not same:
-            notes.append(
-                f"--pose-weight {given} ignored: the database was built with pose weight {have!r} and is "
-                "measured as it was built (build it again with the option to use it)"
-            )
-    if getattr(args, "cyclic", None) and not stored.cyclic:
-        notes.append(
-            "--cyclic ignored: the database was built without it and is measured as it was built "
-            "(build it again with --cyclic to use it)"
-        )
-    return notes
+def _given(args: argparse.Namespace) -> tuple[dict, dict]:
+    """The :class:`DatabaseSettings` fields and the warp's fields that the parsed flags set
+    (None: not given)."""
+    fields: dict = {}
+    if getattr(args, "samples", None) is not None:
+        fields["n_samples"] = args.samples
+    if getattr(args, "joints", None) is not None:
+        fields["joints"] = joints_option(args.joints)
+    if getattr(args, "keep_fingers", None) is not None:
+        fields["drop_fingers"] = not args.keep_fingers
+    if getattr(args, "no_align", None) is not None:
+        fields["align_heading"] = not args.no_align
+    if getattr(args, "pose_weight", None) is not None:
+        fields["pose_weight"] = args.pose_weight  # "balanced" or a number: DatabaseSettings checks it
+    if getattr(args, "cyclic", None) is not None:
+        fields["cyclic"] = bool(args.cyclic)
+    warp = {
+        f: getattr(args, f)
+        for f in ("warp", "neighbourhood", "coarse_to_fine")
+        if getattr(args, f, None) is not None
+    }
+    if "warp" in warp:
+        warp["method"] = warp.pop("warp")
+    return fields, warp
+
+
+def given_fields(args: argparse.Namespace) -> tuple[str, ...]:
+    """The flat settings fields (``n_samples``, ``warp.method``, ...; as in
+    :data:`~elastic_motion.apps.database.settings.QUERY_FIELDS`) the parsed flags set."""
+    fields, warp = _given(args)
+    return (*fields, *(f"warp.{f}" for f in warp))
+
+
+def database_settings(args: argparse.Namespace, reps: tuple[str, ...]):
+    """The :class:`~elastic_motion.apps.database.DatabaseSettings` of the parsed flags: those
+    given, the defaults for the others."""
+    import dataclasses
+
+    from elastic_motion.apps.database import DatabaseSettings
+    from elastic_motion.apps.database.settings import DEFAULT_WARP
+
+    fields, warp = _given(args)
+    return DatabaseSettings(
+        representations=reps,
+        warp=dataclasses.replace(DEFAULT_WARP, **warp),
+        tile_size=getattr(args, "tile_size", 32),
+        **fields,
+    )
 
 
 def fail(command: str, exc: BaseException) -> int:

@@ -39,12 +39,12 @@ from elastic_motion.cli_commands._database_options import (
     add_warp,
     alias,
     database_settings,
+    defaults_unset,
     emit,
     fail,
+    given_fields,
     joints_option,
     methods,
-    pose_weight_option,
-    stored_terms_notes,
 )
 
 
@@ -195,6 +195,7 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
     add_preparation(p)
     add_warp(p)
     add_distance_terms(p)
+    defaults_unset(p)  # a stored database uses its own settings: the flags given are compared with them
     p.set_defaults(func=run_search)
 
 
@@ -203,18 +204,19 @@ def _run_within(args: argparse.Namespace) -> int:
 
     bar = progress_for("search", args)
     try:
-        if args.cyclic or pose_weight_option(args.pose_weight) != 0:
+        (method,) = methods(args.method, several=False)
+        settings = database_settings(args, (method,))
+        if settings.cyclic or settings.pose_weight != 0:
             raise CommandError(
                 "--within: expected neither --cyclic nor --pose-weight (partial matching is on the SRV)"
             )
-        (method,) = methods(args.method, several=False)
         res = find_within(
             args.query,
             args.database,
             method,
-            n_samples=args.samples,
-            neighbourhood=args.neighbourhood,
-            drop_fingers=not args.keep_fingers,
+            n_samples=settings.n_samples,
+            neighbourhood=settings.warp.neighbourhood,
+            drop_fingers=settings.drop_fingers,
         )
     except USER_ERRORS as exc:
         return fail("search", exc)
@@ -234,7 +236,8 @@ def _run_within(args: argparse.Namespace) -> int:
 
 
 def run_search(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.database import knn_search
+    from elastic_motion.apps.database import is_stored_database, knn_search
+    from elastic_motion.apps.database.settings import ignored_settings_note
 
     if args.within:
         return _run_within(args)
@@ -242,14 +245,18 @@ def run_search(args: argparse.Namespace) -> int:
     bar = progress_for("search", args)
     try:
         (method,) = methods(args.method, several=False)
-        res = knn_search(args.query, db, args.k, method, database_settings(args, (method,)), progress=bar)
+        settings = database_settings(args, (method,))
+        # a stored database is measured as it was built: name only the flags given that differ
+        stored = is_stored_database(db)
+        res = knn_search(args.query, db, args.k, method, None if stored else settings, progress=bar)
     except USER_ERRORS as exc:
         return fail("search", exc)
     finally:
         bar.close()
     s = res.summary()
-    ignored = stored_terms_notes(args, res.settings)
-    s["notes"] = [*s["notes"], *ignored]
+    note = ignored_settings_note(settings, res.settings, given_fields(args)) if stored else None
+    ignored = [] if note is None else [note]
+    s["notes"] = [*ignored, *s["notes"]]
     results = s["results"]
     lines = [f"{r['rank']:3d}  {r['distance']:10.4f}  {r['name']}" for r in results]
     if not results:

@@ -56,7 +56,13 @@ from elastic_motion.apps.database.preparation import (
     prepare_motion,
     restrict_to_common_joints,
 )
-from elastic_motion.apps.database.query import QueryResult, SearchResult, knn_search, query_distances
+from elastic_motion.apps.database.query import (
+    QueryResult,
+    SearchResult,
+    is_stored_database,
+    knn_search,
+    query_distances,
+)
 from elastic_motion.apps.database.results import DistanceMatrix, load_matrix
 from elastic_motion.apps.database.settings import (
     DEFAULT_WARP,
@@ -105,6 +111,7 @@ __all__ = [
     "distance_matrix",
     "find_motion_files",
     "find_within",
+    "is_stored_database",
     "knn_search",
     "load_index",
     "load_matrix",

@@ -32,7 +32,12 @@ from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.cache import FilesNotSeenError, SRVCache, build_srv_cache
 from elastic_motion.apps.database.engines import Engine, Task, local_start_method, open_engine, order_tiles
 from elastic_motion.apps.database.files import find_motion_files
-from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
+from elastic_motion.apps.database.settings import (
+    FORMAT_VERSION,
+    READABLE_FORMATS,
+    DatabaseSettings,
+    settings_differences,
+)
 from elastic_motion.apps.database.tiles import (
     LOCAL_CLUSTER_STARTUP,
     LOCAL_CLUSTER_STARTUP_FORKED,
@@ -99,13 +104,7 @@ def _identity_diff(old: dict[str, Any] | None, new: dict[str, Any]) -> str:
         o, n = set(old.get("inputs") or ()), set(new["inputs"])
         diffs.append(f"inputs differ ({len(n - o)} new, {len(o - n)} missing)")
     so, sn = old.get("settings", {}), new["settings"]
-    # fields written only when set (pose_weight, cyclic) are at their defaults when absent
-    default = {"pose_weight": DatabaseSettings.pose_weight, "cyclic": DatabaseSettings.cyclic}
-    for k in [*sn, *(k for k in so if k not in sn)]:  # a field set before and not now too
-        if isinstance(sn.get(k), dict) and isinstance(so.get(k), dict):
-            diffs += [f"{k}.{f}: {so[k].get(f)!r} -> {sn[k][f]!r}" for f in sn[k] if so[k].get(f) != sn[k][f]]
-        elif so.get(k) != sn.get(k):
-            diffs.append(f"{k}: {so.get(k, default.get(k))!r} -> {sn.get(k, default.get(k))!r}")
+    diffs += [f"{k}: {o!r} -> {n!r}" for k, o, n in settings_differences(so, sn)]
     return "; ".join(diffs) or "format differs"
 
 

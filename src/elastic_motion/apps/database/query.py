@@ -17,14 +17,20 @@ from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.preparation import prepare_motion, with_pose_term
-from elastic_motion.apps.database.settings import DatabaseSettings, canonical_method, public_method
+from elastic_motion.apps.database.settings import (
+    QUERY_FIELDS,
+    DatabaseSettings,
+    canonical_method,
+    ignored_settings_note,
+    public_method,
+)
 from elastic_motion.apps.database.tiles import pair_distances, single_threaded_blas
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import group_weights
 
-__all__ = ["QueryResult", "SearchResult", "knn_search", "query_distances"]
+__all__ = ["QueryResult", "SearchResult", "is_stored_database", "knn_search", "query_distances"]
 
 #: Pairs of a query solved in one call of the batched DP (progress is reported between calls).
 QUERY_BATCH = 64
@@ -58,7 +64,9 @@ class QueryResult:
     skipped : list of dict
         Database files that could not be used: ``{"path", "reason"}``.
     notes : tuple of str
-        What the preparation did to the query.
+        Settings a stored database did not use (``settings`` given that differ from its own,
+        :func:`~elastic_motion.apps.database.settings.ignored_settings_note`), then what the
+        preparation did to the query.
     """
 
     query: str
@@ -101,20 +109,31 @@ class QueryResult:
         return jsonable(self)
 
 
+def is_stored_database(database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> bool:
+    """Whether ``database`` is one stored database: an index (:mod:`.index`) or a matrix output
+    folder (its ``srv_cache.npz``), measured with the settings it was built with."""
+    from elastic_motion.apps.database.index import is_index
+
+    db = [database] if isinstance(database, str | os.PathLike) else list(database)
+    return len(db) == 1 and (is_index(db[0]) or (Path(db[0]) / storage.CACHE).exists())
+
+
 def _open_database(
     database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     key: str,
     settings: DatabaseSettings | None,
     progress: Progress | None,
-) -> SRVCache:
-    """The SRV cache of a matrix folder, an index (:mod:`.index`) or files read now."""
+) -> tuple[SRVCache, tuple[str, ...]]:
+    """The SRV cache of a matrix folder, an index (:mod:`.index`) or files read now, and the
+    note naming the ``settings`` a stored database does not use (none when it uses them)."""
     from elastic_motion.apps.database.index import is_index, load_index
 
     db = [database] if isinstance(database, str | os.PathLike) else list(database)
-    if len(db) == 1 and is_index(db[0]):
-        cache = load_index(db[0]).cache
-    elif len(db) == 1 and (Path(db[0]) / storage.CACHE).exists():
-        cache = SRVCache.load(Path(db[0]) / storage.CACHE)
+    notes: tuple[str, ...] = ()
+    if is_stored_database(db):
+        cache = load_index(db[0]).cache if is_index(db[0]) else SRVCache.load(Path(db[0]) / storage.CACHE)
+        note = None if settings is None else ignored_settings_note(settings, cache.settings, QUERY_FIELDS)
+        notes = () if note is None else (note,)
     else:
         if settings is None:
             settings = DatabaseSettings(representations=(key,))
@@ -126,7 +145,7 @@ def _open_database(
             "expected one of the representations of the database "
             f"{[public_method(r) for r in cache.settings.representations]}; got {public_method(key)!r}",
         )
-    return cache
+    return cache, notes
 
 
 def _query_srv(
@@ -184,13 +203,16 @@ def query_distances(
     query : path
         A motion file.
     database : path or sequence of paths
-        A matrix output folder (its ``srv_cache.npz`` and settings are used; ``settings`` is
-        then ignored and nothing is written), an index (:func:`~elastic_motion.apps.database.build_index`),
+        A matrix output folder (its ``srv_cache.npz`` and settings are used; nothing is
+        written), an index (:func:`~elastic_motion.apps.database.build_index`),
         or motion files / folders (read now, nothing cached).
     method : {"lie", "euler-elastic"}, default "lie"
         The curve representation; ``"euler"`` is accepted for ``"euler-elastic"``.
     settings : DatabaseSettings, optional
-        For a database of files (default ``DatabaseSettings(representations=(method,))``).
+        For a database of files (default ``DatabaseSettings(representations=(method,))``). A
+        stored database (:func:`is_stored_database`) is measured with its own settings: the
+        fields of :data:`~elastic_motion.apps.database.settings.QUERY_FIELDS` in which these
+        differ from them are named in ``notes``.
     progress : callable, optional
         ``progress(stage, done, total)``: ``"read"`` (database files), ``"query"`` (pairs).
     representation : str, optional
@@ -208,7 +230,7 @@ def query_distances(
         A representation the database does not hold; a query missing the joints asked for.
     """
     key = _method_key(method, representation)
-    cache = _open_database(database, key, settings, progress)
+    cache, ignored = _open_database(database, key, settings, progress)
     qq, g, notes, _ = _query_srv(query, cache, key)
     members = np.array([k for k in range(len(cache)) if cache.groups[k] == g], dtype=np.int64)
     out = np.full(len(cache), np.inf)
@@ -230,7 +252,7 @@ def query_distances(
         group=g,
         settings=cache.settings,
         skipped=list(cache.skipped),
-        notes=notes,
+        notes=(*ignored, *notes),
     )
 
 
@@ -261,8 +283,9 @@ class SearchResult:
     settings : DatabaseSettings
     skipped : list of dict
     notes : tuple of str
-        The query's preparation; with ``group == -1`` also which joints differ from the
-        nearest group of the database.
+        Settings a stored database did not use (as :attr:`QueryResult.notes`), the query's
+        preparation; with ``group == -1`` last which joints differ from the nearest group of
+        the database.
     seconds : float
         Wall time of the search (bounds and DPs, not reading).
     """
@@ -359,7 +382,7 @@ def knn_search(
     k : int, default 5
     method : {"lie", "euler-elastic"}, default "lie"
     settings : DatabaseSettings, optional
-        For a database of files.
+        For a database of files; against a stored database, as in :func:`query_distances`.
     exclude_query : bool, default True
         Leave out entries that are the query file itself.
     progress : callable, optional
@@ -380,8 +403,9 @@ def knn_search(
     from elastic_motion.apps.database.index import cache_norms
 
     key = canonical_method(method)
-    cache = _open_database(database, key, settings, progress)
+    cache, ignored = _open_database(database, key, settings, progress)
     qq, g, notes, joints = _query_srv(query, cache, key)
+    notes = (*ignored, *notes)
     t0 = time.perf_counter()
     m = len(cache)
     lb = np.full(m, np.inf)

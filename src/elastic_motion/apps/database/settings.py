@@ -30,10 +30,13 @@ __all__ = [
     "DEFAULT_WARP",
     "FORMAT_VERSION",
     "METHODS",
+    "QUERY_FIELDS",
     "REPRESENTATIONS",
     "DatabaseSettings",
     "canonical_method",
+    "ignored_settings_note",
     "public_method",
+    "settings_differences",
 ]
 
 #: Curve representations a matrix can hold, as stored (file names ``distances_<repr>.npy``,
@@ -247,3 +250,71 @@ class DatabaseSettings:
         if "joints" in d and not isinstance(d["joints"], str):
             d["joints"] = tuple(d["joints"])
         return cls(**d)
+
+
+#: The fields (``warp.<field>`` for the warp's) that change a query's distances to a stored
+#: database (:func:`~elastic_motion.apps.database.knn_search`); the others name the files
+#: (``representations``) or how a matrix run is cut into tiles (``tile_size``), and the warp's
+#: ``sample_fps``, ``sample_smoothing`` and ``landmark_weight`` are not used by a database.
+QUERY_FIELDS = (
+    "n_samples",
+    "warp.method",
+    "warp.neighbourhood",
+    "warp.coarse_to_fine",
+    "joints",
+    "drop_fingers",
+    "align_heading",
+    "pose_weight",
+    "cyclic",
+)
+
+
+def _flat_settings(data: dict[str, Any]) -> dict[str, Any]:
+    """A settings JSON form with the warp's fields as ``warp.<field>`` and the fields written
+    only when set (``pose_weight``, ``cyclic``) at their defaults when absent."""
+    out: dict[str, Any] = {"pose_weight": DatabaseSettings.pose_weight, "cyclic": DatabaseSettings.cyclic}
+    for k, v in data.items():
+        if isinstance(v, dict):
+            out.update({f"{k}.{f}": fv for f, fv in v.items()})
+        else:
+            out[k] = v
+    return out
+
+
+def settings_differences(
+    old: dict[str, Any], new: dict[str, Any], fields: tuple[str, ...] | None = None
+) -> list[tuple[str, Any, Any]]:
+    """The fields in which two settings JSON forms (:meth:`DatabaseSettings.to_json`) differ.
+
+    Parameters
+    ----------
+    old, new : dict
+        JSON forms; a field written only when set reads as its default when absent, the warp's
+        fields are compared one by one (``"warp.neighbourhood"``).
+    fields : tuple of str, optional
+        Compare only these (flat names, e.g. :data:`QUERY_FIELDS`); default every field of
+        either form, ``new``'s first.
+
+    Returns
+    -------
+    list of (field, old value, new value)
+    """
+    fo, fn = _flat_settings(old), _flat_settings(new)
+    names = fields if fields is not None else (*fn, *(k for k in fo if k not in fn))
+    return [(k, fo.get(k), fn.get(k)) for k in names if fo.get(k) != fn.get(k)]
+
+
+def ignored_settings_note(
+    asked: DatabaseSettings, stored: DatabaseSettings, fields: tuple[str, ...]
+) -> str | None:
+    """The note for settings asked of a stored database (an index or a matrix folder), which is
+    measured as it was built: the ``fields`` (of :data:`QUERY_FIELDS`) in which ``asked``
+    differs from ``stored``; None when it does not."""
+    diffs = settings_differences(stored.to_json(), asked.to_json(), fields)
+    if not diffs:
+        return None
+    what = ", ".join(f"{k}={new!r} (built with {old!r})" for k, old, new in diffs)
+    return (
+        f"settings ignored: {what}; a stored database is measured with the settings it was built with "
+        "(build it again with these to use them)"
+    )
