@@ -199,6 +199,24 @@ def test_metrics_on_a_clean_motion(pair):
     assert bone_length_error(longer, a).max_relative == pytest.approx(0.1, rel=1e-9)
 
 
+def test_foot_sliding_from_given_lowest_heights(pair):
+    """``lowest`` moves the touch threshold exactly: its own lowest heights change nothing,
+    2 cm higher is the same as a 2 cm larger ``contact_height``; a wrong shape is refused."""
+    a, _ = pair
+    fs = foot_sliding(a)
+    up = "xyz".index(a.up_axis)
+    p = forward_kinematics(a)[:, foot_joints(a), up] * a.metres_per_unit
+    np.testing.assert_array_equal(fs.lowest, p.min(axis=0))
+    same = foot_sliding(a, lowest=fs.lowest)
+    np.testing.assert_array_equal(same.contact, fs.contact)
+    assert same.mean_speed == fs.mean_speed
+    higher = foot_sliding(a, lowest=fs.lowest + 0.02)
+    np.testing.assert_array_equal(higher.contact, foot_sliding(a, contact_height=0.07).contact)
+    assert higher.contact.sum() > fs.contact.sum()
+    with pytest.raises(ValueError, match="lowest: expected 2 finite heights"):
+        foot_sliding(a, lowest=np.zeros(3))
+
+
 def test_distance_table_is_symmetric(pair):
     a, b = pair
     t = distance_table([a, b, a], labels=["a", "b", "a2"])

@@ -102,6 +102,9 @@ class FootSliding:
         Whether the joint touches in both frames of the step.
     units : str
         ``"m"`` or ``"unknown"`` (the motion's own length unit).
+    lowest : ndarray, shape (K,)
+        The height each joint's ``contact_height`` was measured from (its lowest in the clip,
+        or the ``lowest`` given to :func:`foot_sliding`); empty without foot joints.
     """
 
     mean_speed: float
@@ -112,6 +115,7 @@ class FootSliding:
     speed: np.ndarray
     contact: np.ndarray
     units: str
+    lowest: np.ndarray
 
     def summary(self) -> dict[str, float | str | list[str]]:
         """The scalars, for a JSON report (``*_m_s`` in m/s, ``distance_m`` in m)."""
@@ -126,7 +130,11 @@ class FootSliding:
 
 
 def foot_sliding(
-    motion: Motion, *, contact_height: float = 0.05, joints: list[int] | None = None
+    motion: Motion,
+    *,
+    contact_height: float = 0.05,
+    joints: list[int] | None = None,
+    lowest: np.ndarray | None = None,
 ) -> FootSliding:
     """Foot sliding: mean horizontal speed of the foot joints while they touch the floor.
 
@@ -139,6 +147,12 @@ def foot_sliding(
         its lowest height in the clip.
     joints : list of int, optional
         Joints to measure (default :func:`foot_joints`).
+    lowest : ndarray, shape (K,), optional
+        The heights (same units as ``contact_height``) to measure ``contact_height`` from,
+        one per measured joint, instead of each joint's lowest height in this clip: e.g. a
+        motion's own lowest heights (``FootSliding.lowest``) to measure an edit of it by the
+        same threshold (an edit that lifts a joint's lowest frame would otherwise raise the
+        threshold and count more of its swing as touching).
 
     Returns
     -------
@@ -155,11 +169,19 @@ def foot_sliding(
     n_steps = max(motion.n_frames - 1, 0)
     if not feet or n_steps == 0:
         empty = np.zeros((n_steps, len(feet)))
-        return FootSliding(0.0, 0.0, 0.0, 0.0, names, empty, empty.astype(bool), units)
+        return FootSliding(0.0, 0.0, 0.0, 0.0, names, empty, empty.astype(bool), units, np.zeros(0))
     up = _AXES.index(motion.up_axis)
     p = forward_kinematics(motion)[:, feet] * scale  # (F, K, 3)
     height = p[..., up]
-    touch = height < height.min(axis=0) + contact_height
+    if lowest is None:
+        floor = height.min(axis=0)
+    else:
+        floor = np.asarray(lowest, dtype=np.float64)
+        if floor.shape != (len(feet),) or not np.isfinite(floor).all():
+            raise ValueError(
+                f"lowest: expected {len(feet)} finite heights, one per joint; got {floor.tolist()!r}"
+            )
+    touch = height < floor + contact_height
     contact = touch[:-1] & touch[1:]
     step = np.diff(p, axis=0)
     step[..., up] = 0.0
@@ -174,6 +196,7 @@ def foot_sliding(
         speed=speed,
         contact=contact,
         units=units,
+        lowest=floor,
     )
 
 
