@@ -280,12 +280,14 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     offset = np.zeros((f, a.n_joints, 3))
     offset[:, knee, 0] = 0.25  # a constant drift: 14.3 degrees
     body = a.replace(rotations=mean @ SO3G.exp(offset))
-    out, drift = _anchor_poses(body, [a, b], times, w)
+    out, drift, lift = _anchor_poses(body, [a, b], times, w)
     np.testing.assert_allclose(out.rotations, mean, atol=1e-9)
     assert drift == pytest.approx(np.degrees(0.25), rel=1e-9)
+    np.testing.assert_array_equal(out.root_translation, body.root_translation)  # at the inputs' height
+    assert lift == 0.0
     wiggle = offset.copy()
     wiggle[:, knee, 0] = 0.02 * (-1.0) ** np.arange(f)
-    out2, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(wiggle)), [a, b], times, w)
+    out2, _, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(wiggle)), [a, b], times, w)
     left = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out2.rotations[:, knee])[:, 0]
     # the fast part is the blend's own: kept (its frame-to-frame swing, whatever the edges add)
     assert np.median(np.abs(np.diff(left))) / 2 > 0.95 * 0.02
@@ -295,16 +297,29 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     tt = np.arange(f) / a.fps
     slow = offset.copy()
     slow[:, knee, 0] = 0.2 * np.sin(2 * np.pi * 0.4 * tt) + 0.05 * np.sin(2 * np.pi * 3.0 * tt)
-    out3, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(slow)), [a, b], times, w)
+    out3, _, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(slow)), [a, b], times, w)
     kept = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out3.rotations[:, knee])[:, 0]
     x = slow[:, knee, 0]
     np.testing.assert_allclose(kept, x - gaussian_filter1d(x, 1.0 * a.fps, mode="nearest"), atol=1e-9)
+    # the root height likewise, from the inputs' weighted mean height (B 4 cm lower, played
+    # 10 % slower); its horizontal path is kept
+    b2 = b.replace(root_translation=b.root_translation - [0.0, 0.04, 0.0])
+    times2 = [a.times, 0.9 * a.times]
+    mean_h = 0.3 * a.root_translation[:, 1] + 0.7 * np.interp(times2[1], b2.times, b2.root_translation[:, 1])
+    root = a.root_translation.copy()
+    root[:, 1] = mean_h + 0.1 + x  # 10 cm too high, and a drift of every speed
+    out4, _, lift = _anchor_poses(a.replace(root_translation=root), [a, b2], times2, w)
+    np.testing.assert_allclose(
+        out4.root_translation[:, 1] - mean_h, x - gaussian_filter1d(x, a.fps, mode="nearest"), atol=1e-12
+    )
+    np.testing.assert_array_equal(out4.root_translation[:, [0, 2]], root[:, [0, 2]])
+    assert lift == pytest.approx(np.abs(0.1 + gaussian_filter1d(x, a.fps, mode="nearest")).max(), rel=1e-12)
 
 
 def test_euler_anchor_removes_the_slow_part_of_the_angles_drift():
     """``_anchor_euler`` works in the Euler method's own space: each angle's difference from the
     inputs' mean loses exactly its 1 s Gaussian (a constant offset entirely, a wrong sign would
-    double it); the root position is never touched."""
+    double it), and so does the root's height; the root's horizontal position is never touched."""
     from scipy.ndimage import gaussian_filter1d
 
     from elastic_motion.apps.blend import _anchor_euler
@@ -314,11 +329,14 @@ def test_euler_anchor_removes_the_slow_part_of_the_angles_drift():
     mean = rng.normal(size=(f, 3 + 3 * j))
     tt = np.arange(f) / fps
     drift = np.zeros((f, 3 + 3 * j))
-    drift[:, :3] = 0.5  # the root: kept whatever its offset
+    drift[:, :3] = 0.5  # the root: its horizontal position kept whatever its offset
+    drift[:, 1] = 0.07  # its height (y up): removed entirely
     drift[:, 3] = 0.3  # constant: removed entirely
     drift[:, 4] = 0.2 * np.sin(2 * np.pi * 0.4 * tt) + 0.05 * np.sin(2 * np.pi * 3.0 * tt)
-    out, largest = _anchor_euler(mean + drift, mean, fps)
-    np.testing.assert_allclose(out[:, :3], mean[:, :3] + 0.5, atol=1e-12)
+    out, largest, lift = _anchor_euler(mean + drift, mean, fps, up=1)
+    np.testing.assert_allclose(out[:, [0, 2]], mean[:, [0, 2]] + 0.5, atol=1e-12)
+    np.testing.assert_allclose(out[:, 1], mean[:, 1], atol=1e-12)
+    assert lift == pytest.approx(0.07, rel=1e-12)
     np.testing.assert_allclose(out[:, 3], mean[:, 3], atol=1e-12)
     x = drift[:, 4]
     slow = gaussian_filter1d(x, fps, mode="nearest")
@@ -340,7 +358,42 @@ def test_anchor_off_gives_the_plain_srv_blend(pair, method):
     assert np.abs(change).max() > 1e-3
     # a 1 s Gaussian leaves frame-to-frame steps far below the change itself
     assert np.abs(np.diff(change, axis=0)).max() < 0.1 * np.abs(change).max()
-    np.testing.assert_allclose(plain.motion.root_translation, anchored.motion.root_translation, atol=1e-12)
+    # the root's horizontal path is the SRV blend's; its height changes slowly, if at all
+    pr, ar = plain.motion.root_translation, anchored.motion.root_translation
+    np.testing.assert_allclose(pr[:, [0, 2]], ar[:, [0, 2]], atol=1e-12)
+    sink = ar[:, 1] - pr[:, 1]
+    assert np.abs(sink).max() == pytest.approx(anchored.height_anchor_m, rel=1e-9, abs=1e-12)
+    assert np.abs(np.diff(sink)).max() <= 0.1 * np.abs(sink).max() + 1e-12
+    assert anchored.summary()["height_anchor_m"] == anchored.height_anchor_m and plain.height_anchor_m is None
+
+
+def test_anchored_blend_stays_at_the_inputs_height(mocap_dir):
+    """Bandai happy x sad, Lie + warp, no clean-up: the plain SRV blend's root sinks by 8 cm
+    over the clip and its toes go 6.9 cm under the inputs' floor (the inputs: 0.2 and 0.1 cm);
+    with the poses anchored at that height, 8.9 cm. Anchored to the inputs' mean root height
+    too, the blend ends within 1 cm of their mean and its lowest point is 1.1 cm under."""
+    from elastic_motion.motion.contacts import detect_contacts
+
+    files = [mocap_dir / "bandai" / f"dataset-1_walk_{s}_001.bvh" for s in ("happy", "sad")]
+    if not all(p.is_file() for p in files):
+        pytest.skip("Bandai walks not found")
+    res = blend_motions(files, 0.5, method="lie", warp="dp", contacts="off")
+    plain = blend_motions(res.prepared, 0.5, method="lie", warp="dp", contacts="off", anchor=False)
+    ms = res.prepared.motions
+    end = np.mean([m.root_translation[-1, 1] for m in ms]) * ms[0].metres_per_unit
+
+    floor = np.mean([detect_contacts(m).floor for m in ms])  # the inputs' floor (m)
+
+    def below(m):  # how far its lowest point (end sites too) goes under the inputs' floor
+        return floor - (forward_kinematics(m, end_sites=True)[..., 1] * m.metres_per_unit).min()
+
+    assert plain.motion.root_translation[-1, 1] * plain.motion.metres_per_unit < end - 0.05
+    assert below(plain.motion) > 0.05
+    poses_only = res.motion.replace(root_translation=plain.motion.root_translation)
+    assert below(poses_only) > 0.05  # what the height anchoring is for
+    assert abs(res.motion.root_translation[-1, 1] * res.motion.metres_per_unit - end) < 0.01
+    assert below(res.motion) < 0.015
+    assert 0.05 < res.height_anchor_m < 0.15 and "and 8." in next(n for n in res.notes if "anchored" in n)
 
 
 def test_extrapolated_blends_are_not_anchored(pair):

@@ -55,9 +55,13 @@ What happens, in order (two motions A, B and weight ``s``: the result is ``(1-s)
    stand straight). The slow part (Gaussian, 1 s) of each joint's difference from the inputs'
    weighted mean pose at the matched times is removed: the geodesic mean of the local
    rotations for ``"lie"`` (``_anchor_poses``), the mean of the Euler angles, the method's
-   own space, for ``"euler-elastic"`` (``_anchor_euler``). The blend's velocities, which the
-   elastic distance measures, barely change; the root translation is kept. A note and
-   ``BlendResult.pose_anchor_deg`` give the largest correction. ``anchor=False`` gives the
+   own space, for ``"euler-elastic"`` (``_anchor_euler``). The root's height is anchored
+   likewise to the inputs' weighted mean root height: the root sinks too (8 cm over Bandai
+   happy x sad), which the drifting poses had partly hidden; with the poses anchored alone the
+   toes went 8.9 cm under the floor, with the height too 1.1 cm. The blend's velocities,
+   which the elastic distance measures, barely change; the root's horizontal path is kept. A
+   note, ``BlendResult.pose_anchor_deg`` and ``height_anchor_m`` give the largest
+   corrections. ``anchor=False`` gives the
    papers' plain SRV blend (``examples/paper_figures.py`` reproduces the papers with it).
 5. Finger joints (not on the curves, see :mod:`.align`) get the geodesic blend of A's and
    B's local rotations at the matched times; per-frame translations of non-root joints
@@ -197,6 +201,9 @@ class BlendResult:
     pose_anchor_deg : float or None
         The largest correction of the pose anchoring (step 4, degrees: of a joint's rotation
         for ``"lie"``, of one Euler angle for ``"euler-elastic"``); None when not anchored.
+    height_anchor_m : float or None
+        The largest correction of the root height by the same anchoring (metres; length
+        units when the motion's are unknown); None when not anchored.
     """
 
     motion: Motion
@@ -216,6 +223,7 @@ class BlendResult:
     loop: Any = None
     landmark_pairing: dict | None = None
     pose_anchor_deg: float | None = None
+    height_anchor_m: float | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -239,6 +247,7 @@ class BlendResult:
             "cycles": None if self.cycles is None else self.cycles.summary(),
             "loop": None if self.loop is None else self.loop.summary(),
             "pose_anchor_deg": self.pose_anchor_deg,
+            "height_anchor_m": self.height_anchor_m,
         }
 
 
@@ -352,39 +361,62 @@ def _per_frame(wf: np.ndarray, k: int, n: int, ndim_extra: int) -> np.ndarray | 
 #: weighted mean pose: the knees' range is the inputs' again, while the velocities, which the
 #: elastic distance measures, barely change (0.03 d(A, B) / 2 on that pair).
 _POSE_ANCHOR = 1.0
+#: Axis letters: ``_AXES.index(motion.up_axis)`` is the up axis's coordinate.
+_AXES = "xyz"
+
+
+def _slow_drift(values: np.ndarray, mean: np.ndarray, fps: float) -> np.ndarray:
+    """The slow part of ``values - mean`` (same shape, frames on axis 0): its Gaussian of
+    :data:`_POSE_ANCHOR` seconds at ``fps``; zeros for fewer than 2 frames."""
+    from scipy.ndimage import gaussian_filter1d
+
+    if values.shape[0] < 2:
+        return np.zeros_like(values)
+    return gaussian_filter1d(values - mean, _POSE_ANCHOR * fps, axis=0, mode="nearest")
 
 
 def _anchor_poses(
     body: Motion, inputs: Sequence[Motion], times: Sequence[np.ndarray], w: np.ndarray
-) -> tuple[Motion, float]:
+) -> tuple[Motion, float, float]:
     """``body`` (the blend's curve joints, one frame per output frame) with the slow part of its
-    rotations' difference from the inputs' weighted mean pose removed (:data:`_POSE_ANCHOR`).
+    rotations' difference from the inputs' weighted mean pose removed (:data:`_POSE_ANCHOR`),
+    and likewise of its root height's difference from the inputs' weighted mean root height.
 
     ``inputs``: the prepared inputs' curve motions (same joints as ``body``); ``times``: each
     input's time (s) at every output frame; ``w``: the blend weights ``(K,)``. Returns the
-    anchored motion and the largest correction in degrees. The root translation is kept.
+    anchored motion, the largest rotation correction in degrees and the largest height
+    correction (``body``'s length units). The root's horizontal path is kept.
     """
     joints = np.arange(body.n_joints)
     rots = [_sample_rotations(m, joints, t) for m, t in zip(inputs, times, strict=True)]
     mean = _blend_rotations(rots, w)
     out = smooth_change(body, body.replace(rotations=mean), _POSE_ANCHOR * body.fps)
     drift = _SO3.log(np.swapaxes(body.rotations, -1, -2) @ out.rotations)
-    return out, float(np.degrees(np.linalg.norm(drift, axis=-1).max()))
+    up = _AXES.index(body.up_axis)
+    heights = [np.interp(t, m.times, m.root_translation[:, up]) for m, t in zip(inputs, times, strict=True)]
+    mean_height = sum(wk * h for wk, h in zip(w, heights, strict=True))
+    sink = _slow_drift(body.root_translation[:, up], mean_height, body.fps)
+    root = body.root_translation.copy()
+    root[:, up] -= sink
+    lift = float(np.abs(sink).max()) if sink.size else 0.0
+    return out.replace(root_translation=root), float(np.degrees(np.linalg.norm(drift, axis=-1).max())), lift
 
 
-def _anchor_euler(values: np.ndarray, mean: np.ndarray, fps: float) -> tuple[np.ndarray, float]:
+def _anchor_euler(
+    values: np.ndarray, mean: np.ndarray, fps: float, up: int
+) -> tuple[np.ndarray, float, float]:
     """The Euler-angle blend ``values`` ``(F, 3 + 3 J)`` (root position, then angles in radians)
-    with the slow part (:data:`_POSE_ANCHOR`) of its angles' difference from ``mean``, the
-    weighted mean of the aligned inputs' angles, removed; the root position is kept. Returns
-    the anchored values and the largest correction of one angle, in degrees."""
-    from scipy.ndimage import gaussian_filter1d
-
+    with the slow part (:data:`_POSE_ANCHOR`) of its angles' and its root height's (component
+    ``up`` of the position) difference from ``mean``, the weighted mean of the aligned inputs'
+    values, removed; the root's horizontal path is kept. Returns the anchored values, the
+    largest correction of one angle in degrees and of the height (length units)."""
     out = values.copy()
-    if values.shape[0] < 2:
-        return out, 0.0
-    drift = gaussian_filter1d(values[:, 3:] - mean[:, 3:], _POSE_ANCHOR * fps, axis=0, mode="nearest")
-    out[:, 3:] -= drift
-    return out, float(np.degrees(np.abs(drift).max()))
+    cols = np.r_[up, 3 : values.shape[1]]
+    drift = _slow_drift(values[:, cols], mean[:, cols], fps)
+    out[:, cols] -= drift
+    if not drift.size:
+        return out, 0.0, 0.0
+    return out, float(np.degrees(np.abs(drift[:, 1:]).max())), float(np.abs(drift[:, 0]).max())
 
 
 def _blend_rotations_varying(rots: list[np.ndarray], s: np.ndarray) -> np.ndarray:
@@ -587,8 +619,9 @@ def blend_motions(
         a blend space (:mod:`elastic_motion.apps.blendspace`); no warp is solved then.
     anchor : bool, default True
         Pose anchoring (step 4 of the module docstring) for the elastic methods with constant
-        weights in ``[0, 1]``; False gives the papers' plain SRV blend (its joint angles may
-        drift from the inputs': knees bent backwards).
+        weights in ``[0, 1]``: the slow drift of the joint angles and of the root's height
+        from the aligned inputs' mean is removed. False gives the papers' plain SRV blend
+        (its joint angles may drift from the inputs': knees bent backwards; its root sinks).
 
     Returns
     -------
@@ -726,20 +759,28 @@ def blend_motions(
         blended = weighted_blend(full, w, [None if v is _IDENTITY else v for v in warps])
         curve = DiscreteCurve(blended.evaluate(u), blended.group)
     anchored = None  # the largest pose-anchoring correction (deg), when anchored
-    if euler_anchor:
-        values, anchored = _anchor_euler(curve.values, linear_mean, prep.fps)
-        curve = DiscreteCurve(values, curve.group)
+    lifted = None  # and of the root height (length units of the prepared motions)
     like = prep.curve_motion(0)
+    if euler_anchor:
+        values, anchored, lifted = _anchor_euler(
+            curve.values, linear_mean, prep.fps, _AXES.index(like.up_axis)
+        )
+        curve = DiscreteCurve(values, curve.group)
     conv = from_lie_curve if method == "lie" else from_euler_curve
     body = conv(curve, like, fps=prep.fps)
     times = [lu * d for lu, d in zip(local_u, durations, strict=True)]
     if anchorable and in_range and method == "lie":
-        body, anchored = _anchor_poses(body, [prep.curve_motion(k) for k in range(len(ms))], times, w)
+        body, anchored, lifted = _anchor_poses(body, [prep.curve_motion(k) for k in range(len(ms))], times, w)
+    if lifted is not None and like.metres_per_unit is not None:
+        lifted *= like.metres_per_unit
     if anchored is not None:
         mean_pose = "geodesic mean pose" if method == "lie" else "mean Euler angles"
+        height = (
+            f"{100 * lifted:.3g} cm" if like.metres_per_unit is not None else f"{lifted:.3g} length units"
+        )
         notes.append(
-            f"poses anchored: the SRV blend's slow drift from the aligned inputs' {mean_pose} (up to "
-            f"{anchored:.3g} deg, Gaussian {_POSE_ANCHOR:g} s) removed"
+            f"poses anchored: the SRV blend's slow drift from the aligned inputs' {mean_pose} and mean root "
+            f"height (up to {anchored:.3g} deg and {height}, Gaussian {_POSE_ANCHOR:g} s) removed"
         )
     elif anchorable:
         # an extrapolated mean pose is no anchor: beyond the inputs it bends joints further
@@ -852,6 +893,7 @@ def blend_motions(
         cycles=match,
         loop=loop_res,
         pose_anchor_deg=anchored,
+        height_anchor_m=lifted,
     )
 
 

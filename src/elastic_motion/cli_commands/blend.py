@@ -108,7 +108,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--no-anchor",
         action="store_true",
         help="keep the papers' plain SRV blend: do not remove its slow drift from the aligned "
-        "inputs' mean pose (lie, euler-elastic; default: anchored, see the report's notes)",
+        "inputs' mean pose and root height (lie, euler-elastic; default: anchored, see the report's notes)",
     )
     p.add_argument(
         "--no-metrics",
