@@ -215,6 +215,12 @@ def test_foot_sliding_from_given_lowest_heights(pair):
     assert higher.contact.sum() > fs.contact.sum()
     with pytest.raises(ValueError, match="lowest: expected 2 finite heights"):
         foot_sliding(a, lowest=np.zeros(3))
+    one = a.replace(root_translation=a.root_translation[:1], rotations=a.rotations[:1])
+    with pytest.raises(ValueError, match="lowest: expected 2 finite heights"):
+        foot_sliding(one, lowest=[np.nan, 0.0])
+    np.testing.assert_array_equal(foot_sliding(one).lowest, p[0])
+    lo = fs.lowest.copy()
+    assert foot_sliding(a, lowest=lo).lowest is not lo  # the result's own copy
 
 
 def test_distance_table_is_symmetric(pair):

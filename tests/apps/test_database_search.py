@@ -316,6 +316,23 @@ def test_cli_index_search_within_pca(many_dir: Path, tmp_path: Path, capsys) -> 
     rep = json.loads(capsys.readouterr().out)
     best = rep["matches"][0]
     assert best["name"] == "take" and abs(best["start_frame"] - 40) <= 1 and abs(best["stop_frame"] - 70) <= 1
+    # without flags the CLI is find_within with its own defaults (48 cells, neighbourhood 4)
+    argv = ["search", str(piece), str(take), str(many_dir / "k0_v0.bvh"), "--within", "--json", "--quiet"]
+    assert main(argv) == 0
+    api = find_within(piece, [take, many_dir / "k0_v0.bvh"])
+    assert [m["distance"] for m in json.loads(capsys.readouterr().out)["matches"]] == [
+        m.distance for m in api.matches
+    ]
+    # flags partial matching cannot honour are refused, named; so is a stored database
+    assert main(["search", str(piece), str(take), "--within", "--joints", "common", "--no-align", "-q"]) != 0
+    assert "--within: expected none of --joints, --no-align (partial matching" in capsys.readouterr().err
+    assert (
+        main(["search", str(piece), str(take), "--within", "--warp", "dp", "--pose-weight", "0", "-q"]) == 0
+    )
+    assert main(["search", str(piece), str(idx), "--within", "-q"]) != 0
+    assert "--within: expected motion files or folders (the long takes); got a stored database" in (
+        capsys.readouterr().err
+    )
     # pca: mean and +-2 sd along 2 modes, a sample, the variance plot
     out = tmp_path / "pca"
     files = [str(f) for f in sorted(many_dir.glob("k1_*.bvh"))]

@@ -167,20 +167,23 @@ def foot_sliding(
     feet = foot_joints(motion) if joints is None else [int(j) for j in joints]
     names = tuple(motion.skeleton.names[j] for j in feet)
     n_steps = max(motion.n_frames - 1, 0)
-    if not feet or n_steps == 0:
-        empty = np.zeros((n_steps, len(feet)))
+    if lowest is not None:
+        floor = np.array(lowest, dtype=np.float64)  # a copy: the result's own
+        if floor.shape != (len(feet),) or not np.isfinite(floor).all():
+            raise ValueError(
+                f"lowest: expected {len(feet)} finite heights, one per joint; got {floor.tolist()!r}"
+            )
+    if not feet:
+        empty = np.zeros((n_steps, 0))
         return FootSliding(0.0, 0.0, 0.0, 0.0, names, empty, empty.astype(bool), units, np.zeros(0))
     up = _AXES.index(motion.up_axis)
     p = forward_kinematics(motion)[:, feet] * scale  # (F, K, 3)
     height = p[..., up]
     if lowest is None:
         floor = height.min(axis=0)
-    else:
-        floor = np.asarray(lowest, dtype=np.float64)
-        if floor.shape != (len(feet),) or not np.isfinite(floor).all():
-            raise ValueError(
-                f"lowest: expected {len(feet)} finite heights, one per joint; got {floor.tolist()!r}"
-            )
+    if n_steps == 0:
+        empty = np.zeros((0, len(feet)))
+        return FootSliding(0.0, 0.0, 0.0, 0.0, names, empty, empty.astype(bool), units, floor)
     touch = height < floor + contact_height
     contact = touch[:-1] & touch[1:]
     step = np.diff(p, axis=0)

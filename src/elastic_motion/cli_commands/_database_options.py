@@ -41,6 +41,20 @@ FLAGS: dict[str, str | None] = {
     "inputs": "inputs",
     "pose_weight": "--pose-weight",
     "cyclic": "--cyclic",
+    "takes": "DATABASE",
+}
+
+#: The settings fields (``DatabaseSettings``, flat: ``warp.<field>``) -> the flag that sets them.
+FIELD_FLAGS = {
+    "n_samples": "--samples",
+    "joints": "--joints",
+    "drop_fingers": "--keep-fingers",
+    "align_heading": "--no-align",
+    "warp.method": "--warp",
+    "warp.neighbourhood": "--neighbourhood",
+    "warp.coarse_to_fine": "--coarse-to-fine",
+    "pose_weight": "--pose-weight",
+    "cyclic": "--cyclic",
 }
 
 

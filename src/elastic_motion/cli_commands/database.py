@@ -31,6 +31,7 @@ from elastic_motion.cli_commands._common import (
     progress_for,
 )
 from elastic_motion.cli_commands._database_options import (
+    FIELD_FLAGS,
     LINKAGES,
     USER_ERRORS,
     add_distance_terms,
@@ -174,8 +175,8 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
         "long takes",
         description=(
             "Rank the motions of DATABASE (an `index` or `matrix` output folder, whose SRV arrays and "
-            "settings are used, or motion files/folders, read with the options below) by elastic distance "
-            "to QUERY. The k nearest are exact: cheap lower bounds skip the DP of motions that cannot be "
+            "settings are used: the options below that are given and differ from them are named in a note; "
+            "or motion files/folders, read with the options below) by elastic distance to QUERY. The k nearest are exact: cheap lower bounds skip the DP of motions that cannot be "
             "among them (the report gives the fraction pruned). With --within, find where QUERY happens "
             "inside each motion of DATABASE (long takes): the segment (start, stop) and its distance."
         ),
@@ -199,25 +200,45 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_search)
 
 
+#: The settings fields ``search --within`` uses (``find_within``'s keywords), by flag.
+_WITHIN_FIELDS = {
+    "n_samples": "n_samples",
+    "warp.neighbourhood": "neighbourhood",
+    "drop_fingers": "drop_fingers",
+}
+
+
 def _run_within(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.database import find_within
+    from elastic_motion.apps.database import find_within, is_stored_database
+    from elastic_motion.apps.database.settings import flat_settings
 
     bar = progress_for("search", args)
     try:
         (method,) = methods(args.method, several=False)
         settings = database_settings(args, (method,))
-        if settings.cyclic or settings.pose_weight != 0:
+        values = flat_settings(settings.to_json())
+        given = {f: values[f] for f in given_fields(args)}
+        # what partial matching cannot honour (a DP warp or no pose term given is no request)
+        unused = [
+            FIELD_FLAGS[f]
+            for f, v in given.items()
+            if f not in _WITHIN_FIELDS and (f, v) not in (("warp.method", "dp"), ("pose_weight", 0.0))
+        ]
+        if unused:
             raise CommandError(
-                "--within: expected neither --cyclic nor --pose-weight (partial matching is on the SRV)"
+                f"--within: expected none of {', '.join(unused)} (partial matching is on the SRV of the "
+                "query's joints, with its own open-ended DP; it uses --samples, --neighbourhood and "
+                "--keep-fingers)"
             )
-        res = find_within(
-            args.query,
-            args.database,
-            method,
-            n_samples=settings.n_samples,
-            neighbourhood=settings.warp.neighbourhood,
-            drop_fingers=settings.drop_fingers,
-        )
+        if is_stored_database(args.database if len(args.database) > 1 else args.database[0]):
+            raise CommandError(
+                "--within: expected motion files or folders (the long takes); got a stored database (an "
+                "index or matrix folder), whose SRV arrays are resampled to a fixed grid"
+            )
+        kw = {
+            _WITHIN_FIELDS[f]: v for f, v in given.items() if f in _WITHIN_FIELDS
+        }  # others: the API's defaults
+        res = find_within(args.query, args.database, method, progress=bar, **kw)
     except USER_ERRORS as exc:
         return fail("search", exc)
     finally:

@@ -34,6 +34,7 @@ __all__ = [
     "REPRESENTATIONS",
     "DatabaseSettings",
     "canonical_method",
+    "flat_settings",
     "ignored_settings_note",
     "public_method",
     "settings_differences",
@@ -269,15 +270,21 @@ QUERY_FIELDS = (
 )
 
 
-def _flat_settings(data: dict[str, Any]) -> dict[str, Any]:
-    """A settings JSON form with the warp's fields as ``warp.<field>`` and the fields written
-    only when set (``pose_weight``, ``cyclic``) at their defaults when absent."""
-    out: dict[str, Any] = {"pose_weight": DatabaseSettings.pose_weight, "cyclic": DatabaseSettings.cyclic}
+def flat_settings(data: dict[str, Any]) -> dict[str, Any]:
+    """A settings JSON form (:meth:`DatabaseSettings.to_json`) as one level: the warp's fields
+    as ``warp.<field>``, the fields written only when set (``pose_weight``, ``cyclic``) at
+    their defaults when absent, a list of joints sorted (the preparation keeps the skeleton's
+    order whatever the list's)."""
+    out: dict[str, Any] = {}
     for k, v in data.items():
         if isinstance(v, dict):
             out.update({f"{k}.{f}": fv for f, fv in v.items()})
+        elif k == "joints" and isinstance(v, list | tuple):
+            out[k] = sorted(v)
         else:
             out[k] = v
+    out.setdefault("pose_weight", DatabaseSettings.pose_weight)
+    out.setdefault("cyclic", DatabaseSettings.cyclic)
     return out
 
 
@@ -299,7 +306,7 @@ def settings_differences(
     -------
     list of (field, old value, new value)
     """
-    fo, fn = _flat_settings(old), _flat_settings(new)
+    fo, fn = flat_settings(old), flat_settings(new)
     names = fields if fields is not None else (*fn, *(k for k in fo if k not in fn))
     return [(k, fo.get(k), fn.get(k)) for k in names if fo.get(k) != fn.get(k)]
 
@@ -310,7 +317,10 @@ def ignored_settings_note(
     """The note for settings asked of a stored database (an index or a matrix folder), which is
     measured as it was built: the ``fields`` (of :data:`QUERY_FIELDS`) in which ``asked``
     differs from ``stored``; None when it does not."""
-    diffs = settings_differences(stored.to_json(), asked.to_json(), fields)
+    # in QUERY_FIELDS' order, whichever order the fields come in (the CLI's and the API's notes agree)
+    diffs = settings_differences(
+        stored.to_json(), asked.to_json(), tuple(f for f in QUERY_FIELDS if f in fields)
+    )
     if not diffs:
         return None
     what = ", ".join(f"{k}={new!r} (built with {old!r})" for k, old, new in diffs)
