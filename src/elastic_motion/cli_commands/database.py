@@ -176,7 +176,8 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Rank the motions of DATABASE (an `index` or `matrix` output folder, whose SRV arrays and "
             "settings are used: the options below that are given and differ from them are named in a note; "
-            "or motion files/folders, read with the options below) by elastic distance to QUERY. The k nearest are exact: cheap lower bounds skip the DP of motions that cannot be "
+            "or motion files/folders, read with the options below) by elastic distance to QUERY. "
+            "The k nearest are exact: cheap lower bounds skip the DP of motions that cannot be "
             "among them (the report gives the fraction pruned). With --within, find where QUERY happens "
             "inside each motion of DATABASE (long takes): the segment (start, stop) and its distance."
         ),
