@@ -111,6 +111,63 @@ def test_inplace_closes_position_and_heading(mocap_dir):
     np.testing.assert_array_equal(shift, 0.0)
 
 
+def test_treadmill_removes_the_travel_at_a_constant_rate():
+    """``treadmill``: the first frame unchanged, the last back on the first's floor position
+    and heading, heights and joint rotations kept; a straight walk at constant speed becomes
+    one whose root stays put (the constant rate), a turn is undone a fraction per frame."""
+    from elastic_motion.apps.loop import treadmill
+    from elastic_motion.motion.rotations import axis_rotation
+
+    m = synthetic()
+    f = m.n_frames
+    s = np.arange(f) / (f - 1)
+    upright = m.rotations.copy()
+    upright[:, 0] = np.eye(3)  # the root faces one way
+    walk = m.replace(
+        rotations=upright,
+        root_translation=np.column_stack([0.3 + 0.0 * s, 0.9 + 0.05 * np.sin(7 * s), 2.0 * s]),
+    )
+    flat, dist, turn = treadmill(walk)
+    assert dist == pytest.approx(2.0) and turn == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose(flat.root_translation[:, [0, 2]], np.tile([0.3, 0.0], (f, 1)), atol=1e-12)
+    np.testing.assert_array_equal(flat.root_translation[:, 1], walk.root_translation[:, 1])
+    np.testing.assert_array_equal(flat.rotations[:, 1:], walk.rotations[:, 1:])
+    # a turn of 0.6 rad about y over the clip, on a circle: undone at a constant rate
+    yaw = axis_rotation(0.6 * s, "Y")
+    rots = walk.rotations.copy()
+    rots[:, 0] = yaw @ walk.rotations[0, 0]
+    arc = np.column_stack([np.sin(0.6 * s), 0.9 + 0.0 * s, np.cos(0.6 * s) - 1.0])
+    flat, dist, turn = treadmill(walk.replace(rotations=rots, root_translation=arc))
+    assert turn == pytest.approx(0.6, rel=1e-9) and dist == pytest.approx(
+        np.hypot(np.sin(0.6), np.cos(0.6) - 1)
+    )
+    np.testing.assert_allclose(flat.rotations[:, 0], np.tile(walk.rotations[0, 0], (f, 1, 1)), atol=1e-12)
+    np.testing.assert_allclose(flat.root_translation[0], arc[0], atol=1e-12)
+    np.testing.assert_allclose(flat.root_translation[-1], arc[0], atol=1e-12)
+
+
+@pytest.mark.mocap
+def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
+    """The DeepMimic run travels 2.9 m: in place with its contacts kept, the body jumped back
+    1.1 m between two frames of its flight (root 34 m/s); on the treadmill the root never
+    moves faster than the input's own root does, the seam closes and the note says why the
+    planted feet move."""
+    m = load(mocap_dir, "dm_run")
+    res = loop_motion(m, root="inplace")
+    assert res.contacts_kept is not None and res.contacts_kept["treadmill"]["travel_m"] > 2.5
+    assert any(n.startswith("contacts kept on a treadmill") for n in res.notes)
+    out = res.motion
+
+    def root_speed(x):
+        return np.linalg.norm(np.diff(x.root_translation, axis=0), axis=1).max() * x.fps * x.metres_per_unit
+
+    assert root_speed(out) < root_speed(m)
+    np.testing.assert_allclose(out.root_translation[-1], out.root_translation[0], atol=1e-6)
+    assert res.seam_after.seam_angle_max_deg < 1e-3
+    # travel keeps the planted feet where they are: no treadmill there
+    assert "treadmill" not in (loop_motion(m, root="travel").contacts_kept or {})
+
+
 @pytest.mark.mocap
 @pytest.mark.parametrize("key", ["dm_run", "dm_cartwheel"])
 @pytest.mark.parametrize("root", ["travel", "inplace"])
@@ -125,8 +182,14 @@ def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     assert s0.seam_angular_velocity_max_deg_s > 100.0
     assert s1.seam_angular_velocity_max_deg_s < 1e-2
     if root == "inplace":
-        # everything closed, so the FK velocities match too (up to second order in the step)
-        assert s1.seam_velocity_max_m_s < 0.15 * s0.seam_velocity_max_m_s
+        # everything closed, so the FK velocities match too, up to second order in the step:
+        # the seam's one-frame velocity change is a fraction of the largest inside the clip
+        # (the run's C0 seam is no rougher than its frames either: its kept contacts ride a
+        # treadmill, 2.3 m/s against 7.0 inside; without it the body jumped, 6.7 m/s)
+        p = forward_kinematics(c1.motion) * c1.motion.metres_per_unit
+        inside = np.linalg.norm(np.diff(p, n=2, axis=0), axis=2).max() * c1.motion.fps
+        assert s1.seam_velocity_max_m_s < 0.25 * inside
+        assert s1.seam_velocity_max_m_s < 0.6 * s0.seam_velocity_max_m_s
 
 
 @pytest.mark.mocap

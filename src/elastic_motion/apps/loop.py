@@ -99,6 +99,7 @@ __all__ = [
     "loop_motion",
     "repeat_motion",
     "seam_metrics",
+    "treadmill",
 ]
 
 _SO3 = SO3()
@@ -291,6 +292,37 @@ def cycle_transform(motion: Motion, root: str = "travel") -> tuple[np.ndarray, n
     p0[up] = 0.0
     p1[up] = 0.0
     return rot, p1 - rot @ p0
+
+
+def treadmill(motion: Motion) -> tuple[Motion, float, float]:
+    """The clip with its travel removed at a constant rate: frame ``f`` (``s = f / (F - 1)``)
+    is moved by ``x -> Y(-s delta) (x - L_s) + floor(p_0)``, where ``delta`` is the heading
+    change of the clip and ``L_s`` runs straight from the root's floor-plane position on the
+    first frame to that on the last (:func:`cycle_transform` with ``"travel"``, undone a
+    fraction at a time). The first frame is unchanged, the last is back on the first's floor
+    position and heading; heights and joint-local rotations are kept, so a planted foot
+    moves back at the clip's mean speed (the treadmill of an in-place game clip).
+
+    Returns
+    -------
+    Motion
+    travel : float
+        The floor-plane distance removed (motion length units).
+    turn : float
+        The heading change removed (radians).
+    """
+    up = _AXES.index(motion.up_axis)
+    f = motion.n_frames
+    s = np.arange(f) / max(f - 1, 1)
+    delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, up)
+    r = axis_rotation(-delta * s, "XYZ"[up])  # (F, 3, 3)
+    p0, p1 = motion.root_translation[0].copy(), motion.root_translation[-1].copy()
+    p0[up] = p1[up] = 0.0
+    line = p0 + s[:, None] * (p1 - p0)
+    root = np.einsum("fij,fj->fi", r, motion.root_translation - line) + p0
+    rots = motion.rotations.copy()
+    rots[:, 0] = r @ rots[:, 0]
+    return motion.replace(root_translation=root, rotations=rots), float(np.linalg.norm(p1 - p0)), float(delta)
 
 
 def repeat_motion(motion: Motion, cycles: int = 3, root: str = "travel") -> Motion:
@@ -645,7 +677,15 @@ def _close_clip(
     names = motion.skeleton.names
     j = motion.n_joints
     up = _AXES.index(motion.up_axis)
-    lie = to_lie_curve(motion, joint_weights, translation_weight=translation_weight)
+    found = detect_contacts(motion, contact_options) if contacts == "keep" and method == "lie" else None
+    base, travel = motion, None
+    if found is not None and found.any and root == "inplace":
+        # planted feet cannot stay put while the clip comes back to its start: the body then
+        # jumped back in the air (1.1 m between two frames of the DeepMimic run). They ride a
+        # treadmill instead: the travel is removed at a constant rate, then the rest closed
+        base, dist, turn = treadmill(motion)
+        travel = {"travel_m": dist * _metres(motion), "turn_deg": float(np.degrees(turn))}
+    lie = to_lie_curve(base, joint_weights, translation_weight=translation_weight)
     # per-joint closing mask (3 coordinates each), root first
     rot_mask = np.repeat(closed_joint, 3).reshape(j, 3)
     pos_mask = np.ones(3, dtype=bool)
@@ -662,7 +702,6 @@ def _close_clip(
         if root == "travel" and closed_joint[0]:
             rot_mask[0, up] = False  # root: swing about the up axis (heading free)
         mask = np.concatenate([pos_mask, rot_mask.ravel()])
-        found = detect_contacts(motion, contact_options) if contacts == "keep" else None
         out = None
 
         def project(curve, extra=None, stall=None, iterations=None):
@@ -675,10 +714,12 @@ def _close_clip(
         if found is not None and found.any:
             # C1 seam rows and kept joint limits need the clip's own frames
             out, res, extra, kept = _close_keeping_contacts(
-                motion, found, project, max_step=0.0 if c1 or joint_limits is not None else contact_step,
+                base, found, project, max_step=0.0 if c1 or joint_limits is not None else contact_step,
                 max_release=max_release, joint_weights=joint_weights,
                 translation_weight=translation_weight, c1=c1,
             )  # fmt: skip
+            if travel is not None:
+                kept["treadmill"] = travel
             if out is None:  # contacts and closure do not fit together: close without them
                 res = project(lie)
         elif solver == "kkt":
@@ -1036,6 +1077,14 @@ def loop_motion(
         lim_notes.extend(lim_info.notes())
     contact_notes.extend(lim_notes)
     if kept is not None:
+        if kept.get("treadmill"):
+            t = kept["treadmill"]
+            contact_notes.append(
+                f"contacts kept on a treadmill: in place, the clip's travel ({t['travel_m']:.3g} m, "
+                f"turn {t['turn_deg']:.3g} deg) is removed at a constant rate before closing, so planted "
+                "feet move back with it (the skating below) instead of the body jumping back between two "
+                "frames"
+            )
         if kept.get("polished"):
             contact_notes.append(f"contacts: {kept['polished']}")
         if "dropped" in kept:
