@@ -145,7 +145,7 @@ def test_option_errors_from_argparse_use_the_error_format(capsys):
         main(["info", "x.bvh", "--fps", "fast"])
     assert exc.value.code == EXIT_BAD_INPUT
     assert capsys.readouterr().err.splitlines()[-1] == (
-        "elastic-motion info: error: --fps: expected a number; got 'fast'"
+        "elastic-motion info: error: --fps: expected a number > 0; got 'fast'"
     )
     with pytest.raises(SystemExit):
         main(["info", "x.bvh", "--bogus"])

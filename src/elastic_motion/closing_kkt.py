@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -475,6 +475,7 @@ def project_closed(
     rotation_names: Sequence[str] | None = None,
     extra: ExtraConstraints | None = None,
     stall_iterations: int | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
 ) -> ClosingResult:
     """The closed curve nearest ``curve`` in SRV L2 (a KKT point of the projection).
 
@@ -514,6 +515,8 @@ def project_closed(
         Give up (``converged=False``, the message says the constraints look inconsistent)
         when the gap has not dropped by 20 % over this many iterations (after the first
         few): a caller that can relax its constraints learns early that it must.
+    progress : callable, optional
+        ``progress("closing", iterations, 0)`` after each iteration (total unknown: 0).
 
     Returns
     -------
@@ -612,6 +615,8 @@ def project_closed(
         kkt, lam = _kkt(lin, e, h)
         feas = float(np.linalg.norm(lin.fsel))
         it += 1
+        if progress is not None:
+            progress("closing", it, 0)
         steps.append(alpha)
         gaps.append(float(np.linalg.norm(state.f0)))
         vgaps.append(float(np.linalg.norm(state.f1)))

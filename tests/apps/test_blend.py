@@ -197,6 +197,16 @@ def test_metrics_on_a_clean_motion(pair):
         )
     )
     assert bone_length_error(longer, a).max_relative == pytest.approx(0.1, rel=1e-9)
+    # a bone of a micrometre in the reference (CMU's LHipJoint) has no relative error to give
+    k = a.skeleton.names.index("LeftHandIndex1")
+    micro = a.skeleton.offsets.copy()
+    micro[k] *= 2e-5
+    ref = a.skeleton.__class__(
+        a.skeleton.names, a.skeleton.parents, micro, a.skeleton.channels,
+        a.skeleton.end_site_parents, a.skeleton.end_site_offsets,
+    )  # fmt: skip
+    err = bone_length_error(a, ref)
+    assert err.max_relative < 1e-12 and err.n_bones == bone_length_error(a).n_bones - 1
 
 
 def test_foot_sliding_from_given_lowest_heights(pair):

@@ -40,8 +40,15 @@ def test_blend_reports_the_cleanup_and_weight_curve(files, capsys, tmp_path):
     assert code == 0, err
     report = json.loads(rep.read_text())
     assert "cleanup" in report and "cycles" in report and report["weights"] == pytest.approx([0.5, 0.5])
+    assert report["weight_curve"] == [[0.0, 0.0], [1.0, 1.0]]  # the curve, not only its mean
     assert any("weight curve" in n for n in report["notes"])
     assert read_bvh(out).n_frames > 10
+    code, text, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", tmp_path / "ab2.bvh", "--weight-curve",
+        "0:0,0.5:0.2,1:1", "--no-metrics",
+    )  # fmt: skip
+    assert code == 0, err
+    assert "by normalised time: 0:0, 0.5:0.2, 1:1 (mean 0.35)" in text and "weights " not in text
     code, _, err = run(
         capsys, "blend", files["a"], files["b"], "-o", tmp_path / "off.bvh", "--contacts", "off", "--json",
         tmp_path / "off.json", "-q", "--no-metrics",

@@ -316,3 +316,33 @@ def test_distance_cubic_interpolation_cli_equals_api_and_resolves_sub_frame_shif
 
     with limits.override(max_dp_nodes=100), pytest.raises(Exception, match=r"sample_fps: .*241 x 289 nodes"):
         distance_table([files["a"], files["b"]], warp=WarpOptions(sample_fps=120.0), interpolation="cubic")
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (
+            ["loop", "{a}", "-o", "{tmp}/l.bvh", "--tol", "-1"],
+            "--tol: expected a number >= 0; got '-1'",
+        ),
+        (["info", "{a}", "--fps", "0"], "--fps: expected a number > 0; got '0'"),
+        (["landmarks", "{a}", "--kinds", "foo"], "--kinds: expected some of left_knee_passes"),
+        (["landmarks", "{a}", "{b}", "--landmark-kinds", "foo"], "--landmark-kinds: expected some of"),
+    ],
+)
+def test_bad_options_are_named_as_typed(files, capsys, tmp_path, argv, message):
+    """An option's error names the flag the user typed (not the Python argument or another
+    command's flag)."""
+    argv = [str(x).format(a=files["a"], b=files["b"], tmp=tmp_path) for x in argv]
+    try:
+        code, _, err = run(capsys, *argv)
+    except SystemExit as exc:  # argparse's own error exit
+        code, err = exc.code, capsys.readouterr().err
+    assert code == 2 and message in err, err
+
+
+def test_an_asf_without_motion_is_named(tmp_path, capsys):
+    asf = tmp_path / "s.asf"
+    asf.write_text(":version 1.10\n:name s\n")
+    code, _, err = run(capsys, "info", asf)
+    assert code == 2 and f"{asf}: expected a motion file; got an ASF skeleton without motion" in err

@@ -163,6 +163,11 @@ def test_query_of_another_skeleton_says_which_joints_differ(many_dir: Path, tmp_
     res = knn_search(q, idx, 3)
     assert res.group == -1 and len(res.indices) == 0
     assert "lacks nothing, has extra ['Head']" in res.notes[-1]
+    # a stored database is measured as built: the advice is to build it again, on files to
+    # compare now on shared joints
+    assert "build the database again on shared joints" in res.notes[-1]
+    files = knn_search(q, [many_dir], 3, settings=SETTINGS)
+    assert "compare on shared joints with joints='common'" in files.notes[-1]
 
 
 # --------------------------------------------------------------------------------------------

@@ -322,3 +322,32 @@ def test_repeat_is_bounded_before_allocation():
         assert repeat_motion(m, 10).n_frames == 10 * (m.n_frames - 1) + 1
         with pytest.raises(ValueError, match=r"^cycles: expected a repeated clip of frames at most"):
             repeat_motion(m, 11)
+
+
+def test_the_closing_reports_its_iterations(tmp_path, monkeypatch):
+    """``progress("closing", k, 0)`` after each KKT iteration, from the API and the command
+    line (whose bar is the callback)."""
+    calls = []
+    res = loop_motion(synthetic(), progress=lambda *a: calls.append(a), contacts="off")
+    assert res.closing.iterations >= 1
+    assert calls == [("closing", k, 0) for k in range(1, res.closing.iterations + 1)]
+
+    from elastic_motion.cli import main
+    from elastic_motion.cli_commands import loop as loop_cli
+    from elastic_motion.motion import write_bvh
+
+    class Spy:
+        def __init__(self):
+            self.calls = []
+
+        def __call__(self, *a):
+            self.calls.append(a)
+
+        def close(self):
+            self.calls.append("closed")
+
+    spy = Spy()
+    monkeypatch.setattr(loop_cli, "progress_for", lambda command, args: spy)
+    clip = write_bvh(synthetic(), tmp_path / "clip.bvh")
+    assert main(["loop", str(clip), "-o", str(tmp_path / "out.bvh"), "--contacts", "off", "-q"]) == 0
+    assert spy.calls[0] == ("closing", 1, 0) and spy.calls[-1] == "closed"

@@ -148,6 +148,8 @@ def test_read_motion_finds_the_asf(mocap_dir, tmp_path):
     (tmp_path / "walk.amc").write_text("x")
     with pytest.raises(ValueError, match="pass asf="):
         find_asf(tmp_path / "walk.amc")
-    with pytest.raises(ValueError, match=r"give the \.amc"):
+    with pytest.raises(
+        ValueError, match=r"expected a motion file; got an ASF skeleton without motion: give an \.amc"
+    ):
         read_motion(d / "02.asf")
     assert read_motion(d / "02.asf", amc=d / "02_01.amc").n_frames == 343

@@ -168,7 +168,7 @@ class BlendResult:
         The blend: A's joints (or the common ones), A's frame rate, metres when known.
     method, warp : str
     weights : ndarray, shape (K,)
-        Weight of each input (sum 1).
+        Weight of each input (sum 1); with a weight curve, its mean over the normalised time.
     warps : tuple of ndarray
         Vertices ``(V, 2)`` of ``phi_k``: the result's curve parameter -> input ``k``'s
         (identity for A in a two-motion blend, and for every input without warp).
@@ -204,6 +204,8 @@ class BlendResult:
     height_anchor_m : float or None
         The largest correction of the root height by the same anchoring (metres; length
         units when the motion's are unknown); None when not anchored.
+    weight_curve : ndarray, shape (M, 2), or None
+        The knots ``(u, s)`` of a weight curve (``weight_curve=``); None for constant weights.
     """
 
     motion: Motion
@@ -224,6 +226,7 @@ class BlendResult:
     landmark_pairing: dict | None = None
     pose_anchor_deg: float | None = None
     height_anchor_m: float | None = None
+    weight_curve: np.ndarray | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -232,6 +235,7 @@ class BlendResult:
             "method": self.method,
             "warp": self.warp,
             "weights": self.weights.tolist(),
+            "weight_curve": None if self.weight_curve is None else self.weight_curve.tolist(),
             "landmarks_s": [list(p) for p in self.landmarks],
             "landmark_pairing": self.landmark_pairing,
             "frames": m.n_frames,
@@ -894,6 +898,7 @@ def blend_motions(
         loop=loop_res,
         pose_anchor_deg=anchored,
         height_anchor_m=lifted,
+        weight_curve=knots,
     )
 
 
@@ -913,6 +918,18 @@ def _cycle_span(prep: PreparedMotions, contacts: Any, max_cycles: int | None) ->
         if ca2.n_cycles and cb2.n_cycles:
             ca, cb = ca2, cb2
     match = match_cycles(ca, cb, max_cycles=max_cycles)
+    if not match.n and (ca.n_cycles or cb.n_cycles):
+        # say per foot what each has: the cycles must be of one foot in both
+        count = {
+            f: (gait_cycles(ma, opts, foot=f).n_cycles, gait_cycles(mb, opts, foot=f).n_cycles)
+            for f in ("left", "right")
+        }
+        have = "; ".join(f"{f} foot: A {n[0]}, B {n[1]}" for f, n in count.items())
+        match = dataclasses.replace(
+            match,
+            why=f"no foot has a gait cycle (two strikes) in both A and B ({have}): fall back to the "
+            "global warp",
+        )
     if not match.n:
         return prep, match
     ta = trim(ma, *match.span_a)

@@ -69,6 +69,7 @@ from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_wit
 from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
 from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sliding
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
+from elastic_motion.apps.progress import Progress
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
 from elastic_motion.closing_kkt import project_closed
 from elastic_motion.curves import DiscreteCurve, srv_distance, srv_transform
@@ -668,6 +669,7 @@ def _close_clip(
     joint_limits: JointLimits | None = None,
     limit_step: float = 0.1,
     limit_tol: float = 0.5,
+    progress: Progress | None = None,
 ) -> tuple[Motion, ClosingResult, dict | None]:
     """Close one prepared clip (module docstring): the looped motion, the curve result and,
     with ``contacts="keep"``, what became of the contacts (rows, which gave way). With
@@ -708,7 +710,7 @@ def _close_clip(
             return project_closed(
                 curve, factors=mask, c1=c1, tol=min(tol, 1e-9),
                 max_iter=max(min(max_iter, iterations or max_iter), 1),
-                rotation_names=list(names), extra=extra, stall_iterations=stall,
+                rotation_names=list(names), extra=extra, stall_iterations=stall, progress=progress,
             )  # fmt: skip
 
         if found is not None and found.any:
@@ -755,7 +757,9 @@ def _close_clip(
             rot_mask[0, 0] = False  # outermost root angle is the heading
         mask = np.concatenate([pos_mask, rot_mask.ravel()])
         if solver == "kkt":
-            res = project_closed(curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1))
+            res = project_closed(
+                curve, factors=mask, c1=c1, tol=min(tol, 1e-9), max_iter=max(max_iter, 1), progress=progress
+            )
         elif c1:
             res = close_curve(curve, method=solver, tol=tol, max_iter=max_iter, factors=mask, c1=True)
         else:
@@ -909,6 +913,7 @@ def loop_motion(
     contact_step: float = 1.0 / 30.0,
     joint_limits: str | JointLimits = "report",
     limit_tol: float = 0.5,
+    progress: Progress | None = None,
 ) -> LoopResult:
     """Make a motion loop seamlessly by closing its curve (paper 000, sec. 4 and 5.4).
 
@@ -994,6 +999,9 @@ def loop_motion(
     limit_tol : float, default 0.5
         Degrees: beyond a limit means by more than this, at a limit within it (the loop
         between two pinned frames may bulge past the limit by a fraction of a degree).
+    progress : callable, optional
+        ``progress(stage, done, total)`` (:mod:`elastic_motion.apps.progress`): the closing's
+        iterations (``"closing"``, total unknown: 0) of the KKT solver.
 
     Returns
     -------
@@ -1051,7 +1059,7 @@ def loop_motion(
             clip, closed_joint, root=root, c1=c1, method=method, solver=solver, tol=tol,
             max_iter=max_iter, joint_weights=joint_weights, translation_weight=translation_weight,
             contacts=contacts, contact_options=contact_options, contact_step=contact_step,
-            joint_limits=lim if limits_mode == "keep" else None, limit_tol=limit_tol,
+            joint_limits=lim if limits_mode == "keep" else None, limit_tol=limit_tol, progress=progress,
         )  # fmt: skip
 
     cw = None

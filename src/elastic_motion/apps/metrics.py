@@ -217,7 +217,8 @@ class BoneLengthError:
         Joint (child end of the bone) where ``max_relative`` occurs; ``""`` if none compared.
     n_bones : int
         Bones compared (joints present in both skeletons, with a parent, a rest length
-        above 1e-9 and no position channels in either skeleton).
+        above 1 % of the reference's median bone and no position channels in either
+        skeleton: a file with position channels on every joint, as Bandai's, compares none).
     """
 
     max_relative: float
@@ -267,13 +268,17 @@ def bone_length_error(motion: Motion, reference: Motion | Skeleton | None = None
     pos_ch = sk.has_position_channels
     ref_pos_ch = ref_sk.has_position_channels
     ref_len = ref_sk.bone_lengths * ref_scale
+    # a bone of a few micrometres (CMU's LHipJoint in some files) has no meaningful relative
+    # error: bones under 1 % of the median bone are left out
+    positive = ref_len[ref_len > 1e-9]
+    tiny = 0.01 * float(np.median(positive)) if positive.size else 0.0
     pairs = []
     for j in range(1, sk.n_joints):
         name = sk.names[j]
         if name not in ref_sk.names:
             continue
         k = ref_sk.index(name)
-        if pos_ch[j] or ref_pos_ch[k] or ref_len[k] <= 1e-9:
+        if pos_ch[j] or ref_pos_ch[k] or ref_len[k] <= max(1e-9, tiny):
             continue
         pairs.append((j, k))
     if not pairs:

@@ -29,6 +29,9 @@ Conventions
 * **Set steps** (:func:`prepare_motions`): all or none of the units must be known; joints
   (``"all"``: the same joint set, reordered like the first; ``"common"``: the joints all
   share, refused when that leaves fewer than half of any input's body joints; or a list);
+  rest poses: an input whose rest pose differs from the first's by more than 45 degrees on a
+  bone (another conversion of the same skeleton) is re-expressed in the first's rest frames,
+  the same motion in the world (:mod:`elastic_motion.motion.rest_pose`);
   frame rates resampled to the first motion's; placement (registration-curve style, see
   :func:`elastic_motion.motion.place_like`); the curve joints (all but fingers) and their shared weights.
 * **Units of results and of written files**: apps work in metres; a result is written in
@@ -70,6 +73,7 @@ from elastic_motion.motion import (
     to_metres,
     up_axis_warning,
 )
+from elastic_motion.motion.rest_pose import change_rest_frames, rest_frames_towards, rest_pose_difference
 
 __all__ = [
     "MotionPreparation",
@@ -680,6 +684,10 @@ def prepare_motions(
             ms[k] = _reorder(ms[k], order)
             notes.append(f"{names[k]}: joints reordered like {names[0]}")
 
+    for k in range(1, len(ms)):
+        ms[k], rnote = _rest_pose_like(ms[0], ms[k], names[0], names[k])
+        notes += rnote
+
     fps = ms[0].fps
     for k in range(1, len(ms)):
         if not math.isclose(ms[k].fps, fps, rel_tol=1e-9):
@@ -698,7 +706,10 @@ def prepare_motions(
     body = [select_joints(m, curve_joints) if fingers else m for m in ms]
     jw, tw = group_weights(body)
     if fingers:
-        notes.append(f"finger joints blended frame by frame, not part of the curves: {sorted(fingers)}")
+        notes.append(
+            "finger joints not part of the curves (a blend interpolates them frame by frame): "
+            f"{sorted(fingers)}"
+        )
     if opts.units_out is not None:
         units_out: float | None = UNITS[opts.units_out]
     else:
@@ -713,6 +724,42 @@ def prepare_motions(
         inputs=tuple(reports),
         units_out=units_out,
     )
+
+
+#: Two inputs whose rest poses differ by more than this (degrees, on a bone of at least
+#: :data:`_REST_BONE` metres) are not in the same rest frames: the same local rotation means
+#: another pose. Files of one conversion differ by at most 16 degrees (CMU: the subjects'
+#: proportions); CMU 107_02_30hz and 07_01 (two conversions) by 160 at the feet.
+_REST_POSE_TOLERANCE = 45.0
+#: Bones shorter than this (metres; 1.5 % of the summed bone lengths when the unit is
+#: unknown) have no reliable direction (CMU's LHipJoint is a few micrometres long).
+_REST_BONE = 0.05
+
+
+def _rest_pose_like(first: Motion, m: Motion, label0: str, label: str) -> tuple[Motion, list[str]]:
+    """``m`` re-expressed in ``first``'s rest frames when their rest poses differ by more than
+    :data:`_REST_POSE_TOLERANCE` (:mod:`elastic_motion.motion.rest_pose`: the same motion in
+    the world); the note says so."""
+    if m.metres_per_unit is not None:
+        shortest = _REST_BONE / m.metres_per_unit
+    else:
+        shortest = 0.015 * float(np.linalg.norm(m.skeleton.offsets, axis=1).sum())
+    angle, bone = rest_pose_difference(first.skeleton, m.skeleton, min_length=shortest)
+    if angle <= _REST_POSE_TOLERANCE:
+        return m, []
+    try:
+        out = change_rest_frames(m, rest_frames_towards(m.skeleton, first.skeleton))
+    except ValueError as exc:
+        return m, [
+            f"{label}: rest pose unlike {label0}'s (bone {bone} {angle:.0f} deg apart) and not re-expressed "
+            f"({exc}); its rotations do not mean the same poses"
+        ]
+    after, _ = rest_pose_difference(first.skeleton, out.skeleton, min_length=shortest)
+    return out, [
+        f"{label}: rest pose unlike {label0}'s (bone {bone} {angle:.0f} deg apart, another conversion): its "
+        f"rotations re-expressed in {label0}'s rest frames, the same motion in the world (bones now within "
+        f"{after:.0f} deg)"
+    ]
 
 
 def _check_finite(m: Motion, name: str) -> None:

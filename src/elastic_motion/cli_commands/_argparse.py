@@ -405,6 +405,9 @@ def _rewrite_argparse_message(message: str) -> str:
     m = re.fullmatch(r"ambiguous option: (\S+) could match (.*)", message)
     if m:
         return f"{m[1]}: expected one of {m[2]}; got an ambiguous abbreviation"
+    m = re.fullmatch(r"argument (\S+): (expected .*)", message, re.S)  # our own types' messages
+    if m:
+        return f"{m[1]}: {m[2]}"
     return message
 
 

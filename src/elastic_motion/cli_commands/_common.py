@@ -189,7 +189,7 @@ def add_warp_options(
             default=defaults.sample_smoothing,
             metavar="SECONDS",
             help="standard deviation (seconds) of the Gaussian low-pass applied before sampling "
-            f"the curves at --sample-fps; 0: none (default: {defaults.sample_smoothing:.4g})",
+            f"the curves at --sample-fps; 0: none (default: {defaults.sample_smoothing:g})",
         )
     if coarse_to_fine:
         p.add_argument(
@@ -604,8 +604,9 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     add_alias(p, "--lambda", "--landmark-weight")
 
 
-def landmark_kinds(value: str | None) -> list[str] | None:
-    """``--landmark-kinds`` -> event kinds (None: the library's default kinds)."""
+def landmark_kinds(value: str | None, flag: str = "--landmark-kinds") -> list[str] | None:
+    """``--landmark-kinds`` (or the option ``flag``) -> event kinds (None: the library's default
+    kinds)."""
     from elastic_motion.apps.landmarks import EVENT_KINDS
 
     if value is None:
@@ -613,8 +614,28 @@ def landmark_kinds(value: str | None) -> list[str] | None:
     kinds = [k.strip() for k in value.split(",") if k.strip()]
     bad = [k for k in kinds if k not in EVENT_KINDS]
     if bad or not kinds:
-        raise CommandError(f"--landmark-kinds: expected some of {', '.join(EVENT_KINDS)}; got {value!r}")
+        raise CommandError(f"{flag}: expected some of {', '.join(EVENT_KINDS)}; got {value!r}")
     return kinds
+
+
+def _number(value: str, ok, what: str) -> float:
+    try:
+        x = float(value)
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and ok(x)):
+        raise argparse.ArgumentTypeError(f"expected {what}; got {value!r}")
+    return x
+
+
+def non_negative_float(value: str) -> float:
+    """An argparse ``type``: a finite number >= 0 (argparse names the option when it fails)."""
+    return _number(value, lambda x: x >= 0, "a number >= 0")
+
+
+def positive_float(value: str) -> float:
+    """An argparse ``type``: a finite number > 0 (argparse names the option when it fails)."""
+    return _number(value, lambda x: x > 0, "a number > 0")
 
 
 def fmt_float(x: Any, digits: int = 3) -> str:

@@ -175,8 +175,15 @@ def _summary(res, out, notes) -> str:
     m = res.motion
     lines = [
         f"wrote {out}: {m.n_frames} frames at {m.fps:g} fps ({m.duration:.2f} s), {m.n_joints} joints",
-        f"method {res.method}, warp {res.warp}, weights "
-        + ", ".join(f"{lab} {w:.3g}" for lab, w in zip(res.prepared.labels, res.weights, strict=True)),
+        f"method {res.method}, warp {res.warp}, "
+        + (
+            "weights "
+            + ", ".join(f"{lab} {w:.3g}" for lab, w in zip(res.prepared.labels, res.weights, strict=True))
+            if res.weight_curve is None
+            else f"weight of {res.prepared.labels[1]} by normalised time: "
+            + ", ".join(f"{u:g}:{w:g}" for u, w in res.weight_curve)
+            + f" (mean {res.weights[1]:.3g})"
+        ),
     ]
     if res.landmarks:
         lines.append("landmarks (s): " + ", ".join(f"{a:.2f}:{b:.2f}" for a, b in res.landmarks))

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from elastic_motion.cli_commands._common import positive_float
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``info`` sub-command to ``subparsers`` (sets ``func`` to :func:`run`)."""
@@ -21,7 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--asf", default=None, help="the .asf skeleton of an .amc file (default: found in its folder)"
     )
-    p.add_argument("--fps", type=float, default=None, help="frame rate of an .amc file (default 120)")
+    p.add_argument(
+        "--fps", type=positive_float, default=None, help="frame rate of an .amc file (default 120)"
+    )
     p.add_argument(
         "--units", default=None, help="length unit of a .bvh file (m, cm, mm, inch, cmu; default: guessed)"
     )

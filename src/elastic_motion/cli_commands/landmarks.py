@@ -33,13 +33,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("inputs", nargs="+", metavar="FILE", help="one motion file, or two to pair")
     p.add_argument(
         "--kinds",
-        default="left_knee_passes,right_knee_passes,left_heel_strike,right_heel_strike,left_toe_off,right_toe_off",
+        default=None,  # DEFAULT_PAIR_KINDS
         help="event kinds to detect (comma-separated; also left_foot_contact, right_foot_contact) "
         "(default: knee crossings, heel strikes and toe-offs)",
     )
     p.add_argument(
         "--landmark-kinds",
-        default="left_knee_passes,right_knee_passes,left_heel_strike,right_heel_strike,left_toe_off,right_toe_off",
+        default=None,  # DEFAULT_PAIR_KINDS
         help="kinds to pair for two files, as `blend --landmarks auto --landmark-kinds` pairs them "
         "(default: knee crossings, heel strikes and toe-offs)",
     )
@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.landmarks import detect_events, phase_landmarks
+    from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, detect_events, phase_landmarks
     from elastic_motion.apps.prepare import prepare_motions
     from elastic_motion.apps.report import report_header
 
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     prep = prepare_motions(inputs, opts.replace(joints="common") if len(inputs) == 2 else opts)
     motions = prep.motions
     notes = list(prep.notes)
-    kinds = landmark_kinds(args.kinds)
+    kinds = landmark_kinds(args.kinds, "--kinds") or list(DEFAULT_PAIR_KINDS)
     events = [detect_events(m, kinds) for m in motions]
     report = report_header("landmarks", inputs, [], notes)
     report["events"] = [
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         lines.append(f"{f}: {len(ev)} events in {m.duration:.2f} s")
         lines += [f"  {e.time:7.3f} s  frame {e.frame:5d}  {e.kind}" for e in ev]
     if len(inputs) == 2:
-        pk = landmark_kinds(args.landmark_kinds)
+        pk = landmark_kinds(args.landmark_kinds) or list(DEFAULT_PAIR_KINDS)
         pairing = phase_landmarks(motions[0], motions[1], pk, max_pairs=args.max_pairs)
         pairs = pairing.pairs
         report["pairs_s"] = [[a.time, b.time] for a, b in pairs]

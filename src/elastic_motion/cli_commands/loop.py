@@ -14,7 +14,9 @@ from elastic_motion.cli_commands._common import (
     check_output,
     emit_report,
     fmt_float,
+    non_negative_float,
     prepare_inputs,
+    progress_for,
     run_guarded,
     write_motion,
 )
@@ -105,7 +107,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--tol",
-        type=float,
+        type=non_negative_float,
         default=1e-6,
         help="stop when the seam gap is below this (radians for joint rotations; the weighted norm "
         "of the closing residual)",
@@ -149,20 +151,25 @@ def run(args: argparse.Namespace) -> int:
             raise CommandError(f"--repeat: expected a positive number of cycles; got {args.repeat}")
         preview = Path(args.preview) if args.preview else out.with_name(f"{out.stem}.repeat{args.repeat}.bvh")
         check_output(str(preview), [*inputs, str(out)], suffixes=(".bvh",), what="--preview")
-    res = loop_motion(
-        prepare_inputs(args, inputs),
-        root=args.root,
-        c1=args.c1,
-        method=args.method,
-        solver=args.solver,
-        tol=args.tol,
-        max_iter=args.max_iter,
-        free_joints=_free(args.free_joints),
-        window="auto" if args.window == "auto" else None,
-        min_length=args.min_length,
-        contacts=args.contacts,
-        joint_limits=args.joint_limits,
-    )
+    bar = progress_for("loop", args)
+    try:
+        res = loop_motion(
+            prepare_inputs(args, inputs),
+            root=args.root,
+            c1=args.c1,
+            method=args.method,
+            solver=args.solver,
+            tol=args.tol,
+            max_iter=args.max_iter,
+            free_joints=_free(args.free_joints),
+            window="auto" if args.window == "auto" else None,
+            min_length=args.min_length,
+            contacts=args.contacts,
+            joint_limits=args.joint_limits,
+            progress=bar,
+        )
+    finally:
+        bar.close()
     write_motion(res.motion, res.prepared, out, inputs)
     outputs = [str(out)]
     if preview is not None:

@@ -204,8 +204,8 @@ def read_motion(path: str | os.PathLike[str], **kw) -> Motion:
         amc = kw.pop("amc", None)
         if amc is None:
             raise ValueError(
-                f"path: {str(p)!r} is an ASF skeleton without motion; give the .amc file "
-                "(or read_motion(asf_path, amc=amc_path))"
+                f"{p}: expected a motion file; got an ASF skeleton without motion: give an .amc file "
+                "beside it (in Python also read_motion(asf_path, amc=amc_path))"
             )
         return read_asf_amc(p, amc, **kw)
     if ext in (".txt", ".json"):

@@ -337,7 +337,7 @@ class SearchResult:
         )
 
 
-def _skeleton_difference(joints: Sequence[str], cache: SRVCache) -> str:
+def _skeleton_difference(joints: Sequence[str], cache: SRVCache, stored: bool = False) -> str:
     """Which joints differ between a query's skeleton and the nearest group of a database."""
     if not cache.group_joints:
         return "the database holds no motion"
@@ -351,7 +351,12 @@ def _skeleton_difference(joints: Sequence[str], cache: SRVCache) -> str:
         f"{best} ({len(theirs)} joints): the query lacks {missing or 'nothing'}, "
         f"has extra {extra or 'nothing'}"
         + ("" if missing or extra else " (same names, another order)")
-        + "; compare on shared joints with joints='common' (--joints common)"
+        + (
+            "; build the database again on shared joints (joints='common', or 'map' across skeletons; "
+            "--joints common / map)"
+            if stored
+            else "; compare on shared joints with joints='common' (--joints common)"
+        )
     )
 
 
@@ -421,7 +426,7 @@ def knn_search(
     )
     found: list[tuple[float, int]] = []
     if g < 0:
-        notes = (*notes, _skeleton_difference(joints, cache))
+        notes = (*notes, _skeleton_difference(joints, cache, is_stored_database(database)))
     elif len(members):
         norms = cache_norms(cache, key)
         lb[members] = lower_bounds(part_norms(qq), norms[members][:, :, : qq.shape[1]])  # one group: one D
