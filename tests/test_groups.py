@@ -191,6 +191,9 @@ def test_project_and_check_points():
     )
     # exact rotations pass through untouched
     np.testing.assert_array_equal(SO3G.check_points(r, "r"), r)
+    # one matrix, not a stack: the same projection (a reflection's det fixed to +1)
+    np.testing.assert_allclose(SO3G.project(noisy[3]), SO3G.project(noisy)[3], atol=1e-15)
+    assert np.linalg.det(SO3G.project(-r[0])) == pytest.approx(1.0)
     bad = r.copy()
     bad[7] *= 1.5
     with pytest.raises(ValueError, match=r"rotations: .*index \(7,\)"):

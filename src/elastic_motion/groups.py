@@ -674,7 +674,7 @@ class SO3(LieGroup):
         g = np.asarray(g, dtype=np.float64)
         u, _, vt = np.linalg.svd(g)
         d = np.sign(np.linalg.det(u @ vt))
-        d[d == 0] = 1.0
+        d = np.where(d == 0, 1.0, d)  # (an array also for a single matrix)
         u[..., :, 2] *= d[..., None]
         return u @ vt
 

@@ -93,3 +93,50 @@ def test_two_conversions_of_cmu_are_brought_to_one_rest_pose(mocap_dir):
     res = blend_motions(prep, 0.5, warp="dp")
     hips = [np.median(m.root_translation[:, 1]) for m in (*prep.motions, res.motion)]
     assert abs(hips[2] - (hips[0] + hips[1]) / 2) < 0.05
+
+
+def test_towards_matches_bones_by_name_and_handles_lines_and_boneless_joints():
+    """Bones are matched by the child's name (siblings in another order: the same frames);
+    two opposite bones (shoulders) still give their turn; micrometre bones are left out with
+    ``min_length``; a joint without a bone to compare turns with its parent."""
+    names = ("root", "l", "r", "hand", "finger")
+    parents = [-1, 0, 0, 1, 3]
+    off = np.array([[0, 0, 0], [1.0, 0, 0], [-1.0, 0, 0], [0, -0.5, 0], [0, 0, 0]])  # finger: 0 long
+    chans = (("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),) + (
+        ("Zrotation", "Yrotation", "Xrotation"),
+    ) * 4
+    ref = Skeleton(names, parents, off, chans)
+    turn = SO3G.exp(np.array([0.0, np.pi / 2, 0.0]))  # 90 degrees about y
+    sk = Skeleton(names, parents, off @ turn.T, chans)
+    c = rest_frames_towards(sk, ref)
+    np.testing.assert_allclose(c[0] @ off[1], turn @ off[1], atol=1e-12)  # opposite bones: still turned
+    np.testing.assert_allclose(c[3], c[1], atol=1e-12)  # the hand's only bone has no length
+    # siblings listed the other way round: the same frames, joint by joint
+    swapped = Skeleton(
+        ("root", "r", "l", "hand", "finger"), [-1, 0, 0, 2, 3], off[[0, 2, 1, 3, 4]] @ turn.T, chans
+    )
+    c2 = rest_frames_towards(swapped, ref)
+    np.testing.assert_allclose(c2[[0, 2, 1, 3, 4]], c, atol=1e-12)
+    # a micrometre bone in another direction decides nothing once left out
+    tiny = off.copy()
+    tiny[2] = [0.0, 1e-6, 0.0]
+    c3 = rest_frames_towards(Skeleton(names, parents, tiny, chans), ref, min_length=1e-3)
+    np.testing.assert_allclose(c3[0], np.eye(3), atol=1e-12)
+
+
+@pytest.mark.mocap
+def test_one_conversion_gives_identity_frames_and_hands_turn_with_their_forearms(mocap_dir):
+    """07_01 and 08_02 (one conversion) need no turn once micrometre bones are left out (with
+    them the hips turned 180 degrees); 07_01 towards 107_02_30hz turns each hand, whose bones
+    have no length, with its forearm."""
+    bvh = mocap_dir / "cmu" / "bvh"
+    a, b, x = (read_motion(bvh / f) for f in ("07_01.bvh", "08_02.bvh", "107_02_30hz.bvh"))
+    shortest = 0.05 / b.metres_per_unit
+    same = rest_frames_towards(b.skeleton, a.skeleton, min_length=shortest)
+    assert np.degrees(np.linalg.norm(SO3G.log(same), axis=-1)).max() < 30.0
+    c = rest_frames_towards(a.skeleton, x.skeleton, min_length=shortest)
+    names = a.skeleton.names
+    for side in ("Left", "Right"):
+        np.testing.assert_allclose(
+            c[names.index(f"{side}Hand")], c[names.index(f"{side}ForeArm")], atol=1e-12
+        )

@@ -1085,13 +1085,14 @@ def loop_motion(
         lim_notes.extend(lim_info.notes())
     contact_notes.extend(lim_notes)
     if kept is not None:
-        if kept.get("treadmill"):
+        if kept.get("treadmill") and "dropped" not in kept:
             t = kept["treadmill"]
             contact_notes.append(
                 f"contacts kept on a treadmill: in place, the clip's travel ({t['travel_m']:.3g} m, "
                 f"turn {t['turn_deg']:.3g} deg) is removed at a constant rate before closing, so planted "
-                "feet move back with it (the skating below) instead of the body jumping back between two "
-                "frames"
+                f"feet move back with it at {t['travel_m'] / motion.duration:.3g} m/s (the skating below; "
+                "'changed the clip' counts the travel removed) instead of the body jumping back between "
+                "two frames"
             )
         if kept.get("polished"):
             contact_notes.append(f"contacts: {kept['polished']}")

@@ -92,8 +92,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         choices=("keep", "report", "off"),
         default=None,
         help="'keep' (default with --method lie and --solver kkt): plant the input's foot/toe/hand "
-        "contacts, as constraints of the same projection on a 30 fps grid; contacts that conflict "
-        "with closing are released and named; 'report' (the default otherwise): detect them and "
+        "contacts, as constraints of the same projection on a 30 fps grid (with --root inplace on a "
+        "treadmill: the clip's travel removed at a constant rate, the planted feet move back with it); "
+        "contacts that conflict with closing are released and named; 'report' (the default otherwise): "
+        "detect them and "
         "report skating and depth below the floor of input and loop during them; 'off': skip",
     )
     p.add_argument(

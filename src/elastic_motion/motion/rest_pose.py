@@ -16,29 +16,36 @@ kinematics is unchanged, exactly, whatever the ``C_j``.
 
 **Towards a reference** (:func:`rest_frames_towards`): ``C_j`` is the rotation that best takes
 the reference's rest directions of ``j``'s bones (children and end sites) to this skeleton's
-(Kabsch, weighted by bone length; the smallest rotation for one bone, which leaves its twist
-as it is). After the change the skeleton's bones point as the reference's do, up to the
-differences of its own proportions, and its local rotations mean the reference's poses.
+(Kabsch, weighted by bone length; the smallest rotation for bones on one line, which leaves
+their twist as it is; bones are matched by their child's name, micrometre bones left out; a
+joint with no bone to compare turns with its parent). After the change the skeleton's bones
+point as the reference's do, up to the differences of its own proportions, and its local
+rotations mean the reference's poses.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from elastic_motion.groups import SO3
 from elastic_motion.motion.ik import rotation_between
 from elastic_motion.motion.skeleton import Motion, Skeleton
+
+_SO3 = SO3()
 
 __all__ = ["change_rest_frames", "rest_frames_towards", "rest_pose_difference"]
 
 
-def _bones(skeleton: Skeleton) -> list[list[np.ndarray]]:
-    """Per joint, the rest offsets of its children and end sites."""
-    out: list[list[np.ndarray]] = [[] for _ in skeleton.names]
+def _bones(skeleton: Skeleton) -> list[dict]:
+    """Per joint, the rest offsets of its children (keyed by name) and end sites (keyed by
+    their order under the joint)."""
+    out: list[dict] = [{} for _ in skeleton.names]
     for c, p in enumerate(skeleton.parents):
         if p >= 0:
-            out[p].append(skeleton.offsets[c])
+            out[p][skeleton.names[c]] = skeleton.offsets[c]
     for e, p in enumerate(skeleton.end_site_parents):
-        out[int(p)].append(skeleton.end_site_offsets[e])
+        here = out[int(p)]
+        here[("end site", sum(isinstance(k, tuple) for k in here))] = skeleton.end_site_offsets[e]
     return out
 
 
@@ -79,7 +86,7 @@ def rest_pose_difference(
     return worst, name
 
 
-def rest_frames_towards(skeleton: Skeleton, reference: Skeleton) -> np.ndarray:
+def rest_frames_towards(skeleton: Skeleton, reference: Skeleton, *, min_length: float = 0.0) -> np.ndarray:
     """Per joint of ``skeleton``, the rotation ``C_j`` that best takes ``reference``'s rest bone
     directions out of that joint to ``skeleton``'s (module docstring).
 
@@ -87,50 +94,51 @@ def rest_frames_towards(skeleton: Skeleton, reference: Skeleton) -> np.ndarray:
     ----------
     skeleton : Skeleton
     reference : Skeleton
-        Holds every joint of ``skeleton`` under the same name, with the same children (a
-        joint's end sites are matched in order).
+        Holds every joint of ``skeleton`` under the same name. A joint's bones are matched
+        by the child's name (end sites by their order under the joint); bones one skeleton
+        lacks are left out.
+    min_length : float, default 0
+        Bones shorter than this in either skeleton (lengths in each skeleton's own units)
+        are left out: a bone of a few micrometres has no direction.
 
     Returns
     -------
     ndarray, shape (J, 3, 3)
-        The identity for a joint without a bone, or whose bones have no length.
+        The Kabsch rotation (``C a ~ b`` for the reference's directions ``a`` and the
+        skeleton's ``b``, weighted by length); the smallest rotation when the bones lie on
+        one line; the parent's ``C`` for a joint without a bone to compare (a hand whose
+        only bones are of zero length turns with its forearm), the identity for such a root.
 
     Raises
     ------
     ValueError
-        A joint of ``skeleton`` missing in ``reference``, or with other children.
+        A joint of ``skeleton`` missing in ``reference``.
     """
     missing = [n for n in skeleton.names if n not in reference.names]
     if missing:
         raise ValueError(f"reference: expected the joints of the skeleton; it lacks {missing[:5]}")
-    order = [reference.names.index(n) for n in skeleton.names]
     mine, theirs = _bones(skeleton), _bones(reference)
     out = np.tile(np.eye(3), (skeleton.n_joints, 1, 1))
-    for j, k in enumerate(order):
-        b, a = mine[j], theirs[k]
-        if not b:
+    floor = max(float(min_length), 0.0)
+    for j, name in enumerate(skeleton.names):  # topological order: a parent's C comes first
+        k = reference.names.index(name)
+        both = [(theirs[k][key], b) for key, b in mine[j].items() if key in theirs[k]]
+        pairs = [(a, b) for a, b in both if min(np.linalg.norm(a), np.linalg.norm(b)) > floor]
+        parent = skeleton.parents[j]
+        if not pairs:
+            out[j] = out[parent] if parent >= 0 else np.eye(3)
             continue
-        if len(a) != len(b):
-            raise ValueError(
-                f"reference: expected joint {skeleton.names[j]!r} to have {len(b)} bones (children and end "
-                f"sites) like the skeleton; got {len(a)}"
-            )
-        b, a = np.asarray(b), np.asarray(a)
+        a = np.array([x for x, _ in pairs])
+        b = np.array([y for _, y in pairs])
         w = np.linalg.norm(b, axis=1)
-        na = np.linalg.norm(a, axis=1)
-        use = (w > 0) & (na > 0)
-        if not use.any():
-            continue
-        ua = a[use] / na[use, None]
-        ub = b[use] / w[use, None]
-        h = (w[use, None] * ub).T @ ua  # sum of w b a^T
-        u, s, vt = np.linalg.svd(h)
-        if s.size < 2 or s[1] <= 1e-9 * max(s[0], 1e-300):
-            # one direction (one bone, or bones in a line): the smallest rotation, twist kept
-            out[j] = rotation_between(ua.T @ w[use], ub.T @ w[use])
-            continue
-        d = np.sign(np.linalg.det(u @ vt)) or 1.0
-        out[j] = u @ np.diag([1.0, 1.0, d]) @ vt
+        ua = a / np.linalg.norm(a, axis=1)[:, None]
+        h = (w[:, None] * (b / w[:, None])).T @ ua  # sum of w b a^T
+        u, sv, vt = np.linalg.svd(h)
+        if sv[1] <= 1e-9 * sv[0]:
+            # the bones on one line (one bone, or opposite ones): its direction, twist kept
+            out[j] = rotation_between(vt[0], u[:, 0])
+        else:
+            out[j] = _SO3.project(h)
     return out
 
 
