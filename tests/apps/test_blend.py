@@ -109,6 +109,21 @@ def test_blend_is_placed_like_a(pair):
     assert abs(unplaced[-1, 0] - unplaced[0, 0]) > 0.3
 
 
+def test_a_walk_backwards_is_named(pair):
+    """A clip that faces away from its way of travel unlike the other (a walk backwards) gets
+    a note: its blend would face between the two (a crab walk); a walk turned another way
+    (the pair's B) is no such case, nor a clip that stands."""
+    from elastic_motion.apps.prepare import prepare_motions
+
+    a, b = pair
+    back = walker(duration=2.0, freq=1.0, amp=0.5, speed=-1.0, name="back")
+    notes = prepare_motions([a, back]).notes
+    assert any(n.startswith("back: faces 180 deg away from its way of travel compared with A") for n in notes)
+    assert not any("way of travel" in n for n in prepare_motions([a, b]).notes)
+    still = walker(duration=2.0, freq=1.0, amp=0.5, speed=0.0, name="still")
+    assert not any("way of travel" in n for n in prepare_motions([a, still]).notes)
+
+
 def test_extrapolation_needs_the_flag(pair):
     a, b = pair
     with pytest.raises(ValueError, match=r"s = 1.3 is outside \[0, 1\].*extrapolate=True"):

@@ -63,6 +63,7 @@ from elastic_motion.motion import (
     group_weights,
     has_reference_root,
     has_tpose_first_frame,
+    heading_angle,
     merge_root,
     place_like,
     read_motion,
@@ -700,6 +701,15 @@ def prepare_motions(
         for k in range(1, len(ms)):
             ms[k], how = place_like(ms[0], ms[k])
             notes.append(f"{names[k]}: placed like {names[0]} ({how})")
+    facing = [_facing_from_travel(m) for m in ms]
+    for k in range(1, len(ms)):
+        if facing[0] is not None and facing[k] is not None:
+            apart = abs(math.degrees(math.remainder(facing[k] - facing[0], 2 * math.pi)))
+            if apart > _FACING_APART:
+                notes.append(
+                    f"{names[k]}: faces {apart:.0f} deg away from its way of travel compared with {names[0]} "
+                    "(one walks backwards or sideways?): a blend or a distance of the two mixes the facings"
+                )
 
     fingers = set(finger_joints(ms[0].skeleton))
     curve_joints = tuple(n for n in order if n not in fingers)
@@ -756,6 +766,30 @@ def _rest_pose_like(first: Motion, m: Motion, label0: str, label: str) -> tuple[
         f"rotations re-expressed in {label0}'s rest frames, the same motion in the world (bones now within "
         f"{after:.0f} deg)"
     ]
+
+
+#: Two inputs that face more than this (degrees) differently relative to their own way of
+#: travel (a walk forwards and one backwards: 180) get a note; a blend of them faces between
+#: (a forward walk with a walk back blended into a crab walk, 50 degrees off its path).
+_FACING_APART = 90.0
+#: Frames moving slower than this (m/s, floor plane) have no way of travel.
+_TRAVEL_SPEED = 0.2
+
+
+def _facing_from_travel(m: Motion) -> float | None:
+    """The circular mean (radians) of the root's heading minus its direction of travel over
+    the frames it moves (:data:`_TRAVEL_SPEED`); None for a clip that barely travels."""
+    up = "xyz".index(m.up_axis)
+    p, q = (up + 1) % 3, (up + 2) % 3
+    step = np.diff(m.root_translation, axis=0)
+    speed = np.hypot(step[:, p], step[:, q]) * m.fps * (m.metres_per_unit or 1.0)
+    moving = speed > _TRAVEL_SPEED
+    if moving.sum() < 3:
+        return None
+    travel = np.arctan2(step[moving, q], step[moving, p])
+    head = heading_angle(m.rotations[1:, 0][moving], up)
+    d = head - travel
+    return float(np.arctan2(np.sin(d).mean(), np.cos(d).mean()))
 
 
 def _check_finite(m: Motion, name: str) -> None:
