@@ -69,7 +69,7 @@ def test_json_onto_the_asf_found_beside_the_amc_is_refused(tmp_path: Path, capsy
 def test_json_onto_the_written_bvh_is_refused_before_writing(tmp_path: Path, capsys) -> None:
     a, b = _bvh(tmp_path / "a.bvh"), _bvh(tmp_path / "b.bvh")
     out = tmp_path / "o.bvh"
-    _refused(["blend", a, b, "-o", out, "--json", out], capsys, "another output")
+    _refused(["blend", a, b, "-o", out, "--json", out], capsys, "--json", "a motion file's name")
     assert not out.exists()
 
 
@@ -86,20 +86,22 @@ def test_outputs_reaching_an_input_by_another_name_are_refused(tmp_path: Path, c
         out = tmp_path / "hard.bvh"
         os.link(a, out)
     before = a.read_bytes()
-    _refused(["distance", a, b, "--json", out], capsys, "refusing to overwrite an input")
+    _refused(["blend", a, b, "-o", out], capsys, "refusing to overwrite an input")
+    _refused(["distance", a, b, "--json", out], capsys, "--json")  # a motion file's name, too
     assert a.read_bytes() == before
 
 
 def test_matrix_folder_files_are_never_report_targets(tmp_path: Path, capsys) -> None:
     m = tmp_path / "M"
     m.mkdir()
-    (m / "report.json").write_text("{}")
+    report = '{"command": "matrix", "version": "0"}'
+    (m / "report.json").write_text(report)
     (m / "distances_lie.npy").write_bytes(b"x")
     labels = tmp_path / "labels.csv"
     labels.write_text("a,x\n")
     _refused(["classify", m, "--labels", labels, "--json", m / "report.json"], capsys, "input folder")
-    _refused(["cluster", m, "--json", m / "distances_lie.npy"], capsys, "input folder")
-    assert (m / "report.json").read_text() == "{}" and (m / "distances_lie.npy").read_bytes() == b"x"
+    _refused(["cluster", m, "--json", m / "distances_lie.npy"], capsys, "--json", "another existing file")
+    assert (m / "report.json").read_text() == report and (m / "distances_lie.npy").read_bytes() == b"x"
 
 
 def test_matrix_into_its_own_input_folder_is_refused(tmp_path: Path, capsys) -> None:
@@ -110,6 +112,30 @@ def test_matrix_into_its_own_input_folder_is_refused(tmp_path: Path, capsys) -> 
     _refused(["matrix", db, "-o", tmp_path], capsys, "-o")
     _refused(["matrix", db, "-o", tmp_path / "M", "--json", tmp_path / "M" / "report.json"], capsys, "--json")
     assert not (db / "M").exists() and not (tmp_path / "M").exists()
+
+
+def test_json_that_took_the_next_input_never_replaces_it(tmp_path: Path, capsys) -> None:
+    """``--json`` before the inputs takes the first of them as its PATH: a motion file's name
+    is refused, and so is any existing file that is not an earlier report (a DeepMimic
+    ``.json`` clip), before any work; an earlier report is replaced."""
+    a, b, c = (_bvh(tmp_path / f"{n}.bvh") for n in "abc")
+    before = a.read_bytes()
+    _refused(["mean", "-o", tmp_path / "m.bvh", "--json", a, b, c], capsys, "--json", "a motion file's name")
+    assert a.read_bytes() == before and not (tmp_path / "m.bvh").exists()
+    clip = tmp_path / "clip.json"
+    clip.write_text('{"Frames": [[0.1, 0.0]]}')
+    _refused(["distance", a, b, "--json", clip], capsys, "--json", "another existing file")
+    assert clip.read_text() == '{"Frames": [[0.1, 0.0]]}'
+    rep = tmp_path / "rep.json"
+    for _ in range(2):  # the second run replaces the first's report
+        assert main(["distance", str(a), str(b), "--json", str(rep), "-q"]) == 0
+    capsys.readouterr()
+    from elastic_motion.apps.report import write_report
+
+    with pytest.raises(
+        ValueError, match=r"clip\.json: expected a new file or an earlier elastic-motion report"
+    ):
+        write_report(clip, {"command": "x"})
 
 
 def test_mean_and_search_json_onto_an_input(tmp_path: Path, capsys) -> None:

@@ -25,6 +25,7 @@ from elastic_motion.cli_commands._argparse import (
     CliParser,
     handle_error,
 )
+from elastic_motion.cli_commands._common import check_report_target
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -146,6 +147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.print_help()
             code = EXIT_OK
         else:
+            check_report_target(args)  # before any work: a report never replaces a motion file
             code = int(args.func(args))
         try:
             sys.stdout.flush()

@@ -34,7 +34,7 @@ import numpy as np
 from elastic_motion import __version__
 from elastic_motion._io import atomic_write_text
 
-__all__ = ["jsonable", "report_header", "report_json", "write_report"]
+__all__ = ["is_report", "jsonable", "report_header", "report_json", "write_report"]
 
 
 def jsonable(obj: Any) -> Any:
@@ -108,5 +108,33 @@ def write_report(
     Returns
     -------
     pathlib.Path
+
+    Raises
+    ------
+    ValueError
+        ``path`` is a protected input, or an existing file that is not a report of this
+        package (a JSON object with ``"command"`` and ``"version"``): a motion file named by
+        mistake is never replaced.
     """
+    target = Path(path)
+    if target.is_file() and not is_report(target):
+        raise ValueError(
+            f"{os.fspath(target)}: expected a new file or an earlier elastic-motion report to replace; got "
+            "another file (refusing to overwrite it)"
+        )
     return atomic_write_text(path, report_json(report), protected=protected)
+
+
+#: An existing file larger than this (bytes) is not read to see whether it is a report.
+_REPORT_MAX_BYTES = 64 * 2**20
+
+
+def is_report(path: Path) -> bool:
+    """Whether ``path`` holds a report of this package (:func:`report_header`'s fields)."""
+    if path.stat().st_size > _REPORT_MAX_BYTES:
+        return False
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(data, dict) and "command" in data and "version" in data

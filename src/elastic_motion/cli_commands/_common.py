@@ -60,6 +60,33 @@ def run_guarded(command: str, fn, args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------------
 
 
+#: Suffixes of motion files: never a report path (``--json`` followed by the inputs takes the
+#: first input as its PATH; written there, the report replaced the motion).
+_MOTION_SUFFIXES = (".bvh", ".amc", ".asf", ".txt")
+
+
+def check_report_target(args: argparse.Namespace) -> None:
+    """Refuse a ``--json PATH`` that names a motion file or an existing file that is not an
+    earlier report, before any work (``--json`` before the inputs takes the first of them as
+    its PATH; the report written at the end replaced that motion). Raises :class:`CommandError`."""
+    from elastic_motion.apps.report import is_report
+
+    value = getattr(args, "json", None)
+    if not isinstance(value, str) or value == "-":
+        return
+    hint = "(--json takes the next word as its PATH: put it after the inputs)"
+    if Path(value).suffix.lower() in _MOTION_SUFFIXES:
+        raise CommandError(
+            f"--json: expected a report path (e.g. report.json), or nothing to print the report; got "
+            f"{value!r}, a motion file's name {hint}"
+        )
+    if Path(value).is_file() and not is_report(Path(value)):
+        raise CommandError(
+            f"--json: expected a new file or an earlier elastic-motion report; got {value!r}, another "
+            f"existing file (refusing to overwrite it) {hint}"
+        )
+
+
 def add_json_option(p: argparse.ArgumentParser) -> None:
     """``--json [PATH]``: write the report to PATH, or print it on stdout when no PATH."""
     p.add_argument(
