@@ -197,6 +197,26 @@ def test_error_kinds_map_to_exit_codes(exc: BaseException, code: int, needle: st
     assert needle in describe_error(exc) and "internal error" not in describe_error(exc)
 
 
+def test_ctrl_c_inside_compiled_code_is_an_interruption_not_a_bug() -> None:
+    """Ctrl-C in a numba kernel surfaces as a ``SystemError`` whose context is the
+    ``KeyboardInterrupt``: reported as the interruption it is (exit 1), not as a bug."""
+    from elastic_motion.cli_commands._argparse import EXIT_INCOMPLETE
+
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise SystemError(
+                "CPUDispatcher(<function dp>) returned a result with an exception set"
+            ) from None
+    except SystemError as exc:
+        wrapped = exc
+    wrapped.__context__ = KeyboardInterrupt()  # `from None` hid it; numba keeps it as context
+    assert exit_code_for(wrapped) == EXIT_INCOMPLETE
+    assert describe_error(wrapped).startswith("interrupted (Ctrl-C)")
+    assert "internal error" in describe_error(SystemError("a real bug"))
+
+
 def test_a_full_disk_on_a_real_report_write_is_one_line_exit_3(tmp_path: Path, capsys, monkeypatch) -> None:
     a, b = _bvh(tmp_path / "a.bvh"), _bvh(tmp_path / "b.bvh")
     out = tmp_path / "r.json"

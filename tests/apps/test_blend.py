@@ -124,6 +124,27 @@ def test_a_walk_backwards_is_named(pair):
     assert not any("way of travel" in n for n in prepare_motions([a, still]).notes)
 
 
+def test_an_extrapolated_clock_keeps_its_shape_where_it_runs_forwards():
+    """Extrapolating past B, the blended clock ``T' = -0.5 d_A + 1.5 d_B phi'`` runs backwards
+    where B's warp is flat and far forwards where it is steep (B's whole step in a tenth of
+    A's time). Played uniformly (before), that steep tenth got a tenth of the frames and the
+    root jumped (35 m/s on CMU walks); now the backward rate is held at a tenth of the mean
+    and the steep part keeps its share: 2.6 of 2.78 s, rescaled to the blended 2 s."""
+    from elastic_motion.apps.blend import _timing
+
+    ident = np.array([[0.0, 0.0], [1.0, 1.0]])
+    phi = np.array([[0.0, 0.0], [0.5, 0.05], [0.6, 0.95], [1.0, 1.0]])
+    u, note = _timing([ident, phi], np.array([-0.5, 1.5]), np.array([2.0, 2.0]), 30.0)
+    assert u[0] == 0.0 and u[-1] == 1.0 and (np.diff(u) > 0).all() and u.size == 61
+    steep = ((u >= 0.5) & (u <= 0.6)).mean()
+    assert steep == pytest.approx(2.6 / 2.78, abs=0.03)
+    assert "does not increase on 90 % of the curve" in note
+    # an increasing clock is left as it is: no note
+    u, note = _timing([ident, phi], np.array([0.5, 0.5]), np.array([2.0, 2.0]), 30.0)
+    assert note == ""
+    assert ((u >= 0.5) & (u <= 0.6)).mean() == pytest.approx(1.0 / 2.0, abs=0.03)  # T' = 1 + phi', 1 s of 2
+
+
 def test_extrapolation_needs_the_flag(pair):
     a, b = pair
     with pytest.raises(ValueError, match=r"s = 1.3 is outside \[0, 1\].*extrapolate=True"):

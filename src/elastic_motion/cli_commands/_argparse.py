@@ -139,6 +139,20 @@ def _cluster_unavailable() -> type[BaseException] | None:
     return ClusterUnavailableError
 
 
+def _interrupt_behind(exc: BaseException) -> BaseException:
+    """The ``KeyboardInterrupt`` behind ``exc`` when there is one (Ctrl-C inside compiled
+    numba code surfaces as a ``SystemError`` whose context is the interrupt), else ``exc``."""
+    seen = exc
+    for _ in range(8):
+        if isinstance(seen, KeyboardInterrupt):
+            return seen
+        nxt = seen.__cause__ or seen.__context__
+        if nxt is None:
+            break
+        seen = nxt
+    return exc
+
+
 def exit_code_for(exc: BaseException) -> int:
     """The exit code for an exception that ended a command.
 
@@ -158,6 +172,7 @@ def exit_code_for(exc: BaseException) -> int:
     -------
     int
     """
+    exc = _interrupt_behind(exc)
     code = getattr(exc, "exit_code", None)
     if isinstance(code, int) and not isinstance(code, bool):
         return code
@@ -205,6 +220,7 @@ def describe_error(exc: BaseException) -> str:
     -------
     str
     """
+    exc = _interrupt_behind(exc)
     if isinstance(exc, KeyboardInterrupt):
         return "interrupted (Ctrl-C): the run did not finish"
     if isinstance(exc, MemoryError):
