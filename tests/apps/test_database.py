@@ -518,6 +518,19 @@ def test_cli_matrix_search_classify_cluster(db_dir: Path, tmp_path: Path, capsys
     assert report["command"] == "classify" and report["inputs"] == [str(out)]  # the shared header
     acc = report["results"]
     assert acc["lie"]["accuracy"] == 1.0 and acc["lie"]["evaluated"] == 6
+    # a rule that labels none of these files is an error, not an accuracy of nan
+    assert _cli(["classify", str(out), "--labels", "cmu"]) == 2
+    assert (
+        "--labels cmu: expected labels for at least 2 motions of the matrix; got 0 of"
+        in capsys.readouterr().err
+    )
+    # several stored databases at once: refused, named; -k larger than the candidates: say how many
+    query = str(db_dir / "k0_v0.bvh")
+    assert _cli(["search", query, str(out), str(out)]) == 2
+    assert "DATABASE: expected one stored database (an index or a matrix folder)" in capsys.readouterr().err
+    assert _cli(["search", query, str(out), "-k", "100"]) == 0
+    text = capsys.readouterr().out
+    assert "exact 5 nearest: full DP on" in text and "exact 100" not in text
     png = tmp_path / "dendro.png"
     assert (
         _cli(["cluster", str(out), "--clusters", "3", "--plot", str(png), "--labels", str(labels), "--json"])

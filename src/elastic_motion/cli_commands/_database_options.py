@@ -42,6 +42,7 @@ FLAGS: dict[str, str | None] = {
     "pose_weight": "--pose-weight",
     "cyclic": "--cyclic",
     "takes": "DATABASE",
+    "database": "DATABASE",
 }
 
 #: The settings fields (``DatabaseSettings``, flat: ``warp.<field>``) -> the flag that sets them.

@@ -289,8 +289,8 @@ def run_search(args: argparse.Namespace) -> int:
         ]
     else:
         lines.append(
-            f"exact {args.k} nearest: full DP on {s['computed']} of {s['candidates']} motions "
-            f"({100 * s['fraction_pruned']:.0f}% pruned by the bounds)"
+            f"exact {min(args.k, s['candidates'])} nearest: full DP on {s['computed']} of "
+            f"{s['candidates']} motions ({100 * s['fraction_pruned']:.0f}% pruned by the bounds)"
         )
     lines += [f"note: {n}" for n in ignored]
     body = {
@@ -355,6 +355,17 @@ def _labels_for(names: list[str], spec: str) -> list[str | None]:
     return [table.get(n) for n in names]
 
 
+def _check_labelled(labels: list[str | None], spec: str) -> None:
+    """At least two motions must get a label, or there is nothing to classify."""
+    n = sum(lab is not None for lab in labels)
+    if n < 2:
+        raise CommandError(
+            f"--labels {spec}: expected labels for at least 2 motions of the matrix; got {n} of "
+            f"{len(labels)} (a rule labels its own files: bandai-* the Bandai names, cmu the CMU trial "
+            "numbers; a CSV by name)"
+        )
+
+
 def run_classify(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import load_matrix
     from elastic_motion.apps.statistics import knn_evaluate
@@ -364,6 +375,7 @@ def run_classify(args: argparse.Namespace) -> int:
         for rep in methods(args.method, several=True):
             m = load_matrix(args.matrix_dir, rep)
             labels = _labels_for(m.names, args.labels)
+            _check_labelled(labels, args.labels)
             ev = knn_evaluate(m.distances, labels, args.k)
             out[rep] = {
                 "accuracy": ev.accuracy,

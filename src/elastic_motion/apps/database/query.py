@@ -129,6 +129,13 @@ def _open_database(
     from elastic_motion.apps.database.index import is_index, load_index
 
     db = [database] if isinstance(database, str | os.PathLike) else list(database)
+    stored = [os.fspath(d) for d in db if is_stored_database(d)]
+    if len(db) > 1 and stored:
+        raise OptionError(
+            "database",
+            f"expected one stored database (an index or a matrix folder) or motion files and folders; got "
+            f"{len(db)} entries, of which stored: {stored} (search them one at a time)",
+        )
     notes: tuple[str, ...] = ()
     if is_stored_database(db):
         cache = load_index(db[0]).cache if is_index(db[0]) else SRVCache.load(Path(db[0]) / storage.CACHE)
