@@ -184,6 +184,13 @@ def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
     )
     assert code == 0, err
     np.testing.assert_allclose(json.loads(stdout)["landmarks_s"], r["pairs_s"])
+    # the pairs of (a, b) are refused for (b, a): they would pin the wrong clips' times
+    code, _, err = run(
+        capsys, "blend", files["b"], files["a"], "-o", tmp_path / "y.bvh", "--landmarks", pairs
+    )
+    assert code == 2 and "the same files the other way round" in err and not (tmp_path / "y.bvh").exists()
+    code, _, err = run(capsys, "align", files["b"], files["a"], "--landmarks", pairs)
+    assert code == 2 and "expected landmarks of b.bvh and a.bvh, in that order" in err
 
 
 def test_multiway_blend(files, capsys, tmp_path):

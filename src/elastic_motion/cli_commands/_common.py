@@ -534,7 +534,25 @@ def _time(value: str, unit: str, fps: float, what: str) -> float:
     return x / fps if unit == "frames" else x
 
 
-def parse_landmarks(value: str | None, unit: str, fps_a: float, fps_b: float) -> Any:
+def _check_landmark_inputs(path: str, data: dict, inputs: Sequence[str] | None) -> None:
+    """The report of ``elastic-motion landmarks A B`` pairs times of A and B: refuse it for
+    other inputs, or for A and B swapped (its pairs would pin the wrong clips' times)."""
+    if inputs is None or not isinstance(data.get("inputs"), list) or len(data["inputs"]) != 2:
+        return
+    theirs = [Path(str(f)).name for f in data["inputs"]]
+    mine = [Path(str(f)).name for f in inputs[:2]]
+    if theirs == mine:
+        return
+    why = "the same files the other way round" if theirs == mine[::-1] else "other files"
+    raise CommandError(
+        f"{path}: expected landmarks of {mine[0]} and {mine[1]}, in that order; got pairs of "
+        f"{theirs[0]} and {theirs[1]} ({why}; run `elastic-motion landmarks` on these inputs)"
+    )
+
+
+def parse_landmarks(
+    value: str | None, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None = None
+) -> Any:
     """``--landmarks`` -> ``None``, ``"auto"`` or a list of ``(tA, tB)`` in seconds.
 
     Accepted: ``auto``, ``none``, a file, or inline pairs ``"a0:b0,a1:b1"``. Times are in
@@ -542,8 +560,9 @@ def parse_landmarks(value: str | None, unit: str, fps_a: float, fps_b: float) ->
     from the first frame kept (after ``--trim``), at each file's own frame rate.
 
     Files: JSON ``{"units": "seconds"|"frames", "pairs": [[a, b], ...]}`` or the report of
-    ``elastic-motion landmarks A B --json`` (its ``pairs_s``); or text, one pair per line
-    (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
+    ``elastic-motion landmarks A B --json`` (its ``pairs_s``; refused when ``inputs`` are
+    given and its own inputs are other files or the same ones swapped); or text, one pair per
+    line (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
     """
     if value is None or value == "none":
         return None
@@ -557,6 +576,7 @@ def parse_landmarks(value: str | None, unit: str, fps_a: float, fps_b: float) ->
             data = None
         if isinstance(data, dict):
             if "pairs_s" in data:
+                _check_landmark_inputs(value, data, inputs)
                 return [(float(a), float(b)) for a, b in data["pairs_s"]]
             if "pairs" in data:
                 u = str(data.get("units", unit))

@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         prep,
         method=args.method,
         warp=warp_options(args),
-        landmarks=parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1]),
+        landmarks=parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs),
         landmark_kinds=landmark_kinds(args.landmark_kinds),
         max_pairs=args.max_pairs,
     )

@@ -141,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         )
     prep = prepare_inputs(args, inputs)
     fps = [r.fps for r in prep.inputs]
-    landmarks = parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1])
+    landmarks = parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs)
     bar = progress_for("blend", args)
     try:
         res = blend_motions(
