@@ -425,3 +425,33 @@ def test_cluster_worth_it_only_for_enough_work() -> None:
     # one optimal_warp call per pair (refinement, coarse to fine) costs more than the batched DP
     for slower in (WarpOptions("dp+refine", 6), WarpOptions("dp", 6, coarse_to_fine=True)):
         assert estimated_serial_seconds(10, 64, slower) > estimated_serial_seconds(10, 64, w)
+
+
+@pytest.mark.mocap
+def test_two_conversions_in_one_database_share_the_first_rest_pose(mocap_dir: Path, tmp_path: Path) -> None:
+    """CMU 107_02_30hz and 07_01 share their joint names, not their rest pose: in a database
+    the later one is re-expressed in its group's first rest pose (a note), the index stores
+    that rest pose, and a query of that conversion is re-expressed the same way, so it
+    measures its own matrix row exactly; a mean of both conversions stands."""
+    from elastic_motion.apps.database import compute_matrix
+    from elastic_motion.apps.database.cache import SRVCache
+    from elastic_motion.apps.statistics import mean_motion
+    from elastic_motion.motion import forward_kinematics
+
+    bvh = mocap_dir / "cmu" / "bvh"
+    files = [bvh / "07_01.bvh", bvh / "08_02.bvh", bvh / "107_02_30hz.bvh"]
+    settings = DatabaseSettings(
+        n_samples=16, representations=("lie",), warp=WarpOptions(method="dp", neighbourhood=4)
+    )
+    res = compute_matrix(files, tmp_path / "m", settings)
+    cache = SRVCache.load(tmp_path / "m" / "srv_cache.npz")
+    assert [r["name"] for r in cache.group_rest] == ["07_01"]
+    k = cache.names.index("107_02_30hz")
+    assert any(n.startswith("107_02_30hz: rest pose unlike 07_01's") for n in cache.info[k]["notes"])
+    q = query_distances(files[2], tmp_path / "m", "lie")
+    assert any(n.startswith("107_02_30hz: rest pose unlike 07_01's") for n in q.notes)
+    np.testing.assert_allclose(q.distances, res.distances["lie"][k], rtol=1e-12, atol=1e-12)
+    m = mean_motion(files[::2], n_samples=16).motion
+    feet = [m.skeleton.names.index(n) for n in ("LeftFoot", "RightFoot")]
+    heights = np.median(forward_kinematics(m)[:, feet, 1], axis=0) * m.metres_per_unit
+    assert (heights < 0.15).all()  # in two rest poses the mean's feet were at 0.84 and 0.88 m

@@ -84,6 +84,7 @@ __all__ = [
     "load_motion",
     "output_motion",
     "prepare_motions",
+    "rest_pose_like",
     "unit_name",
 ]
 
@@ -686,7 +687,7 @@ def prepare_motions(
             notes.append(f"{names[k]}: joints reordered like {names[0]}")
 
     for k in range(1, len(ms)):
-        ms[k], rnote = _rest_pose_like(ms[0], ms[k], names[0], names[k])
+        ms[k], rnote = rest_pose_like(ms[0].skeleton, ms[k], names[0], names[k])
         notes += rnote
 
     fps = ms[0].fps
@@ -747,20 +748,22 @@ _REST_POSE_TOLERANCE = 45.0
 _REST_BONE = 0.05
 
 
-def _rest_pose_like(first: Motion, m: Motion, label0: str, label: str) -> tuple[Motion, list[str]]:
-    """``m`` re-expressed in ``first``'s rest frames when their rest poses differ by more than
-    :data:`_REST_POSE_TOLERANCE` (:mod:`elastic_motion.motion.rest_pose`: the same motion in
-    the world); the note says so."""
+def rest_pose_like(reference: Skeleton, m: Motion, label0: str, label: str) -> tuple[Motion, list[str]]:
+    """``m`` re-expressed in ``reference``'s rest frames when their rest poses differ by more
+    than :data:`_REST_POSE_TOLERANCE` (:mod:`elastic_motion.motion.rest_pose`: the same motion
+    in the world), with a note naming both (``label0``: the reference's owner); ``m`` itself
+    and no note otherwise. Both skeletons hold the same joints (prepared together, or of one
+    skeleton group of a database)."""
     if m.metres_per_unit is not None:
         shortest = _REST_BONE / m.metres_per_unit
     else:
         shortest = 0.015 * float(np.linalg.norm(m.skeleton.offsets, axis=1).sum())
-    angle, bone = rest_pose_difference(first.skeleton, m.skeleton, min_length=shortest)
+    angle, bone = rest_pose_difference(reference, m.skeleton, min_length=shortest)
     if angle <= _REST_POSE_TOLERANCE:
         return m, []
     # the joints are the first's (selected and ordered before): every one has a frame there
-    out = change_rest_frames(m, rest_frames_towards(m.skeleton, first.skeleton, min_length=shortest))
-    after, _ = rest_pose_difference(first.skeleton, out.skeleton, min_length=shortest)
+    out = change_rest_frames(m, rest_frames_towards(m.skeleton, reference, min_length=shortest))
+    after, _ = rest_pose_difference(reference, out.skeleton, min_length=shortest)
     return out, [
         f"{label}: rest pose unlike {label0}'s (bone {bone} {angle:.0f} deg apart, another conversion): its "
         f"rotations re-expressed in {label0}'s rest frames, the same motion in the world (bones now within "

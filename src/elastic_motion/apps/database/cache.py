@@ -21,7 +21,7 @@ import io
 import json
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -38,11 +38,13 @@ from elastic_motion.apps.database.preparation import (
     with_pose_term,
 )
 from elastic_motion.apps.database.settings import FORMAT_VERSION, READABLE_FORMATS, DatabaseSettings
+from elastic_motion.apps.prepare import rest_pose_like
 from elastic_motion.apps.progress import Progress
 from elastic_motion.curves import srv_transform
 from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.motion import (
     Motion,
+    Skeleton,
     default_joint_weights,
     default_translation_weight,
     to_euler_curve,
@@ -103,6 +105,7 @@ class SRVCache:
     ignored: list[str]
     settings: DatabaseSettings
     pose_weights: dict[str, list[float]] = field(default_factory=dict)
+    group_rest: list[dict[str, Any]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -122,6 +125,7 @@ class SRVCache:
             "ignored": self.ignored,
             "settings": self.settings.to_json(),
             **({"pose_weights": self.pose_weights} if self.pose_weights else {}),
+            **({"group_rest": self.group_rest} if self.group_rest else {}),
         }
         buf = io.BytesIO()
         np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
@@ -173,7 +177,36 @@ class SRVCache:
             ignored=meta["ignored"],
             settings=settings,
             pose_weights=pose_weights,
+            group_rest=list(meta.get("group_rest", [])),
         )
+
+    def group_rest_skeleton(self, group: int, like: Skeleton) -> tuple[Skeleton, str] | None:
+        """The rest pose of skeleton group ``group`` (its first motion's) as a skeleton with the
+        joints and channels of ``like`` (a motion of that group), and its motion's name; None
+        for a cache written before rest poses were stored."""
+        if not 0 <= group < len(self.group_rest):
+            return None
+        r = self.group_rest[group]
+        sk = Skeleton(
+            like.names,
+            r["parents"],
+            np.asarray(r["offsets"], dtype=np.float64).reshape(-1, 3),
+            like.channels,
+            r["end_site_parents"],
+            np.asarray(r["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
+        )
+        return sk, r["name"]
+
+
+def _rest_json(sk: Skeleton, name: str) -> dict[str, Any]:
+    """A skeleton group's rest pose in the cache's JSON meta."""
+    return {
+        "name": name,
+        "parents": [int(x) for x in sk.parents],
+        "offsets": np.asarray(sk.offsets, dtype=np.float64).tolist(),
+        "end_site_parents": [int(x) for x in sk.end_site_parents],
+        "end_site_offsets": np.asarray(sk.end_site_offsets, dtype=np.float64).tolist(),
+    }
 
 
 def _unique_names(paths: Sequence[str]) -> list[str]:
@@ -299,8 +332,9 @@ def _prepare_chunk(
 
 
 def _summarise_chunk(prepared: list[PreparedMotion | dict[str, str]]) -> list[dict[str, Any]]:
-    """Per item: ``{"skipped": {"path", "reason"}}`` or ``{"names", "jw", "tw"}`` (joint names,
-    default joint weights ``(J,)`` and translation weight of its skeleton)."""
+    """Per item: ``{"skipped": {"path", "reason"}}`` or ``{"names", "jw", "tw", "skeleton"}``
+    (joint names, default joint weights ``(J,)`` and translation weight of its skeleton, and
+    the skeleton)."""
     out: list[dict[str, Any]] = []
     for p in prepared:
         if isinstance(p, PreparedMotion):
@@ -310,10 +344,25 @@ def _summarise_chunk(prepared: list[PreparedMotion | dict[str, str]]) -> list[di
                     "names": p.joint_names,
                     "jw": default_joint_weights(sk),
                     "tw": default_translation_weight(sk),
+                    "skeleton": sk,
                 }
             )
         else:
             out.append({"skipped": p})
+    return out
+
+
+def _rest_chunk(
+    prepared: list[PreparedMotion | dict[str, str]], refs: list[tuple[Skeleton, str] | None]
+) -> list[PreparedMotion | dict[str, str]]:
+    """Each motion in its skeleton group's rest frames (:func:`~elastic_motion.apps.prepare.rest_pose_like`:
+    re-expressed only when its rest pose is another conversion's), a note when it was."""
+    out: list[PreparedMotion | dict[str, str]] = []
+    for p, ref in zip(prepared, refs, strict=True):
+        if isinstance(p, PreparedMotion) and ref is not None:
+            motion, notes = rest_pose_like(ref[0], p.motion, ref[1], Path(p.path).stem)
+            p = replace(p, motion=motion, notes=(*p.notes, *notes)) if notes else p
+        out.append(p)
     return out
 
 
@@ -501,9 +550,29 @@ def build_srv_cache(
             prepared = restricted
             summary = [s for c in stages.gather(stages.then(_summarise_chunk, prepared)) for s in c]
         # groups by joint names, in order of first appearance; motions sorted by group, then input
+        # one rest pose per group, its first motion's: another conversion of the same skeleton
+        # is re-expressed in it (its rotations would mean other poses: distances, means and
+        # the pose term compared conversions instead of motions)
         keys: dict[tuple[str, ...], int] = {}
+        first_of: dict[tuple[str, ...], int] = {}
         for k in usable:
-            keys.setdefault(tuple(summary[k]["names"]), len(keys))
+            key = tuple(summary[k]["names"])
+            if key not in keys:
+                keys[key], first_of[key] = len(keys), k
+        group_rest = [
+            _rest_json(summary[first_of[key]]["skeleton"], Path(files[first_of[key]]).stem) for key in keys
+        ]
+        refs: list[tuple[Skeleton, str] | None] = [None] * len(items)
+        for k in usable:
+            f = first_of[tuple(summary[k]["names"])]
+            if f != k:
+                refs[k] = (summary[f]["skeleton"], Path(files[f]).stem)
+        if any(r is not None for r in refs):
+            moved = stages.then(
+                _rest_chunk, prepared, [(refs[k : k + size],) for k in range(0, len(items), size)]
+            )
+            stages.release(prepared)
+            prepared = moved
         group_of_item = {k: keys[tuple(summary[k]["names"])] for k in usable}
         order = sorted(usable, key=lambda k: (group_of_item[k], k))
         weights: dict[int, tuple[np.ndarray, float]] = {}
@@ -540,6 +609,7 @@ def build_srv_cache(
         info=[arrays[k][1] for k in order],
         group_joints=[list(k) for k in keys],
         group_weights=[(weights[g][0].tolist(), weights[g][1]) for g in range(len(keys))],
+        group_rest=group_rest,
         skipped=[s["skipped"] for s in summary if "skipped" in s],
         ignored=[os.fspath(i) for i in ignored],
         settings=settings,

@@ -24,7 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from elastic_motion import motion as mm
-from elastic_motion.apps.prepare import MotionPreparation, PrepareOptions, closed_joint_set, load_motion
+from elastic_motion.apps.prepare import (
+    MotionPreparation,
+    PrepareOptions,
+    closed_joint_set,
+    load_motion,
+    rest_pose_like,
+)
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 
@@ -275,7 +281,9 @@ def prepare_same_skeleton(
 
     :func:`prepare_motion` for each file; ``joints="common"`` then keeps the joints all
     share (:func:`restrict_to_common_joints`), ``"map"`` maps every skeleton onto the common
-    body model, a list keeps those joints.
+    body model, a list keeps those joints. A file whose rest pose is another conversion's is
+    re-expressed in the first file's rest frames
+    (:func:`~elastic_motion.apps.prepare.rest_pose_like`, with a note).
 
     Raises
     ------
@@ -306,7 +314,15 @@ def prepare_same_skeleton(
                 f"{sorted(a - b) or 'nothing'}, extra {sorted(b - a) or 'nothing'}): pass joints='common' "
                 "or joints='map'",
             )
-    return prepared
+    # one rest pose: a file from another conversion of the skeleton is re-expressed in the
+    # first's rest frames (a mean of CMU 07_01 and 107_02_30hz stood on its hands otherwise)
+    out = [prepared[0]]
+    for p in prepared[1:]:
+        moved, notes = rest_pose_like(
+            prepared[0].motion.skeleton, p.motion, Path(files[0]).stem, Path(p.path).stem
+        )
+        out.append(replace(p, motion=moved, notes=(*p.notes, *notes)) if notes else p)
+    return out
 
 
 def database_curves(prepared: Sequence[PreparedMotion], method: str) -> list:

@@ -4,6 +4,7 @@ bounds of :mod:`.bounds`)."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Sequence
@@ -25,6 +26,7 @@ from elastic_motion.apps.database.settings import (
     public_method,
 )
 from elastic_motion.apps.database.tiles import pair_distances, single_threaded_blas
+from elastic_motion.apps.prepare import rest_pose_like
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
@@ -176,6 +178,11 @@ def _query_srv(
         g = [tuple(j) for j in cache.group_joints].index(p.joint_names)
     except ValueError:
         g = -1
+    ref = cache.group_rest_skeleton(g, p.motion.skeleton) if g >= 0 else None
+    if ref is not None:  # in its group's rest frames, as the database's motions are
+        moved, rest_notes = rest_pose_like(ref[0], p.motion, ref[1], Path(os.fspath(query)).stem)
+        if rest_notes:
+            p = dataclasses.replace(p, motion=moved, notes=(*p.notes, *rest_notes))
     if g >= 0:  # the query is measured in its group's shared metric
         jw, tw = cache.group_weights[g]
         weights = (np.asarray(jw), float(tw))
