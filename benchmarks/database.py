@@ -66,6 +66,7 @@ from elastic_motion.apps.database import (
     prepare_motion,
     single_threaded_blas,
 )
+from elastic_motion.apps.database.preparation import same_rest_pose
 from elastic_motion.apps.statistics import bandai_labels, cluster, cmu_label, dtw_matrix, knn_evaluate
 from elastic_motion.motion import drop_tpose, read_motion, select_frames, to_euler_curve, write_bvh
 from elastic_motion.warp import WarpOptions
@@ -303,10 +304,11 @@ def features(names: list[str], motions: list, n_samples: int) -> tuple[dict, lis
         raise RuntimeError(f"windows must be readable and share one skeleton; skipped: {cache.skipped}")
     order = [cache.paths.index(n) for n in names]
     q = {r: [cache.q[r][k] for k in order] for r in ("lie", "euler")}
-    euler_frames = [
-        to_euler_curve(prepare_motion(n, n_samples, motion=m).motion).values
-        for n, m in zip(names, motions, strict=True)
-    ]
+    # the DTW baseline sees the frames the database sees: one rest pose per skeleton
+    prep = same_rest_pose(
+        [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, motions, strict=True)]
+    )
+    euler_frames = [to_euler_curve(p.motion).values for p in prep]
     return q, euler_frames
 
 
@@ -709,7 +711,10 @@ def retrieval(mocap: Path, n_samples: int = 32, max_windows: int = 6, neighbourh
     for which in ("cmu", "bandai"):
         names, motions, tasks = retrieval_windows(mocap, which, max_windows)
         clips = [n.split("#")[0] for n in names]
-        prep = [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, motions, strict=True)]
+        # one rest pose per skeleton, as the database prepares them (CMU mixes two conversions)
+        prep = same_rest_pose(
+            [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, motions, strict=True)]
+        )
         mats = retrieval_matrices(prep, neighbourhood, cands)
         frames = [to_euler_curve(p.motion).values for p in prep]
         mats["dtw (euler frames)"] = dtw_matrix(frames, parallel=False)

@@ -174,6 +174,7 @@ def retrieval(n_samples: int = 32, max_windows: int = 6, neighbourhood: int = 6)
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from database import RETRIEVAL_CANDIDATES, retrieval_accuracies, retrieval_windows
     from elastic_motion.apps.database import prepare_motion
+    from elastic_motion.apps.database.preparation import same_rest_pose
 
     data: dict = {}
     for which in ("cmu", "bandai"):
@@ -182,7 +183,9 @@ def retrieval(n_samples: int = 32, max_windows: int = 6, neighbourhood: int = 6)
         for c in LEVELS:
             t0 = time.perf_counter()
             ms = [m if c == 0 else smooth_motion(m, c * m.duration / n_samples) for m in motions]
-            prep = [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, ms, strict=True)]
+            prep = same_rest_pose(
+                [prepare_motion(n, n_samples, motion=m) for n, m in zip(names, ms, strict=True)]
+            )
             data[which][str(c)] = retrieval_accuracies(prep, tasks, neighbourhood)
             print(f"{which} smoothing {c}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
 

@@ -43,6 +43,7 @@ __all__ = [
     "prepare_motion",
     "restrict_prepared",
     "restrict_to_common_joints",
+    "same_rest_pose",
     "with_pose_term",
 ]
 
@@ -315,13 +316,25 @@ def prepare_same_skeleton(
                 "or joints='map'",
             )
     # one rest pose: a file from another conversion of the skeleton is re-expressed in the
-    # first's rest frames (a mean of CMU 07_01 and 107_02_30hz stood on its hands otherwise)
-    out = [prepared[0]]
-    for p in prepared[1:]:
-        moved, notes = rest_pose_like(
-            prepared[0].motion.skeleton, p.motion, Path(files[0]).stem, Path(p.path).stem
-        )
-        out.append(replace(p, motion=moved, notes=(*p.notes, *notes)) if notes else p)
+    # first's rest frames (a mean of CMU 07_01 and 107_02_30hz had its feet 0.86 m up otherwise)
+    return same_rest_pose(prepared)
+
+
+def same_rest_pose(prepared: Sequence[PreparedMotion]) -> list[PreparedMotion]:
+    """Each skeleton group's motions (same joint names) in the rest frames of its first:
+    :func:`~elastic_motion.apps.prepare.rest_pose_like` of every later one (re-expressed, with
+    a note, only when its rest pose is another conversion's). ``build_srv_cache`` does the
+    same as a stage of its engine."""
+    first: dict[tuple[str, ...], PreparedMotion] = {}
+    out = []
+    for p in prepared:
+        ref = first.setdefault(p.joint_names, p)
+        if ref is not p:
+            moved, notes = rest_pose_like(
+                ref.motion.skeleton, p.motion, Path(ref.path).stem, Path(p.path).stem
+            )
+            p = replace(p, motion=moved, notes=(*p.notes, *notes)) if notes else p
+        out.append(p)
     return out
 
 
