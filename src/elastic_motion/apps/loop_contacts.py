@@ -12,7 +12,10 @@ subject to closure *and* the input's contacts
   across the seam: there the floor-plane position is constrained *relative to the last
   frame* (``p(f) - p(F-1) = p_in(f) - p_in(F-1)``, 2 rows) and the height absolutely
   (except at ``F - 1``, which the seam fixes), so closing moves that contact as one piece
-  with the next cycle's start. That holds only when the joint is planted on the first frame
+  with the next cycle's start; when the joint is planted on the first frame too, its height
+  rows are relative to the last frame as well (the seam sets the last frame's height to the
+  first's; held absolutely, a CMU 07_01 toe at 6.7 cm over a first frame's 4.5 cm dropped
+  2.1 cm in the last step). That holds only when the joint is planted on the first frame
   (else closing it may fail and the contact is released, see ``apps.loop``). A foot whose
   toe crosses the seam while its heel (ankle) is planted on the last frame but lifted on
   the first leaves that last heel contact to the toe: rows on both (the heel's absolute,
@@ -149,7 +152,13 @@ def contact_rows(
                     lifting = f >= lift_from.get(name, f_count)
                     for ax in horiz if not (c1 and lifting) else ():
                         rows.append(_Row(j, name, (a, b), f, ax, f_count - 1, pos[f, j, ax] - pos[-1, j, ax]))
-                    if not lifting:
+                    if not lifting and name in start:
+                        # planted on the first frame too: the seam sets the last frame's height
+                        # to the first's, so the block keeps its heights relative to the last
+                        # frame (held absolutely, a toe at 6.7 cm over a first frame's 4.5 cm
+                        # dropped 2.1 cm in the last step of a CMU walk's loop)
+                        rows.append(_Row(j, name, (a, b), f, up, f_count - 1, pos[f, j, up] - pos[-1, j, up]))
+                    elif not lifting:
                         rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
                 else:
                     if f == 0:
