@@ -369,16 +369,6 @@ _POSE_ANCHOR = 1.0
 _AXES = "xyz"
 
 
-def _slow_drift(values: np.ndarray, mean: np.ndarray, fps: float) -> np.ndarray:
-    """The slow part of ``values - mean`` (same shape, frames on axis 0): its Gaussian of
-    :data:`_POSE_ANCHOR` seconds at ``fps``; zeros for fewer than 2 frames."""
-    from scipy.ndimage import gaussian_filter1d
-
-    if values.shape[0] < 2:
-        return np.zeros_like(values)
-    return gaussian_filter1d(values - mean, _POSE_ANCHOR * fps, axis=0, mode="nearest")
-
-
 def _anchor_poses(
     body: Motion, inputs: Sequence[Motion], times: Sequence[np.ndarray], w: np.ndarray
 ) -> tuple[Motion, float, float]:
@@ -393,17 +383,17 @@ def _anchor_poses(
     """
     joints = np.arange(body.n_joints)
     rots = [_sample_rotations(m, joints, t) for m, t in zip(inputs, times, strict=True)]
-    mean = _blend_rotations(rots, w)
-    out = smooth_change(body, body.replace(rotations=mean), _POSE_ANCHOR * body.fps)
-    drift = _SO3.log(np.swapaxes(body.rotations, -1, -2) @ out.rotations)
     up = _AXES.index(body.up_axis)
-    heights = [np.interp(t, m.times, m.root_translation[:, up]) for m, t in zip(inputs, times, strict=True)]
-    mean_height = sum(wk * h for wk, h in zip(w, heights, strict=True))
-    sink = _slow_drift(body.root_translation[:, up], mean_height, body.fps)
-    root = body.root_translation.copy()
-    root[:, up] -= sink
-    lift = float(np.abs(sink).max()) if sink.size else 0.0
-    return out.replace(root_translation=root), float(np.degrees(np.linalg.norm(drift, axis=-1).max())), lift
+    target = body.root_translation.copy()  # the horizontal path kept, the mean height
+    target[:, up] = sum(
+        wk * np.interp(t, m.times, m.root_translation[:, up])
+        for wk, m, t in zip(w, inputs, times, strict=True)
+    )
+    mean = body.replace(rotations=_blend_rotations(rots, w), root_translation=target)
+    out = smooth_change(body, mean, _POSE_ANCHOR * body.fps)
+    drift = _SO3.log(np.swapaxes(body.rotations, -1, -2) @ out.rotations)
+    lift = float(np.abs(out.root_translation[:, up] - body.root_translation[:, up]).max(initial=0.0))
+    return out, float(np.degrees(np.linalg.norm(drift, axis=-1).max())), lift
 
 
 def _anchor_euler(
@@ -414,12 +404,14 @@ def _anchor_euler(
     ``up`` of the position) difference from ``mean``, the weighted mean of the aligned inputs'
     values, removed; the root's horizontal path is kept. Returns the anchored values, the
     largest correction of one angle in degrees and of the height (length units)."""
+    from scipy.ndimage import gaussian_filter1d
+
     out = values.copy()
-    cols = np.r_[up, 3 : values.shape[1]]
-    drift = _slow_drift(values[:, cols], mean[:, cols], fps)
-    out[:, cols] -= drift
-    if not drift.size:
+    if values.shape[0] < 2:
         return out, 0.0, 0.0
+    cols = np.r_[up, 3 : values.shape[1]]
+    drift = gaussian_filter1d(values[:, cols] - mean[:, cols], _POSE_ANCHOR * fps, axis=0, mode="nearest")
+    out[:, cols] -= drift
     return out, float(np.degrees(np.abs(drift[:, 1:]).max())), float(np.abs(drift[:, 0]).max())
 
 
