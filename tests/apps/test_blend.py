@@ -122,6 +122,12 @@ def test_a_walk_backwards_is_named(pair):
     assert not any("way of travel" in n for n in prepare_motions([a, b]).notes)
     still = walker(duration=2.0, freq=1.0, amp=0.5, speed=0.0, name="still")
     assert not any("way of travel" in n for n in prepare_motions([a, still]).notes)
+    # a walk turned 2 rad, not placed like A: it still faces its way (a sign or axis slip in
+    # the facing would see it 131 degrees off)
+    turned = walker(duration=2.0, freq=1.0, amp=0.5, speed=1.0, yaw=2.0, name="turned")
+    assert not any(
+        "way of travel" in n for n in prepare_motions([a, turned], PrepareOptions(align=False)).notes
+    )
 
 
 def test_an_extrapolated_clock_keeps_its_shape_where_it_runs_forwards():

@@ -362,6 +362,21 @@ def test_fade_change_scales_the_change_and_keeps_fixed_frames_exactly():
         fade_change(before, select_frames(after, np.arange(20)), w)
     with pytest.raises(ValueError, match="fixed"):
         fixed_frames_weight(21, (0, 21), 4)
+    # smooth_change: a constant change passes through its Gaussian whole (the root's too);
+    # other frames or a non-finite width are named
+    from elastic_motion.motion.edit import smooth_change
+
+    sm = smooth_change(before, after, 3.0)
+    np.testing.assert_allclose(
+        g.log(np.swapaxes(before.rotations, -1, -2) @ sm.rotations), rel * 0 + turn, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        sm.root_translation - before.root_translation, np.tile([0.2, 0, 0], (21, 1)), atol=1e-15
+    )
+    with pytest.raises(ValueError, match="after: expected 21 frames"):
+        smooth_change(before, select_frames(after, np.arange(20)), 3.0)
+    with pytest.raises(ValueError, match="sigma_frames"):
+        smooth_change(before, after, float("nan"))
 
 
 @pytest.mark.parametrize("n, width", [(12, 3), (5, 10), (1, 4), (2, 2)])

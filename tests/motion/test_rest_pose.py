@@ -47,6 +47,8 @@ def test_a_change_of_rest_frames_keeps_the_world_motion():
     np.testing.assert_allclose(global_rotations(out), global_rotations(m) @ c[None], atol=1e-12)
     with pytest.raises(ValueError, match=r"frames: expected shape \(6, 3, 3\)"):
         change_rest_frames(m, c[:5])
+    with pytest.raises(ValueError, match="frames"):  # a scaling is no change of frames
+        change_rest_frames(m, 2.0 * c)
 
 
 def test_towards_a_reference_undoes_a_known_change():

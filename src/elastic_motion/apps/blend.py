@@ -149,7 +149,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, PowerGroup
 from elastic_motion.motion import Motion, Skeleton, from_euler_curve, from_lie_curve
 from elastic_motion.motion.contacts import ContactOptions
-from elastic_motion.motion.edit import smooth_change
+from elastic_motion.motion.edit import gaussian_frames, smooth_change
 from elastic_motion.warp import WarpOptions
 
 __all__ = ["BlendMetrics", "BlendResult", "blend_metrics", "blend_motions"]
@@ -386,7 +386,7 @@ def _anchor_poses(
     up = _AXES.index(body.up_axis)
     target = body.root_translation.copy()  # the horizontal path kept, the mean height
     target[:, up] = sum(
-        wk * np.interp(t, m.times, m.root_translation[:, up])
+        wk * _sample_linear(m.root_translation[:, up], m.fps, t)
         for wk, m, t in zip(w, inputs, times, strict=True)
     )
     mean = body.replace(rotations=_blend_rotations(rots, w), root_translation=target)
@@ -404,13 +404,11 @@ def _anchor_euler(
     ``up`` of the position) difference from ``mean``, the weighted mean of the aligned inputs'
     values, removed; the root's horizontal path is kept. Returns the anchored values, the
     largest correction of one angle in degrees and of the height (length units)."""
-    from scipy.ndimage import gaussian_filter1d
-
     out = values.copy()
     if values.shape[0] < 2:
         return out, 0.0, 0.0
     cols = np.r_[up, 3 : values.shape[1]]
-    drift = gaussian_filter1d(values[:, cols] - mean[:, cols], _POSE_ANCHOR * fps, axis=0, mode="nearest")
+    drift = gaussian_frames(values[:, cols] - mean[:, cols], _POSE_ANCHOR * fps)
     out[:, cols] -= drift
     return out, float(np.degrees(np.abs(drift[:, 1:]).max())), float(np.abs(drift[:, 0]).max())
 
@@ -493,7 +491,7 @@ def _timing(
         # in little u, and played uniformly it jumped (1 m in 5 frames at s = 1.5, 35 m/s)
         dx = np.diff(x)
         rate = np.maximum(np.diff(total) / dx, _CLOCK_FLOOR * duration)
-        held = float(dx[np.diff(total) / dx < _CLOCK_FLOOR * duration].sum())
+        held = float(dx[np.diff(total) <= 0].sum())  # where it runs backwards (the note's share)
         total = np.concatenate([[0.0], np.cumsum(rate * dx)])
         total *= duration / total[-1]
         note = (

@@ -53,6 +53,7 @@ from elastic_motion.motion.edit import (
     eased_envelope,
     fade_change,
     fixed_frames_weight,
+    gaussian_frames,
     smooth_change,
     smoothstep,
 )
@@ -337,8 +338,6 @@ def settle_offset(
     velocity by little (its SRV distance to the motion is small), where lifting each stance
     foot by IK bends the knees. Zeros when no planted joint has a ground height.
     """
-    from scipy.ndimage import gaussian_filter1d
-
     if not (np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma: expected seconds >= 0; got {sigma!r}")
     sk = motion.skeleton
@@ -362,7 +361,7 @@ def settle_offset(
         return np.zeros(motion.n_frames)
     frames = np.arange(motion.n_frames)
     need = np.interp(frames, frames[known], total[known] / count[known])
-    return gaussian_filter1d(need, sigma * motion.fps, mode="nearest") if sigma > 0 else need
+    return gaussian_frames(need, sigma * motion.fps)
 
 
 def _given(plants: Mapping[str, np.ndarray], name: str, p: np.ndarray) -> np.ndarray | None:

@@ -33,6 +33,7 @@ __all__ = [
     "drop_tpose",
     "eased_envelope",
     "finger_joints",
+    "gaussian_frames",
     "has_reference_root",
     "has_tpose_first_frame",
     "heading_angle",
@@ -700,20 +701,34 @@ def fixed_frames_weight(n_frames: int, fixed: Sequence[int], width: int) -> np.n
     return smoothstep(dist / (width + 1.0))
 
 
+def gaussian_frames(x: np.ndarray, sigma_frames: float) -> np.ndarray:
+    """``x`` ``(F, ...)`` through a Gaussian along its frames (axis 0) of ``sigma_frames``
+    standard deviation (frames; ends held, ``mode="nearest"``); ``x`` itself for
+    ``sigma_frames <= 0`` or fewer than 2 frames."""
+    from scipy.ndimage import gaussian_filter1d
+
+    if not math.isfinite(sigma_frames):
+        raise ValueError(f"sigma_frames: expected a finite number of frames; got {sigma_frames!r}")
+    if sigma_frames <= 0 or x.shape[0] < 2:
+        return x
+    return gaussian_filter1d(x, sigma_frames, axis=0, mode="nearest")
+
+
 def smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion:
     """``after`` with its change from ``before`` smoothed in time: each joint's rotation change
     ``log(R_before^T R_after)`` and the root offset ``after - before`` through a Gaussian of
-    ``sigma_frames`` standard deviation (frames; ends held, ``mode="nearest"``), then applied to
-    ``before`` again. Same skeleton and frames."""
-    from scipy.ndimage import gaussian_filter1d
-
+    ``sigma_frames`` standard deviation (:func:`gaussian_frames`), then applied to ``before``
+    again. Same skeleton and frames (else ``ValueError``)."""
+    if (before.n_frames, before.n_joints) != (after.n_frames, after.n_joints):
+        raise ValueError(
+            f"after: expected {before.n_frames} frames of {before.n_joints} joints like before; got "
+            f"{after.n_frames} of {after.n_joints}"
+        )
     if before.n_frames < 2 or sigma_frames <= 0:
+        gaussian_frames(before.root_translation, sigma_frames)  # checks sigma_frames
         return after
-    rel = _SO3.log(np.swapaxes(before.rotations, -1, -2) @ after.rotations)
-    rel = gaussian_filter1d(rel, sigma_frames, axis=0, mode="nearest")
-    off = gaussian_filter1d(
-        after.root_translation - before.root_translation, sigma_frames, axis=0, mode="nearest"
-    )
+    rel = gaussian_frames(_SO3.log(np.swapaxes(before.rotations, -1, -2) @ after.rotations), sigma_frames)
+    off = gaussian_frames(after.root_translation - before.root_translation, sigma_frames)
     return after.replace(
         rotations=before.rotations @ _SO3.exp(rel), root_translation=before.root_translation + off
     )

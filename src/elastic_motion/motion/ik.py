@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion.groups import SO3
+from elastic_motion.motion.edit import gaussian_frames
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
@@ -319,14 +320,6 @@ def _dilate(x: np.ndarray, half_width: float) -> np.ndarray:
     )
 
 
-def _gaussian(x: np.ndarray, sigma_frames: float) -> np.ndarray:
-    if sigma_frames <= 0 or x.shape[0] < 2:
-        return x
-    from scipy.ndimage import gaussian_filter1d
-
-    return gaussian_filter1d(x, sigma_frames, axis=0, mode="nearest")
-
-
 def root_correction(
     motion: Motion,
     legs: list[LegChain],
@@ -385,5 +378,5 @@ def root_correction(
             break
         # widen each need by 2 sigma (per component and sign) so that the smoothing keeps
         # its peak; the next round measures what is still missing
-        total = total + _gaussian(_dilate(need, 2.0 * sigma * motion.fps), sigma * motion.fps)
+        total = total + gaussian_frames(_dilate(need, 2.0 * sigma * motion.fps), sigma * motion.fps)
     return total

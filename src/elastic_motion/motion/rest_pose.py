@@ -130,9 +130,8 @@ def rest_frames_towards(skeleton: Skeleton, reference: Skeleton, *, min_length: 
             continue
         a = np.array([x for x, _ in pairs])
         b = np.array([y for _, y in pairs])
-        w = np.linalg.norm(b, axis=1)
         ua = a / np.linalg.norm(a, axis=1)[:, None]
-        h = (w[:, None] * (b / w[:, None])).T @ ua  # sum of w b a^T
+        h = b.T @ ua  # sum of |b| (b / |b|) a^T: the skeleton's unit directions weighted by length
         u, sv, vt = np.linalg.svd(h)
         if sv[1] <= 1e-9 * sv[0]:
             # the bones on one line (one bone, or opposite ones): its direction, twist kept
@@ -161,6 +160,7 @@ def change_rest_frames(motion: Motion, frames: np.ndarray) -> Motion:
     sk = motion.skeleton
     if c.shape != (sk.n_joints, 3, 3):
         raise ValueError(f"frames: expected shape ({sk.n_joints}, 3, 3); got {c.shape}")
+    c = _SO3.check_points(c, "frames")  # only rotations keep the world motion
     parents = np.asarray(sk.parents)
     cp = np.where((parents >= 0)[:, None, None], c[np.maximum(parents, 0)], np.eye(3))  # (J, 3, 3)
     rot = np.swapaxes(cp, -1, -2)[None] @ motion.rotations @ c[None]
