@@ -41,6 +41,7 @@ def assert_same_as_serial(res, serial, *, min_motions: int = 2) -> None:
         b.skipped,
     )
     assert a.group_weights == b.group_weights and a.pose_weights == b.pose_weights
+    assert a.group_rest == b.group_rest  # each group's rest pose, from the same first motion
     for r in a.q:
         assert all(x.tobytes() == y.tobytes() for x, y in zip(a.q[r], b.q[r], strict=True))
 

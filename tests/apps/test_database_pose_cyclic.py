@@ -250,6 +250,14 @@ def test_settings_differences_in_order_and_joint_lists_as_sets() -> None:
         ("cyclic", True, False),
     ]
     assert settings_differences(old, old, ("n_samples",)) == []
+    # a resumed folder refused for the order of its joints says so (not "format differs")
+    from elastic_motion.apps.database.matrix import _identity_diff
+
+    ident = {"inputs": ["x"], "settings": DatabaseSettings(joints=("a", "b")).to_json()}
+    swapped = {"inputs": ["x"], "settings": DatabaseSettings(joints=("b", "a")).to_json()}
+    assert (
+        _identity_diff(ident, swapped) == "joints: the same joints in another order, ['a', 'b'] -> ['b', 'a']"
+    )
 
 
 def test_each_skeleton_group_gets_its_own_balanced_weight(tmp_path: Path) -> None:

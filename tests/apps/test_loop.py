@@ -144,6 +144,19 @@ def test_treadmill_removes_the_travel_at_a_constant_rate():
     np.testing.assert_allclose(flat.rotations[:, 0], np.tile(walk.rotations[0, 0], (f, 1, 1)), atol=1e-12)
     np.testing.assert_allclose(flat.root_translation[0], arc[0], atol=1e-12)
     np.testing.assert_allclose(flat.root_translation[-1], arc[0], atol=1e-12)
+    # a middle frame, from a tilted first pose: frame k turned back by Y(-0.6 s_k) about the
+    # straight line from the first floor position to the last (the formula of `treadmill`)
+    tilt = axis_rotation(np.array(0.4), "X")
+    rots[:, 0] = yaw @ tilt
+    flat, _, turn = treadmill(walk.replace(rotations=rots, root_translation=arc))
+    assert turn == pytest.approx(0.6, rel=1e-9)
+    k = f // 3
+    back = axis_rotation(np.array(-0.6 * s[k]), "Y")
+    line = np.array([0.0, 0.0, 0.0]) + s[k] * (arc[-1] * [1, 0, 1] - arc[0] * [1, 0, 1])
+    np.testing.assert_allclose(
+        flat.root_translation[k], back @ (arc[k] - line) + arc[0] * [1, 0, 1], atol=1e-12
+    )
+    np.testing.assert_allclose(flat.rotations[:, 0], np.tile(tilt, (f, 1, 1)), atol=1e-12)
 
 
 @pytest.mark.mocap
@@ -166,6 +179,27 @@ def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
     assert res.seam_after.seam_angle_max_deg < 1e-3
     # travel keeps the planted feet where they are: no treadmill there
     assert "treadmill" not in (loop_motion(m, root="travel").contacts_kept or {})
+
+
+@pytest.mark.mocap
+def test_dropped_contacts_close_the_clip_itself_not_its_treadmill(mocap_dir, monkeypatch):
+    """When the kept contacts cannot be solved (dropped), the in-place loop is the clip closed
+    without them, as with ``contacts="report"``: not the treadmilled clip, whose travel would
+    be gone without a note."""
+    import elastic_motion.apps.loop as loop_mod
+
+    m = load(mocap_dir, "dm_run")
+    keep = loop_mod._close_keeping_contacts
+
+    def dropped(*args, **kwargs):
+        _, res, extra, kept = keep(*args, **kwargs)
+        return None, res, extra, {**kept, "dropped": "contacts dropped (forced); closed without them"}
+
+    monkeypatch.setattr(loop_mod, "_close_keeping_contacts", dropped)
+    out = loop_motion(m, root="inplace")
+    plain = loop_motion(m, root="inplace", contacts="report")
+    np.testing.assert_allclose(out.motion.root_translation, plain.motion.root_translation, atol=1e-9)
+    assert not any("treadmill" in n for n in out.notes)
 
 
 @pytest.mark.mocap

@@ -368,6 +368,12 @@ def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():
     heel = [r for r in rows_of(mask) if r.name == "knee"]
     assert {r.anchor for r in heel if r.frame >= 40} == {49}
     assert {r.axis for r in heel if r.frame >= 40} == {0, 1, 2}  # heights relative too
+    # each relative row's target is the input's offset from the last frame (a sign slip fails)
+    from elastic_motion.motion import forward_kinematics
+
+    pos = forward_kinematics(m)
+    for r in (r for r in heel if r.frame >= 40):
+        assert r.target == pytest.approx(pos[r.frame, 2, r.axis] - pos[-1, 2, r.axis], abs=1e-12)
     # a contact on the last frame of a joint in the air on the first keeps absolute heights
     mask[:5, :] = False
     mask[40:, 0] = False

@@ -722,7 +722,9 @@ def _close_clip(
             )  # fmt: skip
             if travel is not None:
                 kept["treadmill"] = travel
-            if out is None:  # contacts and closure do not fit together: close without them
+            if out is None:  # contacts and closure do not fit together: close without them,
+                if base is not motion:  # and without the treadmill they needed
+                    lie = to_lie_curve(motion, joint_weights, translation_weight=translation_weight)
                 res = project(lie)
         elif solver == "kkt":
             res = project(lie)

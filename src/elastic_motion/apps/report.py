@@ -125,16 +125,19 @@ def write_report(
     return atomic_write_text(path, report_json(report), protected=protected)
 
 
-#: An existing file larger than this (bytes) is not read to see whether it is a report.
-_REPORT_MAX_BYTES = 64 * 2**20
+#: Bytes read from the start of an existing file to see whether it is a report.
+_REPORT_HEAD_BYTES = 4096
 
 
 def is_report(path: Path) -> bool:
-    """Whether ``path`` holds a report of this package (:func:`report_header`'s fields)."""
-    if path.stat().st_size > _REPORT_MAX_BYTES:
-        return False
+    """Whether ``path`` holds a report of this package: it starts as :func:`report_json` writes
+    one, a JSON object whose first two fields are ``"command"`` and ``"version"`` (read from
+    its first bytes only, whatever its size)."""
+    import re
+
     try:
-        data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, ValueError):
+        with open(path, "rb") as fh:
+            head = fh.read(_REPORT_HEAD_BYTES).decode("utf-8", errors="replace")
+    except OSError:
         return False
-    return isinstance(data, dict) and "command" in data and "version" in data
+    return re.match(r'\s*\{\s*"command":\s*"[^"]*",\s*"version":', head) is not None

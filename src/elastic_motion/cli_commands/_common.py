@@ -60,22 +60,20 @@ def run_guarded(command: str, fn, args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------------
 
 
-#: Suffixes of motion files: never a report path (``--json`` followed by the inputs takes the
-#: first input as its PATH; written there, the report replaced the motion).
-_MOTION_SUFFIXES = (".bvh", ".amc", ".asf", ".txt")
-
-
 def check_report_target(args: argparse.Namespace) -> None:
     """Refuse a ``--json PATH`` that names a motion file or an existing file that is not an
     earlier report, before any work (``--json`` before the inputs takes the first of them as
     its PATH; the report written at the end replaced that motion). Raises :class:`CommandError`."""
+    from elastic_motion.apps.database.files import MOTION_EXTENSIONS
     from elastic_motion.apps.report import is_report
 
     value = getattr(args, "json", None)
     if not isinstance(value, str) or value == "-":
         return
     hint = "(--json takes the next word as its PATH: put it after the inputs)"
-    if Path(value).suffix.lower() in _MOTION_SUFFIXES:
+    suffix = Path(value).suffix.lower()
+    # a motion file's name is never a report path (.json is a report's too: checked below)
+    if suffix != ".json" and suffix in (*MOTION_EXTENSIONS, ".asf"):
         raise CommandError(
             f"--json: expected a report path (e.g. report.json), or nothing to print the report; got "
             f"{value!r}, a motion file's name {hint}"

@@ -189,7 +189,8 @@ def _register_search(subparsers: argparse._SubParsersAction) -> None:
         "--within",
         action="store_true",
         help="partial matching: best segment of each DATABASE motion (free start and end; segments last "
-        "1/N to N times the query, N = --neighbourhood) (default: off)",
+        "1/N to N times the query, N = --neighbourhood; without --samples / --neighbourhood: 48 cells, "
+        "N = 4, not the defaults shown below) (default: off)",
     )
     add_method(p, several=False)
     add_quiet_option(p)

@@ -105,6 +105,10 @@ def _identity_diff(old: dict[str, Any] | None, new: dict[str, Any]) -> str:
         diffs.append(f"inputs differ ({len(n - o)} new, {len(o - n)} missing)")
     so, sn = old.get("settings", {}), new["settings"]
     diffs += [f"{k}: {o!r} -> {n!r}" for k, o, n in settings_differences(so, sn)]
+    if not diffs and so.get("joints") != sn.get("joints"):  # settings_differences: a list is a set
+        diffs.append(
+            f"joints: the same joints in another order, {so.get('joints')!r} -> {sn.get('joints')!r}"
+        )
     return "; ".join(diffs) or "format differs"
 
 
