@@ -290,3 +290,56 @@ def test_arms_are_found_from_the_hands_parent_named_like_an_elbow(mocap_dir):
     asf = read_motion(mocap_dir / "cmu/asfamc/backflip.amc")
     arms = find_arms(asf, ["lhand", "lwrist", "rwrist"])  # lhand's parent is the wrist: no chain
     assert [asf.skeleton.names[a.knee] for a in arms] == ["lradius", "rradius"]
+
+
+def test_a_foots_two_plants_agree_with_its_own_direction_the_longer_run_leading():
+    """Where ankle and toe are both planted, the joint with the longer run keeps its own mean
+    and the other is put at the foot's mean floor vector from it (heights untouched)."""
+    from elastic_motion.apps.cleanup import _plants, _rigid_foot_plants
+
+    f = 40
+    pa = np.zeros((f, 3))
+    pa[:, 2] = np.linspace(0.0, 0.39, f)  # the whole foot slides 1 cm a frame along z
+    pa[:, 1] = 0.08
+    foot = np.array([0.01, -0.04, 0.12])
+    pt = pa + foot
+    ma = np.zeros(f, dtype=bool)
+    mt = np.zeros(f, dtype=bool)
+    mt[0:30] = True  # the toe's run is the longer: it leads
+    ma[20:30] = True
+    floor = [0, 2]
+    plant_a, plant_t = _plants(pa, ma, None, 1), _plants(pt, mt, None, 1)
+    toe_mean = pt[0:30].mean(axis=0)[floor]
+    _rigid_foot_plants(pa, plant_a, ma, pt, plant_t, mt, 1)
+    np.testing.assert_allclose(plant_t[0:30][:, floor], np.tile(toe_mean, (30, 1)), atol=1e-12)
+    np.testing.assert_allclose(plant_a[20:30][:, floor], np.tile(toe_mean - foot[floor], (10, 1)), atol=1e-12)
+    np.testing.assert_array_equal(plant_a[20:30, 1], pa[20:30, 1])  # heights are the joints' own
+    # the ankle's run the longer: the ankle leads, the toe follows over all of its own run
+    ma[:] = False
+    mt[:] = False
+    ma[5:35] = True
+    mt[25:38] = True
+    plant_a, plant_t = _plants(pa, ma, None, 1), _plants(pt, mt, None, 1)
+    _rigid_foot_plants(pa, plant_a, ma, pt, plant_t, mt, 1)
+    ankle_mean = pa[5:35].mean(axis=0)[floor]
+    np.testing.assert_allclose(plant_a[5:35][:, floor], np.tile(ankle_mean, (30, 1)), atol=1e-12)
+    np.testing.assert_allclose(
+        plant_t[25:38][:, floor], np.tile(ankle_mean + foot[floor], (13, 1)), atol=1e-12
+    )
+    np.testing.assert_array_equal(plant_t[25:38, 1], pt[25:38, 1])
+
+
+@pytest.mark.mocap
+def test_an_euler_blends_skated_foot_is_planted_not_twisted(mocap_dir):
+    """CMU 131_01 x 131_02 by the Euler baseline: the blend's left toe moves 46 cm (and 13 cm
+    up) in a carried contact in which the ankle is planted for its last 40 frames. The means
+    of the two runs pointed the foot 67 deg away from the blend's own (and from both inputs');
+    with the plants of a rigid foot the clean-up turns no joint by more than about 35 deg."""
+    a = read_motion(mocap_dir / "cmu/bvh/131_01.bvh")
+    b = read_motion(mocap_dir / "cmu/bvh/131_02.bvh")
+    res = blend_motions([a, b], 0.5, method="euler-elastic", warp="dp")
+    cl = res.cleanup
+    assert cl is not None and cl.applied
+    assert cl.max_rotation_change_deg < 40.0
+    assert cl.skating_after.mean_speed < 0.9 * cl.skating_before.mean_speed
+    assert cl.skating_after.below_floor <= 0.01

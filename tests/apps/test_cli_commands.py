@@ -184,6 +184,18 @@ def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
     )
     assert code == 0, err
     np.testing.assert_allclose(json.loads(stdout)["landmarks_s"], r["pairs_s"])
+    # the file gives the blend --landmarks auto makes: the same pairs, met with the same weight
+    assert r["landmark_weight"] == 1000.0
+    code, _, err = run(
+        capsys, "blend", files["a"], files["b"], "-o", tmp_path / "auto.bvh", "--landmarks", "auto",
+        "--no-metrics",
+    )  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "auto.bvh").read_bytes() == (tmp_path / "x.bvh").read_bytes()
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"pairs_s": r["pairs_s"], "landmark_weight": -1}))
+    code, _, err = run(capsys, "align", files["a"], files["b"], "--landmarks", bad)
+    assert code == 2 and "bad.json: 'landmark_weight' must be a finite number >= 0; got -1" in err
     # the pairs of (a, b) are refused for (b, a): they would pin the wrong clips' times
     code, _, err = run(
         capsys, "blend", files["b"], files["a"], "-o", tmp_path / "y.bvh", "--landmarks", pairs

@@ -266,6 +266,12 @@ class AlignResult:
     prepared : PreparedMotions
     result : WarpResult or None
         The solver's full result (None for ``warp="none"``).
+    landmark_weight : float or None
+        The relative weight the warp met ``landmarks`` with (``"auto"``: at least
+        :data:`AUTO_LANDMARK_WEIGHT`); None without landmarks.
+    landmark_pairing : PhasePairing or None
+        ``landmarks="auto"``: the pairing by phase the pairs come from
+        (:func:`elastic_motion.apps.landmarks.phase_landmarks`); None otherwise.
     """
 
     vertices: np.ndarray
@@ -279,6 +285,8 @@ class AlignResult:
     duration_b: float
     prepared: PreparedMotions
     result: WarpResult | None = None
+    landmark_weight: float | None = None
+    landmark_pairing: Any = None
 
     def time_in_b(self, time_a: np.ndarray | float) -> np.ndarray:
         """Time in B (seconds) matched to time ``time_a`` in A (seconds), any shape."""
@@ -301,11 +309,14 @@ class AlignResult:
             "landmark_cost": self.landmark_cost,
             "landmarks_s": [list(p) for p in self.landmarks],
             "landmarks_matched_s": [[ta_, float(self.time_in_b(ta_))] for ta_, _ in self.landmarks],
+            "landmark_weight": self.landmark_weight,
             "duration_a_s": self.duration_a,
             "duration_b_s": self.duration_b,
             "warp_vertices_s": np.column_stack([ta, tb]).tolist(),
             "notes": list(self.prepared.notes),
         }
+        if self.landmark_pairing is not None:
+            out["landmark_pairing"] = self.landmark_pairing.summary()
         if self.result is not None:
             d = self.result.diagnostics
             out["solver"] = {
@@ -487,4 +498,6 @@ def align_motions(
         duration_b=mb.duration,
         prepared=prep,
         result=res,
+        landmark_weight=opts.landmark_weight if pairs else None,
+        landmark_pairing=plan.pairing,
     )

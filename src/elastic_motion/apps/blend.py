@@ -133,6 +133,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.align import (
+    AUTO_LANDMARK_WEIGHT,
     _check_method,
     landmark_parameters,
     motion_curves,
@@ -687,7 +688,7 @@ def blend_motions(
             has_landmarks = bool(landmarks)
             if opts.method == "none":
                 opts = opts.replace(method="dp")
-            opts = opts.replace(landmark_weight=max(opts.landmark_weight, 1000.0))
+            opts = opts.replace(landmark_weight=max(opts.landmark_weight, AUTO_LANDMARK_WEIGHT))
     ms = prep.motions
     durations = np.array([m.duration for m in ms])
     report("warp", 1, stages)

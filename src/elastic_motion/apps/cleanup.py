@@ -11,7 +11,10 @@ In the spirit of Kovar, Schreiner and Gleicher (2002):
    ``min_duration`` are dropped. The floor and each joint's ground height are the weighted
    means of the inputs'.
 2. **Plants** (:func:`cleanup_footskate`). Each contact run of an ankle (toe) joint gets one
-   plant position: the mean of the joint's positions in the blend over the run. The ankle's
+   plant position: the mean of the joint's positions in the blend over the run; where ankle
+   and toe are both planted, the two plants are a rigid foot's (the joint with the longer run
+   keeps its mean, the other's plant sits at the blend's own mean floor vector of the foot from
+   it: ``_rigid_foot_plants``). The ankle's
    correction ``delta(f)`` is ``plant - ankle`` where the ankle is planted, ``plant_toe -
    toe`` where only the toe is (the foot moves rigidly, heel off), and eases to 0 within
    ``blend_time`` (default 0.15 s) outside the contacts (smoothstep weights; two nearby
@@ -324,6 +327,38 @@ def _plants(p: np.ndarray, mask: np.ndarray, min_height: float | None, up: int) 
     return out
 
 
+def _rigid_foot_plants(
+    pa: np.ndarray,
+    plant_a: np.ndarray,
+    ma: np.ndarray,
+    pt: np.ndarray,
+    plant_t: np.ndarray,
+    mt: np.ndarray,
+    up: int,
+) -> None:
+    """Make the ankle's and the toe's plants (``(F, 3)`` each, changed in place) agree with a
+    rigid foot where both are planted.
+
+    Each stretch of frames with both planted lies in one run of each joint; the joint with the
+    longer run leads (its plant stays the mean over its run) and the other's plant, over its
+    whole run, is put at the foot's own mean floor vector over the stretch from the leader's.
+    Only floor coordinates move (plant heights are the joints' own). Without this, the two
+    means of a foot that skated in a carried contact (the toe 46 cm while the ankle was planted
+    for a third of it, in an Euler blend of CMU 131_01 x 131_02) disagree and the turn about
+    the ankle that joins them twists the foot by tens of degrees (67 there).
+    """
+    floor_axes = [i for i in range(3) if i != up]
+    runs_a, runs_t = _runs(ma), _runs(mt)
+    for a, b in _runs(ma & mt):
+        ra = next(r for r in runs_a if r[0] <= a < r[1])
+        rt = next(r for r in runs_t if r[0] <= a < r[1])
+        vec = (pt[a:b] - pa[a:b]).mean(axis=0)[floor_axes]
+        if rt[1] - rt[0] >= ra[1] - ra[0]:
+            plant_a[ra[0] : ra[1], floor_axes] = plant_t[a, floor_axes] - vec
+        else:
+            plant_t[rt[0] : rt[1], floor_axes] = plant_a[a, floor_axes] + vec
+
+
 def settle_offset(
     motion: Motion, contacts: Contacts, legs: Sequence[LegChain], *, sigma: float
 ) -> np.ndarray:
@@ -504,12 +539,14 @@ def cleanup_footskate(
         plant_a = _given(plants, sk.names[leg.ankle], pa) if plants else None
         plant_a = _plants(pa, ma, ha, up) if plant_a is None else plant_a
         delta = np.zeros_like(pa)
-        delta[ma] = plant_a[ma] - pa[ma]
         turn = None
         if mt.any():
             pt = pos[:, leg.toe]
             plant_t = _given(plants, sk.names[leg.toe], pt) if plants else None
-            plant_t = _plants(pt, mt, ht, up) if plant_t is None else plant_t
+            if plant_t is None:
+                plant_t = _plants(pt, mt, ht, up)
+                if not (plants and sk.names[leg.ankle] in plants):
+                    _rigid_foot_plants(pa, plant_a, ma, pt, plant_t, mt, up)
             # the foot's turn about the ankle: where both are planted it takes toe - ankle to
             # plant_toe - plant_ankle; eased into the heel-off (toe only) and swing frames
             both = ma & mt
@@ -522,6 +559,7 @@ def cleanup_footskate(
             only_toe = mt & ~ma
             foot = np.einsum("fij,fj->fi", turn[only_toe], pt[only_toe] - pa[only_toe])
             delta[only_toe] = plant_t[only_toe] - foot - pa[only_toe]
+        delta[ma] = plant_a[ma] - pa[ma]  # (after the toe's plants: they may move the ankle's)
         known = ma | mt
         delta = strength * _ease(delta, known, width)
         # no point of the foot below the floor: raise the ankle where the foot would go under

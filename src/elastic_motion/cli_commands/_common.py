@@ -248,11 +248,16 @@ def prepare_options(args: argparse.Namespace, n_inputs: int) -> Any:
     )
 
 
-def warp_options(args: argparse.Namespace) -> Any:
-    """The :class:`~elastic_motion.warp.WarpOptions` of the parsed options."""
+def warp_options(args: argparse.Namespace, landmark_weight: float | None = None) -> Any:
+    """The :class:`~elastic_motion.warp.WarpOptions` of the parsed options.
+
+    The relative landmark weight is ``--landmark-weight`` when given, else ``landmark_weight``
+    (the one a landmarks file records: :func:`read_landmarks`), else ``WarpOptions``' default.
+    """
     from elastic_motion.warp import WarpOptions
 
     lw = getattr(args, "landmark_weight", None)
+    lw = landmark_weight if lw is None else lw
     return WarpOptions(
         method=args.warp,
         neighbourhood=args.neighbourhood,
@@ -551,49 +556,75 @@ def _check_landmark_inputs(path: str, data: dict, inputs: Sequence[str] | None) 
 def parse_landmarks(
     value: str | None, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None = None
 ) -> Any:
-    """``--landmarks`` -> ``None``, ``"auto"`` or a list of ``(tA, tB)`` in seconds.
+    """``--landmarks`` -> ``None``, ``"auto"`` or a list of ``(tA, tB)`` in seconds
+    (:func:`read_landmarks` without the weight)."""
+    return read_landmarks(value, unit, fps_a, fps_b, inputs)[0]
+
+
+def read_landmarks(
+    value: str | None, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None = None
+) -> tuple[Any, float | None]:
+    """``--landmarks`` -> (``None``, ``"auto"`` or a list of ``(tA, tB)`` in seconds; the
+    relative landmark weight the file records, or None).
 
     Accepted: ``auto``, ``none``, a file, or inline pairs ``"a0:b0,a1:b1"``. Times are in
     ``unit`` (``seconds`` or ``frames``) unless suffixed with ``s`` or ``f``; frames count
     from the first frame kept (after ``--trim``), at each file's own frame rate.
 
     Files: JSON ``{"units": "seconds"|"frames", "pairs": [[a, b], ...]}`` or the report of
-    ``elastic-motion landmarks A B --json`` (its ``pairs_s``; refused when ``inputs`` are
-    given and its own inputs are other files or the same ones swapped); or text, one pair per
-    line (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
+    ``elastic-motion landmarks A B --json`` (its ``pairs_s``, and its ``landmark_weight``: the
+    weight ``--landmarks auto`` meets the pairs with, so that the file gives the same warp;
+    refused when ``inputs`` are given and its own inputs are other files or the same ones
+    swapped); or text, one pair per line (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
     """
+    if value is not None and value not in ("none", "auto") and os.path.exists(value):
+        return _landmarks_file(value, unit, fps_a, fps_b, inputs)
+    return _landmarks_value(value, unit, fps_a, fps_b), None
+
+
+def _landmarks_file(
+    path: str, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None
+) -> tuple[list[tuple[float, float]], float | None]:
+    """A landmarks file (:func:`read_landmarks`): its pairs in seconds and recorded weight."""
+    text = Path(path).read_text(encoding="utf-8")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError:
+        data = None
+    if isinstance(data, dict):
+        if "pairs_s" in data:
+            _check_landmark_inputs(path, data, inputs)
+            weight = data.get("landmark_weight")
+            finite = isinstance(weight, int | float) and math.isfinite(weight) and weight >= 0
+            if weight is not None and not finite:
+                raise CommandError(f"{path}: 'landmark_weight' must be a finite number >= 0; got {weight!r}")
+            pairs = [(float(a), float(b)) for a, b in data["pairs_s"]]
+            return pairs, None if weight is None else float(weight)
+        if "pairs" in data:
+            u = str(data.get("units", unit))
+            if u not in ("seconds", "frames"):
+                raise CommandError(f"{path}: 'units' must be 'seconds' or 'frames'; got {u!r}")
+            pairs = [(_time(str(a), u, fps_a, path), _time(str(b), u, fps_b, path)) for a, b in data["pairs"]]
+            return pairs, None
+        raise CommandError(f"{path}: expected a JSON object with 'pairs' (and 'units') or 'pairs_s'")
+    pairs = []
+    for n, line in enumerate(text.splitlines(), 1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = line.replace(",", " ").replace(":", " ").split()
+        if len(parts) != 2:
+            raise CommandError(f"{path}:{n}: expected two times (A B); found {line!r}")
+        pairs.append((_time(parts[0], unit, fps_a, path), _time(parts[1], unit, fps_b, path)))
+    return pairs, None
+
+
+def _landmarks_value(value: str | None, unit: str, fps_a: float, fps_b: float) -> Any:
+    """``--landmarks`` other than a file (:func:`read_landmarks`)."""
     if value is None or value == "none":
         return None
     if value == "auto":
         return "auto"
-    if os.path.exists(value):
-        text = Path(value).read_text(encoding="utf-8")
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError:
-            data = None
-        if isinstance(data, dict):
-            if "pairs_s" in data:
-                _check_landmark_inputs(value, data, inputs)
-                return [(float(a), float(b)) for a, b in data["pairs_s"]]
-            if "pairs" in data:
-                u = str(data.get("units", unit))
-                if u not in ("seconds", "frames"):
-                    raise CommandError(f"{value}: 'units' must be 'seconds' or 'frames'; got {u!r}")
-                return [
-                    (_time(str(a), u, fps_a, value), _time(str(b), u, fps_b, value)) for a, b in data["pairs"]
-                ]
-            raise CommandError(f"{value}: expected a JSON object with 'pairs' (and 'units') or 'pairs_s'")
-        pairs = []
-        for n, line in enumerate(text.splitlines(), 1):
-            line = line.split("#", 1)[0].strip()
-            if not line:
-                continue
-            parts = line.replace(",", " ").replace(":", " ").split()
-            if len(parts) != 2:
-                raise CommandError(f"{value}:{n}: expected two times (A B); found {line!r}")
-            pairs.append((_time(parts[0], unit, fps_a, value), _time(parts[1], unit, fps_b, value)))
-        return pairs
     if ":" not in value:
         raise CommandError(
             f"--landmarks: expected 'auto', 'none', a file, or pairs like '0.5:0.7,1.4:1.9'; got {value!r} "
@@ -635,16 +666,19 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--max-pairs", type=int, default=None, help="--landmarks auto: at most this many pairs per kind"
     )
+    from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
     from elastic_motion.cli_commands._argparse import add_alias
     from elastic_motion.warp import WarpOptions
 
     p.add_argument(
         "--landmark-weight",
         type=float,
-        default=WarpOptions().landmark_weight,
+        default=None,
         metavar="W",
-        help="relative weight of the landmark term (100: missing a landmark by 5%% of the "
-        "clip costs a quarter of the curves' squared SRV norms)",
+        help="relative weight of the landmark term (100: missing a landmark by 5%% of the clip "
+        "costs a quarter of the curves' squared SRV norms) "
+        f"(default: {WarpOptions().landmark_weight:g}; --landmarks auto: at least {AUTO_LANDMARK_WEIGHT:g}; "
+        "a file of `elastic-motion landmarks`: the weight it records)",
     )
     add_alias(p, "--lambda", "--landmark-weight")
 

@@ -16,8 +16,8 @@ from elastic_motion.cli_commands._common import (
     emit_report,
     fmt_float,
     landmark_kinds,
-    parse_landmarks,
     prepare_inputs,
+    read_landmarks,
     run_guarded,
     warp_options,
 )
@@ -63,11 +63,12 @@ def run(args: argparse.Namespace) -> int:
     )
     prep = prepare_inputs(args, inputs)
     fps = [r.fps for r in prep.inputs]
+    landmarks, file_weight = read_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs)
     res = align_motions(
         prep,
         method=args.method,
-        warp=warp_options(args),
-        landmarks=parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs),
+        warp=warp_options(args, file_weight),
+        landmarks=landmarks,
         landmark_kinds=landmark_kinds(args.landmark_kinds),
         max_pairs=args.max_pairs,
     )

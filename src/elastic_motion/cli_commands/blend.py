@@ -16,9 +16,9 @@ from elastic_motion.cli_commands._common import (
     emit_report,
     fmt_float,
     landmark_kinds,
-    parse_landmarks,
     prepare_inputs,
     progress_for,
+    read_landmarks,
     run_guarded,
     warp_options,
     write_motion,
@@ -141,14 +141,14 @@ def run(args: argparse.Namespace) -> int:
         )
     prep = prepare_inputs(args, inputs)
     fps = [r.fps for r in prep.inputs]
-    landmarks = parse_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs)
+    landmarks, file_weight = read_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs)
     bar = progress_for("blend", args)
     try:
         res = blend_motions(
             prep,
             weights,
             method=args.method,
-            warp=warp_options(args),
+            warp=warp_options(args, file_weight),
             landmarks=landmarks,
             extrapolate=args.extrapolate,
             skeleton=args.skeleton,

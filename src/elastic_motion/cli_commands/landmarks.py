@@ -9,10 +9,12 @@ from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
     add_json_option,
+    add_warp_options,
     emit_report,
     landmark_kinds,
     prepare_options,
     run_guarded,
+    warp_options,
 )
 
 
@@ -24,10 +26,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Detect the times when the left (right) knee passes the other one moving forward, when a "
             "foot touches down, heel strikes and toe-offs (from the contacts). With two files, pair "
-            "the events by phase as `blend --landmarks auto` does: the warp without landmarks "
-            "predicts where each event of A falls in B, and the nearest event of the same kind is "
-            "taken (events without a partner are skipped, with the reason); `--json PAIRS.json` "
-            "writes a file that `--landmarks PAIRS.json` reads."
+            "the events by phase exactly as `blend --landmarks auto` does (same --method and warp "
+            "options): the warp without landmarks predicts where each event of A falls in B, and "
+            "the nearest event of the same kind is taken (events without a partner are skipped, "
+            "with the reason); `--json PAIRS.json` writes a file that `--landmarks PAIRS.json` "
+            "reads, with the weight `--landmarks auto` meets the pairs with: the blend or "
+            "alignment is then the one `--landmarks auto` makes."
         ),
     )
     p.add_argument("inputs", nargs="+", metavar="FILE", help="one motion file, or two to pair")
@@ -47,13 +51,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--max-pairs", type=int, default=None, help="at most this many pairs per kind (default: all)"
     )
+    p.add_argument(
+        "--method",
+        choices=("lie", "euler-elastic"),
+        default="lie",
+        help="two files: the curves of the warp without landmarks the pairing starts from, as the "
+        "blend's or alignment's --method (default: lie)",
+    )
+    add_warp_options(p)
     add_input_options(p, writes_bvh=False)
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("landmarks", run, a))
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, detect_events, phase_landmarks
+    from elastic_motion.apps.align import align_motions
+    from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, detect_events
     from elastic_motion.apps.prepare import prepare_motions
     from elastic_motion.apps.report import report_header
 
@@ -78,16 +91,24 @@ def run(args: argparse.Namespace) -> int:
         lines += [f"  {e.time:7.3f} s  frame {e.frame:5d}  {e.kind}" for e in ev]
     if len(inputs) == 2:
         pk = landmark_kinds(args.landmark_kinds) or list(DEFAULT_PAIR_KINDS)
-        pairing = phase_landmarks(motions[0], motions[1], pk, max_pairs=args.max_pairs)
-        pairs = pairing.pairs
-        report["pairs_s"] = [[a.time, b.time] for a, b in pairs]
+        # the pairs blend/align --landmarks auto would meet: the same planning step, same curves
+        res = align_motions(
+            prep, method=args.method, warp=warp_options(args), landmarks="auto", landmark_kinds=pk,
+            max_pairs=args.max_pairs,
+        )  # fmt: skip
+        notes = list(res.prepared.notes)
+        pairing = res.landmark_pairing
+        report["pairs_s"] = [list(p) for p in res.landmarks]
+        report["landmark_weight"] = res.landmark_weight
         report["pairs"] = [dict(d) for d in pairing.details]
         report["skipped"] = [dict(d) for d in pairing.skipped]
         report["pairing"] = pairing.summary()["rule"]
         report["units"] = "seconds"
+        report["method"] = args.method
         lines.append(
             f"pairs by phase ({', '.join(pk)}), seconds A:B: "
-            + (", ".join(f"{a.time:.3f}:{b.time:.3f}" for a, b in pairs) or "none")
+            + (", ".join(f"{a:.3f}:{b:.3f}" for a, b in res.landmarks) or "none")
+            + ("" if res.landmark_weight is None else f" (met with relative weight {res.landmark_weight:g})")
         )
         lines += [
             f"  {d['kind']}: {d['time_a_s']:.3f}:{d['time_b_s']:.3f} ({d['offset_s']:+.3f} s from the prior)"
@@ -96,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
         lines += [
             f"  skipped {s['motion']} {s['kind']} {s['time_s']:.3f} s: {s['why']}" for s in pairing.skipped
         ]
+    report["notes"] = notes
     lines += [f"note: {n}" for n in notes]
     emit_report(args, report, inputs, "\n".join(lines))
     return 0

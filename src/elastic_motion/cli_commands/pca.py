@@ -107,6 +107,15 @@ def run(args: argparse.Namespace) -> int:
             zip(model.explained, body["cumulative_explained"], model.sigmas, strict=True)
         )
     ]
+    if args.modes > model.n_modes:
+        # say it: the user asked for more files than were written
+        fewer = (
+            f"--modes {args.modes}: the model has {model.n_modes} mode{'s' * (model.n_modes != 1)} "
+            f"({len(args.files)} motions give at most {len(args.files) - 1}, fewer when they do not "
+            f"vary independently): wrote {model.n_modes}"
+        )
+        body["modes_note"] = fewer
+        lines.append(f"note: {fewer}")
     lines.append(f"{len(paths)} files -> {out}")
     emit(args, "pca", body, args.files, paths, lines)
     return 0
