@@ -38,7 +38,14 @@ from elastic_motion.apps.database import (  # motion databases (issue 15)
     knn_search,
 )
 from elastic_motion.apps.distance import DistanceTable, distance_table
-from elastic_motion.apps.loop import LoopResult, SeamMetrics, loop_motion, repeat_motion, seam_metrics
+from elastic_motion.apps.loop import (
+    LoopResult,
+    SeamMetrics,
+    loop_motion,
+    repeat_loop,
+    repeat_motion,
+    seam_metrics,
+)
 from elastic_motion.apps.loop_limits import joint_limit_report
 from elastic_motion.apps.pca import MotionPCA, motion_pca
 from elastic_motion.apps.prepare import (
@@ -124,8 +131,6 @@ distances = distance_table
 #: ``em.view(motions, reports=, layout=)``: the interactive 3D player (``.html``; ``em.write``
 #: does not take it: ``Path(...).write_text(page.html)``).
 view = build_viewer
-#: ``em.repeat(motion, cycles, root)``: a loop played several times.
-repeat = repeat_motion
 #: ``em.search(query, database, k=5, method="lie")``: the exact k nearest motions (bounds prune
 #: the DPs); ``database``: files/folders, a ``matrix`` folder or an index (``em.build_index``).
 search = knn_search
@@ -159,6 +164,27 @@ def distance(
         default weights).
     """
     return float(distance_table([a, b], method=method, warp=warp, prepare=prepare).matrix[0, 1])
+
+
+def repeat(loop: Motion | LoopResult, cycles: int = 3, root: str | None = None) -> Motion:
+    """A loop played ``cycles`` times (``loop --repeat``).
+
+    Parameters
+    ----------
+    loop : LoopResult or Motion
+        A result of :func:`loop`: played with its own ``root`` mode (unless ``root`` is
+        given) and returned in its output unit (the first input's), so ``em.write`` writes
+        the file ``loop --repeat`` writes (:func:`elastic_motion.apps.loop.repeat_loop`).
+        A Motion: played as it is (:func:`elastic_motion.apps.loop.repeat_motion`, root
+        ``"travel"`` by default), in its own unit.
+    cycles : int
+    root : {"travel", "inplace"}, optional
+    """
+    if isinstance(loop, LoopResult):
+        return repeat_loop(loop, cycles, root)
+    if not isinstance(loop, Motion):
+        raise OptionError("loop", f"expected a LoopResult or a Motion; got {type(loop).__name__}")
+    return repeat_motion(loop, cycles, "travel" if root is None else root)
 
 
 def write(

@@ -119,13 +119,18 @@ def test_blend_and_loop_write_the_same_unit(cmu, capsys, tmp_path):
     unit: 17.7x apart in one Blender scene)."""
     code, _, err = run(capsys, "blend", *cmu, "-o", tmp_path / "b.bvh", "-q", "--no-metrics")
     assert code == 0, err
-    code, _, err = run(capsys, "loop", cmu[0], "-o", tmp_path / "l.bvh", "-q")
+    code, _, err = run(capsys, "loop", cmu[0], "-o", tmp_path / "l.bvh", "-q", "--repeat", "2")
     assert code == 0, err
+    # the notebook's preview is the command's, in the same unit (em.repeat of a Motion in
+    # metres wrote metres beside a loop in the input's unit)
+    res = em.loop(cmu[0])
+    preview = em.write(em.repeat(res, 2), tmp_path / "api.repeat2.bvh")
+    assert preview.read_bytes() == (tmp_path / "l.repeat2.bvh").read_bytes()
     src = read_bvh(cmu[0])
     b, lp = read_bvh(tmp_path / "b.bvh"), read_bvh(tmp_path / "l.bvh")
     hip = lambda m: np.median(forward_kinematics(m)[:, 0, 1])  # noqa: E731 - root height, file units
     assert src.metres_per_unit == pytest.approx(0.0254 / 0.45)
-    for m in (b, lp):
+    for m in (b, lp, read_bvh(preview)):
         assert hip(m) == pytest.approx(hip(src), rel=0.1)  # the same scale as the input
     # --units-out m: the same motion in metres
     code, _, err = run(capsys, "loop", cmu[0], "-o", tmp_path / "lm.bvh", "-q", "--units-out", "m")

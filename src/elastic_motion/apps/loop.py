@@ -68,7 +68,13 @@ from elastic_motion.apps.loop_contacts import (
 from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_within_limits
 from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
 from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sliding
-from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
+from elastic_motion.apps.prepare import (
+    PreparedMotions,
+    PrepareOptions,
+    Source,
+    output_motion,
+    prepare_motions,
+)
 from elastic_motion.apps.progress import Progress
 from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
 from elastic_motion.closing_kkt import project_closed
@@ -98,6 +104,7 @@ __all__ = [
     "SeamMetrics",
     "cycle_transform",
     "loop_motion",
+    "repeat_loop",
     "repeat_motion",
     "seam_metrics",
     "treadmill",
@@ -374,6 +381,23 @@ def repeat_motion(motion: Motion, cycles: int = 3, root: str = "travel") -> Moti
         joint_translations=np.concatenate(jts) if jts else None,
         source=(),
     )
+
+
+def repeat_loop(result: LoopResult, cycles: int = 3, root: str | None = None) -> Motion:
+    """A loop played ``cycles`` times, as ``loop --repeat`` writes it.
+
+    :func:`repeat_motion` of ``result.motion`` with the loop's own ``root`` mode unless one
+    is given, expressed in the unit the loop itself is written in (the first input's,
+    :attr:`PreparedMotions.units_out`), so that the preview and the loop line up when
+    imported side by side.
+
+    Returns
+    -------
+    Motion
+        ``cycles (F - 1) + 1`` frames, in the output unit.
+    """
+    played = repeat_motion(result.motion, cycles, result.root if root is None else root)
+    return output_motion(played, result.prepared.units_out)
 
 
 def _free(motion: Motion, free: str | Sequence[str] | None) -> list[str]:

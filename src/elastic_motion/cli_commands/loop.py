@@ -143,7 +143,7 @@ def _free(value: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.loop import loop_motion, repeat_motion
+    from elastic_motion.apps.loop import loop_motion, repeat_loop
 
     inputs = [args.input]
     out = check_output(args.output, inputs, suffixes=(".bvh",))
@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     write_motion(res.motion, res.prepared, out, inputs)
     outputs = [str(out)]
     if preview is not None:
-        write_motion(repeat_motion(res.motion, args.repeat, args.root), res.prepared, preview, inputs)
+        write_motion(repeat_loop(res, args.repeat, args.root), res.prepared, preview, inputs)
         outputs.append(str(preview))
     from elastic_motion.apps.report import report_header
 
