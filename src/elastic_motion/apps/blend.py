@@ -961,6 +961,10 @@ _STRENGTH_STEPS = 6
 #: The clean-up first moves the whole blend vertically, as slowly as this (s, Gaussian), so
 #: its planted feet stand at their ground heights (``cleanup_footskate(settle=...)``).
 _SETTLE = 1.0
+#: Metres: how far the settle may take the root beyond the inputs' root heights at the
+#: matched times (the six pairs of ``benchmarks/blend_quality.py`` settle at most 2 cm
+#: beyond them: blended leg angles on a blended skeleton; :func:`_settle_within_inputs`).
+_SETTLE_MARGIN = 0.03
 #: A loop's floor after the last closing: lift and close again while a foot is deeper (m).
 _LOOP_FLOOR_TOL = 0.005
 _LOOP_FLOOR_ROUNDS = 3
@@ -974,6 +978,42 @@ def _contact_options(contacts: Any) -> ContactOptions | None:
     if isinstance(contacts, str) and contacts == "auto":
         return ContactOptions()
     raise OptionError("contacts", f"expected 'auto', 'off' or ContactOptions; got {contacts!r}")
+
+
+def _settle_within_inputs(
+    lift: np.ndarray,
+    result: Motion,
+    prep: PreparedMotions,
+    warps: Sequence[np.ndarray],
+    u: np.ndarray,
+    w: np.ndarray,
+) -> np.ndarray:
+    """The clean-up's vertical settle ``lift`` ``(F,)`` bounded so that it takes the blend's
+    root no lower than the lowest and no higher than the highest of the inputs' roots at the
+    matched times, give or take :data:`_SETTLE_MARGIN` (where the root is already outside
+    that range, no further out); weights outside ``[0, 1]`` (extrapolation): unbounded.
+
+    A planted foot that the blend holds decimetres above the floor while its root is at the
+    inputs' height is a leg posed wrong (an Euler blend's hip), not a body floating: settled
+    down to it, the body sank 16-30 cm and the other stance knee folded 30-47 deg more than
+    in either input (CMU 131_01's crouch blended with 131_02 or 02_01); leg IK plants it.
+    """
+    if not bool(np.all((w >= 0.0) & (w <= 1.0))):
+        return lift
+    up = _AXES.index(result.up_axis)
+    heights = np.stack(
+        [
+            _sample_linear(
+                m.root_translation[:, up],
+                m.fps,
+                np.clip(np.interp(u, v[:, 0], v[:, 1]), 0.0, 1.0) * m.duration,
+            )
+            for m, v in zip(prep.motions, warps, strict=True)
+        ]
+    )
+    root = result.root_translation[:, up]
+    lo, hi = heights.min(axis=0) - _SETTLE_MARGIN - root, heights.max(axis=0) + _SETTLE_MARGIN - root
+    return np.clip(lift, np.minimum(lo, 0.0), np.maximum(hi, 0.0))
 
 
 def _cleanup(
@@ -1015,7 +1055,9 @@ def _cleanup(
     own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
     goal = _SKATE_GOAL * min(own)
     legs, leg_notes = find_legs(result)  # once, for every trial below
-    lift = settle_offset(result, carried, legs, sigma=_SETTLE)  # the same for every trial below
+    lift = _settle_within_inputs(
+        settle_offset(result, carried, legs, sigma=_SETTLE), result, prep, warps, u, w
+    )  # the same for every trial below
     for smooth in _SMOOTHING:
         res = cleanup_footskate(result, carried, smooth=smooth, settle=lift, legs=legs)
         if not res.applied or res.skating_after.mean_speed <= goal:

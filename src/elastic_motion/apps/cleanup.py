@@ -76,6 +76,9 @@ _SO3 = SO3()
 _AXES = "xyz"
 #: Ankle corrections below this fraction of the leg's length (a micrometre) are not made.
 _STILL = 1e-6
+#: Metres: the vertical settle never puts a planted ankle or toe more than this under its
+#: ground height (:func:`settle_offset`).
+SETTLE_BELOW = 0.01
 
 
 def carry_contacts(
@@ -367,11 +370,16 @@ def settle_offset(
     as ``sigma`` allows.
 
     On each frame with a planted joint of known ground height the offset is the mean of
-    ``ground - height`` over those joints; between such frames it is interpolated linearly
-    (held at the ends); then smoothed by a Gaussian of standard deviation ``sigma`` seconds.
-    A slow vertical translation of the whole body changes no joint angle and the root's
-    velocity by little (its SRV distance to the motion is small), where lifting each stance
-    foot by IK bends the knees. Zeros when no planted joint has a ground height.
+    ``ground - height`` over those joints, but never so low that one of them would go more
+    than :data:`SETTLE_BELOW` (metres) under its ground height; between such frames it is
+    interpolated linearly (held at the ends); then smoothed by a Gaussian of standard
+    deviation ``sigma`` seconds. A slow vertical translation of the whole body changes no
+    joint angle and the root's velocity by little (its SRV distance to the motion is small),
+    where lifting each stance foot by IK bends the knees. (Without the bound, a foot that a
+    blend holds decimetres above the floor in a carried contact pulled the body down by half
+    of that, and the other stance knee, planted on the floor, folded by 25-47 deg to stay
+    out of it: Euler blends of CMU 131_01's crouch.) Zeros when no planted joint has a ground
+    height.
     """
     if not (np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma: expected seconds >= 0; got {sigma!r}")
@@ -380,6 +388,7 @@ def settle_offset(
     pos, _ = joint_positions_and_rotations(sk.parents, motion.local_translations(), motion.rotations)
     total = np.zeros(motion.n_frames)
     count = np.zeros(motion.n_frames)
+    highest = np.full(motion.n_frames, -np.inf)  # the least a planted joint allows down
     for leg in legs:
         for j in (leg.ankle, leg.toe):
             if j < 0 or sk.names[j] not in contacts.joints:
@@ -389,13 +398,17 @@ def settle_offset(
             m = contacts.mask[:, k]
             if not np.isfinite(g) or not m.any():
                 continue
-            total[m] += contacts.floor + g - pos[m, j, up]
+            gap = contacts.floor + g - pos[m, j, up]
+            total[m] += gap
             count[m] += 1
+            highest[m] = np.maximum(highest[m], gap)
     known = count > 0
     if not known.any():
         return np.zeros(motion.n_frames)
     frames = np.arange(motion.n_frames)
-    need = np.interp(frames, frames[known], total[known] / count[known])
+    unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    mean = np.maximum(total[known] / count[known], highest[known] - SETTLE_BELOW / unit)
+    need = np.interp(frames, frames[known], mean)
     return gaussian_frames(need, sigma * motion.fps)
 
 
