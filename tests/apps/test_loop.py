@@ -385,3 +385,17 @@ def test_the_closing_reports_its_iterations(tmp_path, monkeypatch):
     clip = write_bvh(synthetic(), tmp_path / "clip.bvh")
     assert main(["loop", str(clip), "-o", str(tmp_path / "out.bvh"), "--contacts", "off", "-q"]) == 0
     assert spy.calls[0] == ("closing", 1, 0) and spy.calls[-1] == "closed"
+
+
+@pytest.mark.mocap
+def test_a_whole_clip_that_whips_a_limb_says_where_and_what_to_do(mocap_dir):
+    """The Bandai tired walk ends 61 deg from the pose it starts in: closed whole, its right
+    toe, lifting off in the last frames, whips at 9.3 m/s (the input's fastest point 3.8):
+    a note names it and the auto window; the auto window's loop has no such note."""
+    path = mocap_dir / "bandai" / "dataset-1_walk_tired_001.bvh"
+    whole = loop_motion(path)
+    (note,) = [n for n in whole.notes if n.startswith("fast point:")]
+    assert note.startswith("fast point: Toes_R moves 9.31 m/s at frames 245-246 of the loop, 2.5x")
+    assert "--window auto" in note and "ends 61 deg and 0.56 m from the pose it starts in" in note
+    auto = loop_motion(path, window="auto")
+    assert not [n for n in auto.notes if n.startswith("fast point:")]

@@ -60,6 +60,51 @@ def test_dissimilarity_is_a_squared_distance_of_pose_and_velocity():
     assert not np.allclose(pose_dissimilarity(m.replace(rotations=rot), root="inplace"), d)
 
 
+def test_a_frozen_stretch_is_not_a_candidate_window():
+    """A pause closes with no change at all: windows that move less than 30 % of the clip's
+    busier half are left out (unless every window is that still)."""
+    m = periodic(f=150, period=40)
+    still = m.replace(  # frames 90..149 frozen on frame 90's pose
+        rotations=np.concatenate([m.rotations[:90], np.repeat(m.rotations[90:91], 60, axis=0)]),
+        root_translation=np.concatenate(
+            [m.root_translation[:90], np.repeat(m.root_translation[90:91], 60, 0)]
+        ),
+    )
+    cand = cycle_candidates(still, min_length=0.5)
+    assert cand.quiet_excluded and cand.windows
+    assert all(a < 80 for a, _ in cand.windows)  # each window holds mostly moving frames
+    frozen = still.replace(rotations=np.repeat(m.rotations[:1], 150, 0), root_translation=np.zeros((150, 3)))
+    assert not cycle_candidates(frozen, min_length=0.5).quiet_excluded  # all still: all candidates
+
+
+def test_in_place_windows_ignore_the_travel_the_treadmill_takes_out():
+    """With root "inplace" the floor-plane position is not a feature (only its velocity): the
+    treadmill closes it whatever it was. A walk travelling along x has the same period in
+    place as travelling (with the position, every lag beyond a step looked dissimilar)."""
+    m = periodic(f=150, period=40)
+    walk = m.replace(root_translation=m.root_translation + np.outer(np.arange(150) * 0.04, [1.0, 0.0, 0.0]))
+    assert cycle_candidates(walk, root="inplace").period == pytest.approx(40 / 30.0, abs=1.5 / 30)
+    d = pose_dissimilarity(walk, root="inplace")
+    shifted = walk.replace(root_translation=walk.root_translation + [0.3, 0.0, 0.0])
+    np.testing.assert_allclose(pose_dissimilarity(shifted, root="inplace"), d, atol=1e-9)
+
+
+@pytest.mark.mocap
+def test_auto_windows_of_real_clips_move_and_in_place_ones_are_whole_cycles(mocap_dir):
+    """CMU 131_01 (a walk that stops) with a 1 s minimum: the auto window was the last second
+    of standing (root 0.05 m/s); the DeepMimic run in place: ranked with the travel counted
+    as change, a 13-frame step won over the 25-frame cycle."""
+    from elastic_motion.apps.prepare import prepare_motions
+
+    walk = prepare_motions([mocap_dir / "cmu/bvh/131_01.bvh"]).motions[0]
+    cand = cycle_candidates(walk, min_length=1.0)
+    speed = np.linalg.norm(np.diff(walk.root_translation[:, [0, 2]], axis=0), axis=1) * walk.fps
+    assert cand.quiet_excluded
+    assert all(speed[a : b - 1].mean() > 0.3 for a, b in cand.windows)
+    run = loop_motion(mocap_dir / "deepmimic/humanoid3d_run.txt", window="auto", root="inplace")
+    assert (run.window.start, run.window.stop) == (0, run.prepared.motions[0].n_frames)
+
+
 def test_period_and_candidates_of_a_periodic_clip():
     m = periodic(period=40)
     d = pose_dissimilarity(m)
@@ -105,6 +150,26 @@ def test_bad_windows_give_clear_errors():
         loop_motion(m, window=(30, 20))
     with pytest.raises(OptionError, match="contacts"):
         loop_motion(m, contacts="plant")
+    # a minimum length bounds the auto window's choice: refused where it would be ignored
+    with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*window=None"):
+        loop_motion(m, min_length=0.5)
+    with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*window=\(0, 30\)"):
+        loop_motion(m, window=(0, 30), min_length=0.5)
+
+
+def test_the_window_report_says_where_its_minimum_length_came_from():
+    m = periodic(f=150, period=40)
+    rules = {
+        None: "90 % of the period",
+        0.5: "given",
+    }
+    for given, rule in rules.items():
+        w = loop_motion(m, window="auto", min_length=given, contacts="off").window.summary()
+        assert w["min_length_rule"] == rule and w["min_length_from_period"] == (given is None)
+    lone = periodic(f=60, period=400, lead=0)  # no repetition: half the clip
+    w = loop_motion(lone, window="auto", contacts="off").window.summary()
+    assert w["period_s"] is None and not w["min_length_from_period"]
+    assert w["min_length_rule"] == "half the clip (no period found)"
 
 
 def test_contacts_reported_or_skipped():

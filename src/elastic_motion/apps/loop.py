@@ -142,6 +142,9 @@ MAX_FLOOR_PINS = 40
 #: if that closing keeps them within twice this, and leg IK plants the feet again (a third of
 #: the contacts' detection height, 3 cm: a correction IK makes without a visible pose change).
 POLISH_MISS = 0.01
+#: A loop whose fastest point moves more than this many times as fast as anything in the
+#: input says where (a closing that put its change into a few frames whips a limb there).
+WHIP_RATIO = 1.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -877,7 +880,11 @@ def _window(
         except ValueError as exc:  # e.g. a seam at the cut locus: try the next candidate
             trials.append({"start": a, "stop": b, "error": str(exc)})
             continue
-        sm = seam_metrics(out, original=sub, root=root, joints=closed)
+        # ranked by how much the closing changed the motion: in place, against the window on
+        # its own treadmill (else the travel it takes out counts as change, and the shortest,
+        # slowest window wins: a 0.4 s step of the DeepMimic run, 12 frames of a pause in 107_02)
+        ref = treadmill(sub)[0] if root == "inplace" else sub
+        sm = seam_metrics(out, original=ref, root=root, joints=closed)
         trials.append(
             {
                 "start": a,
@@ -1089,6 +1096,11 @@ def loop_motion(
         raise OptionError("limit_tol", f"expected a non-negative number of degrees; got {limit_tol!r}")
     if int(candidates) != candidates or candidates < 1:
         raise OptionError("candidates", f"expected a positive integer; got {candidates!r}")
+    if min_length is not None and not (isinstance(window, str) and window == "auto"):
+        # it bounds the sub-clips the auto window chooses from: silently ignored otherwise
+        raise OptionError(
+            "min_length", f"expected only with window='auto' (--window auto); got it with window={window!r}"
+        )
     _check_root(root)
     prepared = prepare_motions(motion if isinstance(motion, PreparedMotions) else [motion], prepare)
     if len(prepared.motions) != 1:
@@ -1167,6 +1179,10 @@ def loop_motion(
                 f"contact gave way: {g['joint']} frames {g['frames'][0]}..{g['frames'][1] - 1} missed by "
                 f"{g['largest_miss_m']:.4f} m"
             )
+    seam_before = seam_metrics(motion, root=root, joints=closed)
+    whip = _whip_note(motion, out, whole=cw is None, seam=seam_before)
+    if whip:
+        contact_notes.append(whip)
     sk_before = sk_after = None
     if found is not None and found.joints:
         sk_before = contact_skating(motion, found)
@@ -1182,7 +1198,7 @@ def loop_motion(
         free_joints=tuple(n for n, c in zip(names, closed_joint, strict=True) if not c),
         heading_change=float(heading),
         displacement=out.root_translation[-1] - out.root_translation[0] if root == "travel" else np.zeros(3),
-        seam_before=seam_metrics(motion, root=root, joints=closed),
+        seam_before=seam_before,
         seam_after=seam_metrics(out, original=motion, root=root, joints=closed),
         prepared=prepared,
         notes=(*prepared.notes, *contact_notes),
@@ -1193,6 +1209,42 @@ def loop_motion(
         contacts_kept=kept,
         joint_limits=lim_info,
     )
+
+
+def _whip_note(motion: Motion, out: Motion, *, whole: bool, seam: SeamMetrics) -> str | None:
+    """A note when the loop ``out``'s fastest point (joint or end site, FK) moves more than
+    :data:`WHIP_RATIO` times as fast as the input ``motion``'s fastest: where and how fast.
+
+    A clip that does not end in the pose it starts in, closed whole, gets its change where
+    the contacts leave room: the Bandai tired walk's right toe, lifting off in the last
+    frames, went 9.3 m/s (the input's fastest point 3.8), which only a sub-clip fixes.
+    """
+    sk = out.skeleton
+    unit = out.metres_per_unit if out.metres_per_unit is not None else 1.0
+
+    def speeds(m: Motion) -> np.ndarray:
+        p = forward_kinematics(m, end_sites=True)
+        return np.linalg.norm(np.diff(p, axis=0), axis=-1) * m.fps * unit
+
+    if out.n_frames < 2:
+        return None
+    fast, base = speeds(out), speeds(motion)
+    top = float(base.max(initial=0.0))
+    if top <= 0 or fast.max() <= WHIP_RATIO * top:
+        return None
+    f, j = np.unravel_index(int(fast.argmax()), fast.shape)
+    names = [*sk.names, *(f"{sk.names[p]} end site" for p in sk.end_site_parents)]
+    note = (
+        f"fast point: {names[j]} moves {fast.max():.3g} m/s at frames {f}-{f + 1} of the loop, "
+        f"{fast.max() / top:.1f}x the input's fastest point ({top:.3g} m/s): the closing put its change there"
+    )
+    if whole:
+        note += (
+            f" (the clip ends {seam.seam_angle_max_deg:.0f} deg and {seam.seam_position_max_m:.2f} m from "
+            "the pose it starts in; window='auto' / --window auto loops the sub-clip that closes with the "
+            "least change)"
+        )
+    return note
 
 
 def _joint_limits(motion: Motion, option: str | JointLimits) -> tuple[str, JointLimits | None]:

@@ -15,7 +15,10 @@ Conventions
 * **Pose features** of a frame (what the loop convention closes): the local rotation of
   every closed joint but the root (rotation matrices), the root's tilt (the up axis seen
   from the root, ``R_root^T e_up``: blind to heading) and the root height (metres); with
-  ``root="inplace"`` also the full root rotation and the floor-plane position. The
+  ``root="inplace"`` the full root rotation instead of its tilt, and the floor-plane
+  velocity among the velocities (not the position: the treadmill closes it; with it, a
+  walk's travel made every lag beyond a step look dissimilar, and CMU 107_02 in place got a
+  period of 0.4 s instead of 3.5 s and a 12-frame window). The
   **dissimilarity** of frames ``a`` and ``b`` is
   ``D(a, b) = |x_a - x_b|^2 + tau^2 |v_a - v_b|^2``, ``x`` the feature vector (chordal
   distance of rotation matrices, metres), ``v`` its velocity per second (central
@@ -27,6 +30,11 @@ Conventions
   such repetition (a single cartwheel, a walk that starts and stops).
 * **Default minimum length** (``min_length=None``): 90 % of the period when there is one
   (a window holds one cycle), else half the clip.
+* **Quiet windows**: a window whose mean feature speed ``|v|`` is below 30 % of the mean
+  over the clip's busier half of frames is not a candidate (unless every window is): a
+  pause closes with no change at all, and without this the auto window of CMU 131_01 (a
+  walk that stops) with a 1 s minimum was its last second of standing (root 0.05 m/s
+  against 0.62 elsewhere), and of CMU 107_02 in place a 12-frame stretch of a pause.
 """
 
 from __future__ import annotations
@@ -44,10 +52,14 @@ __all__ = ["CycleCandidates", "CycleWindow", "cycle_candidates", "estimate_perio
 _AXES = "xyz"
 _TAU = 0.1  # seconds: weight of the velocity term
 _MIN_PERIOD = 0.3  # seconds
+#: A candidate window moves on average at least this fraction of the clip's busier half
+#: (module docstring, "Quiet windows").
+_QUIET = 0.3
 
 
-def _features(motion: Motion, root: str, closed: np.ndarray | None) -> np.ndarray:
-    """Per-frame feature vectors (F, d) of the module docstring."""
+def _features(motion: Motion, root: str, closed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-frame feature vectors ``x`` ``(F, d)`` and velocities ``v`` (per second) of the
+    module docstring (``"inplace"``: ``v`` also holds the root's floor-plane velocity)."""
     f, j = motion.n_frames, motion.n_joints
     up = _AXES.index(motion.up_axis)
     scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
@@ -55,13 +67,18 @@ def _features(motion: Motion, root: str, closed: np.ndarray | None) -> np.ndarra
     sel[0] = False
     parts = [motion.rotations[:, sel].reshape(f, -1)]
     r0 = motion.rotations[:, 0]
+    parts.append(r0.reshape(f, 9) if root == "inplace" else r0[:, up, :])  # heading, or the tilt R^T e_up
+    parts.append(motion.root_translation[:, up : up + 1] * scale)
+    x = np.concatenate(parts, axis=1)
+    v = np.gradient(x, axis=0) * motion.fps
     if root == "inplace":
-        parts.append(r0.reshape(f, 9))
-        parts.append(motion.root_translation * scale)
-    else:
-        parts.append(r0[:, up, :])  # R^T e_up: the root's tilt
-        parts.append(motion.root_translation[:, up : up + 1] * scale)
-    return np.concatenate(parts, axis=1)
+        # the treadmill takes out each window's travel at a constant rate, which closes the
+        # floor-plane position whatever it was: only its velocity must match at the seam
+        floor = [i for i in range(3) if i != up]
+        v = np.concatenate(
+            [v, np.gradient(motion.root_translation[:, floor] * scale, axis=0) * motion.fps], axis=1
+        )
+    return x, v
 
 
 def pose_dissimilarity(
@@ -82,8 +99,11 @@ def pose_dissimilarity(
     ndarray, shape (F, F)
         Symmetric, zero on the diagonal, >= 0.
     """
-    x = _features(motion, root, closed)
-    v = np.gradient(x, axis=0) * motion.fps
+    return _dissimilarity(*_features(motion, root, closed))
+
+
+def _dissimilarity(x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``D(a, b)`` from the features ``x`` and their velocities ``v`` ``(F, d)``."""
     z = np.concatenate([x, _TAU * v], axis=1)
     sq = np.einsum("ij,ij->i", z, z)
     d = sq[:, None] + sq[None, :] - 2.0 * (z @ z.T)
@@ -133,6 +153,8 @@ class CycleCandidates:
         Whether it was derived from the period (``min_length=None``).
     period : float or None
         The estimated period, seconds.
+    quiet_excluded : bool
+        Whether windows that barely move were left out (module docstring, "Quiet windows").
     """
 
     windows: list[tuple[int, int]]
@@ -140,6 +162,7 @@ class CycleCandidates:
     min_length: float
     min_length_default: bool
     period: float | None
+    quiet_excluded: bool = False
 
 
 def cycle_candidates(
@@ -178,7 +201,8 @@ def cycle_candidates(
     """
     fps = motion.fps
     dur = (motion.n_frames - 1) / fps
-    dis = pose_dissimilarity(motion, root=root, closed=closed)
+    x, v = _features(motion, root, closed)
+    dis = _dissimilarity(x, v)
     period = estimate_period(dis, fps)
     default = min_length is None
     if default:
@@ -194,6 +218,11 @@ def cycle_candidates(
         )
     f = motion.n_frames
     a, b = np.triu_indices(f, k=lmin)
+    # a pause or a frozen lead-in closes with no change at all: only windows that move
+    active = _active_windows(np.linalg.norm(v, axis=1), a, b)
+    quiet = bool(active.any() and not active.all())
+    if quiet:
+        a, b = a[active], b[active]
     scores = dis[a, b]
     order = np.argsort(scores, kind="stable")
     sep = max(1, round(separation * fps))
@@ -206,7 +235,19 @@ def cycle_candidates(
             chosen_scores.append(float(scores[o]))
             if len(chosen) >= count:
                 break
-    return CycleCandidates(chosen, np.asarray(chosen_scores), float(min_length), default, period)
+    return CycleCandidates(chosen, np.asarray(chosen_scores), float(min_length), default, period, quiet)
+
+
+def _active_windows(speed: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Which windows ``[a, b]`` (last frame ``b``) move: their mean feature speed at least
+    :data:`_QUIET` times the mean over the clip's busier half of frames."""
+    busy = speed[speed >= np.median(speed)]
+    reference = float(busy.mean()) if busy.size else 0.0
+    if reference <= 0.0:
+        return np.ones(a.shape, dtype=bool)
+    total = np.concatenate([[0.0], np.cumsum(speed)])
+    mean = (total[b + 1] - total[a]) / (b - a + 1)
+    return mean >= _QUIET * reference
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,6 +308,13 @@ class CycleWindow:
             "whole_clip": dict(self.whole),
             "candidates": [dict(c) for c in self.candidates],
             "min_length_s": self.min_length,
-            "min_length_from_period": self.min_length_default,
+            "min_length_from_period": self.min_length_default and self.period is not None,
+            "min_length_rule": (
+                "given"
+                if not self.min_length_default
+                else "90 % of the period"
+                if self.period is not None
+                else "half the clip (no period found)"
+            ),
             "period_s": self.period,
         }
