@@ -424,3 +424,17 @@ def test_a_contact_across_the_seam_does_not_pop_in_the_last_step(mocap_dir):
         k = m.skeleton.names.index(name)
         speed = np.linalg.norm(np.diff(p[-5:, k], axis=0), axis=1) * m.fps
         assert speed[-1] < limit and speed[-1] < 1.5 * speed[:-1].max(), (name, speed)
+
+
+@pytest.mark.mocap
+def test_a_polish_stalled_at_the_rounding_floor_keeps_the_contacts(mocap_dir):
+    """The Bandai old walk: the constrained solve stalls with the contacts held within 0.0 mm,
+    and the exact closing from there stops at the rounding floor of its optimality residual
+    with the seam shut. That loop was thrown away ("contacts dropped ... gap 1.38e-07") and
+    the clip closed without its contacts (skating 0.0924 -> 0.0946 m/s, 3.4 mm under the
+    floor); it is kept."""
+    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh")
+    assert "dropped" not in res.contacts_kept and res.contacts_kept["polished"]
+    assert res.skating_after.mean_speed <= 1.01 * res.skating_before.mean_speed
+    assert res.skating_after.below_floor <= res.skating_before.below_floor + 1e-4
+    assert res.seam_after.seam_angle_max_deg < 1e-3
