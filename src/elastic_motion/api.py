@@ -166,12 +166,12 @@ def distance(
     return float(distance_table([a, b], method=method, warp=warp, prepare=prepare).matrix[0, 1])
 
 
-def repeat(loop: Motion | LoopResult, cycles: int = 3, root: str | None = None) -> Motion:
+def repeat(motion: Motion | LoopResult, cycles: int = 3, root: str | None = None) -> Motion:
     """A loop played ``cycles`` times (``loop --repeat``).
 
     Parameters
     ----------
-    loop : LoopResult or Motion
+    motion : LoopResult or Motion
         A result of :func:`loop`: played with its own ``root`` mode (unless ``root`` is
         given) and returned in its output unit (the first input's), so ``em.write`` writes
         the file ``loop --repeat`` writes (:func:`elastic_motion.apps.loop.repeat_loop`).
@@ -180,11 +180,11 @@ def repeat(loop: Motion | LoopResult, cycles: int = 3, root: str | None = None) 
     cycles : int
     root : {"travel", "inplace"}, optional
     """
-    if isinstance(loop, LoopResult):
-        return repeat_loop(loop, cycles, root)
-    if not isinstance(loop, Motion):
-        raise OptionError("loop", f"expected a LoopResult or a Motion; got {type(loop).__name__}")
-    return repeat_motion(loop, cycles, "travel" if root is None else root)
+    if isinstance(motion, LoopResult):
+        return repeat_loop(motion, cycles, root)
+    if not isinstance(motion, Motion):
+        raise OptionError("motion", f"expected a LoopResult or a Motion; got {type(motion).__name__}")
+    return repeat_motion(motion, cycles, "travel" if root is None else root)
 
 
 def write(

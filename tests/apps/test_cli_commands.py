@@ -192,7 +192,20 @@ def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
     )  # fmt: skip
     assert code == 0, err
     assert (tmp_path / "auto.bvh").read_bytes() == (tmp_path / "x.bvh").read_bytes()
+    # a weight given to `landmarks` is recorded and met, as `--landmarks auto` meets it
+    heavy = tmp_path / "heavy.json"
+    assert (
+        run(capsys, "landmarks", files["a"], files["b"], "--landmark-weight", "3000", "--json", heavy)[0] == 0
+    )
+    assert json.loads(heavy.read_text())["landmark_weight"] == 3000.0
+    for name, how in (("h_file.bvh", heavy), ("h_auto.bvh", "auto")):
+        argv = ("blend", files["a"], files["b"], "-o", tmp_path / name, "--landmarks", how, "--no-metrics")
+        assert run(capsys, *argv, *(("--landmark-weight", "3000") if how == "auto" else ()))[0] == 0
+    assert (tmp_path / "h_file.bvh").read_bytes() == (tmp_path / "h_auto.bvh").read_bytes()
     bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"pairs_s": r["pairs_s"], "landmark_weight": True}))
+    code, _, err = run(capsys, "align", files["a"], files["b"], "--landmarks", bad)
+    assert code == 2 and "'landmark_weight' must be a finite number >= 0; got True" in err
     bad.write_text(json.dumps({"pairs_s": r["pairs_s"], "landmark_weight": -1}))
     code, _, err = run(capsys, "align", files["a"], files["b"], "--landmarks", bad)
     assert code == 2 and "bad.json: 'landmark_weight' must be a finite number >= 0; got -1" in err

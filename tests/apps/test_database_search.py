@@ -351,13 +351,13 @@ def test_cli_index_search_within_pca(many_dir: Path, tmp_path: Path, capsys) -> 
     )
     assert rep["command"] == "pca" and abs(sum(rep["explained"]) - 1) < 1e-9 and rep["n_modes"] == 7
     assert "modes_note" not in rep
-    # more modes asked than 8 motions have: all 7 written, and said
+    # more modes asked than 3 motions have: both of their 2 modes written (4 files), and said
     argv = ["pca", *files[:3], "-o", str(tmp_path / "pca3"), "--modes", "4", "--samples-out", "0", *common]
     assert main([*argv, "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["modes_note"] == (
         "--modes 4: the model has 2 modes (3 motions give at most 2, fewer when they do not vary "
-        "independently): wrote 2"
+        "independently): wrote 2 (4 files)"
     )
     assert len(list((tmp_path / "pca3").glob("mode*.bvh"))) == 4
 

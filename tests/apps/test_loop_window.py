@@ -57,7 +57,17 @@ def test_dissimilarity_is_a_squared_distance_of_pose_and_velocity():
     rot = m.rotations.copy()
     rot[:, 0] = turn @ rot[:, 0]
     np.testing.assert_allclose(pose_dissimilarity(m.replace(rotations=rot)), d, atol=1e-9)
-    assert not np.allclose(pose_dissimilarity(m.replace(rotations=rot), root="inplace"), d)
+    # in place too (the treadmill takes out a window's turn), but there the turning rate counts
+    inplace = pose_dissimilarity(m, root="inplace")
+    np.testing.assert_allclose(
+        pose_dissimilarity(m.replace(rotations=rot), root="inplace"), inplace, atol=1e-9
+    )
+    turning = m.rotations.copy()
+    turning[:, 0] = (
+        SO3G.exp(np.outer(0.3 * np.sin(np.arange(m.n_frames) / 7.0), [0.0, 1.0, 0.0])) @ turning[:, 0]
+    )
+    assert not np.allclose(pose_dissimilarity(m.replace(rotations=turning), root="inplace"), inplace)
+    np.testing.assert_allclose(pose_dissimilarity(m.replace(rotations=turning)), d, atol=1e-9)
 
 
 def test_a_frozen_stretch_is_not_a_candidate_window():
@@ -151,7 +161,7 @@ def test_bad_windows_give_clear_errors():
     with pytest.raises(OptionError, match="contacts"):
         loop_motion(m, contacts="plant")
     # a minimum length bounds the auto window's choice: refused where it would be ignored
-    with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*window=None"):
+    with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*the whole clip"):
         loop_motion(m, min_length=0.5)
     with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*window=\(0, 30\)"):
         loop_motion(m, window=(0, 30), min_length=0.5)
@@ -170,6 +180,7 @@ def test_the_window_report_says_where_its_minimum_length_came_from():
     w = loop_motion(lone, window="auto", contacts="off").window.summary()
     assert w["period_s"] is None and not w["min_length_from_period"]
     assert w["min_length_rule"] == "half the clip (no period found)"
+    assert w["quiet_windows_excluded"] is False  # a clip that moves all along
 
 
 def test_contacts_reported_or_skipped():

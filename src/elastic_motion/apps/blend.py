@@ -843,7 +843,7 @@ def blend_motions(
             f"loop: {what} blended and closed (seam {loop_res.seam_before.seam_position_max_m:.3g} m -> "
             f"{loop_res.seam_after.seam_position_max_m:.3g} m)"
         )
-    cleaned, before = _cleanup(result, prep, warps, u, wf, contacts, notes)
+    cleaned, before = _cleanup(result, prep, warps, u, local_u, wf, contacts, notes)
     if cleaned is not None and cleaned.applied:
         before, result = result, cleaned.motion
         if loop_res is not None:
@@ -963,7 +963,7 @@ _STRENGTH_STEPS = 6
 _SETTLE = 1.0
 #: Metres: how far the settle may take the root beyond the inputs' root heights at the
 #: matched times (the six pairs of ``benchmarks/blend_quality.py`` settle at most 2 cm
-#: beyond them: blended leg angles on a blended skeleton; :func:`_settle_within_inputs`).
+#: beyond them: blended leg angles on a blended skeleton; :func:`_settle_bounds`).
 _SETTLE_MARGIN = 0.03
 #: A loop's floor after the last closing: lift and close again while a foot is deeper (m).
 _LOOP_FLOOR_TOL = 0.005
@@ -980,40 +980,39 @@ def _contact_options(contacts: Any) -> ContactOptions | None:
     raise OptionError("contacts", f"expected 'auto', 'off' or ContactOptions; got {contacts!r}")
 
 
-def _settle_within_inputs(
-    lift: np.ndarray,
-    result: Motion,
-    prep: PreparedMotions,
-    warps: Sequence[np.ndarray],
-    u: np.ndarray,
-    w: np.ndarray,
-) -> np.ndarray:
-    """The clean-up's vertical settle ``lift`` ``(F,)`` bounded so that it takes the blend's
-    root no lower than the lowest and no higher than the highest of the inputs' roots at the
-    matched times, give or take :data:`_SETTLE_MARGIN` (where the root is already outside
-    that range, no further out); weights outside ``[0, 1]`` (extrapolation): unbounded.
+def _settle_bounds(
+    result: Motion, prep: PreparedMotions, local_u: Sequence[np.ndarray], wf: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Per-frame bounds ``(lower, upper)`` of the clean-up's vertical settle
+    (:func:`~elastic_motion.apps.cleanup.settle_offset`): it may take the blend's root no
+    lower than the lowest and no higher than the highest root of the inputs that weigh in
+    on the frame, at the matched times (``local_u``: each input's curve parameter per output
+    frame), give or take :data:`_SETTLE_MARGIN`, the inputs' heights smoothed like the settle
+    (their step-by-step bob would make it fast); where the root is already outside that
+    range, no further out. ``(None, None)`` for weights outside ``[0, 1]`` (extrapolation).
 
     A planted foot that the blend holds decimetres above the floor while its root is at the
     inputs' height is a leg posed wrong (an Euler blend's hip), not a body floating: settled
     down to it, the body sank 16-30 cm and the other stance knee folded 30-47 deg more than
     in either input (CMU 131_01's crouch blended with 131_02 or 02_01); leg IK plants it.
     """
-    if not bool(np.all((w >= 0.0) & (w <= 1.0))):
-        return lift
+    if not bool(np.all((wf >= 0.0) & (wf <= 1.0))):
+        return None, None
     up = _AXES.index(result.up_axis)
+    n = result.n_frames
     heights = np.stack(
         [
-            _sample_linear(
-                m.root_translation[:, up],
-                m.fps,
-                np.clip(np.interp(u, v[:, 0], v[:, 1]), 0.0, 1.0) * m.duration,
+            gaussian_frames(
+                _sample_linear(m.root_translation[:, up], m.fps, lu * m.duration), _SETTLE * result.fps
             )
-            for m, v in zip(prep.motions, warps, strict=True)
+            for m, lu in zip(prep.motions, local_u, strict=True)
         ]
-    )
+    )  # (K, F)
+    weighs = np.stack([np.broadcast_to(_per_frame(wf, k, n, 0), (n,)) > 0 for k in range(len(local_u))])
     root = result.root_translation[:, up]
-    lo, hi = heights.min(axis=0) - _SETTLE_MARGIN - root, heights.max(axis=0) + _SETTLE_MARGIN - root
-    return np.clip(lift, np.minimum(lo, 0.0), np.maximum(hi, 0.0))
+    lo = np.where(weighs, heights, np.inf).min(axis=0) - _SETTLE_MARGIN - root
+    hi = np.where(weighs, heights, -np.inf).max(axis=0) + _SETTLE_MARGIN - root
+    return np.minimum(lo, 0.0), np.maximum(hi, 0.0)
 
 
 def _cleanup(
@@ -1021,6 +1020,7 @@ def _cleanup(
     prep: PreparedMotions,
     warps: Sequence[np.ndarray],
     u: np.ndarray,
+    local_u: Sequence[np.ndarray],
     w: np.ndarray,
     contacts: Any,
     notes: list[str],
@@ -1055,9 +1055,8 @@ def _cleanup(
     own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
     goal = _SKATE_GOAL * min(own)
     legs, leg_notes = find_legs(result)  # once, for every trial below
-    lift = _settle_within_inputs(
-        settle_offset(result, carried, legs, sigma=_SETTLE), result, prep, warps, u, w
-    )  # the same for every trial below
+    lower, upper = _settle_bounds(result, prep, local_u, w)
+    lift = settle_offset(result, carried, legs, sigma=_SETTLE, lower=lower, upper=upper)  # for every trial
     for smooth in _SMOOTHING:
         res = cleanup_footskate(result, carried, smooth=smooth, settle=lift, legs=legs)
         if not res.applied or res.skating_after.mean_speed <= goal:

@@ -344,7 +344,8 @@ def _rigid_foot_plants(
 
     Each stretch of frames with both planted lies in one run of each joint; the joint with the
     longer run leads (its plant stays the mean over its run) and the other's plant, over its
-    whole run, is put at the foot's own mean floor vector over the stretch from the leader's.
+    whole run, is put at the foot's own mean floor vector over the stretch from the leader's
+    (a run that follows over several stretches: over the longest).
     Only floor coordinates move (plant heights are the joints' own). Without this, the two
     means of a foot that skated in a carried contact (the toe 46 cm while the ankle was planted
     for a third of it, in an Euler blend of CMU 131_01 x 131_02) disagree and the turn about
@@ -352,34 +353,54 @@ def _rigid_foot_plants(
     """
     floor_axes = [i for i in range(3) if i != up]
     runs_a, runs_t = _runs(ma), _runs(mt)
+    # per following run, the stretch it shares most with its leader (a short toe contact
+    # bridging two heel contacts follows the longer overlap, not whichever came last)
+    follow: dict[tuple[str, tuple[int, int]], tuple[int, np.ndarray]] = {}
     for a, b in _runs(ma & mt):
         ra = next(r for r in runs_a if r[0] <= a < r[1])
         rt = next(r for r in runs_t if r[0] <= a < r[1])
         vec = (pt[a:b] - pa[a:b]).mean(axis=0)[floor_axes]
         if rt[1] - rt[0] >= ra[1] - ra[0]:
-            plant_a[ra[0] : ra[1], floor_axes] = plant_t[a, floor_axes] - vec
+            key, target = ("ankle", ra), plant_t[a, floor_axes] - vec
         else:
-            plant_t[rt[0] : rt[1], floor_axes] = plant_a[a, floor_axes] + vec
+            key, target = ("toe", rt), plant_a[a, floor_axes] + vec
+        if key not in follow or b - a > follow[key][0]:
+            follow[key] = (b - a, target)
+    for (joint, (lo, hi)), (_, target) in follow.items():
+        (plant_a if joint == "ankle" else plant_t)[lo:hi, floor_axes] = target
 
 
 def settle_offset(
-    motion: Motion, contacts: Contacts, legs: Sequence[LegChain], *, sigma: float
+    motion: Motion,
+    contacts: Contacts,
+    legs: Sequence[LegChain],
+    *,
+    sigma: float,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
 ) -> np.ndarray:
     """Vertical root offset ``(F,)`` (motion's unit) that puts the planted ankles and toes of
     ``legs`` at their ground heights (``contacts.floor + contacts.ground_height``), as slowly
     as ``sigma`` allows.
 
     On each frame with a planted joint of known ground height the offset is the mean of
-    ``ground - height`` over those joints, but never so low that one of them would go more
-    than :data:`SETTLE_BELOW` (metres) under its ground height; between such frames it is
-    interpolated linearly (held at the ends); then smoothed by a Gaussian of standard
+    ``ground - height`` over those joints; between such frames it is interpolated linearly
+    (held at the ends); then, kept within its bounds, smoothed by a Gaussian of standard
     deviation ``sigma`` seconds. A slow vertical translation of the whole body changes no
     joint angle and the root's velocity by little (its SRV distance to the motion is small),
-    where lifting each stance foot by IK bends the knees. (Without the bound, a foot that a
-    blend holds decimetres above the floor in a carried contact pulled the body down by half
-    of that, and the other stance knee, planted on the floor, folded by 25-47 deg to stay
-    out of it: Euler blends of CMU 131_01's crouch.) Zeros when no planted joint has a ground
-    height.
+    where lifting each stance foot by IK bends the knees.
+
+    **Bounds** (per frame, the motion's unit): ``upper`` and ``lower`` when given, and never
+    so low that a planted joint goes more than :data:`SETTLE_BELOW` (metres) under its ground
+    height. The lower ones hold exactly on the result: where the smoothed offset crosses
+    one, the difference is added back eased in and out over ``sigma``
+    (:func:`~elastic_motion.motion.edit.eased_envelope`), so the offset stays slow; ``upper``
+    likewise, except within that easing of frames where the floor bound lies above it (the
+    floor wins). (Without
+    the floor bound, a foot that a blend holds decimetres above the floor in a carried
+    contact pulled the body down by half of that, and the other stance knee, planted on the
+    floor, folded by 25-47 deg to stay out of it: Euler blends of CMU 131_01's crouch.) Zeros
+    when no planted joint has a ground height.
     """
     if not (np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma: expected seconds >= 0; got {sigma!r}")
@@ -407,9 +428,15 @@ def settle_offset(
         return np.zeros(motion.n_frames)
     frames = np.arange(motion.n_frames)
     unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
-    mean = np.maximum(total[known] / count[known], highest[known] - SETTLE_BELOW / unit)
-    need = np.interp(frames, frames[known], mean)
-    return gaussian_frames(need, sigma * motion.fps)
+    need = np.interp(frames, frames[known], total[known] / count[known])
+    floor_bound = np.where(known, highest - SETTLE_BELOW / unit, -np.inf)
+    lo = floor_bound if lower is None else np.maximum(floor_bound, np.asarray(lower, dtype=np.float64))
+    hi = np.full(motion.n_frames, np.inf) if upper is None else np.asarray(upper, dtype=np.float64)
+    hi = np.maximum(hi, floor_bound)  # the floor wins
+    width = max(1, round(sigma * motion.fps))
+    out = gaussian_frames(np.clip(need, lo, hi), sigma * motion.fps)
+    out -= eased_envelope(np.maximum(out - hi, 0.0), width)
+    return out + eased_envelope(np.maximum(lo - out, 0.0), width)
 
 
 def _given(plants: Mapping[str, np.ndarray], name: str, p: np.ndarray) -> np.ndarray | None:

@@ -849,6 +849,14 @@ def _frames(motion: Motion, start: int, stop: int) -> Motion:
     )
 
 
+def _change_reference(clip: Motion, root: str) -> Motion:
+    """What a window's loop is measured against when windows are compared (their
+    ``deviation_*``): the clip itself, or in place the clip on its own treadmill (else the
+    travel the treadmill takes out counts as change, and the shortest, slowest window won: a
+    13-frame step of the DeepMimic run, 12 frames of a pause in CMU 107_02)."""
+    return treadmill(clip)[0] if root == "inplace" else clip
+
+
 def _window(
     motion: Motion,
     window: object,
@@ -898,11 +906,7 @@ def _window(
         except ValueError as exc:  # e.g. a seam at the cut locus: try the next candidate
             trials.append({"start": a, "stop": b, "error": str(exc)})
             continue
-        # ranked by how much the closing changed the motion: in place, against the window on
-        # its own treadmill (else the travel it takes out counts as change, and the shortest,
-        # slowest window wins: a 0.4 s step of the DeepMimic run, 12 frames of a pause in 107_02)
-        ref = treadmill(sub)[0] if root == "inplace" else sub
-        sm = seam_metrics(out, original=ref, root=root, joints=closed)
+        sm = seam_metrics(out, original=_change_reference(sub, root), root=root, joints=closed)
         trials.append(
             {
                 "start": a,
@@ -921,7 +925,9 @@ def _window(
     _, a, b, out, res, sm, kept = best
     if close_final is not None:  # the chosen window, closed with what only it needs (contacts)
         out, res, kept = close_final(_frames(motion, a, b))
-        sm = seam_metrics(out, original=_frames(motion, a, b), root=root, joints=closed)
+        sm = seam_metrics(
+            out, original=_change_reference(_frames(motion, a, b), root), root=root, joints=closed
+        )
     whole: dict = {}
     done = [t for t in trials if (t["start"], t["stop"]) == (0, f)]
     if done:
@@ -929,7 +935,7 @@ def _window(
     elif (a, b) != (0, f):
         try:
             w_out, w_res, _ = close(motion)
-            w_sm = seam_metrics(w_out, original=motion, root=root, joints=closed)
+            w_sm = seam_metrics(w_out, original=_change_reference(motion, root), root=root, joints=closed)
             whole = {
                 "deviation_max_m": w_sm.deviation_max_m,
                 "deviation_mean_m": w_sm.deviation_mean_m,
@@ -951,6 +957,7 @@ def _window(
         candidates=tuple(trials),
         min_length=cand.min_length if cand is not None else None,
         min_length_default=cand.min_length_default if cand is not None else False,
+        quiet_excluded=cand.quiet_excluded if cand is not None else False,
         period=cand.period if cand is not None else None,
     )
     return cw, out, res, kept
@@ -1088,8 +1095,8 @@ def loop_motion(
     OptionError
         Fewer than 3 frames; NaN/inf in the motion; a closed joint whose seam rotation is
         at log's cut locus (angle pi: the error names the joint; leave it free with
-        ``free_joints`` to loop anyway); a ``min_length`` longer than the clip; bad option
-        values.
+        ``free_joints`` to loop anyway); a ``min_length`` longer than the clip, or given
+        without ``window="auto"``; bad option values.
     """
     if method not in LOOP_METHODS:
         raise OptionError("method", f"expected one of {list(LOOP_METHODS)}; got {method!r}")
@@ -1116,8 +1123,9 @@ def loop_motion(
         raise OptionError("candidates", f"expected a positive integer; got {candidates!r}")
     if min_length is not None and not (isinstance(window, str) and window == "auto"):
         # it bounds the sub-clips the auto window chooses from: silently ignored otherwise
+        what = "the whole clip (window=None, --window whole)" if window is None else f"window={window!r}"
         raise OptionError(
-            "min_length", f"expected only with window='auto' (--window auto); got it with window={window!r}"
+            "min_length", f"expected only with window='auto' (--window auto); got it with {what}"
         )
     _check_root(root)
     prepared = prepare_motions(motion if isinstance(motion, PreparedMotions) else [motion], prepare)

@@ -15,10 +15,10 @@ Conventions
 * **Pose features** of a frame (what the loop convention closes): the local rotation of
   every closed joint but the root (rotation matrices), the root's tilt (the up axis seen
   from the root, ``R_root^T e_up``: blind to heading) and the root height (metres); with
-  ``root="inplace"`` the full root rotation instead of its tilt, and the floor-plane
-  velocity among the velocities (not the position: the treadmill closes it; with it, a
-  walk's travel made every lag beyond a step look dissimilar, and CMU 107_02 in place got a
-  period of 0.4 s instead of 3.5 s and a 12-frame window). The
+  ``root="inplace"`` also the floor-plane velocity and the turning rate among the
+  velocities (not the floor position or the heading: the treadmill closes them; with the
+  position, a walk's travel made every lag beyond a step look dissimilar, and CMU 107_02 in
+  place got a period of 0.4 s instead of 3.5 s and a 12-frame window). The
   **dissimilarity** of frames ``a`` and ``b`` is
   ``D(a, b) = |x_a - x_b|^2 + tau^2 |v_a - v_b|^2``, ``x`` the feature vector (chordal
   distance of rotation matrices, metres), ``v`` its velocity per second (central
@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.errors import OptionError
+from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 
 __all__ = ["CycleCandidates", "CycleWindow", "cycle_candidates", "estimate_period", "pose_dissimilarity"]
@@ -67,18 +68,27 @@ def _features(motion: Motion, root: str, closed: np.ndarray | None) -> tuple[np.
     sel[0] = False
     parts = [motion.rotations[:, sel].reshape(f, -1)]
     r0 = motion.rotations[:, 0]
-    parts.append(r0.reshape(f, 9) if root == "inplace" else r0[:, up, :])  # heading, or the tilt R^T e_up
+    parts.append(r0[:, up, :])  # the tilt R^T e_up: blind to heading
     parts.append(motion.root_translation[:, up : up + 1] * scale)
     x = np.concatenate(parts, axis=1)
     v = np.gradient(x, axis=0) * motion.fps
     if root == "inplace":
-        # the treadmill takes out each window's travel at a constant rate, which closes the
-        # floor-plane position whatever it was: only its velocity must match at the seam
+        # the treadmill takes out each window's travel and turn at a constant rate, which
+        # closes the floor-plane position and the heading whatever they were: only their
+        # rates must match at the seam
         floor = [i for i in range(3) if i != up]
-        v = np.concatenate(
-            [v, np.gradient(motion.root_translation[:, floor] * scale, axis=0) * motion.fps], axis=1
-        )
+        travel = np.gradient(motion.root_translation[:, floor] * scale, axis=0) * motion.fps
+        v = np.concatenate([v, travel, _yaw_rate(r0, up, motion.fps)[:, None]], axis=1)
     return x, v
+
+
+def _yaw_rate(r0: np.ndarray, up: int, fps: float) -> np.ndarray:
+    """The root's turning rate about the up axis ``(F,)`` (rad/s; central differences)."""
+    f = r0.shape[0]
+    nxt = np.minimum(np.arange(f) + 1, f - 1)
+    prv = np.maximum(np.arange(f) - 1, 0)
+    span = np.maximum(nxt - prv, 1)
+    return SO3().log(r0[nxt] @ np.swapaxes(r0[prv], -1, -2))[:, up] * fps / span
 
 
 def pose_dissimilarity(
@@ -150,7 +160,8 @@ class CycleCandidates:
     min_length : float
         The minimum window length used, seconds.
     min_length_default : bool
-        Whether it was derived from the period (``min_length=None``).
+        Whether it was not given (``min_length=None``: 90 % of the period, or half the clip
+        without one).
     period : float or None
         The estimated period, seconds.
     quiet_excluded : bool
@@ -261,7 +272,9 @@ class CycleWindow:
     fps : float
     deviation_max_m, deviation_mean_m : float
         How much the loop changed the window: FK positions of the closed joints and their
-        end sites against the window's own frames (m).
+        end sites against the window's own frames (m); with root ``"inplace"`` against the
+        window on its own treadmill (the travel taken out is not counted), as for every
+        candidate and the whole clip.
     change : float or None
         ``||q - q_orig||_L2`` of the window's closing (SRV units).
     whole : dict
@@ -272,9 +285,12 @@ class CycleWindow:
     min_length : float or None
         Shortest window allowed, seconds (``None`` for a given window).
     min_length_default : bool
-        Whether ``min_length`` came from the period.
+        Whether ``min_length`` was not given (then 90 % of the period, or half the clip
+        without one: ``summary()["min_length_rule"]``).
     period : float or None
         The clip's estimated period, seconds.
+    quiet_excluded : bool
+        Whether windows that barely move were left out of the candidates (module docstring).
     """
 
     start: int
@@ -288,6 +304,7 @@ class CycleWindow:
     min_length: float | None
     min_length_default: bool
     period: float | None
+    quiet_excluded: bool = False
 
     @property
     def length(self) -> float:
@@ -317,4 +334,5 @@ class CycleWindow:
                 else "half the clip (no period found)"
             ),
             "period_s": self.period,
+            "quiet_windows_excluded": self.quiet_excluded,
         }

@@ -595,7 +595,8 @@ def _landmarks_file(
         if "pairs_s" in data:
             _check_landmark_inputs(path, data, inputs)
             weight = data.get("landmark_weight")
-            finite = isinstance(weight, int | float) and math.isfinite(weight) and weight >= 0
+            number = isinstance(weight, int | float) and not isinstance(weight, bool)
+            finite = number and math.isfinite(weight) and weight >= 0
             if weight is not None and not finite:
                 raise CommandError(f"{path}: 'landmark_weight' must be a finite number >= 0; got {weight!r}")
             pairs = [(float(a), float(b)) for a, b in data["pairs_s"]]
@@ -666,6 +667,11 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--max-pairs", type=int, default=None, help="--landmarks auto: at most this many pairs per kind"
     )
+    add_landmark_weight_option(p)
+
+
+def add_landmark_weight_option(p: argparse.ArgumentParser) -> None:
+    """``--landmark-weight`` (alias ``--lambda``): the relative weight of the landmark term."""
     from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
     from elastic_motion.cli_commands._argparse import add_alias
     from elastic_motion.warp import WarpOptions

@@ -9,6 +9,7 @@ from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
     add_json_option,
+    add_landmark_weight_option,
     add_warp_options,
     emit_report,
     landmark_kinds,
@@ -59,6 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "blend's or alignment's --method (default: lie)",
     )
     add_warp_options(p)
+    add_landmark_weight_option(p)
     add_input_options(p, writes_bvh=False)
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("landmarks", run, a))

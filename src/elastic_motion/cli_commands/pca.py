@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         fewer = (
             f"--modes {args.modes}: the model has {model.n_modes} mode{'s' * (model.n_modes != 1)} "
             f"({len(args.files)} motions give at most {len(args.files) - 1}, fewer when they do not "
-            f"vary independently): wrote {model.n_modes}"
+            f"vary independently): wrote {model.n_modes} ({2 * model.n_modes} files)"
         )
         body["modes_note"] = fewer
         lines.append(f"note: {fewer}")

@@ -174,7 +174,7 @@ def _check_limits(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     from elastic_motion.apps.render import render, render_kind
     from elastic_motion.apps.report import report_header
-    from elastic_motion.cli_commands._common import parse_landmarks
+    from elastic_motion.cli_commands._common import read_landmarks
 
     inputs = list(args.inputs)
     _check_limits(args)
@@ -227,7 +227,13 @@ def run(args: argparse.Namespace) -> int:
         if args.render_joints is not None:
             kw["joints"] = joints_arg(args.render_joints)
         if args.landmarks:
-            kw["landmarks"] = parse_landmarks(args.landmarks, "seconds", motions[0].fps, motions[-1].fps)
+            kw["landmarks"], weight = read_landmarks(
+                args.landmarks, "seconds", motions[0].fps, motions[-1].fps
+            )
+            if weight is not None:  # a file of `elastic-motion landmarks`: the warp blend would meet
+                from elastic_motion.warp import WarpOptions
+
+                kw["warp"] = WarpOptions(landmark_weight=weight)
     bar = progress_for("render", args)
     try:
         render(motions, out, kind=kind, labels=labels, protected=inputs, progress=bar, **kw)
