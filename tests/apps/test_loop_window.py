@@ -87,6 +87,23 @@ def test_a_frozen_stretch_is_not_a_candidate_window():
     assert not cycle_candidates(frozen, min_length=0.5).quiet_excluded  # all still: all candidates
 
 
+def test_yaw_rate_and_active_windows_formulas():
+    """The turning rate about the up axis is +omega (rad/s) for a root turning at omega,
+    also on the end frames; a window moves when its mean speed is at least 0.3 times the mean
+    over the busier half of the frames."""
+    from elastic_motion.apps.loop_window import _active_windows, _yaw_rate
+
+    fps, omega = 30.0, 0.8
+    t = np.arange(20) / fps
+    r0 = SO3G.exp(np.outer(omega * t, [0.0, 1.0, 0.0]))
+    np.testing.assert_allclose(_yaw_rate(r0, 1, fps), omega, rtol=1e-9)
+    np.testing.assert_allclose(_yaw_rate(np.swapaxes(r0, -1, -2), 1, fps), -omega, rtol=1e-9)
+    speed = np.array([0.0, 0.0, 0.0, 0.0, 2.0, 2.0, 4.0, 4.0])  # busier half: 3.0 on average
+    a, b = np.array([0, 2, 2, 4]), np.array([3, 4, 5, 7])
+    # means (frames a..b, both ends) 0, 0.67, 1.0, 3.0 against 0.3 * 3.0 = 0.9
+    np.testing.assert_array_equal(_active_windows(speed, a, b), [False, False, True, True])
+
+
 def test_in_place_windows_ignore_the_travel_the_treadmill_takes_out():
     """With root "inplace" the floor-plane position is not a feature (only its velocity): the
     treadmill closes it whatever it was. A walk travelling along x has the same period in

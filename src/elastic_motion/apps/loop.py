@@ -1246,11 +1246,10 @@ def _whip_note(motion: Motion, out: Motion, *, whole: bool, seam: SeamMetrics) -
     frames, went 9.3 m/s (the input's fastest point 3.8), which only a sub-clip fixes.
     """
     sk = out.skeleton
-    unit = out.metres_per_unit if out.metres_per_unit is not None else 1.0
 
     def speeds(m: Motion) -> np.ndarray:
         p = forward_kinematics(m, end_sites=True)
-        return np.linalg.norm(np.diff(p, axis=0), axis=-1) * m.fps * unit
+        return np.linalg.norm(np.diff(p, axis=0), axis=-1) * m.fps * _metres(m)
 
     if out.n_frames < 2:
         return None
