@@ -390,6 +390,67 @@ def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():
     assert {r.anchor for r in rows_of(mask) if r.name == "foot" and r.frame >= 40} == {-1, 49}
 
 
+def test_a_heel_planted_with_its_toes_seam_contact_moves_with_the_toe():
+    """A heel contact ending before the last frame while its toe's seam contact (relative to
+    the last frame) has begun: its floor-plane rows are relative to the toe's last-frame
+    position (the toe's own offsets and the heel's from the toe are the input's, so the foot
+    moves as one piece), its heights absolute; a heel contact before the toe's is absolute."""
+    from elastic_motion.apps.loop_contacts import contact_rows, row_plants
+    from elastic_motion.motion import forward_kinematics
+    from elastic_motion.motion.contacts import Contacts
+
+    m = periodic(f=50)
+    mask = np.zeros((50, 2), dtype=bool)
+    mask[38:49, 0] = True  # the "knee" (heel): planted, lifted on the last frame
+    mask[10:20, 0] = True  # an earlier heel contact
+    mask[40:, 1] = True  # the "foot" (toe): planted to the last frame, in the air on the first
+    c = Contacts(("knee", "foot"), np.array([2, 3]), mask, 0.0, np.zeros(2), m.fps, "y")
+    rows = contact_rows(m, c)
+    pos = forward_kinematics(m)
+    heel = [r for r in rows if r.name == "knee" and r.frame >= 38]
+    assert heel and {r.frame for r in heel} == set(range(38, 49))
+    for r in heel:
+        if r.axis == 1:  # height: absolute
+            assert r.anchor == -1 and r.target == pytest.approx(pos[r.frame, 2, 1], abs=1e-12)
+        else:  # floor plane: from the toe on the last frame (a wrong joint or sign fails)
+            assert (r.anchor, r.anchor_joint) == (49, 3)
+            assert r.target == pytest.approx(pos[r.frame, 2, r.axis] - pos[-1, 3, r.axis], abs=1e-12)
+    assert all(r.anchor == -1 for r in rows if r.name == "knee" and r.frame < 20)
+    # the plants: the whole foot follows the loop's last frame in the floor plane
+    moved = m.replace(root_translation=m.root_translation + np.array([0.3, 0.0, 0.1]))
+    plants = row_plants(m, c, moved)
+    np.testing.assert_allclose(
+        plants["knee"][38:49, [0, 2]], pos[38:49, 2][:, [0, 2]] + [0.3, 0.1], atol=1e-12
+    )
+    np.testing.assert_allclose(plants["knee"][38:49, 1], pos[38:49, 2, 1], atol=1e-12)
+    np.testing.assert_allclose(
+        plants["foot"][40:49, [0, 2]], pos[40:49, 3][:, [0, 2]] + [0.3, 0.1], atol=1e-12
+    )
+    # with a C1 seam the frame before the last has no rows (they would set the last step)
+    assert all(r.frame < 48 for r in contact_rows(m, c, c1=True) if r.name == "knee")
+
+
+@pytest.mark.mocap
+def test_a_foot_whose_toe_lifts_at_the_seam_keeps_its_direction(mocap_dir):
+    """Bandai normal walk, the auto window: the right toe is planted to the last frame and in
+    the air on the first, its heel planted until the frame before. With the heel held where
+    it was and the toe moved with the seam, the foot turned about the heel by 22 deg through
+    the whole stance (and the solver stalled); moved as one piece, it turns by a few."""
+    from scipy.spatial.transform import Rotation
+
+    from elastic_motion.motion.kinematics import global_rotations
+
+    res = loop_motion(mocap_dir / "bandai/dataset-1_walk_normal_001.bvh", window="auto")
+    assert res.closing.converged and res.contacts_kept["gave_way"] == []
+    assert res.seam_after.seam_angle_max_deg < 1e-3
+    j = res.motion.skeleton.index("Foot_R")
+    a, b = res.contacts.intervals("Foot_R")[-1]
+    g_loop, g_in = global_rotations(res.motion)[a:b, j], global_rotations(res.original)[a:b, j]
+    turn = Rotation.from_matrix(g_loop) * Rotation.from_matrix(g_in).inv()
+    assert np.degrees(np.linalg.norm(turn.as_rotvec(), axis=1)).max() < 8.0
+    assert res.skating_after.mean_speed <= 1.1 * res.skating_before.mean_speed
+
+
 @pytest.mark.mocap
 def test_kept_contacts_are_bounded_and_checked(mocap_dir):
     from elastic_motion import limits

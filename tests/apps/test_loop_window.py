@@ -240,6 +240,7 @@ def test_contact_rows_jacobian_matches_central_differences():
     sites = [
         _Row(4, "foot end site", (30, 31), 30, 1, -1, 0.0),
         _Row(4, "foot end site", (35, 36), 35, 0, 49, 0.0),
+        _Row(2, "knee from the foot", (36, 37), 36, 2, 49, 0.0, 3),  # relative to another joint
     ]
     cc = ContactConstraints(m, contacts, more_rows=sites)
     rng = np.random.default_rng(1)

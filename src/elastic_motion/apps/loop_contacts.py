@@ -20,7 +20,11 @@ subject to closure *and* the input's contacts
   toe crosses the seam while its heel (ankle) is planted on the last frame but lifted on
   the first leaves that last heel contact to the toe: rows on both (the heel's absolute,
   the toe's relative to the seam) fight over the rigid foot by a few mm and the solver
-  stalls (CMU 55_01 frames 391-991).
+  stalls (CMU 55_01 frames 391-991). A heel contact that ends before the last frame while
+  its toe's seam contact has begun moves with the toe: its floor-plane rows are relative to
+  the toe's position on the last frame (``anchor_joint``), so the foot keeps the input's
+  direction (held absolutely, the heel stayed where it was while the toe went with the seam:
+  a Bandai walk's foot turned 22 deg about its heel through the whole stance).
 * **Derivatives.** For a left perturbation ``delta R_j = hat(omega) R_j`` of joint ``j``'s
   local rotation at frame ``f``, ``delta p_k = (G_parent(j) omega) x (p_k - p_j)`` for every
   proper ancestor ``j`` of ``k`` (root included, ``G_parent(root) = I``); a change of the
@@ -95,6 +99,7 @@ class _Row:
     axis: int
     anchor: int  # -1: absolute row; else the frame it is relative to
     target: float
+    anchor_joint: int = -1  # a relative row's point at ``anchor``: -1 its own joint
 
 
 def contact_rows(
@@ -139,12 +144,28 @@ def contact_rows(
     start = {n for n, runs in intervals.items() if runs and runs[0][0] == 0}
     end = {n for n, runs in intervals.items() if runs and runs[-1][1] == f_count}
     crossing_bodies = {body(n) for n in end & start}
+    # the seam contacts kept relative to the last frame, per body: (joint, first frame)
+    seam_runs: dict[str, list[tuple[int, int]]] = {}
+    for name in end:
+        a = intervals[name][-1][0]
+        if a > 0 and not (name not in start and body(name) in crossing_bodies):
+            seam_runs.setdefault(body(name), []).append((sk.index(name), a))
     for name, runs in intervals.items():
         j = sk.index(name)
         for a, b in runs:
             seam = b == f_count and a > 0
             if seam and name not in start and body(name) in crossing_bodies:
                 continue
+            # a heel planted mostly within its toe's seam contact: it moves with the toe as one
+            # piece (absolute, it held the heel where it was while the toe went with the seam,
+            # and the foot turned about the heel: 22 deg through a Bandai walk's stance); a heel
+            # contact of an earlier step that the toe's last one only overlaps stays absolute
+            with_seam = next(
+                (k for k, s in seam_runs.get(body(name), []) if k != j and 2 * (b - max(a, s)) > b - a),
+                -1,
+            )
+            if seam:
+                with_seam = -1
             for f in range(a, b):
                 if seam:
                     if f == f_count - 1 or (c1 and f == f_count - 2):
@@ -160,6 +181,13 @@ def contact_rows(
                         rows.append(_Row(j, name, (a, b), f, up, f_count - 1, pos[f, j, up] - pos[-1, j, up]))
                     elif not lifting:
                         rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
+                elif with_seam >= 0:
+                    if f == 0 or (c1 and f >= f_count - 2):
+                        continue
+                    for ax in horiz:
+                        target = pos[f, j, ax] - pos[-1, with_seam, ax]
+                        rows.append(_Row(j, name, (a, b), f, ax, f_count - 1, target, with_seam))
+                    rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
                 else:
                     if f == 0:
                         continue  # the first frame never changes
@@ -214,26 +242,35 @@ class ContactConstraints(ExtraConstraints):
         self.motion = motion
         self.rows = contact_rows(motion, contacts, lift_from, c1=c1) + list(more_rows)
         self.scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
-        parents = motion.skeleton.parents
         self.joint = np.array([r.joint for r in self.rows], dtype=np.int64)
         self.frame = np.array([r.frame for r in self.rows], dtype=np.int64)
         self.axis = np.array([r.axis for r in self.rows], dtype=np.int64)
         self.anchor = np.array([r.anchor for r in self.rows], dtype=np.int64)
+        # the point a relative row is measured from: its own joint unless another is named
+        self.anchor_point = np.array(
+            [r.joint if r.anchor_joint < 0 else r.anchor_joint for r in self.rows], dtype=np.int64
+        )
         self.target = np.array([r.target for r in self.rows], dtype=np.float64)
         self._sites = bool((self.joint >= motion.n_joints).any())  # FK of end sites: only if used
-        # proper ancestors of each row's joint, padded with -1: (R, depth)
+        # proper ancestors of each row's point and of its anchor point, padded with -1
+        self._anc = self._chains(self.joint)
+        self._anc_anchor = self._chains(self.anchor_point)
+
+    def _chains(self, points: np.ndarray) -> np.ndarray:
+        """Proper ancestors ``(R, depth)`` of each point, padded with -1; an end site ``J + e``:
+        its parent joint and that joint's ancestors."""
+        sk, n_joints = self.motion.skeleton, self.motion.n_joints
         chains = []
-        n_joints = motion.n_joints
-        for k in self.joint:  # an end site J + e: its parent joint and that joint's ancestors
-            chain, p = [], (parents[k] if k < n_joints else motion.skeleton.end_site_parents[k - n_joints])
+        for k in points:
+            chain, p = [], (sk.parents[k] if k < n_joints else sk.end_site_parents[k - n_joints])
             while p >= 0:
                 chain.append(int(p))
-                p = parents[p]
+                p = sk.parents[p]
             chains.append(chain)
-        depth = max((len(c) for c in chains), default=0)
-        self._anc = np.full((len(chains), depth), -1, dtype=np.int64)
+        out = np.full((len(chains), max((len(c) for c in chains), default=0)), -1, dtype=np.int64)
         for r, chain in enumerate(chains):
-            self._anc[r, : len(chain)] = chain
+            out[r, : len(chain)] = chain
+        return out
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -242,7 +279,7 @@ class ContactConstraints(ExtraConstraints):
         pos = _fk(self.motion, rot, eu, self._sites)[0] * self.scale
         val = pos[self.frame, self.joint, self.axis]
         rel = self.anchor >= 0
-        val[rel] -= pos[self.anchor[rel], self.joint[rel], self.axis[rel]]
+        val[rel] -= pos[self.anchor[rel], self.anchor_point[rel], self.axis[rel]]
         return val - self.target
 
     def evaluate(
@@ -256,14 +293,17 @@ class ContactConstraints(ExtraConstraints):
         d_rot = np.zeros((r_count, 2, m, 3))
         d_eu = np.zeros((r_count, 2, eu.shape[1]))
         rows = np.arange(r_count)
-        anc = np.maximum(self._anc, 0)  # (R, D); padding masked below
-        used = (self._anc >= 0)[:, :, None]
         e_ax = np.eye(3)[self.axis]  # (R, 3)
-        for slot, sign in ((0, 1.0), (1, -1.0)):
+        for slot, sign, point, chains in (
+            (0, 1.0, self.joint, self._anc),
+            (1, -1.0, self.anchor_point, self._anc_anchor),
+        ):
+            anc = np.maximum(chains, 0)  # (R, D); padding masked below
+            used = (chains >= 0)[:, :, None]
             f = frames[:, slot]
             on = f >= 0
             fs = np.maximum(f, 0)
-            lever = pos[fs, self.joint][:, None, :] - pos[fs[:, None], anc]  # (R, D, 3), metres
+            lever = pos[fs, point][:, None, :] - pos[fs[:, None], anc]  # (R, D, 3), metres
             par = parents[anc]
             gpar = np.where((par >= 0)[:, :, None, None], glob[fs[:, None], np.maximum(par, 0)], np.eye(3))
             # row ax of -hat(lever) G_parent: e . ((G_par omega) x lever) = (lever x e) . G_par omega
@@ -276,7 +316,7 @@ class ContactConstraints(ExtraConstraints):
             d_eu[rows[on], slot, self.axis[on]] = sign * self.scale
         val = pos[self.frame, self.joint, self.axis]
         rel = self.anchor >= 0
-        val[rel] -= pos[self.anchor[rel], self.joint[rel], self.axis[rel]]
+        val[rel] -= pos[self.anchor[rel], self.anchor_point[rel], self.axis[rel]]
         return val - self.target, frames, d_rot, d_eu
 
     def gave_way(self, rot: np.ndarray, eu: np.ndarray, threshold: float = 1e-3) -> list[dict]:
@@ -422,7 +462,8 @@ def row_plants(
     out: dict[str, np.ndarray] = {}
     for r in rows:
         plant = out.setdefault(r.name, np.full((motion.n_frames, 3), np.nan))
-        base = pos[r.anchor, r.joint, r.axis] if r.anchor >= 0 else 0.0
+        point = r.joint if r.anchor_joint < 0 else r.anchor_joint
+        base = pos[r.anchor, point, r.axis] if r.anchor >= 0 else 0.0
         plant[r.frame, r.axis] = (r.target + base) / scale
     return out
 
