@@ -80,15 +80,20 @@ def test_refinement_never_increases_the_energy():
         assert ident.energy <= start
 
 
-def test_refinement_lands_closer_to_the_truth_than_dp():
-    _, q0, q1, gamma = known_pair(200, 3, 14)
+def test_refinement_lowers_the_energy_and_stays_on_the_truth():
+    """A known warp gamma on 200 cells: the DP recovers it to a few hundredths of a cell and
+    the refinement lowers the energy without leaving it. (Closer than the DP it need not be:
+    the discrete optimum is itself that far from gamma; measured 2.17e-4 for both, the
+    refinement 0.2 % further on one machine and nearer on others.)"""
+    n = 200
+    _, q0, q1, gamma = known_pair(n, 3, 14)
     dp = optimal_warp(q0, q1)
     ref = optimal_warp(q0, q1, method="dp+refine", tol=1e-9, max_iter=500)
     err_dp = np.sqrt(np.mean((dp.phi - gamma) ** 2))
     err_ref = np.sqrt(np.mean((ref.phi - gamma) ** 2))
-    assert ref.energy < dp.energy
-    assert err_ref < err_dp
-    assert err_dp < 2.0 / 200  # the DP recovers gamma within the grid resolution
+    assert ref.energy < dp.energy * (1 - 1e-3)
+    assert err_dp < 0.1 / n  # the DP recovers gamma within a tenth of a cell
+    assert err_ref < 0.1 / n and abs(err_ref - err_dp) < 0.01 / n
     assert ref.diagnostics.iterations > 0
 
 
