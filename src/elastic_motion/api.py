@@ -38,6 +38,7 @@ from elastic_motion.apps.database import (  # motion databases (issue 15)
     knn_search,
 )
 from elastic_motion.apps.distance import DistanceTable, distance_table
+from elastic_motion.apps.landmark_files import LandmarkFile, read_landmark_file
 from elastic_motion.apps.loop import (
     LoopResult,
     SeamMetrics,
@@ -70,6 +71,7 @@ __all__ = [
     "BlendSpace",
     "CleanupResult",
     "DistanceTable",
+    "LandmarkFile",
     "LoopResult",
     "Motion",
     "MotionIndex",
@@ -98,6 +100,7 @@ __all__ = [
     "pca",
     "prepare",
     "read",
+    "read_landmarks",
     "repeat",
     "seam_metrics",
     "search",
@@ -126,6 +129,10 @@ loop = loop_motion
 joint_limits = joint_limit_report
 #: ``em.align(a, b, method=, warp=, landmarks=, prepare=)``: the warp of B onto A.
 align = align_motions
+#: ``em.read_landmarks(path, inputs=[a, b])``: a landmarks file (the report of
+#: ``elastic-motion landmarks A B --json``, or pairs); ``em.blend(..., landmarks=lm)`` meets
+#: its pairs with the weight it records, as ``blend --landmarks FILE`` does.
+read_landmarks = read_landmark_file
 #: ``em.distances(motions, method=, warp=, prepare=)``: all pairwise distances (DistanceTable).
 distances = distance_table
 #: ``em.view(motions, reports=, layout=)``: the interactive 3D player (``.html``; ``em.write``

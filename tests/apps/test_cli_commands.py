@@ -202,6 +202,17 @@ def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
         argv = ("blend", files["a"], files["b"], "-o", tmp_path / name, "--landmarks", how, "--no-metrics")
         assert run(capsys, *argv, *(("--landmark-weight", "3000") if how == "auto" else ()))[0] == 0
     assert (tmp_path / "h_file.bvh").read_bytes() == (tmp_path / "h_auto.bvh").read_bytes()
+    # the notebook's way: em.read_landmarks and em.blend give the command's bytes, its weight
+    import elastic_motion as em
+
+    lm = em.read_landmarks(heavy, inputs=[files["a"], files["b"]])
+    assert lm.landmark_weight == 3000.0 and len(lm.pairs) == len(r["pairs_s"])
+    res = em.blend([files["a"], files["b"]], landmarks=lm)
+    em.write(res, tmp_path / "h_api.bvh")
+    assert (tmp_path / "h_api.bvh").read_bytes() == (tmp_path / "h_file.bvh").read_bytes()
+    assert any("relative weight it records (3000)" in n for n in res.notes)
+    with pytest.raises(ValueError, match="the other way round"):
+        em.read_landmarks(heavy, inputs=[files["b"], files["a"]])
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"pairs_s": r["pairs_s"], "landmark_weight": True}))
     code, _, err = run(capsys, "align", files["a"], files["b"], "--landmarks", bad)

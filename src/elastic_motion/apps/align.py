@@ -46,10 +46,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
+from elastic_motion.apps.landmark_files import LandmarkFile
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
@@ -379,7 +381,9 @@ def plan_landmarks(
 
     Parameters
     ----------
-    landmarks : None, "none", "auto" or array_like of shape (M, 2)
+    landmarks : None, "none", "auto", LandmarkFile or array_like of shape (M, 2)
+        A :class:`~elastic_motion.apps.landmark_files.LandmarkFile` gives its pairs and its
+        recorded landmark weight, which replaces ``options``'.
     a, b : Motion
         The prepared motions (times from their first frames).
     srv_a, srv_b : SRVFunction
@@ -390,6 +394,14 @@ def plan_landmarks(
     """
     if landmarks is None or (isinstance(landmarks, str) and landmarks == "none"):
         return LandmarkPlan([], options)
+    if isinstance(landmarks, LandmarkFile):
+        # the file's pairs, met with the weight it records (the report of `landmarks`)
+        weight = landmarks.landmark_weight
+        options = landmarks.warp_options(options)
+        note = f"landmarks from {Path(landmarks.path).name}: {len(landmarks.pairs)} pairs" + (
+            "" if weight is None else f", met with the relative weight it records ({weight:g})"
+        )
+        return LandmarkPlan(list(landmarks.pairs), options, (note,))
     if isinstance(landmarks, str):
         if landmarks != "auto":
             raise OptionError(

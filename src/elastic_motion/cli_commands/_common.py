@@ -9,7 +9,6 @@ arguments, the ``--json`` option and error reporting. No numerical work.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -520,37 +519,14 @@ def progress_for(command: str, args: argparse.Namespace):
 # ------------------------------------------------------------------------------------------
 
 
-def _time(value: str, unit: str, fps: float, what: str) -> float:
-    v = value.strip().lower()
-    if v.endswith("s"):
-        unit, v = "seconds", v[:-1]
-    elif v.endswith("f"):
-        unit, v = "frames", v[:-1]
+def _time(value: str, unit: str, fps: float) -> float:
+    """One time of an inline ``--landmarks`` pair in seconds (:func:`landmark_time`)."""
+    from elastic_motion.apps.landmark_files import landmark_time
+
     try:
-        x = float(v)
-    except ValueError:
-        raise CommandError(
-            f"--landmarks: expected a time (seconds, or frames with 'f'); got {value!r} in {what}"
-        ) from None
-    if not math.isfinite(x):
-        raise CommandError(f"--landmarks: expected a finite time; got {value!r}")
-    return x / fps if unit == "frames" else x
-
-
-def _check_landmark_inputs(path: str, data: dict, inputs: Sequence[str] | None) -> None:
-    """The report of ``elastic-motion landmarks A B`` pairs times of A and B: refuse it for
-    other inputs, or for A and B swapped (its pairs would pin the wrong clips' times)."""
-    if inputs is None or not isinstance(data.get("inputs"), list) or len(data["inputs"]) != 2:
-        return
-    theirs = [Path(str(f)).name for f in data["inputs"]]
-    mine = [Path(str(f)).name for f in inputs[:2]]
-    if theirs == mine:
-        return
-    why = "the same files the other way round" if theirs == mine[::-1] else "other files"
-    raise CommandError(
-        f"{path}: expected landmarks of {mine[0]} and {mine[1]}, in that order; got pairs of "
-        f"{theirs[0]} and {theirs[1]} ({why}; run `elastic-motion landmarks` on these inputs)"
-    )
+        return landmark_time(value, unit, fps)
+    except ValueError as exc:
+        raise CommandError(f"--landmarks: {exc}") from None
 
 
 def parse_landmarks(
@@ -585,39 +561,12 @@ def read_landmarks(
 def _landmarks_file(
     path: str, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None
 ) -> tuple[list[tuple[float, float]], float | None]:
-    """A landmarks file (:func:`read_landmarks`): its pairs in seconds and recorded weight."""
-    text = Path(path).read_text(encoding="utf-8")
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError:
-        data = None
-    if isinstance(data, dict):
-        if "pairs_s" in data:
-            _check_landmark_inputs(path, data, inputs)
-            weight = data.get("landmark_weight")
-            number = isinstance(weight, int | float) and not isinstance(weight, bool)
-            finite = number and math.isfinite(weight) and weight >= 0
-            if weight is not None and not finite:
-                raise CommandError(f"{path}: 'landmark_weight' must be a finite number >= 0; got {weight!r}")
-            pairs = [(float(a), float(b)) for a, b in data["pairs_s"]]
-            return pairs, None if weight is None else float(weight)
-        if "pairs" in data:
-            u = str(data.get("units", unit))
-            if u not in ("seconds", "frames"):
-                raise CommandError(f"{path}: 'units' must be 'seconds' or 'frames'; got {u!r}")
-            pairs = [(_time(str(a), u, fps_a, path), _time(str(b), u, fps_b, path)) for a, b in data["pairs"]]
-            return pairs, None
-        raise CommandError(f"{path}: expected a JSON object with 'pairs' (and 'units') or 'pairs_s'")
-    pairs = []
-    for n, line in enumerate(text.splitlines(), 1):
-        line = line.split("#", 1)[0].strip()
-        if not line:
-            continue
-        parts = line.replace(",", " ").replace(":", " ").split()
-        if len(parts) != 2:
-            raise CommandError(f"{path}:{n}: expected two times (A B); found {line!r}")
-        pairs.append((_time(parts[0], unit, fps_a, path), _time(parts[1], unit, fps_b, path)))
-    return pairs, None
+    """A landmarks file (:func:`read_landmarks`): its pairs in seconds and recorded weight
+    (:func:`elastic_motion.apps.landmark_files.read_landmark_file`, as ``em.read_landmarks``)."""
+    from elastic_motion.apps.landmark_files import read_landmark_file
+
+    lf = read_landmark_file(path, units=unit, fps=(fps_a, fps_b), inputs=inputs)
+    return list(lf.pairs), lf.landmark_weight
 
 
 def _landmarks_value(value: str | None, unit: str, fps_a: float, fps_b: float) -> Any:
@@ -638,7 +587,7 @@ def _landmarks_value(value: str | None, unit: str, fps_a: float, fps_b: float) -
         if item.count(":") != 1:
             raise CommandError(f"--landmarks: expected 'tA:tB' pairs separated by commas; got {item!r}")
         a, b = item.split(":")
-        pairs.append((_time(a, unit, fps_a, item), _time(b, unit, fps_b, item)))
+        pairs.append((_time(a, unit, fps_a), _time(b, unit, fps_b)))
     return pairs
 
 
