@@ -62,6 +62,7 @@ from elastic_motion.apps.report import jsonable, report_json
 from elastic_motion.apps.viewer import ViewerPage, build_viewer
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, read_motion, write_bvh
+from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -70,6 +71,7 @@ __all__ = [
     "BlendResult",
     "BlendSpace",
     "CleanupResult",
+    "ContactOptions",
     "DistanceTable",
     "LandmarkFile",
     "LoopResult",

@@ -113,3 +113,30 @@ def test_landmarks_command_pairs_by_phase(files, capsys, tmp_path):
     report = json.loads(rep.read_text())
     assert "phase" in report["pairing"] and all("offset_s" in p for p in report["pairs"])
     assert len(report["pairs_s"]) == len(report["pairs"])
+
+
+@pytest.mark.mocap
+def test_contact_height_counts_the_stances_of_a_rising_floor(mocap_dir, capsys, tmp_path):
+    """CMU 07_01 x 08_02: the floor rises through both clips and stances 3-6 cm above the first
+    are no contacts (the notes name them); --contact-height 0.07 counts them (blend and loop
+    alike), and a height outside (0, 0.2] m is refused."""
+    a, b = (str(mocap_dir / "cmu/bvh" / f) for f in ("07_01.bvh", "08_02.bvh"))
+    reports = {}
+    for key, extra in (("default", ()), ("raised", ("--contact-height", "0.07"))):
+        rep = tmp_path / f"{key}.json"
+        argv = ("blend", a, b, "-o", tmp_path / f"{key}.bvh", "--no-metrics", "-q", "--json", rep, *extra)
+        assert run(capsys, *argv)[0] == 0
+        reports[key] = json.loads(rep.read_text())
+    missed = "slow stretches above the contact height"
+    assert any(missed in n and "08_02" in n for n in reports["default"]["notes"])
+    assert not any(missed in n for n in reports["raised"]["notes"])
+    frames = {k: sum(b - a for runs in r["cleanup"]["contacts"]["joints"].values() for a, b in runs["frames"])
+              for k, r in reports.items()}  # fmt: skip
+    assert frames["raised"] > frames["default"]
+    rep = tmp_path / "loop.json"
+    argv = ("loop", b, "-o", tmp_path / "loop.bvh", "-q", "--json", rep, "--contact-height", "0.07")
+    assert run(capsys, *argv)[0] == 0
+    left = json.loads(rep.read_text())["contacts"]["joints"]["LeftFoot"]["seconds"]
+    assert any(s < 1.3 < e for s, e in left)  # the left foot's second stance, 1.2-1.6 s
+    code, _, err = run(capsys, "blend", a, b, "-o", tmp_path / "x.bvh", "--contact-height", "0")
+    assert code == 2 and "--contact-height: expected a height in metres in (0, 0.2]" in err

@@ -8,7 +8,12 @@ import pytest
 from elastic_motion.apps.metrics import contact_skating
 from elastic_motion.apps.prepare import load_motion
 from elastic_motion.motion import Motion, Skeleton
-from elastic_motion.motion.contacts import ContactOptions, contact_joints, detect_contacts
+from elastic_motion.motion.contacts import (
+    MISSED_STANCES_NOTE,
+    ContactOptions,
+    contact_joints,
+    detect_contacts,
+)
 
 ROOT = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 
@@ -48,6 +53,23 @@ def test_planted_intervals_are_found_exactly():
     ev = c.events()
     assert [e[2] for e in ev] == ["strike", "lift", "strike", "lift"]
     assert ev[0][0] == pytest.approx(10 / 30)
+
+
+def test_a_stance_above_the_contact_height_is_named_in_the_notes():
+    """The second stance 5 cm above the first (a floor that rises, as in CMU 07_01 and 08_02):
+    not a contact with the default thresholds, but the notes say where and how high; a
+    higher ``height_enter`` counts it."""
+    height, x = stance_swing()
+    height[60:85] = 0.05
+    c = detect_contacts(foot_motion(height, x))
+    assert c.intervals("LeftFoot") == [(10, 40)]
+    note = [n for n in c.notes if n.startswith(MISSED_STANCES_NOTE)]
+    assert len(note) == 1 and "LeftFoot 1 (the first at 2.03 s), 0.050-0.050 m above" in note[0]
+    raised = detect_contacts(foot_motion(height, x), ContactOptions(height_enter=0.06, height_exit=0.08))
+    assert raised.intervals("LeftFoot") == [(10, 40), (60, 85)]
+    assert not any(n.startswith(MISSED_STANCES_NOTE) for n in raised.notes)
+    height[60:85] = 0.15  # a foot held still 15 cm up is not a stance: no note
+    assert not any(n.startswith(MISSED_STANCES_NOTE) for n in detect_contacts(foot_motion(height, x)).notes)
 
 
 def test_hysteresis_and_minimum_duration():
@@ -129,3 +151,14 @@ def test_real_clips(mocap_dir, rel, feet, hands_touch):
         k0, k1 = c.joints.index(feet[0]), c.joints.index(feet[1])
         both = (c.mask[:, k0] & c.mask[:, k1]).mean()
         assert both < 0.5
+
+
+@pytest.mark.mocap
+def test_the_stances_of_a_rising_floor_are_named(mocap_dir):
+    """CMU 08_02: the floor rises about 6 cm over the clip; the left foot's second stance
+    (1.2-1.6 s) stands 3.4 cm above its first and is no contact, which the notes say."""
+    m = load_motion(mocap_dir / "cmu/bvh/08_02.bvh")[0]
+    c = detect_contacts(m)
+    assert not c.mask[int(1.3 * m.fps) : int(1.5 * m.fps), c.joints.index("LeftFoot")].any()
+    note = next(n for n in c.notes if n.startswith(MISSED_STANCES_NOTE))
+    assert "LeftFoot 2 (the first at 1.19 s)" in note

@@ -1027,7 +1027,7 @@ def _cleanup(
 ) -> tuple[CleanupResult | None, Motion | None]:
     """Step 7: carry the inputs' contacts to the blend and enforce them (:mod:`.cleanup`)."""
     from elastic_motion.apps.cleanup import carry_contacts, cleanup_footskate, find_legs, settle_offset
-    from elastic_motion.motion.contacts import detect_contacts
+    from elastic_motion.motion.contacts import MISSED_STANCES_NOTE, detect_contacts
 
     opts = _contact_options(contacts)
     if opts is None:
@@ -1036,6 +1036,8 @@ def _cleanup(
         notes.append("clean-up: skipped, the result is one of the inputs (a weight of 1)")
         return None, None
     found = [detect_contacts(m, opts) for m in prep.motions]
+    for label, c in zip(prep.labels, found, strict=True):
+        notes += [f"clean-up: contacts of {label}: {n}" for n in c.notes if n.startswith(MISSED_STANCES_NOTE)]
     if not any(c.any for c in found):
         notes.append("clean-up: skipped, no contacts found in the inputs")
         return None, None

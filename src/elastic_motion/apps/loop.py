@@ -92,7 +92,7 @@ from elastic_motion.motion import (
     to_euler_curve,
     to_lie_curve,
 )
-from elastic_motion.motion.contacts import ContactOptions, Contacts, detect_contacts
+from elastic_motion.motion.contacts import MISSED_STANCES_NOTE, ContactOptions, Contacts, detect_contacts
 from elastic_motion.motion.joint_limits import JointLimits
 from elastic_motion.motion.rotations import axis_rotation
 
@@ -972,6 +972,7 @@ def _contacts(motion: Motion, mode: str, options: ContactOptions | None) -> tupl
         notes.append("contacts skipped: no joint that can touch the floor (feet, toes, hands)")
     elif not c.any:
         notes.append("contacts: no joint is planted in this clip")
+    notes += [f"contacts: {n}" for n in c.notes if n.startswith(MISSED_STANCES_NOTE)]
     return c, notes
 
 

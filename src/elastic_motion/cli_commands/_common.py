@@ -638,6 +638,38 @@ def add_landmark_weight_option(p: argparse.ArgumentParser) -> None:
     add_alias(p, "--lambda", "--landmark-weight")
 
 
+def add_contact_height_option(p: argparse.ArgumentParser) -> None:
+    """``--contact-height``: the height within which a joint counts as planted."""
+    from elastic_motion.motion.contacts import ContactOptions
+
+    default = ContactOptions()
+    p.add_argument(
+        "--contact-height",
+        type=float,
+        default=None,
+        metavar="METRES",
+        help="a foot, toe or hand is planted when slower than "
+        f"{default.speed_enter:g} m/s within this height of its lowest, and leaves above twice it "
+        f"(default: {default.height_enter:g}); raise it for a floor that is not level or a capture "
+        "that drifts (the notes name the stances it misses)",
+    )
+
+
+def contact_options(args: argparse.Namespace) -> Any:
+    """``--contact-height`` -> ContactOptions (None when not given)."""
+    from elastic_motion.motion.contacts import ContactOptions
+
+    h = getattr(args, "contact_height", None)
+    if h is None:
+        return None
+    if not (math.isfinite(h) and 0 < h <= ContactOptions().max_ground_offset):
+        raise CommandError(
+            f"--contact-height: expected a height in metres in (0, {ContactOptions().max_ground_offset:g}]; "
+            f"got {h!r}"
+        )
+    return ContactOptions(height_enter=h, height_exit=2.0 * h)
+
+
 def landmark_kinds(value: str | None, flag: str = "--landmark-kinds") -> list[str] | None:
     """``--landmark-kinds`` (or the option ``flag``) -> event kinds (None: the library's default
     kinds)."""

@@ -6,6 +6,7 @@ import argparse
 
 from elastic_motion.cli_commands._common import (
     CommandError,
+    add_contact_height_option,
     add_input_options,
     add_joint_options,
     add_json_option,
@@ -13,6 +14,7 @@ from elastic_motion.cli_commands._common import (
     add_quiet_option,
     add_warp_options,
     check_output,
+    contact_options,
     emit_report,
     fmt_float,
     landmark_kinds,
@@ -91,6 +93,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="foot-skate clean-up: auto (default) carries the inputs' foot contacts through the warp "
         "and enforces them by leg IK (bone lengths kept) when contacts are found; off skips it",
     )
+    add_contact_height_option(p)
     p.add_argument(
         "--cycles",
         action="store_true",
@@ -156,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
             max_pairs=args.max_pairs,
             metrics=not args.no_metrics,
             progress=bar,
-            contacts=args.contacts,
+            contacts=args.contacts if args.contacts == "off" else contact_options(args) or args.contacts,
             weight_curve=args.weight_curve,
             cycles=args.cycles,
             loop=args.loop,

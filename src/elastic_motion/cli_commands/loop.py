@@ -8,10 +8,12 @@ from pathlib import Path
 from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
     CommandError,
+    add_contact_height_option,
     add_input_options,
     add_json_option,
     add_quiet_option,
     check_output,
+    contact_options,
     emit_report,
     fmt_float,
     non_negative_float,
@@ -98,6 +100,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "detect them and "
         "report skating and depth below the floor of input and loop during them; 'off': skip",
     )
+    add_contact_height_option(p)
     p.add_argument(
         "--joint-limits",
         choices=("keep", "report", "off"),
@@ -167,6 +170,7 @@ def run(args: argparse.Namespace) -> int:
             window="auto" if args.window == "auto" else None,
             min_length=args.min_length,
             contacts=args.contacts,
+            contact_options=contact_options(args),
             joint_limits=args.joint_limits,
             progress=bar,
         )

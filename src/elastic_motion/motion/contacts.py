@@ -23,6 +23,11 @@ Conventions
   moves faster than ``speed_exit`` (0.8 m/s). Contacts shorter than ``min_duration``
   (0.1 s) are dropped, gaps shorter than ``min_gap`` (0.05 s) between two contacts are
   filled. Speeds are central differences (one-sided at the ends), in m/s.
+* **Not counted, but said**: a stretch that looks planted (slower than ``speed_enter`` for
+  ``min_duration``, within ``max_ground_offset / 2`` of the joint's ground height) but stands
+  above ``height_enter`` is no contact; the notes list them per joint (a floor that is not
+  level, or a capture that drifts: in CMU 07_01 and 08_02 the floor rises 4-6 cm over
+  2.6 s and later stances stand 3-6 cm above the first; one floor height misses them).
 * **Intervals** are half-open frame ranges ``[start, stop)``.
 * Units: a motion whose ``metres_per_unit`` is unknown is measured in its own length unit
   (thresholds then in that unit: pass suitable ones).
@@ -43,6 +48,7 @@ from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
 __all__ = [
+    "MISSED_STANCES_NOTE",
     "ContactOptions",
     "Contacts",
     "contact_joints",
@@ -54,6 +60,8 @@ _AXES = "xyz"
 _CANDIDATE = re.compile(r"foot|toe|ankle|hand|wrist", re.IGNORECASE)
 _NOT_CANDIDATE = re.compile(r"finger|thumb|index|handtip|hand_end", re.IGNORECASE)
 _FLOOR_PERCENTILE = 2.0
+#: How the note on stretches that look planted but are not contacts starts (:func:`detect_contacts`).
+MISSED_STANCES_NOTE = "slow stretches above the contact height, not counted as contacts"
 _GROUND_PERCENTILE = 5.0
 
 
@@ -248,6 +256,39 @@ def _clean_runs(col: np.ndarray, min_len: int, min_gap: int) -> np.ndarray:
     return col
 
 
+def _missed_stances(
+    names: Sequence[str],
+    mask: np.ndarray,
+    rel: np.ndarray,
+    speed: np.ndarray,
+    touches: np.ndarray,
+    opts: ContactOptions,
+    min_len: int,
+    fps: float,
+) -> list[str]:
+    """Per joint, the stretches that look planted but are not contacts: slower than
+    ``speed_enter`` for at least ``min_duration``, never in contact, within
+    ``max_ground_offset / 2`` of the joint's ground height but above ``height_enter``
+    (CMU 07_01 and 08_02: the floor rises 4-6 cm over 2.6 s and the later stances stand
+    3-6 cm above the first). One text per joint that has some (lengths in the contacts' unit)."""
+    out = []
+    for k in np.flatnonzero(touches):
+        found = []
+        for a, b in _runs(speed[:, k] <= opts.speed_enter):
+            if b - a < min_len or mask[a:b, k].any():
+                continue
+            low = float(rel[a:b, k].min())
+            if opts.height_enter < low <= opts.max_ground_offset / 2:
+                found.append((a, low))
+        if found:
+            lows = [x for _, x in found]
+            out.append(
+                f"{names[k]} {len(found)} (the first at {found[0][0] / fps:.2f} s), "
+                f"{min(lows):.3f}-{max(lows):.3f} m above its lowest height"
+            )
+    return out
+
+
 def detect_contacts(
     motion: Motion,
     options: ContactOptions | None = None,
@@ -315,6 +356,13 @@ def detect_contacts(
     never = [n for n, t in zip(names, touches, strict=True) if not t]
     if never:
         notes.append(f"never near the floor in this clip: {never}")
+    missed = _missed_stances(names, mask, rel, speed, touches, opts, min_len, motion.fps)
+    if missed:
+        notes.append(
+            MISSED_STANCES_NOTE + " (a floor that is not "
+            "level, or a capture that drifts? ContactOptions(height_enter=) counts them): "
+            + "; ".join(missed)
+        )
     ground_out = np.where(touches, ground, np.nan)
     return Contacts(
         names, np.asarray(idx, dtype=np.int64), mask, floor, ground_out, motion.fps, motion.up_axis,
