@@ -56,20 +56,60 @@ def test_planted_intervals_are_found_exactly():
 
 
 def test_a_stance_above_the_contact_height_is_named_in_the_notes():
-    """The second stance 5 cm above the first (a floor that rises, as in CMU 07_01 and 08_02):
-    not a contact with the default thresholds, but the notes say where and how high; a
-    higher ``height_enter`` counts it."""
-    height, x = stance_swing()
+    """The second stance 5 cm above the first, in a clip too short (2 s) to tell a floor that
+    rises: not a contact with the default thresholds, but the notes say where and how high;
+    a higher ``height_enter`` counts it."""
+    height, x = stance_swing(fps=45.0)
     height[60:85] = 0.05
-    c = detect_contacts(foot_motion(height, x))
-    assert c.intervals("LeftFoot") == [(10, 40)]
+    c = detect_contacts(foot_motion(height, x, fps=45.0))
+    assert c.floor_offset is None and c.intervals("LeftFoot") == [(10, 40)]
     note = [n for n in c.notes if n.startswith(MISSED_STANCES_NOTE)]
-    assert len(note) == 1 and "LeftFoot 1 (the first at 2.03 s), 0.050-0.050 m above" in note[0]
-    raised = detect_contacts(foot_motion(height, x), ContactOptions(height_enter=0.06, height_exit=0.08))
+    assert len(note) == 1 and "LeftFoot 1 (the first at 1.36 s), 0.050-0.050 m above" in note[0]
+    raised = detect_contacts(
+        foot_motion(height, x, fps=45.0), ContactOptions(height_enter=0.06, height_exit=0.08)
+    )
     assert raised.intervals("LeftFoot") == [(10, 40), (60, 85)]
     assert not any(n.startswith(MISSED_STANCES_NOTE) for n in raised.notes)
     height[60:85] = 0.15  # a foot held still 15 cm up is not a stance: no note
-    assert not any(n.startswith(MISSED_STANCES_NOTE) for n in detect_contacts(foot_motion(height, x)).notes)
+    notes = detect_contacts(foot_motion(height, x, fps=45.0)).notes
+    assert not any(n.startswith(MISSED_STANCES_NOTE) for n in notes)
+
+
+def test_a_floor_that_rises_is_followed():
+    """Six stances on a floor that rises 6 cm over 6 s (a slope, a capture that drifts; CMU
+    08_02 rises as much in 2.6 s): every stance is a contact, measured from the floor of its
+    frame, and the depth below the floor is measured from it too."""
+    n, fps = 180, 30.0
+    planted = np.zeros(n, dtype=bool)
+    for a in range(5, n, 30):
+        planted[a : a + 18] = True
+    rise = 0.06 * np.arange(n) / (n - 1)
+    height = rise + np.where(planted, 0.0, 0.25)
+    x = np.concatenate([[0.0], np.cumsum(np.where(planted[1:] & planted[:-1], 0.0, 1.5 / fps))])
+    c = detect_contacts(foot_motion(height, x, fps=fps))
+    assert c.intervals("LeftFoot") == [(a, a + 18) for a in range(5, n, 30)]
+    assert c.floor_offset is not None and np.ptp(c.floor_offset) == pytest.approx(0.06, abs=0.015)
+    # the floor of each frame follows the stances (within the smoothing)
+    np.testing.assert_allclose(c.floor_heights()[planted], rise[planted], atol=0.012)
+    assert c.summary()["floor_rise_m"] == pytest.approx(np.ptp(c.floor_offset))
+    assert not any(n.startswith(MISSED_STANCES_NOTE) for n in c.notes)
+    assert any("the floor is not level" in n for n in c.notes)
+    # a foot 3 cm into the last stance's floor is 3 cm below it, not above the first's
+    sunk = height.copy()
+    sunk[-20:-5] -= 0.03
+    sk = contact_skating(foot_motion(sunk, x, fps=fps), c)
+    assert sk.below_floor == pytest.approx(0.03, abs=0.012)
+    # level (the same clip without the rise): no offset, as before
+    level = detect_contacts(foot_motion(height - rise, x, fps=fps))
+    assert level.floor_offset is None and level.intervals("LeftFoot") == c.intervals("LeftFoot")
+    # asked for one floor height (a loop's), the rising floor is not followed
+    flat = detect_contacts(foot_motion(height, x, fps=fps), ContactOptions(follow_floor=False))
+    assert flat.floor_offset is None and len(flat.intervals("LeftFoot")) < 6
+    with pytest.raises(ValueError, match="follow_floor"):
+        ContactOptions(follow_floor=1)
+    # on a subset of frames the offset goes with them
+    sub = c.select_frames(np.arange(0, n, 3))
+    np.testing.assert_array_equal(sub.floor_heights(), c.floor_heights()[::3])
 
 
 def test_hysteresis_and_minimum_duration():
@@ -154,11 +194,13 @@ def test_real_clips(mocap_dir, rel, feet, hands_touch):
 
 
 @pytest.mark.mocap
-def test_the_stances_of_a_rising_floor_are_named(mocap_dir):
-    """CMU 08_02: the floor rises about 6 cm over the clip; the left foot's second stance
-    (1.2-1.6 s) stands 3.4 cm above its first and is no contact, which the notes say."""
+def test_the_stances_of_a_rising_floor_are_contacts(mocap_dir):
+    """CMU 08_02: the floor rises about 6 cm over the clip. Measured from one floor height,
+    the left foot's second and third stances (3.4 and 5.9 cm up) were no contacts; measured
+    from the floor of their frames, every stance is."""
     m = load_motion(mocap_dir / "cmu/bvh/08_02.bvh")[0]
     c = detect_contacts(m)
-    assert not c.mask[int(1.3 * m.fps) : int(1.5 * m.fps), c.joints.index("LeftFoot")].any()
-    note = next(n for n in c.notes if n.startswith(MISSED_STANCES_NOTE))
-    assert "LeftFoot 2 (the first at 1.19 s)" in note
+    assert c.floor_offset is not None and 0.04 < np.ptp(c.floor_offset) < 0.08
+    left = c.intervals("LeftFoot")
+    assert len(left) == 3 and left[1][0] / m.fps == pytest.approx(1.2, abs=0.05)
+    assert not any(n.startswith(MISSED_STANCES_NOTE) for n in c.notes)

@@ -148,6 +148,14 @@ def carry_contacts(
     for j in range(mask.shape[1]):
         mask[:, j] = _clean_runs(mask[:, j], min_len, min_gap)
     floor = float(np.dot(wf.mean(axis=0), [c.floor for c in contacts]))
+    # a floor that is not level goes with the frames it is under (each input's at its warped frame)
+    offset = None
+    if any(c.floor_offset is not None for c in contacts):
+        offset = np.zeros(f)
+        for i, (c, v, d) in enumerate(zip(contacts, warps, durations, strict=True)):
+            t = np.interp(u, v[:, 0], v[:, 1]) * d
+            idx = np.clip(np.rint(t * c.fps).astype(int), 0, c.n_frames - 1)
+            offset += wf[:, i] * (c.floor_heights()[idx] - c.floor)
     ground_out = np.where(gw > 0, ground / np.where(gw > 0, gw, 1.0), np.nan)
     return Contacts(
         tuple(names),
@@ -159,6 +167,7 @@ def carry_contacts(
         contacts[0].up_axis,
         opts,
         ("carried from the inputs through the warps (weighted vote > 1/2)",),
+        offset,
     )
 
 
@@ -316,9 +325,9 @@ def _foot_low(pos_all: np.ndarray, sk, ankle: int, up: int) -> np.ndarray:
     return pos_all[:, sub + sites, up].min(axis=1)
 
 
-def _plants(p: np.ndarray, mask: np.ndarray, min_height: float | None, up: int) -> np.ndarray:
+def _plants(p: np.ndarray, mask: np.ndarray, min_height: np.ndarray | None, up: int) -> np.ndarray:
     """Per frame, the plant of the run it is in: the mean floor position over the run, the
-    joint's own height (at least ``min_height``); NaN elsewhere."""
+    joint's own height (at least ``min_height``, per frame); NaN elsewhere."""
     out = np.full_like(p, np.nan)
     for a, b in _runs(mask):
         plant = p[a:b].mean(axis=0)
@@ -326,7 +335,7 @@ def _plants(p: np.ndarray, mask: np.ndarray, min_height: float | None, up: int) 
         # the height is the joint's own (a heel rises before the toe lifts): only the floor
         # position is planted, and the height kept at least the joint's ground height
         h = p[a:b, up]
-        out[a:b, up] = h if min_height is None else np.maximum(h, min_height)
+        out[a:b, up] = h if min_height is None else np.maximum(h, min_height[a:b])
     return out
 
 
@@ -380,7 +389,7 @@ def settle_offset(
     upper: np.ndarray | None = None,
 ) -> np.ndarray:
     """Vertical root offset ``(F,)`` (motion's unit) that puts the planted ankles and toes of
-    ``legs`` at their ground heights (``contacts.floor + contacts.ground_height``), as slowly
+    ``legs`` at their ground heights (``contacts.floor_heights() + contacts.ground_height``), as slowly
     as ``sigma`` allows.
 
     On each frame with a planted joint of known ground height the offset is the mean of
@@ -410,6 +419,7 @@ def settle_offset(
     total = np.zeros(motion.n_frames)
     count = np.zeros(motion.n_frames)
     highest = np.full(motion.n_frames, -np.inf)  # the least a planted joint allows down
+    floor = contacts.floor_heights()
     for leg in legs:
         for j in (leg.ankle, leg.toe):
             if j < 0 or sk.names[j] not in contacts.joints:
@@ -419,7 +429,7 @@ def settle_offset(
             m = contacts.mask[:, k]
             if not np.isfinite(g) or not m.any():
                 continue
-            gap = contacts.floor + g - pos[m, j, up]
+            gap = floor[m] + g - pos[m, j, up]
             total[m] += gap
             count[m] += 1
             highest[m] = np.maximum(highest[m], gap)
@@ -549,13 +559,15 @@ def cleanup_footskate(
     pos, _ = joint_positions_and_rotations(parents, base.local_translations(), base.rotations)
     pos_all = forward_kinematics(base, end_sites=True)
 
-    def col(j: int) -> tuple[np.ndarray, float | None]:
+    floor = contacts.floor_heights()  # (F,): a floor that is not level, frame by frame
+
+    def col(j: int) -> tuple[np.ndarray, np.ndarray | None]:
         name = sk.names[j]
         if j < 0 or name not in contacts.joints:
             return np.zeros(motion.n_frames, dtype=bool), None
         k = contacts.joints.index(name)
         g = contacts.ground_height[k]
-        return contacts.mask[:, k], (contacts.floor + g) if np.isfinite(g) else None
+        return contacts.mask[:, k], (floor + g) if np.isfinite(g) else None
 
     used, targets, turns = [], [], []
     for leg in found:
@@ -563,7 +575,7 @@ def cleanup_footskate(
         mt, ht = col(leg.toe) if leg.toe >= 0 else (np.zeros(motion.n_frames, dtype=bool), None)
         if not (ma.any() or mt.any()):
             # no contact: only keep the foot out of the floor
-            under = contacts.floor - _foot_low(pos_all, sk, leg.ankle, up)
+            under = floor - _foot_low(pos_all, sk, leg.ankle, up)
             if (under > 0).any():
                 tgt = np.full((motion.n_frames, 3), np.nan)
                 tgt[under > 0] = pos[under > 0, leg.ankle]
@@ -605,7 +617,7 @@ def cleanup_footskate(
         # no point of the foot below the floor: raise the ankle where the foot would go under
         low = _foot_low(pos_all, sk, leg.ankle, up)
         # (eased in and out like the plants: a raise of one frame would jerk the knee)
-        delta[:, up] += eased_envelope(np.maximum(contacts.floor - low - delta[:, up], 0.0), width)
+        delta[:, up] += eased_envelope(np.maximum(floor - low - delta[:, up], 0.0), width)
         # a target within _STILL leg lengths of the ankle is where it is: IK there would only
         # bend a straight knee by its reach margin (cm at the knee for nothing)
         length = np.median(
@@ -640,7 +652,7 @@ def cleanup_footskate(
     lift = []
     for leg in found:
         low = _foot_low(p_out, sk, leg.ankle, up)
-        raise_ = eased_envelope(np.maximum(contacts.floor - low, 0.0), width)
+        raise_ = eased_envelope(np.maximum(floor - low, 0.0), width)
         under = raise_ > 0
         if not under.any():
             lift.append(None)

@@ -515,7 +515,8 @@ def _floor_per_frame(motion: Motion, found: Contacts) -> np.ndarray:
     unit = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
     heights = forward_kinematics(motion, end_sites=True)[..., _AXES.index(motion.up_axis)]
     lowest_in = heights.min(axis=1) * unit
-    return np.minimum(found.floor, np.maximum(lowest_in, found.floor - FLOOR_TOLERANCE))
+    floor = found.floor_heights()  # a floor that is not level, frame by frame
+    return np.minimum(floor, np.maximum(lowest_in, floor - FLOOR_TOLERANCE))
 
 
 def _plant_and_lift(
@@ -618,7 +619,7 @@ def _close_keeping_contacts(
     step = grid_step(found, max_step) if max_step > 0 else 0.0
     grid = contact_grid(motion.n_frames, motion.fps, step)
     coarse = select_frames(motion, grid) if grid.size < motion.n_frames else motion
-    found_c = dataclasses.replace(found, mask=found.mask[grid]) if coarse is not motion else found
+    found_c = found.select_frames(grid) if coarse is not motion else found
     # bounded before the Gram matrix of the rows is made (3 rows per contact frame at most)
     limits.check_option(
         "contacts", "rows of the kept contacts (3 per contact frame):", 3 * int(found_c.mask.sum()),
@@ -636,7 +637,7 @@ def _close_keeping_contacts(
         # deepest frame (the input's height there) and the projection is solved again, the
         # contacts kept so far kept and none released; pins that do not fit are dropped
         kept_c = fine_contacts(found_c, np.arange(coarse.n_frames), released)  # on its own frames
-        floor_c = _floor_per_frame(coarse, found)
+        floor_c = _floor_per_frame(coarse, found_c)
         for _ in range(FLOOR_ROUNDS):
             new = floor_rows(coarse, from_lie_curve(res.curve, coarse), floor_c, extra.rows)
             if not res.converged or not new or len(pins) + len(new) > MAX_FLOOR_PINS:
@@ -749,7 +750,8 @@ def _close_clip(
     names = motion.skeleton.names
     j = motion.n_joints
     up = _AXES.index(motion.up_axis)
-    found = detect_contacts(motion, contact_options) if contacts == "keep" and method == "lie" else None
+    keep = contacts == "keep" and method == "lie"
+    found = detect_contacts(motion, _level(contact_options)) if keep else None
     base, travel = motion, None
     if found is not None and found.any and root == "inplace":
         # planted feet cannot stay put while the clip comes back to its start: the body then
@@ -963,10 +965,17 @@ def _window(
     return cw, out, res, kept
 
 
+def _level(options: ContactOptions | None) -> ContactOptions:
+    """A loop's contact options: heights from one floor height (a loop is periodic: closing it
+    puts the end at the start's height, so a floor that rises under the clip is not the loop's;
+    held above it, CMU 07_01's whole loop gave way and went 3.8 cm under it)."""
+    return dataclasses.replace(options or ContactOptions(), follow_floor=False)
+
+
 def _contacts(motion: Motion, mode: str, options: ContactOptions | None) -> tuple[Contacts | None, list[str]]:
     if mode == "off":
         return None, []
-    c = detect_contacts(motion, options)
+    c = detect_contacts(motion, _level(options))
     notes = []
     if not c.joints:
         notes.append("contacts skipped: no joint that can touch the floor (feet, toes, hands)")

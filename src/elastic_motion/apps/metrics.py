@@ -368,7 +368,7 @@ def contact_skating(motion: Motion, contacts: Contacts) -> ContactSkating:
     scale, _ = _metres(motion)
     up = _AXES.index(motion.up_axis)
     pos = forward_kinematics(motion, end_sites=True) * scale
-    below = float(max(0.0, contacts.floor - pos[..., up].min()))
+    below = float(max(0.0, (contacts.floor_heights() - pos[..., up].min(axis=1)).max()))
     idx = [motion.skeleton.index(n) for n in contacts.joints]
     if not idx or motion.n_frames < 2:
         return ContactSkating(0.0, 0.0, {}, 0, below, contacts.floor)

@@ -13,8 +13,16 @@ Conventions
 * **The floor** of a clip is the height (along the motion's up axis, metres) below which
   the clip's lowest point stays only 2 % of the frames: the 2nd percentile over frames of
   the lowest joint or end site. Robust to a few frames of noise.
+* **A floor that is not level** (:func:`floor_profile`): in a clip of at least
+  ``1.5 * FLOOR_WINDOW`` seconds, the lowest point's 10th percentile over a moving window of
+  :data:`FLOOR_WINDOW` seconds, smoothed, is the floor's height frame by frame; when it
+  moves by ``height_enter`` or more over the clip, one way (its total variation at most
+  1.2 times its range) and never faster than :data:`FLOOR_MAX_RATE` (a floor that slopes
+  under a walk, a capture that drifts: CMU 07_01 and 08_02 rise 4-6 cm in 2.6 s), heights
+  are measured from it (:attr:`Contacts.floor_offset`); else from the one floor. (Up and
+  down, it is the body, not the floor: a toe that dips in a turn.)
 * **A joint's ground height** is its own height when planted: the 5th percentile of its
-  height over the clip, above the floor. A joint whose ground height exceeds
+  height over the clip, above the floor (the floor of its frame). A joint whose ground height exceeds
   ``max_ground_offset`` (default 0.2 m) never touches in this clip (a hand in a walk) and
   gets no contact.
 * **In contact** (hysteresis, per joint): a joint *enters* contact when it is within
@@ -35,6 +43,7 @@ Conventions
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import re
@@ -54,12 +63,19 @@ __all__ = [
     "contact_joints",
     "detect_contacts",
     "floor_height",
+    "floor_profile",
 ]
 
 _AXES = "xyz"
 _CANDIDATE = re.compile(r"foot|toe|ankle|hand|wrist", re.IGNORECASE)
 _NOT_CANDIDATE = re.compile(r"finger|thumb|index|handtip|hand_end", re.IGNORECASE)
 _FLOOR_PERCENTILE = 2.0
+#: Seconds of the moving window of :func:`floor_profile` (a stance of each foot in a walk).
+FLOOR_WINDOW = 1.5
+#: Fastest a floor that is not level may move under the clip (m/s; :func:`floor_profile`).
+FLOOR_MAX_RATE = 0.07
+#: Largest total variation of a floor that is not level, in multiples of its range (one way).
+_FLOOR_MONOTONE = 1.2
 #: How the note on stretches that look planted but are not contacts starts (:func:`detect_contacts`).
 MISSED_STANCES_NOTE = "slow stretches above the contact height, not counted as contacts"
 _GROUND_PERCENTILE = 5.0
@@ -76,7 +92,8 @@ def contact_joints(skeleton: Skeleton | Motion) -> list[int]:
 @dataclass(frozen=True)
 class ContactOptions:
     """Thresholds of contact detection (module docstring); lengths in metres, speeds in m/s,
-    durations in seconds."""
+    durations in seconds. ``follow_floor``: measure heights from a floor that is not level
+    (:func:`floor_profile`); False: from one floor height (a loop: periodic, its floor level)."""
 
     height_enter: float = 0.03
     height_exit: float = 0.06
@@ -85,9 +102,14 @@ class ContactOptions:
     min_duration: float = 0.1
     min_gap: float = 0.05
     max_ground_offset: float = 0.2
+    follow_floor: bool = True
 
     def __post_init__(self) -> None:
+        if not isinstance(self.follow_floor, bool):
+            raise ValueError(f"follow_floor: expected True or False; got {self.follow_floor!r}")
         for name in self.__dataclass_fields__:
+            if name == "follow_floor":
+                continue
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name}: expected a finite number >= 0; got {v!r}")
@@ -119,6 +141,9 @@ class Contacts:
     options : ContactOptions
     notes : tuple of str
         What was found or skipped (no candidate joints, joints that never touch).
+    floor_offset : ndarray, shape (F,), or None
+        A floor that is not level (module docstring): its height above ``floor`` frame by
+        frame (same unit); None for a level floor. :meth:`floor_heights` gives both.
     """
 
     joints: tuple[str, ...]
@@ -130,10 +155,22 @@ class Contacts:
     up_axis: str
     options: ContactOptions = field(default_factory=ContactOptions)
     notes: tuple[str, ...] = ()
+    floor_offset: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
         return int(self.mask.shape[0])
+
+    def floor_heights(self) -> np.ndarray:
+        """The floor's height ``(F,)`` frame by frame: ``floor + floor_offset`` (level: ``floor``)."""
+        if self.floor_offset is None:
+            return np.full(self.n_frames, self.floor)
+        return self.floor + np.asarray(self.floor_offset, dtype=np.float64)
+
+    def select_frames(self, frames: np.ndarray) -> Contacts:
+        """The contacts on ``frames`` (indices into these frames; fps unchanged)."""
+        off = None if self.floor_offset is None else np.asarray(self.floor_offset)[frames]
+        return dataclasses.replace(self, mask=self.mask[frames], floor_offset=off)
 
     @property
     def any(self) -> bool:
@@ -174,6 +211,7 @@ class Contacts:
         """JSON-ready: floor, per-joint intervals in frames and seconds, notes."""
         return {
             "floor_m": self.floor,
+            "floor_rise_m": 0.0 if self.floor_offset is None else float(np.ptp(self.floor_offset)),
             "fps": self.fps,
             "joints": {
                 name: {
@@ -212,6 +250,58 @@ def floor_height(motion: Motion, positions: np.ndarray | None = None) -> float:
     up = _AXES.index(motion.up_axis)
     lowest = positions[..., up].min(axis=1)
     return float(np.percentile(lowest, _FLOOR_PERCENTILE))
+
+
+def floor_profile(motion: Motion, positions: np.ndarray, floor: float, rise: float) -> np.ndarray | None:
+    """The floor's height above ``floor`` frame by frame, or None for a level floor (module
+    docstring).
+
+    A straight line in time: ``floor(t) = a + b t`` with the slope ``b`` of the lowest
+    point's moving low percentile (least squares) and ``a`` the 2nd percentile of
+    ``lowest - b t``, as the level floor is of ``lowest`` (so at most 2 % of frames go under it,
+    and ``b = 0`` is the level floor).
+
+    Parameters
+    ----------
+    motion : Motion
+    positions : ndarray, shape (F, P, 3)
+        FK positions of joints and end sites (metres, or the motion's unit).
+    floor : float
+        The clip's level floor (:func:`floor_height`).
+    rise : float
+        The least change over the clip that makes the floor not level (same unit).
+
+    Returns
+    -------
+    ndarray, shape (F,), or None
+        None for a clip shorter than ``1.5 * FLOOR_WINDOW``, a floor that moves less than
+        ``rise``, faster than :data:`FLOOR_MAX_RATE`, or up and down.
+    """
+    from scipy.ndimage import gaussian_filter1d, percentile_filter
+
+    f = motion.n_frames
+    width = round(FLOOR_WINDOW * motion.fps)
+    if 2 * f < 3 * width or width < 3:
+        return None
+    lowest = positions[..., _AXES.index(motion.up_axis)].min(axis=1)
+    # a window holds a stance of each foot in a walk: its low percentile is the floor there,
+    # whatever the feet do in between (flight, a raised foot); smoothed over a third of it
+    low = percentile_filter(lowest, 10.0, size=width | 1, mode="nearest")
+    low = gaussian_filter1d(low, width / 3.0, mode="nearest")
+    # a floor that slopes under a walk, or a capture that drifts, moves slowly and one way
+    # (CMU 07_01, 08_02: 2.5-3 cm/s, all the way up); faster, or up and down, it is the body
+    # (a foot held up, a toe that dips in a turn: CMU 131_01 went 5 cm down and up again in
+    # 2 s and lost two stances), and the floor is taken as level
+    if np.ptp(low) < rise or np.abs(np.gradient(low)).max() * motion.fps > FLOOR_MAX_RATE:
+        return None
+    if np.abs(np.diff(low)).sum() > _FLOOR_MONOTONE * np.ptp(low):
+        return None
+    t = np.arange(f) / motion.fps
+    slope = float(np.polyfit(t, low, 1)[0])
+    if abs(slope) * t[-1] < rise:
+        return None
+    line = slope * t
+    return float(np.percentile(lowest - line, _FLOOR_PERCENTILE)) + line - floor
 
 
 def _horizontal_speed(p: np.ndarray, up: int, fps: float) -> np.ndarray:
@@ -340,7 +430,8 @@ def detect_contacts(
             motion.fps, motion.up_axis, opts, ("no joint that can touch the floor (feet, toes, hands)",),
         )  # fmt: skip
     p = pos[:, idx]
-    height = p[..., up] - floor
+    offset = floor_profile(motion, pos, floor, opts.height_enter) if opts.follow_floor else None
+    height = p[..., up] - floor - (0.0 if offset is None else offset[:, None])
     ground = np.percentile(height, _GROUND_PERCENTILE, axis=0)
     speed = _horizontal_speed(p, up, motion.fps)
     touches = ground <= opts.max_ground_offset
@@ -353,6 +444,12 @@ def detect_contacts(
     for k in range(mask.shape[1]):
         mask[:, k] = _clean_runs(mask[:, k], min_len, min_gap)
     notes = []
+    if offset is not None:
+        notes.append(
+            f"the floor is not level: it moves by {np.ptp(offset):.3g} over the clip (from "
+            f"{offset[0]:+.3g} to {offset[-1]:+.3g} about the floor {floor:.3g}); heights are "
+            "measured from it frame by frame"
+        )
     never = [n for n, t in zip(names, touches, strict=True) if not t]
     if never:
         notes.append(f"never near the floor in this clip: {never}")
@@ -366,5 +463,5 @@ def detect_contacts(
     ground_out = np.where(touches, ground, np.nan)
     return Contacts(
         names, np.asarray(idx, dtype=np.int64), mask, floor, ground_out, motion.fps, motion.up_axis,
-        opts, tuple(notes),
+        opts, tuple(notes), offset,
     )  # fmt: skip
