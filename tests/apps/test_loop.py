@@ -24,6 +24,7 @@ from elastic_motion.motion import (
     forward_kinematics,
     from_lie_curve,
     read_motion,
+    select_frames,
     to_lie_curve,
 )
 
@@ -157,6 +158,15 @@ def test_treadmill_removes_the_travel_at_a_constant_rate():
         flat.root_translation[k], back @ (arc[k] - line) + arc[0] * [1, 0, 1], atol=1e-12
     )
     np.testing.assert_allclose(flat.rotations[:, 0], np.tile(tilt, (f, 1, 1)), atol=1e-12)
+    # on_belt undoes it exactly (the belt's travel and turn put back)
+    from elastic_motion.apps.loop import on_belt
+
+    turned = walk.replace(rotations=rots, root_translation=arc)
+    back_on = on_belt(flat, turned)
+    np.testing.assert_allclose(back_on.root_translation, arc, atol=1e-12)
+    np.testing.assert_allclose(back_on.rotations, turned.rotations, atol=1e-12)
+    with pytest.raises(ValueError, match="frames"):
+        on_belt(select_frames(flat, np.arange(5)), turned)
 
 
 @pytest.mark.mocap
@@ -177,8 +187,14 @@ def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
     assert root_speed(out) < root_speed(m)
     np.testing.assert_allclose(out.root_translation[-1], out.root_translation[0], atol=1e-6)
     assert res.seam_after.seam_angle_max_deg < 1e-3
+    # in the world the planted feet move back with the belt (about the run's 3.5 m/s); with
+    # the belt's motion taken out they slip as little as the input's do
+    belt = res.skating_on_treadmill
+    assert res.skating_after.mean_speed > 2.0 and belt.mean_speed < 1.1 * res.skating_before.mean_speed
+    assert res.summary()["skating_on_treadmill"]["skating_mean_m_s"] == pytest.approx(belt.mean_speed)
     # travel keeps the planted feet where they are: no treadmill there
-    assert "treadmill" not in (loop_motion(m, root="travel").contacts_kept or {})
+    travel = loop_motion(m, root="travel")
+    assert "treadmill" not in (travel.contacts_kept or {}) and travel.skating_on_treadmill is None
 
 
 @pytest.mark.mocap

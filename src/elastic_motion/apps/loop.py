@@ -179,6 +179,12 @@ class LoopResult:
     prepared : PreparedMotions
         The preparation step's result (its ``inputs[0]`` says what was done).
     notes : tuple of str
+    skating_before, skating_after : ContactSkating or None
+        Skating and depth below the floor during the input's contacts, input and loop.
+    skating_on_treadmill : ContactSkating or None
+        In place with contacts kept (a treadmill, :func:`treadmill`): the loop's skating with
+        the belt's motion taken out (:func:`on_belt`), how much the feet slip on it;
+        ``skating_after`` is in the world, where planted feet move back with the belt.
     """
 
     motion: Motion
@@ -201,6 +207,7 @@ class LoopResult:
     skating_after: ContactSkating | None = None
     contacts_kept: dict | None = None
     joint_limits: LoopLimits | None = None
+    skating_on_treadmill: ContactSkating | None = None
 
     def summary(self) -> dict:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -234,6 +241,9 @@ class LoopResult:
             "contacts": self.contacts.summary() if self.contacts is not None else None,
             "skating_before": self.skating_before.summary() if self.skating_before is not None else None,
             "skating_after": self.skating_after.summary() if self.skating_after is not None else None,
+            "skating_on_treadmill": None
+            if self.skating_on_treadmill is None
+            else self.skating_on_treadmill.summary(),
             "contacts_kept": self.contacts_kept,
             "joint_limits": self.joint_limits.summary() if self.joint_limits is not None else None,
             "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
@@ -337,6 +347,26 @@ def treadmill(motion: Motion) -> tuple[Motion, float, float]:
     rots = motion.rotations.copy()
     rots[:, 0] = r @ rots[:, 0]
     return motion.replace(root_translation=root, rotations=rots), float(np.linalg.norm(p1 - p0)), float(delta)
+
+
+def on_belt(motion: Motion, original: Motion) -> Motion:
+    """``motion`` (on ``original``'s frames) with :func:`treadmill` of ``original`` undone: the
+    travel and turn that the treadmill removes at a constant rate put back, so a foot that
+    rides the belt stands still. The inverse of ``treadmill(original)`` (exact on it)."""
+    up = _AXES.index(original.up_axis)
+    f = original.n_frames
+    if motion.n_frames != f:
+        raise ValueError(f"motion: expected {f} frames like the original; got {motion.n_frames}")
+    s = np.arange(f) / max(f - 1, 1)
+    delta = _twist_angle(original.rotations[-1, 0] @ original.rotations[0, 0].T, up)
+    r = axis_rotation(delta * s, "XYZ"[up])
+    p0, p1 = original.root_translation[0].copy(), original.root_translation[-1].copy()
+    p0[up] = p1[up] = 0.0
+    line = p0 + s[:, None] * (p1 - p0)
+    root = np.einsum("fij,fj->fi", r, motion.root_translation - p0) + line
+    rots = motion.rotations.copy()
+    rots[:, 0] = r @ rots[:, 0]
+    return motion.replace(root_translation=root, rotations=rots)
 
 
 def repeat_motion(motion: Motion, cycles: int = 3, root: str = "travel") -> Motion:
@@ -1219,10 +1249,13 @@ def loop_motion(
     whip = _whip_note(motion, out, whole=cw is None, seam=seam_before)
     if whip:
         contact_notes.append(whip)
-    sk_before = sk_after = None
+    sk_before = sk_after = sk_belt = None
     if found is not None and found.joints:
         sk_before = contact_skating(motion, found)
         sk_after = contact_skating(out, found)
+        if kept is not None and kept.get("treadmill"):
+            # in place the feet ride the belt: how much they slip on it
+            sk_belt = contact_skating(on_belt(out, motion), found)
     return LoopResult(
         motion=out,
         original=motion,
@@ -1242,6 +1275,7 @@ def loop_motion(
         contacts=found,
         skating_before=sk_before,
         skating_after=sk_after,
+        skating_on_treadmill=sk_belt,
         contacts_kept=kept,
         joint_limits=lim_info,
     )

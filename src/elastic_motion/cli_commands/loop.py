@@ -207,10 +207,13 @@ def run(args: argparse.Namespace) -> int:
             + (f" (whole clip: {fmt_float(whole)} m)" if whole is not None else "")
         )
     if res.skating_before is not None and res.skating_after is not None and res.contacts.any:
+        belt = res.skating_on_treadmill
+        belt = "" if belt is None else f"; on the treadmill (its motion out) {fmt_float(belt.mean_speed)} m/s"
         lines.append(
             f"contacts: skating {fmt_float(res.skating_before.mean_speed)} -> "
             f"{fmt_float(res.skating_after.mean_speed)} m/s, below the floor "
             f"{fmt_float(res.skating_before.below_floor)} -> {fmt_float(res.skating_after.below_floor)} m"
+            + belt
         )
     if res.joint_limits is not None:
         jl = res.joint_limits
