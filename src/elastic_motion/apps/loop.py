@@ -335,34 +335,35 @@ def treadmill(motion: Motion) -> tuple[Motion, float, float]:
     turn : float
         The heading change removed (radians).
     """
-    up = _AXES.index(motion.up_axis)
-    f = motion.n_frames
-    s = np.arange(f) / max(f - 1, 1)
-    delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, up)
-    r = axis_rotation(-delta * s, "XYZ"[up])  # (F, 3, 3)
-    p0, p1 = motion.root_translation[0].copy(), motion.root_translation[-1].copy()
-    p0[up] = p1[up] = 0.0
-    line = p0 + s[:, None] * (p1 - p0)
+    turn, p0, line = _belt(motion)
+    r = turn.swapaxes(-1, -2)  # (F, 3, 3): each frame turned back
     root = np.einsum("fij,fj->fi", r, motion.root_translation - line) + p0
     rots = motion.rotations.copy()
     rots[:, 0] = r @ rots[:, 0]
-    return motion.replace(root_translation=root, rotations=rots), float(np.linalg.norm(p1 - p0)), float(delta)
+    delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, _AXES.index(motion.up_axis))
+    return motion.replace(root_translation=root, rotations=rots), float(np.linalg.norm(line[-1] - p0)), delta
+
+
+def _belt(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The treadmill of a clip (:func:`treadmill`): per frame the turn ``Y(delta s)`` it has
+    made by then ``(F, 3, 3)``, the first floor position ``p0`` and the straight line ``L_s``
+    from it to the last ``(F, 3)``."""
+    up = _AXES.index(motion.up_axis)
+    s = np.arange(motion.n_frames) / max(motion.n_frames - 1, 1)
+    delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, up)
+    p0, p1 = motion.root_translation[0].copy(), motion.root_translation[-1].copy()
+    p0[up] = p1[up] = 0.0
+    return axis_rotation(delta * s, "XYZ"[up]), p0, p0 + s[:, None] * (p1 - p0)
 
 
 def on_belt(motion: Motion, original: Motion) -> Motion:
     """``motion`` (on ``original``'s frames) with :func:`treadmill` of ``original`` undone: the
     travel and turn that the treadmill removes at a constant rate put back, so a foot that
     rides the belt stands still. The inverse of ``treadmill(original)`` (exact on it)."""
-    up = _AXES.index(original.up_axis)
     f = original.n_frames
     if motion.n_frames != f:
         raise ValueError(f"motion: expected {f} frames like the original; got {motion.n_frames}")
-    s = np.arange(f) / max(f - 1, 1)
-    delta = _twist_angle(original.rotations[-1, 0] @ original.rotations[0, 0].T, up)
-    r = axis_rotation(delta * s, "XYZ"[up])
-    p0, p1 = original.root_translation[0].copy(), original.root_translation[-1].copy()
-    p0[up] = p1[up] = 0.0
-    line = p0 + s[:, None] * (p1 - p0)
+    r, p0, line = _belt(original)
     root = np.einsum("fij,fj->fi", r, motion.root_translation - p0) + line
     rots = motion.rotations.copy()
     rots[:, 0] = r @ rots[:, 0]
@@ -1219,7 +1220,8 @@ def loop_motion(
             contact_notes.append(
                 f"contacts kept on a treadmill: in place, the clip's travel ({t['travel_m']:.3g} m, "
                 f"turn {t['turn_deg']:.3g} deg) is removed at a constant rate before closing, so planted "
-                f"feet move back with it at {t['travel_m'] / motion.duration:.3g} m/s (the skating below; "
+                f"feet move back with it at {t['travel_m'] / motion.duration:.3g} m/s (the skating in the "
+                "world; 'on the treadmill' takes the belt out; "
                 "'changed the clip' counts the travel removed) instead of the body jumping back between "
                 "two frames"
             )
