@@ -3,6 +3,8 @@ blend's report; real walks skate no more than their inputs."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from blend_testlib import walker
@@ -39,6 +41,35 @@ def test_carried_contacts_vote_with_the_weights():
     shift = np.array([[0.0, 0.0], [0.1, 0.1 + 5 / 30], [0.9, 0.9 + 2 / 30], [1.0, 1.0]])
     carried = carry_contacts([ca, cb], [IDENTITY, shift], u, [1.0, 1.0], [0.5, 0.5], fps=30.0)
     assert carried.mask[6:19, 0].all() and not carried.mask[:3, 0].any()
+
+
+def test_a_floor_that_is_not_level_is_carried_with_the_frames():
+    """A's floor rises 6 cm over its frames, B's is level: the blend's floor offset is the
+    weighted sum of each input's at its warped frame (B's warp delays it by 5 frames)."""
+    f = 31
+    mask = np.zeros((f, 1), dtype=bool)
+    rise = np.linspace(0.0, 0.06, f)
+    ca = dataclasses.replace(_contacts(["LeftFoot"], mask), floor_offset=rise)
+    cb = _contacts(["LeftFoot"], mask, floor=0.01)
+    u = np.linspace(0.0, 1.0, f)
+    out = carry_contacts([ca, cb], [IDENTITY, IDENTITY], u, [1.0, 1.0], [0.25, 0.75], fps=30.0)
+    np.testing.assert_allclose(out.floor_offset, 0.25 * rise, atol=1e-12)
+    np.testing.assert_allclose(out.floor_heights(), 0.75 * 0.01 + 0.25 * rise, atol=1e-12)
+    # A warped (its frame idx of u is 5 frames later, clipped at the end)
+    late = np.array([[0.0, 5 / 30], [25 / 30, 1.0], [1.0, 1.0]])
+    out = carry_contacts([cb, ca], [IDENTITY, late], u, [1.0, 1.0], [0.5, 0.5], fps=30.0)
+    idx = np.clip(np.rint(np.interp(u, late[:, 0], late[:, 1]) * 30).astype(int), 0, f - 1)
+    np.testing.assert_allclose(out.floor_offset, 0.5 * rise[idx], atol=1e-12)
+    # a weight curve (per frame): each frame's own weights
+    wa = np.linspace(0.0, 1.0, f)
+    curve = np.column_stack([wa, 1.0 - wa])
+    out = carry_contacts([ca, cb], [IDENTITY, IDENTITY], u, [1.0, 1.0], curve, fps=30.0)
+    np.testing.assert_allclose(out.floor_offset, wa * rise, atol=1e-12)
+    # level inputs: a level result
+    assert (
+        carry_contacts([cb, cb], [IDENTITY, IDENTITY], u, [1.0, 1.0], [0.5, 0.5], fps=30.0).floor_offset
+        is None
+    )
 
 
 def test_ease_keeps_known_values_and_fades_out_continuously():

@@ -61,6 +61,18 @@ def test_bad_files_name_the_file_and_line(tmp_path, text, line, match):
     assert info.value.path == str(f) and info.value.line == line
 
 
+def test_bad_arguments_are_named(tmp_path):
+    f = tmp_path / "p.txt"
+    f.write_text("1 2\n")
+    for fps in ((0.0, 30.0), (30.0,), (30.0, float("nan")), (True, 30.0)):
+        with pytest.raises(ValueError, match="fps: expected the frame rates"):
+            read_landmark_file(f, fps=fps)
+    with pytest.raises(ValueError, match="units"):
+        read_landmark_file(f, units="hours")
+    with pytest.raises(ParseError, match=r"missing\.txt"):
+        read_landmark_file(tmp_path / "missing.txt")
+
+
 def test_landmark_time():
     assert landmark_time("1.5", "seconds", None) == 1.5
     assert landmark_time("30", "frames", 60.0) == 0.5

@@ -130,10 +130,14 @@ def carry_contacts(
     vote = np.zeros((f, len(names)))
     ground = np.zeros(len(names))
     gw = np.zeros(len(names))
+    # a floor that is not level goes with the frames it is under (each input's at its warped frame)
+    offset = np.zeros(f) if any(c.floor_offset is not None for c in contacts) else None
     for i, (c, v, d) in enumerate(zip(contacts, warps, durations, strict=True)):
         wk = wf[:, i]
         t = np.interp(u, v[:, 0], v[:, 1]) * d
         idx = np.clip(np.rint(t * c.fps).astype(int), 0, c.n_frames - 1)
+        if offset is not None and c.floor_offset is not None:
+            offset += wk * np.asarray(c.floor_offset)[idx]
         for j, n in enumerate(names):
             if n in c.joints:
                 k = c.joints.index(n)
@@ -148,14 +152,6 @@ def carry_contacts(
     for j in range(mask.shape[1]):
         mask[:, j] = _clean_runs(mask[:, j], min_len, min_gap)
     floor = float(np.dot(wf.mean(axis=0), [c.floor for c in contacts]))
-    # a floor that is not level goes with the frames it is under (each input's at its warped frame)
-    offset = None
-    if any(c.floor_offset is not None for c in contacts):
-        offset = np.zeros(f)
-        for i, (c, v, d) in enumerate(zip(contacts, warps, durations, strict=True)):
-            t = np.interp(u, v[:, 0], v[:, 1]) * d
-            idx = np.clip(np.rint(t * c.fps).astype(int), 0, c.n_frames - 1)
-            offset += wf[:, i] * (c.floor_heights()[idx] - c.floor)
     ground_out = np.where(gw > 0, ground / np.where(gw > 0, gw, 1.0), np.nan)
     return Contacts(
         tuple(names),

@@ -125,6 +125,12 @@ def read_landmark_file(
     """
     if units not in ("seconds", "frames"):
         raise ValueError(f"units: expected 'seconds' or 'frames'; got {units!r}")
+    if fps is not None:
+        ok = len(fps) == 2 and all(
+            isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) and x > 0 for x in fps
+        )
+        if not ok:
+            raise ValueError(f"fps: expected the frame rates of A and B, two numbers > 0; got {fps!r}")
     p = Path(path)
     text = read_text(p)  # a regular file within the max_file_bytes limit, else ParseError
     fa, fb = (None, None) if fps is None else fps

@@ -335,25 +335,24 @@ def treadmill(motion: Motion) -> tuple[Motion, float, float]:
     turn : float
         The heading change removed (radians).
     """
-    turn, p0, line = _belt(motion)
+    turn, p0, line, delta = _belt(motion)
     r = turn.swapaxes(-1, -2)  # (F, 3, 3): each frame turned back
     root = np.einsum("fij,fj->fi", r, motion.root_translation - line) + p0
     rots = motion.rotations.copy()
     rots[:, 0] = r @ rots[:, 0]
-    delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, _AXES.index(motion.up_axis))
     return motion.replace(root_translation=root, rotations=rots), float(np.linalg.norm(line[-1] - p0)), delta
 
 
-def _belt(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _belt(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The treadmill of a clip (:func:`treadmill`): per frame the turn ``Y(delta s)`` it has
-    made by then ``(F, 3, 3)``, the first floor position ``p0`` and the straight line ``L_s``
-    from it to the last ``(F, 3)``."""
+    made by then ``(F, 3, 3)``, the first floor position ``p0``, the straight line ``L_s``
+    from it to the last ``(F, 3)`` and the heading change ``delta`` (radians)."""
     up = _AXES.index(motion.up_axis)
     s = np.arange(motion.n_frames) / max(motion.n_frames - 1, 1)
     delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, up)
     p0, p1 = motion.root_translation[0].copy(), motion.root_translation[-1].copy()
     p0[up] = p1[up] = 0.0
-    return axis_rotation(delta * s, "XYZ"[up]), p0, p0 + s[:, None] * (p1 - p0)
+    return axis_rotation(delta * s, "XYZ"[up]), p0, p0 + s[:, None] * (p1 - p0), float(delta)
 
 
 def on_belt(motion: Motion, original: Motion) -> Motion:
@@ -363,7 +362,7 @@ def on_belt(motion: Motion, original: Motion) -> Motion:
     f = original.n_frames
     if motion.n_frames != f:
         raise ValueError(f"motion: expected {f} frames like the original; got {motion.n_frames}")
-    r, p0, line = _belt(original)
+    r, p0, line, _ = _belt(original)
     root = np.einsum("fij,fj->fi", r, motion.root_translation - p0) + line
     rots = motion.rotations.copy()
     rots[:, 0] = r @ rots[:, 0]
@@ -1103,7 +1102,8 @@ def loop_motion(
         (:func:`elastic_motion.apps.metrics.contact_skating`); ``"keep"`` does this too.
         ``"off"``: skip.
     contact_options : ContactOptions, optional
-        Thresholds of contact detection.
+        Thresholds of contact detection; heights are measured from one floor height whatever
+        its ``follow_floor`` (a loop is periodic: :func:`_level`).
     contact_step : float, default 1/30
         With ``contacts="keep"``: a clip whose contacts need more rows than
         :data:`elastic_motion.apps.loop_contacts.ROW_BUDGET` is closed on a grid of its

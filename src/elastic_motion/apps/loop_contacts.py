@@ -20,8 +20,8 @@ subject to closure *and* the input's contacts
   toe crosses the seam while its heel (ankle) is planted on the last frame but lifted on
   the first leaves that last heel contact to the toe: rows on both (the heel's absolute,
   the toe's relative to the seam) fight over the rigid foot by a few mm and the solver
-  stalls (CMU 55_01 frames 391-991). A heel contact that ends before the last frame while
-  its toe's seam contact has begun moves with the toe: its floor-plane rows are relative to
+  stalls (CMU 55_01 frames 391-991). A heel contact that ends before the last frame and lies
+  mostly (over half) within its toe's seam contact moves with the toe: its floor-plane rows are relative to
   the toe's position on the last frame (``anchor_joint``), so the foot keeps the input's
   direction (held absolutely, the heel stayed where it was while the toe went with the seam:
   a Bandai walk's foot turned 22 deg about its heel through the whole stance).
@@ -101,6 +101,11 @@ class _Row:
     target: float
     anchor_joint: int = -1  # a relative row's point at ``anchor``: -1 its own joint
 
+    @property
+    def anchor_point(self) -> int:
+        """The point a relative row is measured from at its ``anchor`` frame."""
+        return self.joint if self.anchor_joint < 0 else self.anchor_joint
+
 
 def contact_rows(
     motion: Motion,
@@ -160,12 +165,14 @@ def contact_rows(
             # piece (absolute, it held the heel where it was while the toe went with the seam,
             # and the foot turned about the heel: 22 deg through a Bandai walk's stance); a heel
             # contact of an earlier step that the toe's last one only overlaps stays absolute
-            with_seam = next(
-                (k for k, s in seam_runs.get(body(name), []) if k != j and 2 * (b - max(a, s)) > b - a),
-                -1,
+            with_seam = (
+                -1
+                if seam
+                else next(
+                    (k for k, s in seam_runs.get(body(name), []) if k != j and 2 * (b - max(a, s)) > b - a),
+                    -1,
+                )
             )
-            if seam:
-                with_seam = -1
             for f in range(a, b):
                 if seam:
                     if f == f_count - 1 or (c1 and f == f_count - 2):
@@ -247,9 +254,7 @@ class ContactConstraints(ExtraConstraints):
         self.axis = np.array([r.axis for r in self.rows], dtype=np.int64)
         self.anchor = np.array([r.anchor for r in self.rows], dtype=np.int64)
         # the point a relative row is measured from: its own joint unless another is named
-        self.anchor_point = np.array(
-            [r.joint if r.anchor_joint < 0 else r.anchor_joint for r in self.rows], dtype=np.int64
-        )
+        self.anchor_point = np.array([r.anchor_point for r in self.rows], dtype=np.int64)
         self.target = np.array([r.target for r in self.rows], dtype=np.float64)
         self._sites = bool((self.joint >= motion.n_joints).any())  # FK of end sites: only if used
         # proper ancestors of each row's point and of its anchor point, padded with -1
@@ -462,8 +467,7 @@ def row_plants(
     out: dict[str, np.ndarray] = {}
     for r in rows:
         plant = out.setdefault(r.name, np.full((motion.n_frames, 3), np.nan))
-        point = r.joint if r.anchor_joint < 0 else r.anchor_joint
-        base = pos[r.anchor, point, r.axis] if r.anchor >= 0 else 0.0
+        base = pos[r.anchor, r.anchor_point, r.axis] if r.anchor >= 0 else 0.0
         plant[r.frame, r.axis] = (r.target + base) / scale
     return out
 

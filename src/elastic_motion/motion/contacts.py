@@ -15,16 +15,17 @@ Conventions
   the lowest joint or end site. Robust to a few frames of noise.
 * **A floor that is not level** (:func:`floor_profile`): in a clip of at least
   ``1.5 * FLOOR_WINDOW`` seconds, the lowest point's 10th percentile over a moving window of
-  :data:`FLOOR_WINDOW` seconds, smoothed, is the floor's height frame by frame; when it
-  moves by ``height_enter`` or more over the clip, one way (its total variation at most
-  1.2 times its range) and never faster than :data:`FLOOR_MAX_RATE` (a floor that slopes
-  under a walk, a capture that drifts: CMU 07_01 and 08_02 rise 4-6 cm in 2.6 s), heights
-  are measured from it (:attr:`Contacts.floor_offset`); else from the one floor. (Up and
-  down, it is the body, not the floor: a toe that dips in a turn.)
+  :data:`FLOOR_WINDOW` seconds, smoothed, tells how the floor moves; when it moves by
+  ``height_enter`` or more over the clip, one way (its total variation at most 1.2 times
+  its range) and never faster than :data:`FLOOR_MAX_RATE` (a floor that slopes under a
+  walk, a capture that drifts: CMU 07_01 and 08_02 rise 4.9 and 6.6 cm in 2.6 s), the floor
+  is a straight line in time with its slope, placed like the level floor (2 % of frames
+  under it), and heights are measured from it (:attr:`Contacts.floor_offset`); else from
+  the one floor. (Up and down, it is the body, not the floor: a toe that dips in a turn.)
 * **A joint's ground height** is its own height when planted: the 5th percentile of its
-  height over the clip, above the floor (the floor of its frame). A joint whose ground height exceeds
-  ``max_ground_offset`` (default 0.2 m) never touches in this clip (a hand in a walk) and
-  gets no contact.
+  height over the clip, above the floor (the floor of its frame). A joint whose ground
+  height exceeds ``max_ground_offset`` (default 0.2 m) never touches in this clip (a hand in
+  a walk) and gets no contact.
 * **In contact** (hysteresis, per joint): a joint *enters* contact when it is within
   ``height_enter`` (3 cm) of its ground height and its horizontal speed is below
   ``speed_enter`` (0.4 m/s); it *leaves* when it rises above ``height_exit`` (6 cm) or
