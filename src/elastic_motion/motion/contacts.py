@@ -36,7 +36,9 @@ Conventions
   ``min_duration``, within ``max_ground_offset / 2`` of the joint's ground height) but stands
   above ``height_enter`` is no contact; the notes list them per joint (a floor that is not
   level, or a capture that drifts: in CMU 07_01 and 08_02 the floor rises 4-6 cm over
-  2.6 s and later stances stand 3-6 cm above the first; one floor height misses them).
+  2.6 s and later stances stand 3-6 cm above the first; one floor height misses them). A
+  heel raised while the toe below it is planted (walking on the ball of the foot) is
+  neither a contact of the heel nor said.
 * **Intervals** are half-open frame ranges ``[start, stop)``.
 * Units: a motion whose ``metres_per_unit`` is unknown is measured in its own length unit
   (thresholds then in that unit: pass suitable ones).
@@ -347,12 +349,19 @@ def _clean_runs(col: np.ndarray, min_len: int, min_gap: int) -> np.ndarray:
     return col
 
 
+def _below(skeleton: Skeleton, idx: Sequence[int]) -> list[list[int]]:
+    """For each candidate ``idx[k]``, the positions in ``idx`` of the candidates below it in
+    the skeleton (an ankle's toe)."""
+    return [[i for i, j in enumerate(idx) if j != jk and j in skeleton.subtree(jk)] for jk in idx]
+
+
 def _missed_stances(
     names: Sequence[str],
     mask: np.ndarray,
     rel: np.ndarray,
     speed: np.ndarray,
     touches: np.ndarray,
+    below: Sequence[Sequence[int]],
     opts: ContactOptions,
     min_len: int,
     fps: float,
@@ -361,12 +370,17 @@ def _missed_stances(
     ``speed_enter`` for at least ``min_duration``, never in contact, within
     ``max_ground_offset / 2`` of the joint's ground height but above ``height_enter``
     (CMU 07_01 and 08_02: the floor rises 4-6 cm over 2.6 s and the later stances stand
-    3-6 cm above the first). One text per joint that has some (lengths in the contacts' unit)."""
+    3-6 cm above the first). A stretch during most of which a joint below it (``below[k]``:
+    its toe) is planted is a heel raised on the toe, not a missed stance, and is left out
+    (CMU 131_02 walks slowly on its toes: 10 such stretches of its ankles, 5-9 cm up). One
+    text per joint that has some (lengths in the contacts' unit)."""
     out = []
     for k in np.flatnonzero(touches):
         found = []
         for a, b in _runs(speed[:, k] <= opts.speed_enter):
             if b - a < min_len or mask[a:b, k].any():
+                continue
+            if below[k] and 2 * mask[a:b, list(below[k])].any(axis=1).sum() > b - a:
                 continue
             low = float(rel[a:b, k].min())
             if opts.height_enter < low <= opts.max_ground_offset / 2:
@@ -454,7 +468,7 @@ def detect_contacts(
     never = [n for n, t in zip(names, touches, strict=True) if not t]
     if never:
         notes.append(f"never near the floor in this clip: {never}")
-    missed = _missed_stances(names, mask, rel, speed, touches, opts, min_len, motion.fps)
+    missed = _missed_stances(names, mask, rel, speed, touches, _below(sk, idx), opts, min_len, motion.fps)
     if missed:
         notes.append(
             MISSED_STANCES_NOTE + " (a floor that is not "
