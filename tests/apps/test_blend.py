@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from blend_testlib import walker
@@ -185,6 +187,13 @@ def test_different_skeletons_name_the_joints(pair):
     res = blend_motions([a, b2], 0.5, prepare=PrepareOptions(joints="common"), metrics=False)
     assert "LeftHand" not in res.motion.skeleton.names
     assert any("joints not shared by all inputs" in n for n in res.notes)
+    # the same skeleton under other names (a CMU ASF file against a BVH conversion of it):
+    # no joint is shared, so the message says to rename, not to keep the shared joints
+    sk = b.skeleton
+    renamed = b.replace(skeleton=dataclasses.replace(sk, names=tuple(f"j{k}" for k in range(sk.n_joints))))
+    with pytest.raises(ValueError, match=r"share 0 joints from the root on: the skeletons name") as err:
+        blend_motions([a, renamed], 0.5, metrics=False)
+    assert "joints='common'" not in str(err.value)
 
 
 def test_different_frame_rates_are_resampled(pair):

@@ -554,11 +554,18 @@ def _select_joints(ms: list[Motion], labels: list[str], joints: str | tuple[str,
         names0, pa = set(ms[0].skeleton.names), _parent_names(ms[0])
         for k in range(1, len(ms)):
             if set(ms[k].skeleton.names) != names0 or _parent_names(ms[k]) != pa:
+                shared = closed_joint_set(ms[0].skeleton, names0 & set(ms[k].skeleton.names))
+                hint = (
+                    "joints='common' (CLI: --joints common) keeps the shared joints"
+                    if len(shared) >= MIN_COMMON_FRACTION * min(len(names0), ms[k].n_joints)
+                    else f"they share {len(shared)} joints from the root on: the skeletons name their "
+                    "joints differently (a CMU ASF file and a BVH conversion of it do); rename the joints "
+                    "of one to the other's names"
+                )
                 raise OptionError(
                     "joints",
                     f"expected the same skeleton in every input; {labels[0]} and {labels[k]} differ "
-                    f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])}); joints='common' "
-                    "(CLI: --joints common) keeps the shared joints",
+                    f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])}); {hint}",
                 )
         return ms, notes
     if joints == "common":
