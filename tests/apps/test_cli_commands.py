@@ -319,6 +319,24 @@ def test_trim(files, capsys, tmp_path):
     )
     assert code == 0, err
     assert "a: kept 0.5-1.5 s (31 frames)" in stdout
+    # an open range ends where the clip does (the note once gave the trimmed length instead)
+    from elastic_motion.motion import read_bvh
+
+    end = read_bvh(files["a"]).duration
+    code, stdout, err = run(
+        capsys,
+        "blend",
+        files["a"],
+        files["b"],
+        "-o",
+        tmp_path / "x.bvh",
+        "--trim",
+        "0.5:",
+        ":",
+        "--no-metrics",
+    )
+    assert code == 0, err
+    assert f"a: kept 0.5-{end:g} s (" in stdout
     code, _, err = run(
         capsys, "blend", files["a"], files["b"], "-o", tmp_path / "x.bvh", "--trim", "0.5", ":"
     )

@@ -424,10 +424,11 @@ def load_motion(
         notes.append(f"{name}: dropped frame 0 (a T-pose)")
     rng = _check_range(tuple(trim)) if trim is not None else None
     if rng is not None and rng != (None, None):
+        end = m.duration  # the clip's own end, for an open range (the trimmed clip is shorter)
         m = _trim(m, rng, name)
         notes.append(
             f"{name}: kept {rng[0] if rng[0] is not None else 0:g}-"
-            f"{rng[1] if rng[1] is not None else m.duration:g} s ({m.n_frames} frames)"
+            f"{rng[1] if rng[1] is not None else end:g} s ({m.n_frames} frames)"
         )
     if m.n_frames < 3:
         raise OptionError(
