@@ -349,6 +349,7 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     assert all(g["largest_miss_m"] <= 0.01 for g in info["gave_way"])  # within a centimetre
     assert res.closing.converged and res.seam_after.seam_angle_max_deg < 1e-3
     assert any("closed exactly from there" in n for n in res.notes)
+    assert not any(n.startswith("warning: the loop skates") for n in res.notes)
     # the change is measured from the input (not from where the solver stopped)
     plain = loop_motion(path, window=(231, 569), contacts="report")
     assert res.closing.change > plain.closing.change
@@ -369,6 +370,12 @@ def test_contacts_lost_by_the_exact_closing_are_released_not_all_dropped(mocap_d
     assert res.skating_after.mean_speed < 2.0 * res.skating_before.mean_speed
     assert res.seam_after.seam_angle_max_deg < 1e-3
     assert any(n.startswith("contact released") for n in res.notes)
+    # it still skates 1.7x the input (the released final stance slides to the seam): said
+    warn = [n for n in res.notes if n.startswith("warning: the loop skates")]
+    assert len(warn) == 1 and "contacts released to close it" in warn[0] and "window='auto'" not in warn[0]
+    plain = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102), contacts="report")
+    warn = [n for n in plain.notes if n.startswith("warning: the loop skates")]
+    assert len(warn) == 1 and "contacts not kept (contacts='report'" in warn[0]
 
 
 def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():

@@ -145,6 +145,9 @@ POLISH_MISS = 0.01
 #: A polishing closing (above) that stopped with the seam's gap at most this is closed, whatever
 #: its optimality residual did (it may stall at the rounding floor).
 _POLISH_GAP = 1e-8
+#: A loop that skates more than this many times as fast as its input while in contact gets a
+#: ``warning:`` note saying why (:func:`_skating_warning`).
+SKATING_WARN_RATIO = 1.5
 #: A loop whose fastest point moves more than this many times as fast as anything in the
 #: input says where (a closing that put its change into a few frames whips a limb there).
 WHIP_RATIO = 1.5
@@ -1289,6 +1292,9 @@ def loop_motion(
         if kept is not None and kept.get("treadmill"):
             # in place the feet ride the belt: how much they slip on it
             sk_belt = contact_skating(on_belt(out, motion), found)
+        warn = _skating_warning(sk_before, sk_belt or sk_after, kept, contacts, seam_before, whole=cw is None)
+        if warn:
+            contact_notes.append(warn)
     return LoopResult(
         motion=out,
         original=motion,
@@ -1311,6 +1317,52 @@ def loop_motion(
         skating_on_treadmill=sk_belt,
         contacts_kept=kept,
         joint_limits=lim_info,
+    )
+
+
+def _skating_warning(
+    before: ContactSkating,
+    after: ContactSkating,
+    kept: dict | None,
+    contacts: str,
+    seam: SeamMetrics,
+    *,
+    whole: bool,
+) -> str | None:
+    """A ``warning:`` note when the loop skates more than :data:`SKATING_WARN_RATIO` times
+    the input while in contact (both measured on the input's contacts), with why: contacts
+    released or dropped to close it, or not kept at all.
+
+    A clip that does not repeat gets its change where the contacts give way: a DeepMimic
+    get-up from the floor, auto window, released its final stance to close on the lying
+    pose and its ankles skated 1.0-1.2 m/s against the input's 0.05-0.08; the numbers and
+    the notes said so, nothing said it was wrong."""
+    if before.mean_speed <= 0 or after.mean_speed <= SKATING_WARN_RATIO * before.mean_speed:
+        return None
+    worst = max(after.per_joint, key=lambda n: after.per_joint[n] - before.per_joint.get(n, 0.0))
+    why = ""
+    if kept is not None and "dropped" in kept:
+        why = "; the contacts could not be kept (see the note on them)"
+    elif kept is not None and kept.get("released"):
+        names = sorted({g["joint"] for g in kept["released"]})
+        why = f"; contacts released to close it: {names}"
+    elif contacts != "keep":
+        why = (
+            f"; contacts not kept (contacts={contacts!r}; contacts='keep' / --contacts keep, with the "
+            "Lie method and the KKT solver, plants them)"
+        )
+    where = ""
+    if seam.seam_angle_max_deg > 20.0 or seam.seam_position_max_m > 0.2:  # far from repeating
+        where = (
+            f"; the clip ends {seam.seam_angle_max_deg:.0f} deg and {seam.seam_position_max_m:.2f} m from "
+            "the pose it starts in"
+        )
+        if whole:
+            where += ": window='auto' / --window auto loops the sub-clip that closes with the least change"
+    return (
+        f"warning: the loop skates {after.mean_speed / before.mean_speed:.1f}x as fast as the input while "
+        f"in contact ({after.mean_speed:.3g} against {before.mean_speed:.3g} m/s; most added: {worst}, "
+        f"{after.per_joint[worst]:.3g} against {before.per_joint.get(worst, 0.0):.3g}){why}{where}"
     )
 
 
