@@ -23,6 +23,11 @@ def test_contact_grid_spacing_and_ends():
     np.testing.assert_array_equal(contact_grid(40, 30.0, 1 / 30), np.arange(40))  # at the grid rate
     np.testing.assert_array_equal(contact_grid(40, 120.0, 0.0), np.arange(40))  # 0: every frame
     assert contact_grid(2, 120.0, 1 / 30).tolist() == [0, 1]
+    # a C1 seam's cells are the clip's own first and last frame steps
+    c = contact_grid(575, 120.0, 1 / 30, seam_cells=True)
+    assert c[:2].tolist() == [0, 1] and c[-2:].tolist() == [573, 574]
+    assert set(c[1:-1]) - {1, 573} <= set(g)
+    np.testing.assert_array_equal(contact_grid(40, 30.0, 1 / 30, seam_cells=True), np.arange(40))
 
 
 def test_grid_step_keeps_the_rows_within_budget():
@@ -97,6 +102,21 @@ def test_kept_contacts_of_a_120fps_clip_do_not_skate(mocap_dir):
     rel = np.swapaxes(kept.original.rotations[:, legs], -1, -2) @ kept.motion.rotations[:, legs]
     zigzag = np.abs(np.diff(np.degrees(np.linalg.norm(SO3().log(rel), axis=-1)), 2, axis=0))
     assert np.percentile(zigzag, 95) < 1.0 and (zigzag > 1.0).sum() < 60
+
+
+@pytest.mark.mocap
+def test_a_c1_loop_keeps_its_contacts_on_a_coarse_grid(mocap_dir):
+    """CMU 07_01 (120 fps), C1: closed on the contacts' grid like C0 (on every frame a long
+    clip needs too many rows: CMU 01_01 18915, refused), the grid's first and last steps are
+    the clip's own, so the clip's seam velocities match exactly."""
+    res = loop_motion(mocap_dir / "cmu/bvh/07_01.bvh", c1=True)
+    info = res.contacts_kept
+    assert res.closing.converged and info["grid_frames"] < res.motion.n_frames // 1.5
+    assert res.seam_after.seam_angle_max_deg < 1e-3
+    # C0 leaves a velocity jump of hundreds of deg/s at the seam
+    assert res.seam_before.seam_angular_velocity_max_deg_s > 100.0
+    assert res.seam_after.seam_angular_velocity_max_deg_s < 1e-3
+    assert res.skating_after.mean_speed < 1.1 * res.skating_before.mean_speed
 
 
 @pytest.mark.mocap

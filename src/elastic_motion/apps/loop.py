@@ -689,7 +689,7 @@ def _close_keeping_contacts(
     """
     j = motion.n_joints
     step = grid_step(found, max_step) if max_step > 0 else 0.0
-    grid = contact_grid(motion.n_frames, motion.fps, step)
+    grid = contact_grid(motion.n_frames, motion.fps, step, seam_cells=c1)
     coarse = select_frames(motion, grid) if grid.size < motion.n_frames else motion
     found_c = found.select_frames(grid) if coarse is not motion else found
     # bounded before the Gram matrix of the rows is made (3 rows per contact frame at most)
@@ -847,9 +847,10 @@ def _close_clip(
             )  # fmt: skip
 
         if found is not None and found.any:
-            # C1 seam rows and kept joint limits need the clip's own frames
+            # kept joint limits need the clip's own frames (C1 seam rows its first and last
+            # steps, which the grid keeps)
             out, res, extra, kept = _close_keeping_contacts(
-                base, found, project, max_step=0.0 if c1 or joint_limits is not None else contact_step,
+                base, found, project, max_step=0.0 if joint_limits is not None else contact_step,
                 max_release=max_release, joint_weights=joint_weights,
                 translation_weight=translation_weight, c1=c1,
             )  # fmt: skip

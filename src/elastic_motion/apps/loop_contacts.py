@@ -41,8 +41,10 @@ subject to closure *and* the input's contacts
   :func:`contact_grid`: nearly uniform, first and last frame included), every grid frame
   of a contact constrained; the grid's correction (per joint
   ``R' R^T``, root offset) is then interpolated to all frames (:func:`lift_correction`,
-  geodesic in time). The seam frames are grid frames, so the loop closes exactly; between
-  grid frames a planted joint moves by the curvature of the correction only.
+  geodesic in time). The seam frames are grid frames, so the loop closes exactly (with a C1
+  seam frames 1 and ``F - 2`` too: the velocities it matches are the clip's own first and
+  last frame steps); between grid frames a planted joint moves by the curvature of the
+  correction only.
 * **Planted on every frame.** Between grid frames (and after a solve polished from
   within ``POLISH_MISS``) :func:`row_plants` gives every kept contact's target on every
   frame, and :func:`elastic_motion.apps.cleanup.cleanup_footskate` (``plants=``, leg and
@@ -355,7 +357,7 @@ def grid_step(contacts: Contacts, step: float, budget: int = ROW_BUDGET) -> floa
     return min(step, math.ceil(rows / budget) / contacts.fps)
 
 
-def contact_grid(n_frames: int, fps: float, step: float) -> np.ndarray:
+def contact_grid(n_frames: int, fps: float, step: float, *, seam_cells: bool = False) -> np.ndarray:
     """The frames a clip with kept contacts is closed on (module docstring, "every frame").
 
     Parameters
@@ -365,17 +367,24 @@ def contact_grid(n_frames: int, fps: float, step: float) -> np.ndarray:
         The clip's frame rate.
     step : float
         Seconds between grid frames (at most; 0 or a step below 1.5 frames: every frame).
+    seam_cells : bool, default False
+        Also frames ``1`` and ``n_frames - 2``: the first and last steps of the grid are the
+        clip's own first and last frame steps, whose velocities a C1 seam matches (the
+        correction lifted to the clip is exact on grid frames, so the clip's seam is C1 too).
 
     Returns
     -------
     ndarray of int
         Increasing frame indices, ``0`` and ``n_frames - 1`` included, spacing
-        ``floor(step fps)`` or one more.
+        ``floor(step fps)`` or one more (one frame for the seam cells).
     """
     if step <= 0 or step * fps < 1.5 or n_frames < 3:
         return np.arange(n_frames)
     k = max(3, math.ceil((n_frames - 1) / (step * fps)) + 1)
-    return np.unique(np.round(np.linspace(0, n_frames - 1, k)).astype(np.int64))
+    grid = np.round(np.linspace(0, n_frames - 1, k)).astype(np.int64)
+    if seam_cells:
+        grid = np.concatenate([grid, [1, n_frames - 2]])
+    return np.unique(grid)
 
 
 def lift_correction(fine: Motion, grid: np.ndarray, before: Motion, after: Motion) -> Motion:
