@@ -11,6 +11,10 @@ measured by forward kinematics against the prepared input's frames of the same w
   against input, over all frames (:func:`~elastic_motion.apps.loop.seam_metrics`).
 * ``seam`` (rad, m): the largest joint angle across the seam (closed joints, root relative
   to heading) and the largest FK position jump.
+* ``hitch``: the seam's velocity jump over the input's own quick changes of velocity (the
+  largest ratio over the FK points; :attr:`~elastic_motion.apps.loop.SeamMetrics.seam_velocity_jump_ratio`):
+  about 1 or less is no worse than the clip itself; these loops are C0 (``c1=False``, the
+  default), so the velocities are not matched at the seam.
 * ``skating in / loop`` (m/s): mean horizontal speed of the contact joints during the
   *input's* contacts (:func:`elastic_motion.motion.contacts.detect_contacts` from one floor
   height, ``follow_floor=False``, as the loop finds them, on the input
@@ -100,6 +104,7 @@ def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report")
         "change_mean_m": sm.deviation_mean_m,
         "seam_rad": math.radians(sm.seam_angle_max_deg),
         "seam_m": sm.seam_position_max_m,
+        "hitch_ratio": sm.seam_velocity_jump_ratio,
         "skating_in_m_s": sk_in.mean_speed,
         "skating_loop_m_s": sk_out.mean_speed,
         "skating_ratio": sk_out.mean_speed / sk_in.mean_speed if sk_in.mean_speed > 0 else None,
@@ -150,8 +155,9 @@ def main() -> None:
                 r.update(clip=name, mode=label + (", contacts keep" if contacts == "keep" else ""))
                 rows.append(r)
     head = (
-        "| clip | mode | start | stop | change max m | change mean m | seam rad | seam m | skating in m/s "
-        "| skating loop m/s | ratio | below floor in m | below floor loop m | solve s | total s |"
+        "| clip | mode | start | stop | change max m | change mean m | seam rad | seam m | hitch "
+        "| skating in m/s | skating loop m/s | ratio | below floor in m | below floor loop m "
+        "| solve s | total s |"
     )
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
@@ -162,6 +168,7 @@ def main() -> None:
         print(
             f"| {r['clip']} | {r['mode']} | {r['start']} | {r['stop']} | {fmt(r['change_max_m'])} "
             f"| {fmt(r['change_mean_m'])} | {fmt(r['seam_rad'], '.2e')} | {fmt(r['seam_m'], '.2e')} "
+            f"| {fmt(r['hitch_ratio'], '.2f')} "
             f"| {fmt(r['skating_in_m_s'])} | {fmt(r['skating_loop_m_s'])} | {fmt(r['skating_ratio'])} "
             f"| {fmt(r['below_floor_in_m'])} | {fmt(r['below_floor_loop_m'])} | {fmt(r['solve_s'])} "
             f"| {fmt(r['total_s'])} |"

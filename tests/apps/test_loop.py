@@ -47,6 +47,23 @@ def closed_set(motion):
     return [n for n in motion.skeleton.names if n not in fingers]
 
 
+def test_seam_velocity_jump_ratio_against_the_clip_own_changes():
+    """The root accelerates uniformly along x (x_k = 0.01 k^2, nothing turns): every step
+    changes every point's velocity by 0.02 fps, and travel moves frame 0 to the last frame's
+    floor position, so the seam's jump is from the last step, 0.01 (2F - 3), to the first,
+    0.01: (2F - 4) 0.01 fps, F - 2 times the clip's own change, at every point."""
+    f, fps = 20, 30.0
+    k = np.arange(f, dtype=float)
+    root = np.stack([0.01 * k**2, np.full(f, 0.9), np.zeros(f)], 1)
+    m = Motion(chain_skeleton(), fps, root, np.tile(np.eye(3), (f, 4, 1, 1)), metres_per_unit=1.0)
+    s = seam_metrics(m)
+    assert s.seam_velocity_max_m_s == pytest.approx((2 * f - 4) * 0.01 * fps)
+    assert s.seam_velocity_jump_ratio == pytest.approx(f - 2)
+    # against an original whose velocity changes twice as fast inside: half the ratio
+    m2 = m.replace(root_translation=np.stack([0.02 * k**2, np.full(f, 0.9), np.zeros(f)], 1))
+    assert seam_metrics(m, original=m2).seam_velocity_jump_ratio == pytest.approx((f - 2) / 2)
+
+
 # ------------------------------------------------------------------------------ real data
 
 
@@ -231,6 +248,16 @@ def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     assert s0.seam_angle_max_deg < 1e-3 and s1.seam_angle_max_deg < 1e-3
     assert s0.seam_angular_velocity_max_deg_s > 100.0
     assert s1.seam_angular_velocity_max_deg_s < 1e-2
+    # what an animator sees: the cartwheel's C0 seam jerks the wrist 2.7-3x harder than any
+    # quick move inside the clip, and a note says so; C1 is within the clip's own (the run's
+    # C0 seam is too: no note)
+    hitch = [n for n in c0.notes if n.startswith("a hitch at the seam")]
+    assert s1.seam_velocity_jump_ratio < 1.0 and not any(n.startswith("a hitch") for n in c1.notes)
+    if key == "dm_cartwheel":
+        assert s0.seam_velocity_jump_ratio > 2.5 and s0.seam_velocity_jump_point == "right_wrist"
+        assert len(hitch) == 1 and "right_wrist" in hitch[0] and "--c1" in hitch[0]
+    else:
+        assert s0.seam_velocity_jump_ratio < 1.0 and not hitch
     if root == "inplace":
         # everything closed, so the FK velocities match too, up to second order in the step:
         # the seam's one-frame velocity change is a fraction of the largest inside the clip

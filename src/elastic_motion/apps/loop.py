@@ -148,6 +148,9 @@ _POLISH_GAP = 1e-8
 #: A loop that skates more than this many times as fast as its input while in contact gets a
 #: ``warning:`` note saying why (:func:`_skating_warning`).
 SKATING_WARN_RATIO = 1.5
+#: A C0 loop whose seam's velocity jump is more than this many times a point's quickest
+#: changes inside the clip (:attr:`SeamMetrics.seam_velocity_jump_ratio`) gets a note: a hitch.
+HITCH_RATIO = 1.5
 #: A loop whose fastest point moves more than this many times as fast as anything in the
 #: input says where (a closing that put its change into a few frames whips a limb there).
 WHIP_RATIO = 1.5
@@ -1296,6 +1299,13 @@ def loop_motion(
         warn = _skating_warning(sk_before, sk_belt or sk_after, kept, contacts, seam_before, whole=cw is None)
         if warn:
             contact_notes.append(warn)
+    seam_after = seam_metrics(out, original=motion, root=root, joints=closed)
+    if not c1 and seam_after.seam_velocity_jump_ratio > HITCH_RATIO:
+        contact_notes.append(
+            f"a hitch at the seam: velocities jump by up to {seam_after.seam_velocity_max_m_s:.3g} m/s; at "
+            f"{seam_after.seam_velocity_jump_point} {seam_after.seam_velocity_jump_ratio:.1f}x its quickest "
+            "changes inside the clip (99th percentile); c1=True / --c1 matches the velocities at the seam too"
+        )
     return LoopResult(
         motion=out,
         original=motion,
@@ -1308,7 +1318,7 @@ def loop_motion(
         heading_change=float(heading),
         displacement=out.root_translation[-1] - out.root_translation[0] if root == "travel" else np.zeros(3),
         seam_before=seam_before,
-        seam_after=seam_metrics(out, original=motion, root=root, joints=closed),
+        seam_after=seam_after,
         prepared=prepared,
         notes=(*prepared.notes, *contact_notes),
         window=cw,
@@ -1444,6 +1454,16 @@ class SeamMetrics:
         FK positions of the joints and their end sites, last frame vs ``T`` (first frame).
     seam_velocity_max_m_s : float
         Largest jump of an FK point's velocity at the seam.
+    seam_velocity_jump_ratio : float
+        The hitch an animator sees at a C0 seam: per FK point its velocity jump at the seam
+        over the largest change of its velocity between two frame steps inside the clip (99th
+        percentile over the steps of ``original`` when given, else of the cycle itself; at
+        least a tenth of the largest such value over the points, so a point that barely moves
+        does not count a millimetre as a hitch); the largest over the points. At most about 1:
+        no worse than the clip's own quick moves (C1 loops of CMU and DeepMimic clips:
+        0.1-1.2); well above: a visible hitch (C0 loops of the same clips up to 5.5).
+    seam_velocity_jump_point : str
+        The point where that ratio is largest (a joint name, or ``"<joint> end site"``).
     foot_sliding_m_s : float
         Mean horizontal speed of foot joints over frame steps where they touch the floor,
         over two cycles played in a row (so the seam counts).
@@ -1463,6 +1483,8 @@ class SeamMetrics:
     seam_position_max_m: float
     seam_position_mean_m: float
     seam_velocity_max_m_s: float
+    seam_velocity_jump_ratio: float
+    seam_velocity_jump_point: str
     foot_sliding_m_s: float
     foot_sliding_seam_m_s: float
     seam_angle_deg: np.ndarray
@@ -1539,6 +1561,21 @@ def seam_metrics(
     p_second = pos[1] @ rot_t.T + shift_t
     seam_pos = np.linalg.norm(pos[-1] - p_first, axis=-1) * scale
     dv = np.linalg.norm((pos[-1] - pos[-2]) - (p_second - p_first), axis=-1) * fps * scale
+    pos_original = None
+    if original is not None:
+        original = _check_motion(original, "original")
+        if original.n_frames != motion.n_frames or original.n_joints != motion.n_joints:
+            raise ValueError(
+                f"original: expected {motion.n_frames} frames of {motion.n_joints} joints like motion; "
+                f"got {original.n_frames} frames of {original.n_joints}"
+            )
+        pos_original = forward_kinematics(original, end_sites=True)[:, points]
+    # each point's quick changes of velocity inside the clip (the seam excluded): 99th percentile
+    ref = pos if pos_original is None else pos_original
+    inner = np.percentile(np.linalg.norm(np.diff(ref, 2, axis=0), axis=-1), 99, axis=0) * fps * scale
+    inner = np.maximum(inner, 0.1 * inner.max(initial=0.0))
+    ratio = dv / np.maximum(inner, np.finfo(float).tiny)
+    names = [*sk.names, *(f"{sk.names[p]} end site" for p in sk.end_site_parents)]
     out: dict = {
         "seam_angle_max_deg": float(seam[sel].max()),
         "seam_angle_mean_deg": float(seam[sel].mean()),
@@ -1547,18 +1584,14 @@ def seam_metrics(
         "seam_position_max_m": float(seam_pos.max()),
         "seam_position_mean_m": float(seam_pos.mean()),
         "seam_velocity_max_m_s": float(dv.max()),
+        "seam_velocity_jump_ratio": float(ratio.max()),
+        "seam_velocity_jump_point": names[int(points[int(ratio.argmax())])],
         "seam_angle_deg": seam,
         "seam_angular_velocity_deg_s": dw,
     }
     out.update(_foot_sliding(motion, root, contact_height))
-    if original is not None:
-        original = _check_motion(original, "original")
-        if original.n_frames != motion.n_frames or original.n_joints != motion.n_joints:
-            raise ValueError(
-                f"original: expected {motion.n_frames} frames of {motion.n_joints} joints like motion; "
-                f"got {original.n_frames} frames of {original.n_joints}"
-            )
-        dev = np.linalg.norm(forward_kinematics(original, end_sites=True)[:, points] - pos, axis=-1) * scale
+    if pos_original is not None:
+        dev = np.linalg.norm(pos_original - pos, axis=-1) * scale
         out["deviation_max_m"] = float(dev.max())
         out["deviation_mean_m"] = float(dev.mean())
         out["deviation_per_frame_max_m"] = dev.max(axis=1)

@@ -191,7 +191,9 @@ def run(args: argparse.Namespace) -> int:
         f"{res.method}{', C1' if res.c1 else ''})",
         f"seam: largest joint angle {fmt_float(before.seam_angle_max_deg)} -> "
         f"{fmt_float(after.seam_angle_max_deg)} deg, largest position jump "
-        f"{fmt_float(before.seam_position_max_m)} -> {fmt_float(after.seam_position_max_m)} m",
+        f"{fmt_float(before.seam_position_max_m)} -> {fmt_float(after.seam_position_max_m)} m, "
+        f"velocity jump {fmt_float(before.seam_velocity_jump_ratio)} -> "
+        f"{fmt_float(after.seam_velocity_jump_ratio)}x the clip's quickest changes",
         f"changed the clip by at most {fmt_float(after.deviation_max_m or 0.0)} m "
         f"(mean {fmt_float(after.deviation_mean_m or 0.0)} m); foot sliding "
         f"{fmt_float(before.foot_sliding_m_s)} -> {fmt_float(after.foot_sliding_m_s)} m/s",
