@@ -70,6 +70,8 @@ def test_cmu_walks_by_cycles_and_a_looped_blend(mocap_dir):
     assert looped.cycles.n == 1 and looped.loop is not None
     # (the loop keeps the cycle's contacts, so the clean-up after it barely opens the seam)
     assert looped.loop.seam_after.seam_position_max_m < 1e-3
+    # closed C1: the joints' velocities match at the seam too (a C0 seam left a hitch)
+    assert looped.loop.c1 and looped.loop.seam_after.seam_angular_velocity_max_deg_s < 1e-2
     assert looped.summary()["loop"] is not None
     # the last closing must not push a foot into the floor (issue 16: at most 1 cm)
     from elastic_motion.apps.metrics import contact_skating
