@@ -179,6 +179,21 @@ def test_amc_errors(mocap_dir, tmp_path, edit, match):
     assert info.value.line is not None
 
 
+@pytest.mark.mocap
+def test_asf_huge_direction_is_a_direction(mocap_dir, tmp_path):
+    """A direction of 1e200 (a fuzzed file) is scaled before its norm: the bone points the same
+    way as with unit values, with no overflow warning (the norm overflowed to inf)."""
+    import warnings
+
+    text = (mocap_dir / "cmu" / "asfamc" / "02.asf").read_text()
+    huge = text.replace("direction 0.34202 -0.939693 0 ", "direction 0.34202e200 -0.939693e200 0 ", 1)
+    assert huge != text
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sk = read_asf(write(tmp_path, "huge.asf", huge))
+    np.testing.assert_allclose(sk.offsets, read_asf(write(tmp_path, "plain.asf", text)).offsets, atol=1e-12)
+
+
 @pytest.mark.parametrize(
     ("edit", "match"),
     [

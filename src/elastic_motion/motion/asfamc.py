@@ -274,8 +274,11 @@ def read_asf(path: str | os.PathLike[str]) -> AsfSkeleton:
             if len(args) != 3:
                 raise ParseError(p, ln, f"expected 3 direction values, found {len(args)}")
             d = np.array([_num(p, ln, t, "a direction value") for t in args])
-            norm = float(np.linalg.norm(d))
-            current["direction"] = d / norm if norm > 0 else d
+            big = float(np.abs(d).max())
+            if big > 0:  # scaled first: the norm of a direction of 1e200 would overflow
+                d = d / big
+                d = d / float(np.linalg.norm(d))
+            current["direction"] = d
         elif key == "length":
             if len(args) != 1:
                 raise ParseError(p, ln, f"expected one length value, found {len(args)}")
