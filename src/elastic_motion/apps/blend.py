@@ -966,6 +966,11 @@ _SETTLE = 1.0
 _SETTLE_MARGIN = 0.03
 
 
+#: A loop's floor after the last closing: lift and close again while a foot is deeper (m).
+_LOOP_FLOOR_TOL = 0.005
+_LOOP_FLOOR_ROUNDS = 3
+
+
 def _close_loop(cycle: Motion):
     """The blended cycle closed into a loop (``blend_motions(loop=True)``): root "travel" and
     C1, the velocities matched at the seam too. C0 left a hitch there, the velocity jump 1.3-2.8
@@ -975,11 +980,6 @@ def _close_loop(cycle: Motion):
     from elastic_motion.apps.loop import loop_motion
 
     return loop_motion(cycle, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), c1=True)
-
-
-#: A loop's floor after the last closing: lift and close again while a foot is deeper (m).
-_LOOP_FLOOR_TOL = 0.005
-_LOOP_FLOOR_ROUNDS = 3
 
 
 def _contact_options(contacts: Any) -> ContactOptions | None:
