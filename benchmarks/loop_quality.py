@@ -11,10 +11,11 @@ measured by forward kinematics against the prepared input's frames of the same w
   against input, over all frames (:func:`~elastic_motion.apps.loop.seam_metrics`).
 * ``seam`` (rad, m): the largest joint angle across the seam (closed joints, root relative
   to heading) and the largest FK position jump.
-* ``hitch``: the seam's velocity jump over the input's own quick changes of velocity (the
-  largest ratio over the FK points; :attr:`~elastic_motion.apps.loop.SeamMetrics.seam_velocity_jump_ratio`):
-  about 1 or less is no worse than the clip itself; these loops are C0 (``c1=False``, the
-  default), so the velocities are not matched at the seam.
+* ``C1``, ``hitch``: the seam the default ``c1="auto"`` took (C0, or C1 where the C0 seam had
+  a hitch and C1 was better), and the seam's velocity jump over the input's own quick
+  changes of velocity (the largest ratio over the FK points;
+  :attr:`~elastic_motion.apps.loop.SeamMetrics.seam_velocity_jump_ratio`): about 1 or less is
+  no worse than the clip itself. The speed row is closed C0 (it times the closing).
 * ``skating in / loop`` (m/s): mean horizontal speed of the contact joints during the
   *input's* contacts (:func:`elastic_motion.motion.contacts.detect_contacts` from one floor
   height, ``follow_floor=False``, as the loop finds them, on the input
@@ -78,9 +79,9 @@ def mocap_dir() -> Path:
     return Path(env) if env else Path(__file__).resolve().parents[2] / "shared" / "mocap"
 
 
-def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report") -> dict:
+def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report", c1="auto") -> dict:
     t0 = time.perf_counter()
-    res = loop_motion(path, window=window, contacts=contacts)
+    res = loop_motion(path, window=window, contacts=contacts, c1=c1)
     total = time.perf_counter() - t0
     out = em.write(res, tmp / f"{path.stem}.{window or 'whole'}.{contacts}.bvh")
     back = read_motion(out)
@@ -105,6 +106,7 @@ def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report")
         "seam_rad": math.radians(sm.seam_angle_max_deg),
         "seam_m": sm.seam_position_max_m,
         "hitch_ratio": sm.seam_velocity_jump_ratio,
+        "c1": res.c1,
         "skating_in_m_s": sk_in.mean_speed,
         "skating_loop_m_s": sk_out.mean_speed,
         "skating_ratio": sk_out.mean_speed / sk_in.mean_speed if sk_in.mean_speed > 0 else None,
@@ -148,14 +150,16 @@ def main() -> None:
                 modes.append((SPEED_ROW[1], "keep"))
             for window, contacts in modes:
                 try:
-                    r = measure(path, window, tmp, contacts)
+                    # the speed row times the closing itself (C0, the paper's), not the seam choice
+                    c1 = False if window == SPEED_ROW[1] else "auto"
+                    r = measure(path, window, tmp, contacts, c1)
                 except Exception as exc:  # a row that fails is reported, not fatal
                     r = {"error": f"{type(exc).__name__}: {exc}"}
                 label = f"frames {window[0]}:{window[1]}" if isinstance(window, tuple) else window or "whole"
                 r.update(clip=name, mode=label + (", contacts keep" if contacts == "keep" else ""))
                 rows.append(r)
     head = (
-        "| clip | mode | start | stop | change max m | change mean m | seam rad | seam m | hitch "
+        "| clip | mode | start | stop | change max m | change mean m | seam rad | seam m | C1 | hitch "
         "| skating in m/s | skating loop m/s | ratio | below floor in m | below floor loop m "
         "| solve s | total s |"
     )
@@ -168,7 +172,7 @@ def main() -> None:
         print(
             f"| {r['clip']} | {r['mode']} | {r['start']} | {r['stop']} | {fmt(r['change_max_m'])} "
             f"| {fmt(r['change_mean_m'])} | {fmt(r['seam_rad'], '.2e')} | {fmt(r['seam_m'], '.2e')} "
-            f"| {fmt(r['hitch_ratio'], '.2f')} "
+            f"| {'C1' if r['c1'] else 'C0'} | {fmt(r['hitch_ratio'], '.2f')} "
             f"| {fmt(r['skating_in_m_s'])} | {fmt(r['skating_loop_m_s'])} | {fmt(r['skating_ratio'])} "
             f"| {fmt(r['below_floor_in_m'])} | {fmt(r['below_floor_loop_m'])} | {fmt(r['solve_s'])} "
             f"| {fmt(r['total_s'])} |"

@@ -16,6 +16,7 @@ from elastic_motion.apps.loop import (
 from elastic_motion.apps.metrics import foot_joints
 from elastic_motion.closing import close_curve
 from elastic_motion.curves import curve_distance
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import (
     Motion,
@@ -236,11 +237,27 @@ def test_dropped_contacts_close_the_clip_itself_not_its_treadmill(mocap_dir, mon
 
 
 @pytest.mark.mocap
+def test_auto_seam_keeps_c0_when_c1_is_worse(mocap_dir):
+    """The DeepMimic get-up (a clip that cannot repeat), frames 59-174: the C0 seam has a hitch
+    (3.8x at an elbow), but closed C1 the loop whips a wrist at 52 m/s on its last step. The
+    default keeps the C0 loop and says why, without suggesting C1."""
+    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174))
+    assert not res.c1
+    note = [n for n in res.notes if n.startswith("a hitch at the seam")]
+    assert len(note) == 1 and "closed C1 too (c1='auto') and not taken" in note[0]
+    assert "it whips a limb" in note[0] and "--seam c1" not in note[0]
+    plain = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174), c1=False)
+    np.testing.assert_allclose(res.motion.rotations, plain.motion.rotations, atol=1e-12)
+    with pytest.raises(OptionError, match="c1"):
+        loop_motion(plain.motion, c1="yes")
+
+
+@pytest.mark.mocap
 @pytest.mark.parametrize("key", ["dm_run", "dm_cartwheel"])
 @pytest.mark.parametrize("root", ["travel", "inplace"])
 def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     m = load(mocap_dir, key)
-    c0 = loop_motion(m, root=root)
+    c0 = loop_motion(m, root=root, c1=False)
     c1 = loop_motion(m, root=root, c1=True)
     assert c1.closing.converged
     s0 = seam_metrics(c0.motion, original=m, root=root, joints=c0.closed_joints)
@@ -253,11 +270,18 @@ def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     # C0 seam is too: no note)
     hitch = [n for n in c0.notes if n.startswith("a hitch at the seam")]
     assert s1.seam_velocity_jump_ratio < 1.0 and not any(n.startswith("a hitch") for n in c1.notes)
+    auto = loop_motion(m, root=root)  # the default, c1="auto"
     if key == "dm_cartwheel":
         assert s0.seam_velocity_jump_ratio > 2.5 and s0.seam_velocity_jump_point == "right_wrist"
-        assert len(hitch) == 1 and "right_wrist" in hitch[0] and "--c1" in hitch[0]
+        assert len(hitch) == 1 and "right_wrist" in hitch[0] and "--seam c1" in hitch[0]
+        # the default closes C1 too and takes it: smoother, no more change or skating
+        assert auto.c1 and any(n.startswith("seam C1 (c1='auto')") for n in auto.notes)
+        np.testing.assert_allclose(auto.motion.rotations, c1.motion.rotations, atol=1e-12)
     else:
         assert s0.seam_velocity_jump_ratio < 1.0 and not hitch
+        # no hitch: the default is the C0 loop, untouched
+        assert not auto.c1 and not any("c1='auto'" in n for n in auto.notes)
+        np.testing.assert_allclose(auto.motion.rotations, c0.motion.rotations, atol=1e-12)
     if root == "inplace":
         # everything closed, so the FK velocities match too, up to second order in the step:
         # the seam's one-frame velocity change is a fraction of the largest inside the clip
@@ -405,7 +429,7 @@ def test_the_closing_reports_its_iterations(tmp_path, monkeypatch):
     """``progress("closing", k, 0)`` after each KKT iteration, from the API and the command
     line (whose bar is the callback)."""
     calls = []
-    res = loop_motion(synthetic(), progress=lambda *a: calls.append(a), contacts="off")
+    res = loop_motion(synthetic(), progress=lambda *a: calls.append(a), contacts="off", c1=False)
     assert res.closing.iterations >= 1
     assert calls == [("closing", k, 0) for k in range(1, res.closing.iterations + 1)]
 
@@ -436,9 +460,9 @@ def test_a_whole_clip_that_whips_a_limb_says_where_and_what_to_do(mocap_dir):
     toe, lifting off in the last frames, whips at 9.3 m/s (the input's fastest point 3.8):
     a note names it and the auto window; the auto window's loop has no such note."""
     path = mocap_dir / "bandai" / "dataset-1_walk_tired_001.bvh"
-    whole = loop_motion(path)
+    whole = loop_motion(path, c1=False)
     (note,) = [n for n in whole.notes if n.startswith("fast point:")]
     assert note.startswith("fast point: Toes_R moves 9.31 m/s at frames 245-246 of the loop, 2.5x")
     assert "--window auto" in note and "ends 61 deg and 0.56 m from the pose it starts in" in note
-    auto = loop_motion(path, window="auto")
+    auto = loop_motion(path, window="auto", c1=False)
     assert not [n for n in auto.notes if n.startswith("fast point:")]

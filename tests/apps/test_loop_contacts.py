@@ -78,8 +78,8 @@ def test_kept_contacts_of_a_120fps_clip_do_not_skate(mocap_dir):
     """CMU 07_01 (120 fps): closed on a 30 fps grid with every grid frame of a contact kept,
     the loop skates about as the input (rows every 4th frame of the clip itself skated)."""
     path = mocap_dir / "cmu/bvh/07_01.bvh"
-    plain = loop_motion(path, contacts="report")
-    kept = loop_motion(path, contacts="keep")
+    plain = loop_motion(path, contacts="report", c1=False)
+    kept = loop_motion(path, contacts="keep", c1=False)
     info = kept.contacts_kept
     # 1368 rows on every frame: above the budget, so a 60 fps grid (every 2nd frame)
     assert kept.closing.converged and info["grid_fps"] == pytest.approx(60.0, rel=0.01)
@@ -345,7 +345,7 @@ def test_the_hands_of_a_deepmimic_cartwheel_are_contacts_and_stay_planted(mocap_
     """DeepMimic's wrists are fixed joints of the skeleton: the hands on the floor are
     contacts, kept by the loop (arm IK between rows), and no longer pushed under the floor
     (with the feet alone kept an elbow's end site went 12 cm under)."""
-    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_cartwheel.txt")
+    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_cartwheel.txt", c1=False)
     found = res.contacts.all_intervals()
     assert found["right_wrist"] and found["left_wrist"]
     before, after = res.skating_before.per_joint, res.skating_after.per_joint
@@ -362,7 +362,7 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     contact within a few mm; the loop is closed exactly from there instead of releasing or
     dropping contacts."""
     path = mocap_dir / "cmu/bvh/49_08.bvh"
-    res = loop_motion(path, window=(231, 569))
+    res = loop_motion(path, window=(231, 569), c1=False)
     info = res.contacts_kept
     assert info["polished"] is not None and "mm" in info["polished"]
     assert info["released"] == [] and "dropped" not in info
@@ -371,7 +371,7 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     assert any("closed exactly from there" in n for n in res.notes)
     assert not any(n.startswith("warning: the loop skates") for n in res.notes)
     # the change is measured from the input (not from where the solver stopped)
-    plain = loop_motion(path, window=(231, 569), contacts="report")
+    plain = loop_motion(path, window=(231, 569), contacts="report", c1=False)
     assert res.closing.change > plain.closing.change
 
 
@@ -541,7 +541,7 @@ def test_a_polish_stalled_at_the_rounding_floor_keeps_the_contacts(mocap_dir):
     with the seam shut. That loop was thrown away ("contacts dropped ... gap 1.38e-07") and
     the clip closed without its contacts (skating 0.0924 -> 0.0946 m/s, 3.4 mm under the
     floor); it is kept."""
-    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh")
+    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh", c1=False)
     assert "dropped" not in res.contacts_kept and res.contacts_kept["polished"]
     assert res.skating_after.mean_speed <= 1.01 * res.skating_before.mean_speed
     assert res.skating_after.below_floor <= res.skating_before.below_floor + 1e-4

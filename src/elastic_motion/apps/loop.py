@@ -1054,7 +1054,7 @@ def loop_motion(
     motion: Source | PreparedMotions,
     *,
     root: str = "travel",
-    c1: bool = False,
+    c1: bool | str = "auto",
     method: str = "lie",
     solver: str = "kkt",
     tol: float = 1e-6,
@@ -1082,8 +1082,15 @@ def loop_motion(
     root : {"travel", "inplace"}
         Loop convention (module docstring): keep the floor-plane displacement and heading
         change of one cycle, or close them too.
-    c1 : bool
-        Also match the velocities at the seam (:func:`elastic_motion.closing.close_curve`).
+    c1 : bool or "auto", default "auto"
+        ``True``: also match the velocities at the seam (C1; module
+        :mod:`elastic_motion.closing_kkt`, the C1 rows). ``False``: the poses only (C0, paper
+        000's closing). ``"auto"``: C0, unless its seam has a hitch (the velocity jump more
+        than :data:`HITCH_RATIO` times the clip's own quick changes,
+        :attr:`SeamMetrics.seam_velocity_jump_ratio`); then the same window is closed C1 too
+        and the C1 loop is taken when it is smoother and converged, skates at most 1.1 times
+        as fast, changes the clip at most 1.5 times as much (mean, + 5 mm) and whips no limb
+        the C0 loop did not; a note says which seam was taken and why.
     method : {"lie", "euler-elastic"}
         Close the Lie curve (the method) or the Euler-angle curve (the baseline).
     solver : {"kkt", "gauss-newton", "gradient"}
@@ -1207,9 +1214,19 @@ def loop_motion(
             "min_length", f"expected only with window='auto' (--window auto); got it with {what}"
         )
     _check_root(root)
+    if not (isinstance(c1, bool) or (isinstance(c1, str) and c1 == "auto")):
+        raise OptionError("c1", f"expected True, False or 'auto'; got {c1!r}")
     prepared = prepare_motions(motion if isinstance(motion, PreparedMotions) else [motion], prepare)
     if len(prepared.motions) != 1:
         raise OptionError("motion", f"expected one motion to loop; got {len(prepared.motions)}")
+    if c1 == "auto":
+        same = dict(
+            root=root, method=method, solver=solver, tol=tol, max_iter=max_iter, free_joints=free_joints,
+            joint_weights=joint_weights, translation_weight=translation_weight, contacts=contacts,
+            contact_options=contact_options, contact_step=contact_step, joint_limits=joint_limits,
+            limit_tol=limit_tol, progress=progress,
+        )  # fmt: skip
+        return _auto_seam(prepared, window, min_length, candidates, same)
     motion = _check_motion(prepared.motions[0])
     names = motion.skeleton.names
     up = _AXES.index(motion.up_axis)
@@ -1302,9 +1319,7 @@ def loop_motion(
     seam_after = seam_metrics(out, original=motion, root=root, joints=closed)
     if not c1 and seam_after.seam_velocity_jump_ratio > HITCH_RATIO:
         contact_notes.append(
-            f"a hitch at the seam: velocities jump by up to {seam_after.seam_velocity_max_m_s:.3g} m/s; at "
-            f"{seam_after.seam_velocity_jump_point} {seam_after.seam_velocity_jump_ratio:.1f}x its quickest "
-            "changes inside the clip (99th percentile); c1=True / --c1 matches the velocities at the seam too"
+            _hitch_note(seam_after) + "; c1=True / --seam c1 matches the velocities at the seam too"
         )
     return LoopResult(
         motion=out,
@@ -1329,6 +1344,68 @@ def loop_motion(
         contacts_kept=kept,
         joint_limits=lim_info,
     )
+
+
+def _hitch_note(seam: SeamMetrics) -> str:
+    """What a seam's hitch is (:attr:`SeamMetrics.seam_velocity_jump_ratio`), for the notes."""
+    return (
+        f"a hitch at the seam: velocities jump by up to {seam.seam_velocity_max_m_s:.3g} m/s; at "
+        f"{seam.seam_velocity_jump_point} {seam.seam_velocity_jump_ratio:.1f}x its quickest changes inside "
+        "the clip (99th percentile)"
+    )
+
+
+def _auto_seam(
+    prepared: PreparedMotions,
+    window: str | tuple[int, int] | None,
+    min_length: float | None,
+    candidates: int,
+    same: dict,
+) -> LoopResult:
+    """``loop_motion(c1="auto")``: the C0 loop, or, when its seam has a hitch, the same window
+    closed C1 if that is better by every measure an animator judges (``loop_motion``'s
+    ``c1``). ``same``: the other options of both closings."""
+    c0 = loop_motion(prepared, c1=False, window=window, min_length=min_length, candidates=candidates, **same)
+    s0 = c0.seam_after
+    if s0.seam_velocity_jump_ratio <= HITCH_RATIO:
+        return c0
+    fixed = None if c0.window is None else (c0.window.start, c0.window.stop)
+    c1 = loop_motion(prepared, c1=True, window=fixed, **same)
+    s1 = c1.seam_after
+    why = []
+    if not c1.closing.converged:
+        why.append(f"it did not converge ({c1.closing.message})")
+    if s1.seam_velocity_jump_ratio >= s0.seam_velocity_jump_ratio:
+        why.append(f"its seam is no smoother ({s1.seam_velocity_jump_ratio:.2f}x)")
+    if c0.skating_after is not None and c1.skating_after is not None:
+        k0, k1 = c0.skating_after.mean_speed, c1.skating_after.mean_speed
+        if k1 > 1.1 * k0 + 1e-9:
+            why.append(f"it skates {k1 / k0:.2f}x as fast ({k1:.3g} against {k0:.3g} m/s)")
+    d0, d1 = s0.deviation_mean_m or 0.0, s1.deviation_mean_m or 0.0
+    if d1 > 1.5 * d0 + 0.005:
+        why.append(f"it changes the clip more (mean {d1:.3g} against {d0:.3g} m)")
+
+    def whip(r: LoopResult) -> str | None:
+        return next((n for n in r.notes if n.startswith("fast point")), None)
+
+    if whip(c1) and not whip(c0):
+        why.append(f"it whips a limb ({whip(c1)})")
+    hitch = _hitch_note(s0)
+    if why:
+        notes = tuple(n for n in c0.notes if not n.startswith("a hitch at the seam"))
+        note = f"{hitch}; closed C1 too (c1='auto') and not taken: " + "; ".join(why)
+        return dataclasses.replace(c0, notes=(*notes, note))
+    note = (
+        f"seam C1 (c1='auto'): closed C0, {hitch}; closed C1, the joints' velocities match at the "
+        f"seam too (hitch {s1.seam_velocity_jump_ratio:.2f}x; mean change {d1:.3g} m against {d0:.3g})"
+    )
+    win = c1.window
+    if c0.window is not None:  # how the window was chosen, with the C1 loop's numbers
+        win = dataclasses.replace(
+            c0.window, deviation_max_m=s1.deviation_max_m, deviation_mean_m=s1.deviation_mean_m,
+            change=c1.closing.change,
+        )  # fmt: skip
+    return dataclasses.replace(c1, notes=(*c1.notes, note), window=win)
 
 
 def _skating_warning(

@@ -58,7 +58,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="travel",
         help="loop convention: keep one cycle's displacement and turn, or come back to the start",
     )
-    p.add_argument("--c1", action="store_true", help="also match the velocities at the seam")
+    p.add_argument(
+        "--seam",
+        choices=("auto", "c0", "c1"),
+        default="auto",
+        help="what closes at the seam: 'c0' the poses (paper 000), 'c1' the velocities too, "
+        "'auto' C0 unless its seam has a hitch (a velocity jump above 1.5x the clip's own quick "
+        "changes), then C1 when that is smoother without skating or changing the clip more (a note "
+        "says which)",
+    )
+    p.add_argument("--c1", dest="seam", action="store_const", const="c1", help="the same as --seam c1")
     p.add_argument(
         "--method",
         type=_method,
@@ -161,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
         res = loop_motion(
             prepare_inputs(args, inputs),
             root=args.root,
-            c1=args.c1,
+            c1={"auto": "auto", "c0": False, "c1": True}[args.seam],
             method=args.method,
             solver=args.solver,
             tol=args.tol,
