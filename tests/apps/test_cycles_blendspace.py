@@ -72,6 +72,8 @@ def test_cmu_walks_by_cycles_and_a_looped_blend(mocap_dir):
     assert looped.loop.seam_after.seam_position_max_m < 1e-3
     # closed C1: the joints' velocities match at the seam too (a C0 seam left a hitch)
     assert looped.loop.c1 and looped.loop.seam_after.seam_angular_velocity_max_deg_s < 1e-2
+    ratio = looped.loop.seam_after.seam_velocity_jump_ratio
+    assert any(n.startswith("loop:") and f"hitch {ratio:.2f}x" in n for n in looped.notes)
     assert looped.summary()["loop"] is not None
     # the last closing must not push a foot into the floor (issue 16: at most 1 cm)
     from elastic_motion.apps.metrics import contact_skating

@@ -842,7 +842,7 @@ def blend_motions(
         what = "one matched cycle of each" if match is not None and match.n else "the whole clips (no cycles)"
         notes.append(
             f"loop: {what} blended and closed (seam {loop_res.seam_before.seam_position_max_m:.3g} m -> "
-            f"{loop_res.seam_after.seam_position_max_m:.3g} m)"
+            f"{loop_res.seam_after.seam_position_max_m:.3g} m, {_hitch(loop_res)})"
         )
     cleaned, before = _cleanup(result, prep, warps, u, local_u, wf, contacts, notes)
     if cleaned is not None and cleaned.applied:
@@ -877,7 +877,8 @@ def blend_motions(
                 f"loop: the clean-up left a seam of {seam.seam_position_max_m:.3g} m, "
                 f"{seam.seam_angle_max_deg:.3g} deg; closed again: seam "
                 f"{loop_res.seam_after.seam_position_max_m:.3g} m, skating while in contact "
-                f"{again.mean_speed:.3g} m/s, below the floor {again.below_floor:.3g} m" + floor_note
+                f"{again.mean_speed:.3g} m/s, below the floor {again.below_floor:.3g} m, {_hitch(loop_res)}"
+                + floor_note
             )
     out_metrics = None
     if metrics:
@@ -980,6 +981,15 @@ def _close_loop(cycle: Motion):
     from elastic_motion.apps.loop import loop_motion
 
     return loop_motion(cycle, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), c1=True)
+
+
+def _hitch(loop_res: Any) -> str:
+    """The closed loop's hitch at the seam, for the notes (``SeamMetrics.seam_velocity_jump_ratio``:
+    the seam's velocity jump over the cycle's own quick changes; the joints' velocities match
+    in a C1 loop, what is left is the root's floor velocity, which a travelling loop keeps)."""
+    s = loop_res.seam_after
+    ratio, point = s.seam_velocity_jump_ratio, s.seam_velocity_jump_point
+    return f"hitch {ratio:.2f}x the cycle's quickest changes, at {point}"
 
 
 def _contact_options(contacts: Any) -> ContactOptions | None:
