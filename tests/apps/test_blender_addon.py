@@ -85,6 +85,12 @@ def test_runner_reads_options_from_help():
     )
     assert args[args.index("--window") + 1] == "auto" and args[args.index("--contacts") + 1] == "off"
     assert args[args.index("--root") + 1] == "inplace" and not warn
+    # the panel's "Keep the feet planted": the loop keeps the contacts (it passed 'report',
+    # which only measures them)
+    args, warn = runner.loop_args(
+        "i", "o", "r", root="travel", window="whole", contacts=True, help_text=LOOP_HELP
+    )
+    assert args[args.index("--contacts") + 1] == "keep" and not warn
 
 
 def test_runner_errors():

@@ -142,7 +142,8 @@ def loop_args(inp, out, report, *, root, window, contacts, help_text, extra=()):
             warnings.append("this elastic-motion has no --window option: the whole clip is looped")
     choices = option_choices(help_text, "--contacts")
     if choices is not None:
-        want = ("report", "on", "auto", "keep") if contacts else ("off", "none", "ignore")
+        # "Keep the feet planted": 'keep' first ('report' only measures them, the feet slide)
+        want = ("keep", "auto", "on", "report") if contacts else ("off", "none", "ignore")
         pick = next((c for c in want if c in choices), None) if choices else None
         if pick is not None:
             args += ["--contacts", pick]
