@@ -151,6 +151,10 @@ SKATING_WARN_RATIO = 1.5
 #: A C0 loop whose seam's velocity jump is more than this many times a point's quickest
 #: changes inside the clip (:attr:`SeamMetrics.seam_velocity_jump_ratio`) gets a note: a hitch.
 HITCH_RATIO = 1.5
+#: How the notes on a seam's hitch and on a whipping limb start (:func:`_hitch_note`,
+#: :func:`_whip_note`; ``c1="auto"`` reads them off the loops it compares).
+HITCH_NOTE = "a hitch at the seam"
+WHIP_NOTE = "fast point"
 #: A loop whose fastest point moves more than this many times as fast as anything in the
 #: input says where (a closing that put its change into a few frames whips a limb there).
 WHIP_RATIO = 1.5
@@ -1349,7 +1353,7 @@ def loop_motion(
 def _hitch_note(seam: SeamMetrics) -> str:
     """What a seam's hitch is (:attr:`SeamMetrics.seam_velocity_jump_ratio`), for the notes."""
     return (
-        f"a hitch at the seam: velocities jump by up to {seam.seam_velocity_max_m_s:.3g} m/s; at "
+        f"{HITCH_NOTE}: velocities jump by up to {seam.seam_velocity_max_m_s:.3g} m/s; at "
         f"{seam.seam_velocity_jump_point} {seam.seam_velocity_jump_ratio:.1f}x its quickest changes inside "
         "the clip (99th percentile)"
     )
@@ -1386,13 +1390,13 @@ def _auto_seam(
         why.append(f"it changes the clip more (mean {d1:.3g} against {d0:.3g} m)")
 
     def whip(r: LoopResult) -> str | None:
-        return next((n for n in r.notes if n.startswith("fast point")), None)
+        return next((n for n in r.notes if n.startswith(WHIP_NOTE)), None)
 
     if whip(c1) and not whip(c0):
         why.append(f"it whips a limb ({whip(c1)})")
     hitch = _hitch_note(s0)
     if why:
-        notes = tuple(n for n in c0.notes if not n.startswith("a hitch at the seam"))
+        notes = tuple(n for n in c0.notes if not n.startswith(HITCH_NOTE))
         note = f"{hitch}; closed C1 too (c1='auto') and not taken: " + "; ".join(why)
         return dataclasses.replace(c0, notes=(*notes, note))
     note = (
@@ -1477,7 +1481,7 @@ def _whip_note(motion: Motion, out: Motion, *, whole: bool, seam: SeamMetrics) -
     f, j = np.unravel_index(int(fast.argmax()), fast.shape)
     names = [*sk.names, *(f"{sk.names[p]} end site" for p in sk.end_site_parents)]
     note = (
-        f"fast point: {names[j]} moves {fast.max():.3g} m/s at frames {f}-{f + 1} of the loop, "
+        f"{WHIP_NOTE}: {names[j]} moves {fast.max():.3g} m/s at frames {f}-{f + 1} of the loop, "
         f"{fast.max() / top:.1f}x the input's fastest point ({top:.3g} m/s): the closing put its change there"
     )
     if whole:
