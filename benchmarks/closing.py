@@ -14,7 +14,7 @@ Cases
 * **Real cases**: CMU 49_08 (BVH), CMU backflip (ASF/AMC), DeepMimic cartwheel, backflip,
   run, looped with :func:`elastic_motion.apps.loop.loop_motion` (``root="travel"``,
   finger joints free) on the Lie curve and on the Euler-angle curve (baseline), C0 and C1;
-  the seam and deviation metrics of :func:`elastic_motion.apps.loop.seam_metrics` over the
+  the seam and deviation metrics of :func:`elastic_motion.apps.metrics.seam_metrics` over the
   closed joints.
 
 Prints markdown tables and writes JSON (default ``benchmarks/results/closing.json``).
@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from _common import timed_best, write_json
-from elastic_motion.apps.loop import loop_motion, seam_metrics
+from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.metrics import seam_metrics
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.closing import close_curve, closing_gap, project_closed_rd
 from elastic_motion.closing_kkt import kkt_residual, project_closed

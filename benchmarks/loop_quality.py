@@ -8,13 +8,13 @@ default solver ``"kkt"``): the whole clip and ``window="auto"``. Each loop is wr
 measured by forward kinematics against the prepared input's frames of the same window:
 
 * ``change max / mean`` (m): FK positions of the closed joints and their end sites, loop
-  against input, over all frames (:func:`~elastic_motion.apps.loop.seam_metrics`).
+  against input, over all frames (:func:`~elastic_motion.apps.metrics.seam_metrics`).
 * ``seam`` (rad, m): the largest joint angle across the seam (closed joints, root relative
   to heading) and the largest FK position jump.
 * ``C1``, ``hitch``: the seam the default ``c1="auto"`` took (C0, or C1 where the C0 seam had
   a hitch and C1 was better), and the seam's velocity jump over the input's own quick
   changes of velocity (the largest ratio over the FK points;
-  :attr:`~elastic_motion.apps.loop.SeamMetrics.seam_velocity_jump_ratio`): about 1 or less is
+  :attr:`~elastic_motion.apps.metrics.SeamMetrics.seam_velocity_jump_ratio`): about 1 or less is
   no worse than the clip itself. The speed row is closed C0 (it times the closing).
 * ``skating in / loop`` (m/s): mean horizontal speed of the contact joints during the
   *input's* contacts (:func:`elastic_motion.motion.contacts.detect_contacts` from one floor
@@ -50,8 +50,8 @@ from pathlib import Path
 
 import elastic_motion as em
 from _common import RESULTS, machine_info, write_json
-from elastic_motion.apps.loop import loop_motion, seam_metrics
-from elastic_motion.apps.metrics import contact_skating
+from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.metrics import contact_skating, seam_metrics
 from elastic_motion.motion import read_motion, to_metres
 from elastic_motion.motion.contacts import ContactOptions, detect_contacts
 

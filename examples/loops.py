@@ -33,12 +33,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from elastic_motion.apps.loop import loop_motion, repeat_motion, seam_metrics
+from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.metrics import seam_metrics
 from elastic_motion.closing import close_curve
 from elastic_motion.curves import DiscreteCurve
 from elastic_motion.groups import SO3
 from elastic_motion.motion import drop_tpose, forward_kinematics, read_motion
 from elastic_motion.motion.contacts import detect_contacts
+from elastic_motion.motion.looping import repeat_motion
 
 MOCAP = Path(os.environ.get("ELASTIC_MOTION_MOCAP", Path(__file__).resolve().parents[2] / "shared" / "mocap"))
 SO3G = SO3()

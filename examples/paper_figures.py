@@ -37,9 +37,10 @@ import numpy as np
 
 from elastic_motion.apps.align import align_motions
 from elastic_motion.apps.blend import blend_motions
-from elastic_motion.apps.loop import loop_motion, repeat_motion
+from elastic_motion.apps.loop import loop_motion
 from elastic_motion.apps.render import plot_foot_trajectories, plot_seam, plot_warp
 from elastic_motion.motion import drop_tpose, read_motion, trim
+from elastic_motion.motion.looping import repeat_motion
 
 REPO = Path(__file__).resolve().parents[1]
 MOCAP = Path(os.environ.get("ELASTIC_MOTION_MOCAP", REPO.parent / "shared" / "mocap"))

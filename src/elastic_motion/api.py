@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from elastic_motion.apps.align import AlignResult, align_motions
-from elastic_motion.apps.blend import BlendMetrics, BlendResult, blend_metrics, blend_motions
+from elastic_motion.apps.blend import BlendResult, blend_motions
 from elastic_motion.apps.blendspace import BlendSpace, blendspace
 from elastic_motion.apps.cleanup import CleanupResult, cleanup_footskate
 from elastic_motion.apps.cycles import gait_cycles
@@ -39,15 +39,9 @@ from elastic_motion.apps.database import (  # motion databases (issue 15)
 )
 from elastic_motion.apps.distance import DistanceTable, distance_table
 from elastic_motion.apps.landmark_files import LandmarkFile, read_landmark_file
-from elastic_motion.apps.loop import (
-    LoopResult,
-    SeamMetrics,
-    loop_motion,
-    repeat_loop,
-    repeat_motion,
-    seam_metrics,
-)
+from elastic_motion.apps.loop import LoopResult, loop_motion, repeat_loop
 from elastic_motion.apps.loop_limits import joint_limit_report
+from elastic_motion.apps.metrics import BlendMetrics, SeamMetrics, blend_metrics, seam_metrics
 from elastic_motion.apps.pca import MotionPCA, motion_pca
 from elastic_motion.apps.prepare import (
     MotionPreparation,
@@ -63,6 +57,7 @@ from elastic_motion.apps.viewer import ViewerPage, build_viewer
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, read_motion, write_bvh
 from elastic_motion.motion.contacts import ContactOptions
+from elastic_motion.motion.looping import repeat_motion
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -184,7 +179,7 @@ def repeat(motion: Motion | LoopResult, cycles: int = 3, root: str | None = None
         A result of :func:`loop`: played with its own ``root`` mode (unless ``root`` is
         given) and returned in its output unit (the first input's), so ``em.write`` writes
         the file ``loop --repeat`` writes (:func:`elastic_motion.apps.loop.repeat_loop`).
-        A Motion: played as it is (:func:`elastic_motion.apps.loop.repeat_motion`, root
+        A Motion: played as it is (:func:`elastic_motion.motion.looping.repeat_motion`, root
         ``"travel"`` by default), in its own unit.
     cycles : int
     root : {"travel", "inplace"}, optional

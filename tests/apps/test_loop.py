@@ -134,7 +134,7 @@ def test_treadmill_removes_the_travel_at_a_constant_rate():
     """``treadmill``: the first frame unchanged, the last back on the first's floor position
     and heading, heights and joint rotations kept; a straight walk at constant speed becomes
     one whose root stays put (the constant rate), a turn is undone a fraction per frame."""
-    from elastic_motion.apps.loop import treadmill
+    from elastic_motion.motion.looping import treadmill
     from elastic_motion.motion.rotations import axis_rotation
 
     m = synthetic()
@@ -177,7 +177,7 @@ def test_treadmill_removes_the_travel_at_a_constant_rate():
     )
     np.testing.assert_allclose(flat.rotations[:, 0], np.tile(tilt, (f, 1, 1)), atol=1e-12)
     # on_belt undoes it exactly (the belt's travel and turn put back)
-    from elastic_motion.apps.loop import on_belt
+    from elastic_motion.motion.looping import on_belt
 
     turned = walk.replace(rotations=rots, root_translation=arc)
     back_on = on_belt(flat, turned)

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from loop_testlib import chain_skeleton
 
-from elastic_motion.apps.loop import loop_motion, seam_metrics
+from elastic_motion.apps.loop import loop_motion
 from elastic_motion.apps.loop_window import cycle_candidates, estimate_period, pose_dissimilarity
+from elastic_motion.apps.metrics import seam_metrics
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion, drop_tpose, read_motion

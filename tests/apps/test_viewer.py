@@ -96,7 +96,7 @@ def test_blend_warp_timing(tmp_path, mocap_dir):
 
 
 def test_long_clip_is_decimated_and_said(mocap_dir):
-    from elastic_motion.apps.loop import repeat_motion
+    from elastic_motion.motion.looping import repeat_motion
 
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/07_01.bvh"))
     long = repeat_motion(m, 33)
@@ -197,8 +197,8 @@ def test_page_in_chromium(loop_files, tmp_path):
 @pytestmark_browser
 def test_long_clip_stays_responsive_in_chromium(mocap_dir, tmp_path):
     """10,000 frames of 31 joints: the page loads and scrubs (timings printed, not asserted)."""
-    from elastic_motion.apps.loop import repeat_motion
     from elastic_motion.apps.viewer import write_viewer
+    from elastic_motion.motion.looping import repeat_motion
 
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/07_01.bvh"))
     long = repeat_motion(m, 33)

@@ -47,7 +47,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -64,6 +64,7 @@ from elastic_motion.motion import (
     to_lie_curve,
 )
 from elastic_motion.motion.edit import check_interpolation, resampled_frames, smooth_motion
+from elastic_motion.motion.representations import representation
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
 from elastic_motion.warp.options import DEFAULT_SAMPLE_SMOOTHING
 
@@ -71,8 +72,10 @@ __all__ = [
     "AUTO_LANDMARK_WEIGHT",
     "METHODS",
     "AlignResult",
+    "CurveMethod",
     "LandmarkPlan",
     "align_motions",
+    "check_method",
     "landmark_parameters",
     "motion_curves",
     "plan_landmarks",
@@ -80,10 +83,10 @@ __all__ = [
     "warp_options",
 ]
 
-Method = Literal["euler-linear", "euler-elastic", "lie"]
-
-#: Blend / alignment methods: the two baselines of paper 001 Fig. 5 and paper 000's.
-METHODS = ("euler-linear", "euler-elastic", "lie")
+#: Blend / alignment methods: the two representations (:data:`elastic_motion.motion.METHODS`)
+#: and ``"euler-linear"``, Euler curves interpolated frame by frame (paper 001 Fig. 5 (a)).
+CurveMethod = Literal["lie", "euler-elastic", "euler-linear"]
+METHODS: tuple[str, ...] = get_args(CurveMethod)
 
 
 def warp_options(warp: str | WarpOptions | None) -> WarpOptions:
@@ -143,7 +146,7 @@ def motion_curves(
     list of DiscreteCurve
         Over the curve joints; points ``(3 + 9 J,)`` (lie) or ``(3 + 3 J,)`` (euler).
     """
-    _check_method(method)
+    method = check_method(method)
     check_interpolation(interpolation, OptionError)
     idx = range(len(prepared.motions)) if which is None else list(which)
     out = []
@@ -174,10 +177,14 @@ def motion_curves(
     return out
 
 
-def _check_method(method: str) -> str:
-    if method not in METHODS:
-        raise OptionError("method", f"expected one of {list(METHODS)}; got {method!r}")
-    return method
+def check_method(method: str, argument: str = "method") -> str:
+    """The canonical name of a curve method (:data:`CurveMethod`; ``"euler"`` is
+    ``"euler-elastic"``), else an :class:`OptionError` naming ``argument``."""
+    if method == "euler-linear":
+        return method
+    if method not in METHODS and method != "euler":
+        raise OptionError(argument, f"expected one of {list(METHODS)}; got {method!r}")
+    return representation(method, argument).name
 
 
 def landmark_parameters(
@@ -474,7 +481,7 @@ def align_motions(
     -------
     AlignResult
     """
-    _check_method(method)
+    method = check_method(method)
     opts = warp_options(warp)
     if isinstance(a, PreparedMotions):
         if b is not None or len(a.motions) != 2:

@@ -135,7 +135,7 @@ import numpy as np
 
 from elastic_motion.apps.align import (
     AUTO_LANDMARK_WEIGHT,
-    _check_method,
+    check_method,
     landmark_parameters,
     motion_curves,
     plan_landmarks,
@@ -143,7 +143,7 @@ from elastic_motion.apps.align import (
     warp_options,
 )
 from elastic_motion.apps.cleanup import CleanupResult
-from elastic_motion.apps.metrics import BoneLengthError, FootSliding
+from elastic_motion.apps.metrics import BlendMetrics, blend_metrics, seam_metrics
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.curves import DiscreteCurve, srv_transform, weighted_blend
@@ -656,7 +656,7 @@ def blend_motions(
     k = len(motions.motions) if isinstance(motions, PreparedMotions) else len(motions)
     if k < 2:
         raise ValueError(f"motions: expected at least 2 motions to blend; got {k}")
-    _check_method(method)
+    method = check_method(method)
     opts = warp_options(warp)
     if skeleton not in ("blend", "first"):
         raise OptionError("skeleton", f"expected 'blend' or 'first'; got {skeleton!r}")
@@ -835,8 +835,6 @@ def blend_motions(
     if loop:
         # close the blended cycle first, then plant the feet on the loop: the closing spreads
         # the seam's gap over the cycle (and would bring the skating back after a clean-up)
-        from elastic_motion.apps.loop import seam_metrics
-
         loop_res = _close_loop(result)
         result = loop_res.motion
         what = "one matched cycle of each" if match is not None and match.n else "the whole clips (no cycles)"
@@ -1109,96 +1107,3 @@ def _cleanup(
     else:
         notes += [f"clean-up: {n}" for n in (*leg_notes, *res.notes)]
     return res, None
-
-
-@dataclass(frozen=True, eq=False)
-class BlendMetrics:
-    """Quality metrics of a blend (:func:`blend_metrics`), on the prepared inputs (metres).
-
-    Attributes
-    ----------
-    labels : tuple of str
-        The inputs' names.
-    foot_sliding : FootSliding
-        Of the result (:func:`elastic_motion.apps.metrics.foot_sliding`).
-    foot_sliding_inputs : tuple of FootSliding
-        Of each prepared input.
-    bone_length_error : BoneLengthError
-        Of the result against its own skeleton.
-    bone_length_error_vs_inputs : tuple of BoneLengthError
-        Of the result against each input's skeleton.
-    distances_between_inputs : ndarray, shape (K, K)
-        Lie elastic distances (``R^3 x SO(3)^J`` SRV, optimal warp by DP, shared weights).
-    distances_to_inputs : ndarray, shape (K,)
-        From the result to each input, same metric.
-    geodesic_expected : ndarray, shape (2,) or (0,)
-        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
-    """
-
-    labels: tuple[str, ...]
-    foot_sliding: FootSliding
-    foot_sliding_inputs: tuple[FootSliding, ...]
-    bone_length_error: BoneLengthError
-    bone_length_error_vs_inputs: tuple[BoneLengthError, ...]
-    distances_between_inputs: np.ndarray
-    distances_to_inputs: np.ndarray
-    geodesic_expected: np.ndarray
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-ready scalars (speeds in m/s, distances in the Lie SRV metric)."""
-        return {
-            "foot_sliding": {
-                "result": self.foot_sliding.summary(),
-                "inputs": [f.summary() for f in self.foot_sliding_inputs],
-            },
-            "bone_length_error": {
-                "result": self.bone_length_error.summary(),
-                "vs_inputs": [b.summary() for b in self.bone_length_error_vs_inputs],
-            },
-            "distances": {
-                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
-                "labels": list(self.labels),
-                "between_inputs": self.distances_between_inputs.tolist(),
-                "result_to_inputs": self.distances_to_inputs.tolist(),
-                "geodesic_expected": self.geodesic_expected.tolist(),
-            },
-        }
-
-
-def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray) -> BlendMetrics:
-    """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
-
-    Parameters
-    ----------
-    result : Motion
-        The blend (:attr:`BlendResult.motion`).
-    prepared : PreparedMotions
-        Its prepared inputs (:attr:`BlendResult.prepared`).
-    weights : ndarray, shape (K,)
-
-    Returns
-    -------
-    BlendMetrics
-    """
-    from elastic_motion.apps.distance import distance_table
-    from elastic_motion.apps.metrics import bone_length_error, foot_sliding
-
-    ms = prepared.motions
-    table = distance_table(
-        [*ms, result],
-        labels=[*prepared.labels, "result"],
-        prepare=PrepareOptions(joints="common", drop_tpose=False),
-    )
-    d = table.matrix
-    k = len(ms)
-    expected = np.array([weights[1] * d[0, 1], weights[0] * d[0, 1]]) if k == 2 else np.zeros(0)
-    return BlendMetrics(
-        labels=tuple(prepared.labels),
-        foot_sliding=foot_sliding(result),
-        foot_sliding_inputs=tuple(foot_sliding(m) for m in ms),
-        bone_length_error=bone_length_error(result),
-        bone_length_error_vs_inputs=tuple(bone_length_error(result, m) for m in ms),
-        distances_between_inputs=d[:k, :k].copy(),
-        distances_to_inputs=d[k, :k].copy(),
-        geodesic_expected=expected,
-    )

@@ -51,7 +51,7 @@ import numpy as np
 from elastic_motion.apps.metrics import ContactSkating, contact_skating
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
-from elastic_motion.motion.contacts import ContactOptions, Contacts, _clean_runs, _runs
+from elastic_motion.motion.contacts import ContactOptions, Contacts, close_gaps, mask_runs
 from elastic_motion.motion.edit import (
     eased_envelope,
     fade_change,
@@ -150,7 +150,7 @@ def carry_contacts(
     min_len = max(1, math.ceil(opts.min_duration * fps - 1e-9))
     min_gap = max(1, math.ceil(opts.min_gap * fps - 1e-9))
     for j in range(mask.shape[1]):
-        mask[:, j] = _clean_runs(mask[:, j], min_len, min_gap)
+        mask[:, j] = close_gaps(mask[:, j], min_len, min_gap)
     floor = float(np.dot(wf.mean(axis=0), [c.floor for c in contacts]))
     ground_out = np.where(gw > 0, ground / np.where(gw > 0, gw, 1.0), np.nan)
     return Contacts(
@@ -325,7 +325,7 @@ def _plants(p: np.ndarray, mask: np.ndarray, min_height: np.ndarray | None, up: 
     """Per frame, the plant of the run it is in: the mean floor position over the run, the
     joint's own height (at least ``min_height``, per frame); NaN elsewhere."""
     out = np.full_like(p, np.nan)
-    for a, b in _runs(mask):
+    for a, b in mask_runs(mask):
         plant = p[a:b].mean(axis=0)
         out[a:b] = plant
         # the height is the joint's own (a heel rises before the toe lifts): only the floor
@@ -357,11 +357,11 @@ def _rigid_foot_plants(
     the ankle that joins them twists the foot by tens of degrees (67 there).
     """
     floor_axes = [i for i in range(3) if i != up]
-    runs_a, runs_t = _runs(ma), _runs(mt)
+    runs_a, runs_t = mask_runs(ma), mask_runs(mt)
     # per following run, the stretch it shares most with its leader (a short toe contact
     # bridging two heel contacts follows the longer overlap, not whichever came last)
     follow: dict[tuple[str, tuple[int, int]], tuple[int, np.ndarray]] = {}
-    for a, b in _runs(ma & mt):
+    for a, b in mask_runs(ma & mt):
         ra = next(r for r in runs_a if r[0] <= a < r[1])
         rt = next(r for r in runs_t if r[0] <= a < r[1])
         vec = (pt[a:b] - pa[a:b]).mean(axis=0)[floor_axes]

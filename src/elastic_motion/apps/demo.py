@@ -171,7 +171,8 @@ def run_demo(
     """
     from elastic_motion.apps.blend import blend_motions
     from elastic_motion.apps.distance import distance_table
-    from elastic_motion.apps.loop import loop_motion, repeat_motion, seam_metrics
+    from elastic_motion.apps.loop import loop_motion
+    from elastic_motion.apps.metrics import seam_metrics
     from elastic_motion.apps.plots_database import plot_distance_matrix
     from elastic_motion.apps.render import (
         joint_rotation_curve,
@@ -183,6 +184,7 @@ def run_demo(
     )
     from elastic_motion.apps.report import report_header, write_report
     from elastic_motion.motion import read_motion, write_bvh
+    from elastic_motion.motion.looping import repeat_motion
 
     t_start = time.perf_counter()
     report_cb = progress or null_progress

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion import limits
-from elastic_motion.apps.align import _check_method, motion_curves, warp_options
+from elastic_motion.apps.align import check_method, motion_curves, warp_options
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.curves import srv_transform
@@ -118,7 +118,7 @@ def distance_table(
     -------
     DistanceTable
     """
-    _check_method(method)
+    method = check_method(method)
     opts = warp_options(warp)
     check_interpolation(interpolation, OptionError)
     report = progress or null_progress

@@ -54,7 +54,6 @@ import numpy as np
 
 from elastic_motion import limits
 from elastic_motion._threads import single_threaded_blas
-from elastic_motion._validation import check_finite
 from elastic_motion.apps.cleanup import cleanup_footskate, find_arms, find_legs
 from elastic_motion.apps.loop_contacts import (
     ContactConstraints,
@@ -67,7 +66,7 @@ from elastic_motion.apps.loop_contacts import (
 )
 from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_within_limits
 from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
-from elastic_motion.apps.metrics import ContactSkating, contact_skating, foot_sliding
+from elastic_motion.apps.metrics import ContactSkating, SeamMetrics, contact_skating, seam_metrics
 from elastic_motion.apps.prepare import (
     PreparedMotions,
     PrepareOptions,
@@ -94,7 +93,15 @@ from elastic_motion.motion import (
 )
 from elastic_motion.motion.contacts import MISSED_STANCES_NOTE, ContactOptions, Contacts, detect_contacts
 from elastic_motion.motion.joint_limits import JointLimits
-from elastic_motion.motion.rotations import axis_rotation
+from elastic_motion.motion.looping import (
+    check_loop_motion,
+    check_root,
+    cycle_transform,
+    on_belt,
+    repeat_motion,
+    treadmill,
+    twist_angle,
+)
 
 __all__ = [
     "CLOSING_SOLVERS",
@@ -112,7 +119,6 @@ __all__ = [
 
 _SO3 = SO3()
 _AXES = "xyz"
-_ROOT_MODES = ("travel", "inplace")
 #: What is closed: the Lie group curve (the method) or the Euler-angle curve (the baseline).
 LOOP_METHODS = ("lie", "euler-elastic")
 #: Closing solvers: ``"kkt"`` the closed curve nearest the input
@@ -266,167 +272,8 @@ class LoopResult:
 # ------------------------------------------------------------------------------------------
 
 
-def _twist_angle(r: np.ndarray, axis: int) -> float:
-    """Angle of the twist of rotation ``r`` about coordinate ``axis`` (swing-twist
-    decomposition ``r = swing twist``, from the quaternion ``(w, v)``: ``2 atan2(v_a, w)``)."""
-    ell = _SO3.log(r)
-    a = float(np.linalg.norm(ell))
-    w = math.cos(0.5 * a)
-    va = math.sin(0.5 * a) * (ell[axis] / a) if a > 0 else 0.0
-    delta = 2.0 * math.atan2(va, w)
-    return (delta + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def _check_root(root: str) -> str:
-    if root not in _ROOT_MODES:
-        raise OptionError("root", f"expected 'travel' or 'inplace'; got {root!r}")
-    return root
-
-
-def _check_motion(motion: object, name: str = "motion", min_frames: int = 3) -> Motion:
-    if not isinstance(motion, Motion):
-        raise ValueError(f"{name}: expected a Motion; got {type(motion).__name__}")
-    if motion.n_frames < min_frames:
-        raise ValueError(
-            f"{name}: expected at least {min_frames} frames to make a loop; got {motion.n_frames}"
-        )
-    check_finite(motion.rotations, f"{name}.rotations")
-    check_finite(motion.root_translation, f"{name}.root_translation")
-    return motion
-
-
 def _metres(motion: Motion) -> float:
     return motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
-
-
-def cycle_transform(motion: Motion, root: str = "travel") -> tuple[np.ndarray, np.ndarray]:
-    """The rigid map ``x -> rot @ x + shift`` taking a cycle to the next one.
-
-    Parameters
-    ----------
-    motion : Motion
-        At least 2 frames.
-    root : {"travel", "inplace"}
-
-    Returns
-    -------
-    rot : ndarray, shape (3, 3)
-        Rotation about the up axis by the heading change (identity for ``"inplace"``).
-    shift : ndarray, shape (3,)
-        Translation in the floor plane (motion length units).
-    """
-    _check_root(root)
-    if root == "inplace":
-        return np.eye(3), np.zeros(3)
-    up = _AXES.index(motion.up_axis)
-    r_root = motion.rotations[-1, 0] @ motion.rotations[0, 0].T
-    rot = axis_rotation(_twist_angle(r_root, up), "XYZ"[up])
-    p0 = motion.root_translation[0].copy()
-    p1 = motion.root_translation[-1].copy()
-    p0[up] = 0.0
-    p1[up] = 0.0
-    return rot, p1 - rot @ p0
-
-
-def treadmill(motion: Motion) -> tuple[Motion, float, float]:
-    """The clip with its travel removed at a constant rate: frame ``f`` (``s = f / (F - 1)``)
-    is moved by ``x -> Y(-s delta) (x - L_s) + floor(p_0)``, where ``delta`` is the heading
-    change of the clip and ``L_s`` runs straight from the root's floor-plane position on the
-    first frame to that on the last (:func:`cycle_transform` with ``"travel"``, undone a
-    fraction at a time). The first frame is unchanged, the last is back on the first's floor
-    position and heading; heights and joint-local rotations are kept, so a planted foot
-    moves back at the clip's mean speed (the treadmill of an in-place game clip).
-
-    Returns
-    -------
-    Motion
-    travel : float
-        The floor-plane distance removed (motion length units).
-    turn : float
-        The heading change removed (radians).
-    """
-    turn, p0, line, delta = _belt(motion)
-    r = turn.swapaxes(-1, -2)  # (F, 3, 3): each frame turned back
-    root = np.einsum("fij,fj->fi", r, motion.root_translation - line) + p0
-    rots = motion.rotations.copy()
-    rots[:, 0] = r @ rots[:, 0]
-    return motion.replace(root_translation=root, rotations=rots), float(np.linalg.norm(line[-1] - p0)), delta
-
-
-def _belt(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """The treadmill of a clip (:func:`treadmill`): per frame the turn ``Y(delta s)`` it has
-    made by then ``(F, 3, 3)``, the first floor position ``p0``, the straight line ``L_s``
-    from it to the last ``(F, 3)`` and the heading change ``delta`` (radians)."""
-    up = _AXES.index(motion.up_axis)
-    s = np.arange(motion.n_frames) / max(motion.n_frames - 1, 1)
-    delta = _twist_angle(motion.rotations[-1, 0] @ motion.rotations[0, 0].T, up)
-    p0, p1 = motion.root_translation[0].copy(), motion.root_translation[-1].copy()
-    p0[up] = p1[up] = 0.0
-    return axis_rotation(delta * s, "XYZ"[up]), p0, p0 + s[:, None] * (p1 - p0), float(delta)
-
-
-def on_belt(motion: Motion, original: Motion) -> Motion:
-    """``motion`` (on ``original``'s frames) with :func:`treadmill` of ``original`` undone: the
-    travel and turn that the treadmill removes at a constant rate put back, so a foot that
-    rides the belt stands still. The inverse of ``treadmill(original)`` (exact on it)."""
-    f = original.n_frames
-    if motion.n_frames != f:
-        raise ValueError(f"motion: expected {f} frames like the original; got {motion.n_frames}")
-    r, p0, line, _ = _belt(original)
-    root = np.einsum("fij,fj->fi", r, motion.root_translation - p0) + line
-    rots = motion.rotations.copy()
-    rots[:, 0] = r @ rots[:, 0]
-    return motion.replace(root_translation=root, rotations=rots)
-
-
-def repeat_motion(motion: Motion, cycles: int = 3, root: str = "travel") -> Motion:
-    """Play a clip ``cycles`` times, each cycle moved by the cycle transform.
-
-    Cycle ``k`` is frames ``0 .. F-2`` moved by ``T^k``; the last frame of the last cycle is
-    kept, so the result has ``cycles (F - 1) + 1`` frames. For a closed clip frame
-    ``k (F - 1)`` is the seam.
-
-    Parameters
-    ----------
-    motion : Motion
-    cycles : int
-    root : {"travel", "inplace"}
-
-    Returns
-    -------
-    Motion
-    """
-    _check_motion(motion, min_frames=2)
-    if int(cycles) != cycles or cycles < 1:
-        raise ValueError(f"cycles: expected a positive integer; got {cycles!r}")
-    f = motion.n_frames
-    # bounded before allocation: the frames and frames x joints of the result
-    total = int(cycles) * (f - 1) + 1
-    limits.check_option("cycles", "a repeated clip of frames", total, "max_frames")
-    limits.check_option(
-        "cycles",
-        "a repeated clip of frames x joints",
-        total * motion.n_joints,
-        "max_samples",
-    )
-    rot, shift = cycle_transform(motion, root)
-    roots, rots, jts = [], [], []
-    r_k, s_k = np.eye(3), np.zeros(3)
-    for k in range(int(cycles)):
-        take = slice(0, f - 1) if k < cycles - 1 else slice(0, f)
-        rr = motion.rotations[take].copy()
-        rr[:, 0] = r_k @ rr[:, 0]
-        rots.append(rr)
-        roots.append(motion.root_translation[take] @ r_k.T + s_k)
-        if motion.joint_translations is not None:
-            jts.append(motion.joint_translations[take])
-        r_k, s_k = rot @ r_k, rot @ s_k + shift
-    return motion.replace(
-        root_translation=np.concatenate(roots),
-        rotations=np.concatenate(rots),
-        joint_translations=np.concatenate(jts) if jts else None,
-        source=(),
-    )
 
 
 def repeat_loop(result: LoopResult, cycles: int = 3, root: str | None = None) -> Motion:
@@ -1217,7 +1064,7 @@ def loop_motion(
         raise OptionError(
             "min_length", f"expected only with window='auto' (--window auto); got it with {what}"
         )
-    _check_root(root)
+    check_root(root)
     if not (isinstance(c1, bool) or (isinstance(c1, str) and c1 == "auto")):
         raise OptionError("c1", f"expected True, False or 'auto'; got {c1!r}")
     prepared = prepare_motions(motion if isinstance(motion, PreparedMotions) else [motion], prepare)
@@ -1231,7 +1078,7 @@ def loop_motion(
             limit_tol=limit_tol, progress=progress,
         )  # fmt: skip
         return _auto_seam(prepared, window, min_length, candidates, same)
-    motion = _check_motion(prepared.motions[0])
+    motion = check_loop_motion(prepared.motions[0])
     names = motion.skeleton.names
     up = _AXES.index(motion.up_axis)
     free = set(_free(motion, free_joints))
@@ -1263,7 +1110,7 @@ def loop_motion(
         )  # fmt: skip
         motion = _frames(motion, cw.start, cw.stop)
     rot, _ = cycle_transform(out, root)
-    heading = _twist_angle(rot, up) if root == "travel" else 0.0
+    heading = twist_angle(rot, up) if root == "travel" else 0.0
     found, contact_notes = _contacts(motion, contacts, contact_options)
     lim_info = kept.pop("joint_limits", None) if kept is not None else None
     if kept is not None and not kept:
@@ -1509,183 +1356,3 @@ def _joint_limits(motion: Motion, option: str | JointLimits) -> tuple[str, Joint
         return mode, None
     lim = lim.restricted_to(motion.skeleton.names)
     return (mode, lim) if lim.joints else (mode, None)
-
-
-# ------------------------------------------------------------------------------------------
-# Metrics
-# ------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class SeamMetrics:
-    """What an animator sees at the seam of a looping clip (:func:`seam_metrics`).
-
-    Angles in degrees, positions in metres (the motion's length unit when unknown), times
-    in seconds.
-
-    Attributes
-    ----------
-    seam_angle_max_deg, seam_angle_mean_deg : float
-        Per-joint angle between the last frame and ``T`` applied to the first (local
-        rotations; root with the cycle transform ``T``).
-    seam_angular_velocity_max_deg_s, seam_angular_velocity_mean_deg_s : float
-        Per joint ``|omega_last - Ad_T omega_first|``, ``omega`` the right-trivialised
-        angular velocity of the last / first frame step.
-    seam_position_max_m, seam_position_mean_m : float
-        FK positions of the joints and their end sites, last frame vs ``T`` (first frame).
-    seam_velocity_max_m_s : float
-        Largest jump of an FK point's velocity at the seam.
-    seam_velocity_jump_ratio : float
-        The hitch an animator sees at a C0 seam: per FK point its velocity jump at the seam
-        over the largest change of its velocity between two frame steps inside the clip (99th
-        percentile over the steps of ``original`` when given, else of the cycle itself; at
-        least a tenth of the largest such value over the points, so a point that barely moves
-        does not count a millimetre as a hitch); the largest over the points. At most about 1:
-        no worse than the clip's own quick moves (C1 loops of CMU and DeepMimic clips:
-        0.1-1.2); well above: a visible hitch (C0 loops of the same clips up to 5.5).
-    seam_velocity_jump_point : str
-        The point where that ratio is largest (a joint name, or ``"<joint> end site"``).
-    foot_sliding_m_s : float
-        Mean horizontal speed of foot joints over frame steps where they touch the floor,
-        over two cycles played in a row (so the seam counts).
-    foot_sliding_seam_m_s : float
-        The largest such speed at the seam step (0 if no foot touches).
-    seam_angle_deg, seam_angular_velocity_deg_s : ndarray, shape (J,)
-        Per joint (all joints, also those not selected).
-    deviation_max_m, deviation_mean_m : float or None
-        With ``original``: FK positions of the same points against the original, all frames.
-    deviation_per_frame_max_m, deviation_per_frame_mean_m : ndarray, shape (F,), or None
-    """
-
-    seam_angle_max_deg: float
-    seam_angle_mean_deg: float
-    seam_angular_velocity_max_deg_s: float
-    seam_angular_velocity_mean_deg_s: float
-    seam_position_max_m: float
-    seam_position_mean_m: float
-    seam_velocity_max_m_s: float
-    seam_velocity_jump_ratio: float
-    seam_velocity_jump_point: str
-    foot_sliding_m_s: float
-    foot_sliding_seam_m_s: float
-    seam_angle_deg: np.ndarray
-    seam_angular_velocity_deg_s: np.ndarray
-    deviation_max_m: float | None = None
-    deviation_mean_m: float | None = None
-    deviation_per_frame_max_m: np.ndarray | None = None
-    deviation_per_frame_mean_m: np.ndarray | None = None
-
-    def summary(self) -> dict[str, float]:
-        """The scalars, for a JSON report (deviation only when measured)."""
-        out = {
-            f.name: getattr(self, f.name)
-            for f in dataclasses.fields(self)
-            if not isinstance(getattr(self, f.name), np.ndarray) and getattr(self, f.name) is not None
-        }
-        return out
-
-
-def seam_metrics(
-    motion: Motion,
-    *,
-    original: Motion | None = None,
-    root: str = "travel",
-    joints: Sequence[str] | None = None,
-    contact_height: float = 0.05,
-) -> SeamMetrics:
-    """What an animator sees at the seam of a looping clip, and how far it is from the original.
-
-    Parameters
-    ----------
-    motion : Motion
-        The cycle (at least 3 frames).
-    original : Motion, optional
-        The clip before looping (same skeleton and frame count), for the deviation.
-    root : {"travel", "inplace"}
-        Loop convention (cycle transform ``T``, module docstring).
-    joints : sequence of str, optional
-        Joints that count (default: all): their rotations in the angle metrics, their
-        positions and the end sites hanging from them in the position metrics (pass
-        :attr:`LoopResult.closed_joints` to leave out joints a loop left free).
-    contact_height : float
-        A foot joint touches the floor when it is less than this (metres) above its lowest
-        height in the clip.
-
-    Returns
-    -------
-    SeamMetrics
-    """
-    motion = _check_motion(motion)
-    _check_root(root)
-    sel = np.arange(motion.n_joints)
-    if joints is not None:
-        unknown = [n for n in joints if n not in motion.skeleton.names]
-        if unknown:
-            raise OptionError("joints", f"expected joint names of the motion; got unknown {unknown}")
-        sel = np.array([motion.skeleton.index(n) for n in joints], dtype=np.int64)
-    scale = _metres(motion)
-    fps = motion.fps
-    rot_t, shift_t = cycle_transform(motion, root)
-    r = motion.rotations
-    first = r[0].copy()
-    first[0] = rot_t @ first[0]
-    second = r[1].copy()
-    second[0] = rot_t @ second[0]
-    seam = np.degrees(np.linalg.norm(_SO3.difference(first, r[-1]), axis=-1))
-    w_last = _SO3.difference(r[-2], r[-1]) * fps
-    w_first = _SO3.difference(first, second) * fps
-    dw = np.degrees(np.linalg.norm(w_last - w_first, axis=-1))
-    sk = motion.skeleton
-    points = np.concatenate([sel, sk.n_joints + np.flatnonzero(np.isin(sk.end_site_parents, sel))])
-    pos = forward_kinematics(motion, end_sites=True)[:, points]
-    p_first = pos[0] @ rot_t.T + shift_t
-    p_second = pos[1] @ rot_t.T + shift_t
-    seam_pos = np.linalg.norm(pos[-1] - p_first, axis=-1) * scale
-    dv = np.linalg.norm((pos[-1] - pos[-2]) - (p_second - p_first), axis=-1) * fps * scale
-    pos_original = None
-    if original is not None:
-        original = _check_motion(original, "original")
-        if original.n_frames != motion.n_frames or original.n_joints != motion.n_joints:
-            raise ValueError(
-                f"original: expected {motion.n_frames} frames of {motion.n_joints} joints like motion; "
-                f"got {original.n_frames} frames of {original.n_joints}"
-            )
-        pos_original = forward_kinematics(original, end_sites=True)[:, points]
-    # each point's quick changes of velocity inside the clip (the seam excluded): 99th percentile
-    ref = pos if pos_original is None else pos_original
-    inner = np.percentile(np.linalg.norm(np.diff(ref, 2, axis=0), axis=-1), 99, axis=0) * fps * scale
-    inner = np.maximum(inner, 0.1 * inner.max(initial=0.0))
-    ratio = dv / np.maximum(inner, np.finfo(float).tiny)
-    names = [*sk.names, *(f"{sk.names[p]} end site" for p in sk.end_site_parents)]
-    out: dict = {
-        "seam_angle_max_deg": float(seam[sel].max()),
-        "seam_angle_mean_deg": float(seam[sel].mean()),
-        "seam_angular_velocity_max_deg_s": float(dw[sel].max()),
-        "seam_angular_velocity_mean_deg_s": float(dw[sel].mean()),
-        "seam_position_max_m": float(seam_pos.max()),
-        "seam_position_mean_m": float(seam_pos.mean()),
-        "seam_velocity_max_m_s": float(dv.max()),
-        "seam_velocity_jump_ratio": float(ratio.max()),
-        "seam_velocity_jump_point": names[int(points[int(ratio.argmax())])],
-        "seam_angle_deg": seam,
-        "seam_angular_velocity_deg_s": dw,
-    }
-    out.update(_foot_sliding(motion, root, contact_height))
-    if pos_original is not None:
-        dev = np.linalg.norm(pos_original - pos, axis=-1) * scale
-        out["deviation_max_m"] = float(dev.max())
-        out["deviation_mean_m"] = float(dev.mean())
-        out["deviation_per_frame_max_m"] = dev.max(axis=1)
-        out["deviation_per_frame_mean_m"] = dev.mean(axis=1)
-    return SeamMetrics(**out)
-
-
-def _foot_sliding(motion: Motion, root: str, contact_height: float) -> dict:
-    # measured on two cycles so that the step across the seam counts too
-    fs = foot_sliding(repeat_motion(motion, 2, root), contact_height=contact_height)
-    seam_step = motion.n_frames - 2  # frames F-2 -> F-1 (= T(frame 0))
-    seam = fs.speed[seam_step][fs.contact[seam_step]] if fs.joints else np.zeros(0)
-    return {
-        "foot_sliding_m_s": fs.mean_speed,
-        "foot_sliding_seam_m_s": float(seam.max(initial=0.0)),
-    }

@@ -73,7 +73,7 @@ import numpy as np
 from elastic_motion.closing_kkt import ExtraConstraints
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
-from elastic_motion.motion.contacts import Contacts, _runs
+from elastic_motion.motion.contacts import Contacts, mask_runs
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
 
 __all__ = [
@@ -520,7 +520,7 @@ def floor_rows(
     out = []
     for j in np.flatnonzero(under.any(axis=0)):
         name = names[j]
-        for a, b in _runs(under[:, j]):
+        for a, b in mask_runs(under[:, j]):
             f = a + int(np.argmin(h_out[a:b, j]))
             out.append(_Row(int(j), f"{name} above the floor", (f, f + 1), f, up, -1, float(h_in[f, j])))
     return out

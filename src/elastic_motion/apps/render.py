@@ -910,7 +910,7 @@ def plot_seam(
     One row per motion (``original``, then ``looped`` if given). Left: the side-view path
     of a few joints (default: the right ankle and the left hand or wrist) while the clip
     plays ``repeat`` times, each cycle moved by the cycle transform ``T``
-    (:func:`elastic_motion.apps.loop.repeat_motion`: a cycle's last frame is replaced by
+    (:func:`elastic_motion.motion.looping.repeat_motion`: a cycle's last frame is replaced by
     the next cycle's first). At each seam a circle marks where the cycle's own last frame
     puts the joint and a cross where the next cycle starts: they coincide for a seamless
     loop; the distance between them is the jump. Right: the skeleton in the last three
@@ -928,7 +928,7 @@ def plot_seam(
     repeat : int
         Cycles to play (at least 2).
     root : {"travel", "inplace"}
-        Loop convention (:func:`elastic_motion.apps.loop.repeat_motion`).
+        Loop convention (:func:`elastic_motion.motion.looping.repeat_motion`).
     joints : sequence of str, optional
         Joints whose paths are drawn (default: the right ankle and the left hand or wrist).
     labels : (str, str)
@@ -943,7 +943,7 @@ def plot_seam(
     """
     from matplotlib.collections import LineCollection
 
-    from elastic_motion.apps.loop import cycle_transform, repeat_motion
+    from elastic_motion.motion.looping import cycle_transform, repeat_motion
 
     if int(repeat) < 2:
         raise ValueError(f"repeat: expected at least 2 cycles to show a seam; got {repeat!r}")

@@ -33,6 +33,7 @@ import numpy as np
 
 from elastic_motion import __version__
 from elastic_motion._io import atomic_write_text
+from elastic_motion.notes import Note
 
 __all__ = ["is_report", "jsonable", "report_header", "report_json", "write_report"]
 
@@ -41,7 +42,7 @@ def jsonable(obj: Any) -> Any:
     """A copy of ``obj`` made of JSON types only.
 
     numpy scalars and arrays become Python numbers and (nested) lists, tuples become lists,
-    paths strings, dataclasses dicts; non-finite floats become ``None``.
+    paths strings, notes their texts, dataclasses dicts; non-finite floats become ``None``.
     """
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
@@ -58,6 +59,8 @@ def jsonable(obj: Any) -> Any:
         return x if math.isfinite(x) else None
     if isinstance(obj, os.PathLike):
         return os.fspath(obj)
+    if isinstance(obj, Note):  # a report lists what people read
+        return str(obj)
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         return jsonable(dataclasses.asdict(obj))
     if obj is None or isinstance(obj, str):

@@ -43,12 +43,17 @@ from elastic_motion.motion.edit import (
 from elastic_motion.motion.info import format_info, motion_info
 from elastic_motion.motion.kinematics import forward_kinematics, global_rotations
 from elastic_motion.motion.representations import (
+    EULER,
+    LIE,
+    METHODS,
+    Representation,
     default_joint_weights,
     default_translation_weight,
     from_euler_curve,
     from_lie_curve,
     group_weights,
     lie_group_for,
+    representation,
     skeleton_diameter,
     to_euler_curve,
     to_lie_curve,
@@ -57,9 +62,13 @@ from elastic_motion.motion.representations import (
 from elastic_motion.motion.skeleton import UNITS, Motion, Skeleton
 
 __all__ = [
+    "EULER",
+    "LIE",
+    "METHODS",
     "UNITS",
     "Motion",
     "ParseError",
+    "Representation",
     "Skeleton",
     "UpAxisEstimate",
     "align_heading",
@@ -96,6 +105,7 @@ __all__ = [
     "read_deepmimic",
     "read_motion",
     "read_urdf_skeleton",
+    "representation",
     "resample",
     "resample_at_times",
     "select_frames",

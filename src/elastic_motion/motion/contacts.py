@@ -52,21 +52,27 @@ import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
+from elastic_motion.errors import OptionError
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
 __all__ = [
+    "CONTACT_POLICIES",
     "MISSED_STANCES_NOTE",
     "ContactOptions",
+    "ContactPolicy",
     "Contacts",
+    "close_gaps",
     "contact_joints",
+    "contact_policy",
     "detect_contacts",
     "floor_height",
     "floor_profile",
+    "mask_runs",
 ]
 
 _AXES = "xyz"
@@ -82,6 +88,32 @@ _FLOOR_MONOTONE = 1.2
 #: How the note on stretches that look planted but are not contacts starts (:func:`detect_contacts`).
 MISSED_STANCES_NOTE = "slow stretches above the contact height, not counted as contacts"
 _GROUND_PERCENTILE = 5.0
+
+#: What an app does with the contacts of its inputs, one vocabulary for blend, loop, blend
+#: spaces and the viewer: ``"keep"`` plants them in the output (a loop: constraints of its
+#: closing; a blend: the foot-skate clean-up), ``"report"`` only measures the output against
+#: them, ``"off"`` skips them. ``"auto"`` (the blend's name before) is accepted for
+#: ``"keep"``, ``"none"`` for ``"off"``.
+ContactPolicy = Literal["keep", "report", "off"]
+CONTACT_POLICIES: tuple[str, ...] = get_args(ContactPolicy)
+_POLICY_ALIASES = {"auto": "keep", "none": "off"}
+
+
+def contact_policy(value: str | None, argument: str = "contacts") -> str:
+    """The :data:`ContactPolicy` named ``value`` (``None`` is ``"off"``; ``"auto"`` is ``"keep"``).
+
+    Raises
+    ------
+    OptionError
+        Any other value, naming ``argument``.
+    """
+    if value is None:
+        return "off"
+    if isinstance(value, str):
+        value = _POLICY_ALIASES.get(value, value)
+        if value in CONTACT_POLICIES:
+            return value
+    raise OptionError(argument, f"expected one of {list(CONTACT_POLICIES)}; got {value!r}")
 
 
 def contact_joints(skeleton: Skeleton | Motion) -> list[int]:
@@ -183,13 +215,13 @@ class Contacts:
     def intervals(self, joint: str | int) -> list[tuple[int, int]]:
         """Contact intervals ``[start, stop)`` (frames) of a joint (name or position in ``joints``)."""
         k = self.joints.index(joint) if isinstance(joint, str) else int(joint)
-        return _runs(self.mask[:, k])
+        return mask_runs(self.mask[:, k])
 
     def all_intervals(self) -> dict[str, list[tuple[int, int]]]:
         """Every joint's intervals, joints that never touch left out."""
         out = {}
         for k, name in enumerate(self.joints):
-            runs = _runs(self.mask[:, k])
+            runs = mask_runs(self.mask[:, k])
             if runs:
                 out[name] = runs
         return out
@@ -228,7 +260,8 @@ class Contacts:
         }
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def mask_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of True in a 1-D boolean mask, as half-open frame ranges ``(start, stop)``."""
     m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
     d = np.diff(m.astype(np.int8))
     starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
@@ -337,13 +370,15 @@ def _hysteresis(near_enter: np.ndarray, near_exit: np.ndarray) -> np.ndarray:
     return out | back
 
 
-def _clean_runs(col: np.ndarray, min_len: int, min_gap: int) -> np.ndarray:
+def close_gaps(col: np.ndarray, min_len: int, min_gap: int) -> np.ndarray:
+    """A copy of the 1-D boolean mask ``col`` with gaps shorter than ``min_gap`` frames filled,
+    then runs shorter than ``min_len`` frames removed (the hysteresis of contact detection)."""
     col = col.copy()
-    runs = _runs(col)
+    runs = mask_runs(col)
     for (_, b), (c, _) in itertools.pairwise(runs):
         if c - b < min_gap:
             col[b:c] = True
-    for a, b in _runs(col):
+    for a, b in mask_runs(col):
         if b - a < min_len:
             col[a:b] = False
     return col
@@ -377,7 +412,7 @@ def _missed_stances(
     out = []
     for k in np.flatnonzero(touches):
         found = []
-        for a, b in _runs(speed[:, k] <= opts.speed_enter):
+        for a, b in mask_runs(speed[:, k] <= opts.speed_enter):
             if b - a < min_len or mask[a:b, k].any():
                 continue
             if below[k] and 2 * mask[a:b, list(below[k])].any(axis=1).sum() > b - a:
@@ -457,7 +492,7 @@ def detect_contacts(
     min_len = max(1, math.ceil(opts.min_duration * motion.fps - 1e-9))
     min_gap = max(1, math.ceil(opts.min_gap * motion.fps - 1e-9))
     for k in range(mask.shape[1]):
-        mask[:, k] = _clean_runs(mask[:, k], min_len, min_gap)
+        mask[:, k] = close_gaps(mask[:, k], min_len, min_gap)
     notes = []
     if offset is not None:
         notes.append(

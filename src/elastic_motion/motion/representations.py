@@ -46,22 +46,31 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 from numba import njit
 
 from elastic_motion.curves import DiscreteCurve
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import Euclidean, ProductGroup, animation_group
 from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
 __all__ = [
+    "EULER",
+    "LIE",
+    "METHODS",
+    "Method",
+    "Representation",
     "default_joint_weights",
     "default_translation_weight",
     "from_euler_curve",
     "from_lie_curve",
     "group_weights",
     "lie_group_for",
+    "representation",
     "skeleton_diameter",
     "to_euler_curve",
     "to_lie_curve",
@@ -484,3 +493,82 @@ def from_euler_curve(curve: DiscreteCurve, like: Motion, *, fps: float | None = 
         joint_translations=_joint_translations_like(like, n),
         source=(),
     )
+
+
+# ------------------------------------------------------------------------------------------
+# The representation, one home
+# ------------------------------------------------------------------------------------------
+#: The curve a motion becomes: the Lie group curve (the method, paper 000) or continuous Euler
+#: angles (the baseline of paper 001). ``"euler"`` is accepted for ``"euler-elastic"``
+#: everywhere (:func:`representation`).
+Method = Literal["lie", "euler-elastic"]
+METHODS: tuple[str, ...] = get_args(Method)
+
+
+@dataclass(frozen=True)
+class Representation:
+    """A curve representation of motions (module docstring).
+
+    Attributes
+    ----------
+    name : {"lie", "euler-elastic"}
+        The public name (the ``method`` of the apps and the CLI's ``--method``).
+    key : {"lie", "euler"}
+        The short key of stored files (database caches and matrices).
+    title : str
+        What it is, for people.
+    """
+
+    name: str
+    key: str
+    title: str
+
+    @property
+    def is_lie(self) -> bool:
+        """True for the Lie group curve."""
+        return self.name == "lie"
+
+    def to_curve(
+        self, motion: Motion, joint_weights: np.ndarray | None = None, translation_weight: float | None = None
+    ) -> DiscreteCurve:
+        """The motion as a curve of this representation (:func:`to_lie_curve` with the weights,
+        or :func:`to_euler_curve`, unweighted)."""
+        if self.is_lie:
+            return to_lie_curve(motion, joint_weights, translation_weight=translation_weight)
+        return to_euler_curve(motion)
+
+    def from_curve(self, curve: DiscreteCurve, like: Motion, *, fps: float | None = None) -> Motion:
+        """A motion from a curve of this representation (:func:`from_lie_curve` or
+        :func:`from_euler_curve`)."""
+        if self.is_lie:
+            return from_lie_curve(curve, like, fps=fps)
+        return from_euler_curve(curve, like, fps=fps)
+
+    def __str__(self) -> str:
+        return self.name
+
+
+#: The Lie group curve in ``R^3 x SO(3)^J`` (paper 000).
+LIE = Representation("lie", "lie", "Lie group curve in R^3 x SO(3)^J")
+#: Continuous Euler angles in ``R^(3 + 3 J)`` (the baseline of paper 001).
+EULER = Representation("euler-elastic", "euler", "Euler angles in R^(3+3J)")
+
+_BY_NAME = {"lie": LIE, "euler-elastic": EULER, "euler": EULER}
+
+
+def representation(value: str | Representation, argument: str = "method") -> Representation:
+    """The representation named ``value`` (``"lie"``, ``"euler-elastic"`` or ``"euler"``).
+
+    Raises
+    ------
+    OptionError
+        Any other value, naming ``argument``.
+    """
+    if isinstance(value, Representation):
+        return value
+    rep = _BY_NAME.get(value) if isinstance(value, str) else None
+    if rep is None:
+        raise OptionError(
+            argument, f"expected one of {list(METHODS)} ('euler' for 'euler-elastic'); got {value!r}"
+        )
+    return rep

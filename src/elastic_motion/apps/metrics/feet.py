@@ -1,37 +1,5 @@
-"""Quality metrics of a motion an animator judges: skating while in contact, feet below the
-floor, foot sliding and bone lengths.
-
-The one home of these two concepts (the loop seam metrics of
-:func:`elastic_motion.apps.loop.seam_metrics` and the blend report use them). Distances of
-a result to its inputs are :func:`elastic_motion.apps.distance.motion_distance`.
-
-Conventions
------------
-* **Units**: positions in metres when the motion's ``metres_per_unit`` is known, otherwise
-  in its own length unit (the result then says ``units="unknown"``); speeds per second.
-* **Foot joints** (:func:`foot_joints`): joints whose name contains ``foot``, ``toe`` or
-  ``ankle`` (case-insensitive): CMU ``LeftFoot``/``LeftToeBase``, ASF ``lfoot``/``ltoes``,
-  DeepMimic ``left_ankle``, Bandai ``Foot_L``/``Toes_L``.
-* **Foot sliding** (:func:`foot_sliding`): a foot joint *touches* the floor in a frame when
-  its height is less than ``contact_height`` (default 5 cm) above its own lowest height in
-  the clip. Over every frame step where a joint touches in both frames, its horizontal
-  speed (up coordinate dropped) is averaged: ``mean_speed`` in m/s. A planted foot scores
-  0; a foot that skates while down scores its skating speed. Contact is decided by height
-  alone (not by speed), so a sliding foot is not excused for moving.
-* **Skating** (:func:`contact_skating`): the mean horizontal speed (m/s) of the contact
-  joints over the frame steps where a given :class:`~elastic_motion.motion.contacts.Contacts`
-  says they are planted (both frames of the step), measured on a motion by forward
-  kinematics. Pass the *input's* contacts to measure an output against what should stay
-  planted (a loop: the same frames; a blend: the inputs' contacts carried through the
-  warp). With it, the **lowest point below the floor** (m, >= 0): how far the motion's
-  lowest joint or end site goes below a given floor height (the input's floor).
-* **Bone-length error** (:func:`bone_length_error`): the largest relative difference, over
-  frames and bones, between a bone's length in the motion (from forward kinematics:
-  distance of a joint to its parent) and the rest length of the same bone in a reference
-  skeleton (matched by joint name). Against the motion's own skeleton it checks that the
-  motion is a rigid-bone animation (0 up to rounding for rotation-only joints); against an
-  input of a blend it says how far the result's proportions are from that input's.
-"""
+"""Feet on the floor: foot sliding of a motion, and skating and depth below the floor while
+in contact (conventions: :mod:`elastic_motion.apps.metrics`)."""
 
 from __future__ import annotations
 
@@ -42,21 +10,14 @@ import numpy as np
 from elastic_motion.motion import Motion, Skeleton, forward_kinematics
 from elastic_motion.motion.contacts import Contacts
 
-__all__ = [
-    "BoneLengthError",
-    "ContactSkating",
-    "FootSliding",
-    "bone_length_error",
-    "contact_skating",
-    "foot_joints",
-    "foot_sliding",
-]
+__all__ = ["ContactSkating", "FootSliding", "contact_skating", "foot_joints", "foot_sliding", "metres"]
 
 _AXES = "xyz"
 _FOOT_WORDS = ("foot", "toe", "ankle")
 
 
-def _metres(motion: Motion) -> tuple[float, str]:
+def metres(motion: Motion) -> tuple[float, str]:
+    """Metres per length unit of ``motion`` and the unit's name (``"m"``, or 1 and ``"unknown"``)."""
     if motion.metres_per_unit is None:
         return 1.0, "unknown"
     return motion.metres_per_unit, "m"
@@ -163,7 +124,7 @@ def foot_sliding(
         raise ValueError(f"motion: expected a Motion; got {type(motion).__name__}")
     if not (np.isfinite(contact_height) and contact_height > 0):
         raise ValueError(f"contact_height: expected a positive height; got {contact_height!r}")
-    scale, units = _metres(motion)
+    scale, units = metres(motion)
     feet = foot_joints(motion) if joints is None else [int(j) for j in joints]
     names = tuple(motion.skeleton.names[j] for j in feet)
     n_steps = max(motion.n_frames - 1, 0)
@@ -200,101 +161,6 @@ def foot_sliding(
         contact=contact,
         units=units,
         lowest=floor,
-    )
-
-
-@dataclass(frozen=True, eq=False)
-class BoneLengthError:
-    """Bone lengths of a motion against a reference skeleton (:func:`bone_length_error`).
-
-    Attributes
-    ----------
-    max_relative : float
-        Largest ``| |p_j - p_parent| - L_j | / L_j`` over frames and compared bones.
-    max_absolute : float
-        Largest ``| |p_j - p_parent| - L_j |`` (m, or length units when unknown).
-    worst_joint : str
-        Joint (child end of the bone) where ``max_relative`` occurs; ``""`` if none compared.
-    n_bones : int
-        Bones compared (joints present in both skeletons, with a parent, a rest length
-        above 1 % of the reference's median bone and no position channels in either
-        skeleton: a file with position channels on every joint, as Bandai's, compares none).
-    """
-
-    max_relative: float
-    max_absolute: float
-    worst_joint: str
-    n_bones: int
-
-    def summary(self) -> dict[str, float | str | int]:
-        """The fields, for a JSON report."""
-        return {
-            "max_relative": self.max_relative,
-            "max_absolute_m": self.max_absolute,
-            "worst_joint": self.worst_joint,
-            "bones": self.n_bones,
-        }
-
-
-def bone_length_error(motion: Motion, reference: Motion | Skeleton | None = None) -> BoneLengthError:
-    """Relative bone-length error of ``motion`` against a reference skeleton.
-
-    Parameters
-    ----------
-    motion : Motion
-    reference : Motion or Skeleton, optional
-        Default: the motion's own skeleton. Bones are matched by the child joint's name;
-        the reference's rest lengths are converted to the motion's unit when both units
-        are known.
-
-    Returns
-    -------
-    BoneLengthError
-    """
-    if not isinstance(motion, Motion):
-        raise ValueError(f"motion: expected a Motion; got {type(motion).__name__}")
-    ref_sk = motion.skeleton
-    ref_scale = 1.0
-    if isinstance(reference, Motion):
-        ref_sk = reference.skeleton
-        if reference.metres_per_unit is not None and motion.metres_per_unit is not None:
-            ref_scale = reference.metres_per_unit / motion.metres_per_unit
-    elif isinstance(reference, Skeleton):
-        ref_sk = reference
-    elif reference is not None:
-        raise ValueError(f"reference: expected a Motion, a Skeleton or None; got {type(reference).__name__}")
-    sk = motion.skeleton
-    scale, _ = _metres(motion)
-    pos_ch = sk.has_position_channels
-    ref_pos_ch = ref_sk.has_position_channels
-    ref_len = ref_sk.bone_lengths * ref_scale
-    # a bone of a few micrometres (CMU's LHipJoint in some files) has no meaningful relative
-    # error: bones under 1 % of the median bone are left out
-    positive = ref_len[ref_len > 1e-9]
-    tiny = 0.01 * float(np.median(positive)) if positive.size else 0.0
-    pairs = []
-    for j in range(1, sk.n_joints):
-        name = sk.names[j]
-        if name not in ref_sk.names:
-            continue
-        k = ref_sk.index(name)
-        if pos_ch[j] or ref_pos_ch[k] or ref_len[k] <= max(1e-9, tiny):
-            continue
-        pairs.append((j, k))
-    if not pairs:
-        return BoneLengthError(0.0, 0.0, "", 0)
-    idx = np.array([j for j, _ in pairs])
-    rest = np.array([ref_len[k] for _, k in pairs])
-    p = forward_kinematics(motion)
-    lengths = np.linalg.norm(p[:, idx] - p[:, sk.parents[idx]], axis=-1)  # (F, B)
-    err = np.abs(lengths - rest)
-    rel = err / rest
-    worst = np.unravel_index(int(np.argmax(rel)), rel.shape)
-    return BoneLengthError(
-        max_relative=float(rel.max()),
-        max_absolute=float(err.max() * scale),
-        worst_joint=sk.names[int(idx[worst[1]])],
-        n_bones=len(pairs),
     )
 
 
@@ -365,7 +231,7 @@ def contact_skating(motion: Motion, contacts: Contacts) -> ContactSkating:
     missing = [n for n in contacts.joints if n not in motion.skeleton.names]
     if missing:
         raise ValueError(f"contacts: joints {missing} are not in the motion's skeleton")
-    scale, _ = _metres(motion)
+    scale, _ = metres(motion)
     up = _AXES.index(motion.up_axis)
     pos = forward_kinematics(motion, end_sites=True) * scale
     below = float(max(0.0, (contacts.floor_heights() - pos[..., up].min(axis=1)).max()))

@@ -1,0 +1,107 @@
+"""Quality metrics of a blend (:func:`blend_metrics`): foot sliding, bone lengths and elastic
+distances of the result and its inputs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from elastic_motion.apps.distance import distance_table
+from elastic_motion.apps.metrics.bones import BoneLengthError, bone_length_error
+from elastic_motion.apps.metrics.feet import FootSliding, foot_sliding
+from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions
+from elastic_motion.motion import Motion
+
+__all__ = ["BlendMetrics", "blend_metrics"]
+
+
+@dataclass(frozen=True, eq=False)
+class BlendMetrics:
+    """Quality metrics of a blend (:func:`blend_metrics`), on the prepared inputs (metres).
+
+    Attributes
+    ----------
+    labels : tuple of str
+        The inputs' names.
+    foot_sliding : FootSliding
+        Of the result (:func:`elastic_motion.apps.metrics.foot_sliding`).
+    foot_sliding_inputs : tuple of FootSliding
+        Of each prepared input.
+    bone_length_error : BoneLengthError
+        Of the result against its own skeleton.
+    bone_length_error_vs_inputs : tuple of BoneLengthError
+        Of the result against each input's skeleton.
+    distances_between_inputs : ndarray, shape (K, K)
+        Lie elastic distances (``R^3 x SO(3)^J`` SRV, optimal warp by DP, shared weights).
+    distances_to_inputs : ndarray, shape (K,)
+        From the result to each input, same metric.
+    geodesic_expected : ndarray, shape (2,) or (0,)
+        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
+    """
+
+    labels: tuple[str, ...]
+    foot_sliding: FootSliding
+    foot_sliding_inputs: tuple[FootSliding, ...]
+    bone_length_error: BoneLengthError
+    bone_length_error_vs_inputs: tuple[BoneLengthError, ...]
+    distances_between_inputs: np.ndarray
+    distances_to_inputs: np.ndarray
+    geodesic_expected: np.ndarray
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready scalars (speeds in m/s, distances in the Lie SRV metric)."""
+        return {
+            "foot_sliding": {
+                "result": self.foot_sliding.summary(),
+                "inputs": [f.summary() for f in self.foot_sliding_inputs],
+            },
+            "bone_length_error": {
+                "result": self.bone_length_error.summary(),
+                "vs_inputs": [b.summary() for b in self.bone_length_error_vs_inputs],
+            },
+            "distances": {
+                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
+                "labels": list(self.labels),
+                "between_inputs": self.distances_between_inputs.tolist(),
+                "result_to_inputs": self.distances_to_inputs.tolist(),
+                "geodesic_expected": self.geodesic_expected.tolist(),
+            },
+        }
+
+
+def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray) -> BlendMetrics:
+    """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
+
+    Parameters
+    ----------
+    result : Motion
+        The blend (:attr:`BlendResult.motion`).
+    prepared : PreparedMotions
+        Its prepared inputs (:attr:`BlendResult.prepared`).
+    weights : ndarray, shape (K,)
+
+    Returns
+    -------
+    BlendMetrics
+    """
+    ms = prepared.motions
+    table = distance_table(
+        [*ms, result],
+        labels=[*prepared.labels, "result"],
+        prepare=PrepareOptions(joints="common", drop_tpose=False),
+    )
+    d = table.matrix
+    k = len(ms)
+    expected = np.array([weights[1] * d[0, 1], weights[0] * d[0, 1]]) if k == 2 else np.zeros(0)
+    return BlendMetrics(
+        labels=tuple(prepared.labels),
+        foot_sliding=foot_sliding(result),
+        foot_sliding_inputs=tuple(foot_sliding(m) for m in ms),
+        bone_length_error=bone_length_error(result),
+        bone_length_error_vs_inputs=tuple(bone_length_error(result, m) for m in ms),
+        distances_between_inputs=d[:k, :k].copy(),
+        distances_to_inputs=d[k, :k].copy(),
+        geodesic_expected=expected,
+    )
