@@ -66,12 +66,16 @@ def test_a_foot_moving_above_the_floor_or_briefly_is_no_skid():
     # 5 cm up: on its own floor (the lowest point is the floor), above the given one
     assert foot_quality(_walk(x, np.full(n, 0.95), fps), floor=0.0).skid_count == 0
     assert [s.joint for s in foot_quality(_walk(x, np.full(n, 0.95), fps)).skids] == ["LeftFoot end site"]
-    # low and fast for less than SKID_DURATION
-    short = int(SKID_DURATION * fps) - 1
+    # low and fast for less than SKID_DURATION (at 60 fps: 2 steps move, 3 frames fast)
+    fps = 60.0
+    assert int(SKID_DURATION * fps) > 3
     xs = np.zeros(n)
-    xs[30 : 30 + short] = np.linspace(0.0, 0.1, short + 1)[1:]
-    xs[30 + short :] = 0.1
+    xs[30:] = 0.02
+    xs[31:] = 0.04
     assert foot_quality(_walk(xs, np.full(n, 0.9), fps)).skid_count == 0
+    xs[31 : 31 + int(SKID_DURATION * fps)] = np.linspace(0.04, 0.2, int(SKID_DURATION * fps))
+    xs[31 + int(SKID_DURATION * fps) :] = 0.2
+    assert foot_quality(_walk(xs, np.full(n, 0.9), fps)).skid_count >= 1
 
 
 def test_find_skids_needs_both_low_and_fast():
