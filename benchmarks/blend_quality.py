@@ -72,7 +72,7 @@ import numpy as np
 
 from _common import MOCAP, load_clip, machine_info, write_json
 from elastic_motion.apps.align import motion_curves
-from elastic_motion.apps.blend import blend_motions
+from elastic_motion.apps.blend import NOTE_CLEANUP, NOTE_CYCLES, NOTE_LANDMARKS, blend_motions
 from elastic_motion.apps.cleanup import carry_contacts
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import contact_skating, foot_sliding
@@ -83,6 +83,8 @@ from elastic_motion.motion.contacts import detect_contacts
 from elastic_motion.warp import WarpOptions, optimal_warp
 
 REPO = Path(__file__).resolve().parents[1]
+#: The kinds of the blend notes each row lists (cycles matched, clean-up, landmarks).
+REPORTED_NOTES = (NOTE_CYCLES, NOTE_CLEANUP, NOTE_LANDMARKS)
 
 #: (label, method, warp, landmarks, cycles)
 METHODS = (
@@ -217,7 +219,7 @@ def run_pair(key: str, a, b) -> list[dict]:
                 method=method,
                 warp=warp,
                 landmarks=lm,
-                contacts="auto" if clean else "off",
+                contacts="keep" if clean else "off",
                 cycles=cyc,
             )
             seconds = time.perf_counter() - t0
@@ -273,7 +275,7 @@ def run_pair(key: str, a, b) -> list[dict]:
                     "max_change_m": res.cleanup.max_position_change
                     if res.cleanup and res.cleanup.applied
                     else 0.0,
-                    "notes": [n for n in res.notes if n.startswith(("cycles", "clean-up", "landmarks"))],
+                    "notes": [str(n) for n in res.notes if n.kind in REPORTED_NOTES],
                 }
             )
     rows.insert(

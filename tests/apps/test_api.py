@@ -51,7 +51,7 @@ def test_blend_same_numbers_and_file_from_both_doors(cmu, capsys, tmp_path):
     assert report["metrics"]["distances"]["result_to_inputs"] == pytest.approx(
         res.metrics.distances_to_inputs.tolist(), rel=1e-12
     )
-    assert report["notes"] == list(res.notes)
+    assert report["notes"] == [str(n) for n in res.notes]
     assert 5.5 < api_d < 6.2  # the T-pose-free distance of these two walks, not 7.25
     # ... and the same file, byte for byte
     assert api_out.read_bytes() == cli_out.read_bytes()

@@ -9,10 +9,11 @@ import pytest
 from blend_testlib import walker
 
 from elastic_motion.apps.align import align_motions
-from elastic_motion.apps.blend import blend_motions
+from elastic_motion.apps.blend import NOTE_ANCHOR, NOTE_PREPARE, BlendOptions, blend_motions
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import bone_length_error, foot_joints, foot_sliding
 from elastic_motion.apps.prepare import PrepareOptions, prepare_motions
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import (
     drop_joints,
@@ -138,17 +139,17 @@ def test_an_extrapolated_clock_keeps_its_shape_where_it_runs_forwards():
     A's time). Played uniformly (before), that steep tenth got a tenth of the frames and the
     root jumped (35 m/s on CMU walks); now the backward rate is held at a tenth of the mean
     and the steep part keeps its share: 2.6 of 2.78 s, rescaled to the blended 2 s."""
-    from elastic_motion.apps.blend import _timing
+    from elastic_motion.apps.blend.timing import blended_clock
 
     ident = np.array([[0.0, 0.0], [1.0, 1.0]])
     phi = np.array([[0.0, 0.0], [0.5, 0.05], [0.6, 0.95], [1.0, 1.0]])
-    u, note = _timing([ident, phi], np.array([-0.5, 1.5]), np.array([2.0, 2.0]), 30.0)
+    u, note = blended_clock([ident, phi], np.array([-0.5, 1.5]), np.array([2.0, 2.0]), 30.0)
     assert u[0] == 0.0 and u[-1] == 1.0 and (np.diff(u) > 0).all() and u.size == 61
     steep = ((u >= 0.5) & (u <= 0.6)).mean()
     assert steep == pytest.approx(2.6 / 2.78, abs=0.03)
     assert "does not increase on 90 % of the curve" in note
     # an increasing clock is left as it is: no note
-    u, note = _timing([ident, phi], np.array([0.5, 0.5]), np.array([2.0, 2.0]), 30.0)
+    u, note = blended_clock([ident, phi], np.array([0.5, 0.5]), np.array([2.0, 2.0]), 30.0)
     assert note == ""
     assert ((u >= 0.5) & (u <= 0.6)).mean() == pytest.approx(1.0 / 2.0, abs=0.03)  # T' = 1 + phi', 1 s of 2
 
@@ -186,7 +187,7 @@ def test_different_skeletons_name_the_joints(pair):
         blend_motions([a, b2], 0.5, metrics=False)
     res = blend_motions([a, b2], 0.5, prepare=PrepareOptions(joints="common"), metrics=False)
     assert "LeftHand" not in res.motion.skeleton.names
-    assert any("joints not shared by all inputs" in n for n in res.notes)
+    assert any(n.kind == NOTE_PREPARE and "joints not shared by all inputs" in str(n) for n in res.notes)
     # the same skeleton under other names (a CMU ASF file against a BVH conversion of it):
     # no joint is shared, so the message says to rename, not to keep the shared joints
     sk = b.skeleton
@@ -201,7 +202,7 @@ def test_different_frame_rates_are_resampled(pair):
     b60 = resample(b, 60.0)
     res = blend_motions([a, b60], 0.5, metrics=False)
     assert res.motion.fps == a.fps
-    assert any("resampled from 60 to 30 fps" in n for n in res.notes)
+    assert any(n.kind == NOTE_PREPARE and "resampled from 60 to 30 fps" in str(n) for n in res.notes)
 
 
 def test_landmarks_pull_the_warp(pair):
@@ -330,10 +331,11 @@ def test_cmu_obstacle_walks_by_every_method(mocap_dir):
 
 
 def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
-    """``_anchor_poses`` pulls a blend's joints back to the aligned inputs' weighted geodesic
+    """``anchor_poses`` pulls a blend's joints back to the aligned inputs' weighted geodesic
     mean by the slow part of the difference: a constant offset of the knee goes entirely
     (a wrong sign would double it), a fast wiggle (frame-rate alternation) stays."""
-    from elastic_motion.apps.blend import _anchor_poses, _sample_rotations
+    from elastic_motion.apps.blend.anchor import anchor_poses
+    from elastic_motion.apps.blend.sampling import sample_rotations
 
     a = walker(duration=2.0, freq=1.0, amp=0.5, speed=1.0, name="A")
     b = walker(duration=2.0, freq=1.0, amp=0.7, speed=1.0, phase=0.3, name="B")
@@ -341,20 +343,20 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     times = [a.times, b.times]
     w = np.array([0.3, 0.7])
     joints = np.arange(a.n_joints)
-    ra, rb = (_sample_rotations(m, joints, t) for m, t in zip((a, b), times, strict=True))
+    ra, rb = (sample_rotations(m, joints, t) for m, t in zip((a, b), times, strict=True))
     mean = ra @ SO3G.exp(0.7 * SO3G.log(np.swapaxes(ra, -1, -2) @ rb))
     knee = list(a.skeleton.names).index("LeftLeg")
     offset = np.zeros((f, a.n_joints, 3))
     offset[:, knee, 0] = 0.25  # a constant drift: 14.3 degrees
     body = a.replace(rotations=mean @ SO3G.exp(offset))
-    out, drift, lift = _anchor_poses(body, [a, b], times, w)
+    out, drift, lift = anchor_poses(body, [a, b], times, w)
     np.testing.assert_allclose(out.rotations, mean, atol=1e-9)
     assert drift == pytest.approx(np.degrees(0.25), rel=1e-9)
     np.testing.assert_array_equal(out.root_translation, body.root_translation)  # at the inputs' height
     assert lift == 0.0
     wiggle = offset.copy()
     wiggle[:, knee, 0] = 0.02 * (-1.0) ** np.arange(f)
-    out2, _, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(wiggle)), [a, b], times, w)
+    out2, _, _ = anchor_poses(a.replace(rotations=mean @ SO3G.exp(wiggle)), [a, b], times, w)
     left = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out2.rotations[:, knee])[:, 0]
     # the fast part is the blend's own: kept (its frame-to-frame swing, whatever the edges add)
     assert np.median(np.abs(np.diff(left))) / 2 > 0.95 * 0.02
@@ -364,7 +366,7 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     tt = np.arange(f) / a.fps
     slow = offset.copy()
     slow[:, knee, 0] = 0.2 * np.sin(2 * np.pi * 0.4 * tt) + 0.05 * np.sin(2 * np.pi * 3.0 * tt)
-    out3, _, _ = _anchor_poses(a.replace(rotations=mean @ SO3G.exp(slow)), [a, b], times, w)
+    out3, _, _ = anchor_poses(a.replace(rotations=mean @ SO3G.exp(slow)), [a, b], times, w)
     kept = SO3G.log(np.swapaxes(mean[:, knee], -1, -2) @ out3.rotations[:, knee])[:, 0]
     x = slow[:, knee, 0]
     np.testing.assert_allclose(kept, x - gaussian_filter1d(x, 1.0 * a.fps, mode="nearest"), atol=1e-9)
@@ -375,7 +377,7 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
     mean_h = 0.3 * a.root_translation[:, 1] + 0.7 * np.interp(times2[1], b2.times, b2.root_translation[:, 1])
     root = a.root_translation.copy()
     root[:, 1] = mean_h + 0.1 + x  # 10 cm too high, and a drift of every speed
-    out4, _, lift = _anchor_poses(a.replace(root_translation=root), [a, b2], times2, w)
+    out4, _, lift = anchor_poses(a.replace(root_translation=root), [a, b2], times2, w)
     np.testing.assert_allclose(
         out4.root_translation[:, 1] - mean_h, x - gaussian_filter1d(x, a.fps, mode="nearest"), atol=1e-12
     )
@@ -384,12 +386,12 @@ def test_pose_anchor_removes_a_slow_drift_from_the_inputs_mean_pose(pair):
 
 
 def test_euler_anchor_removes_the_slow_part_of_the_angles_drift():
-    """``_anchor_euler`` works in the Euler method's own space: each angle's difference from the
+    """``anchor_euler`` works in the Euler method's own space: each angle's difference from the
     inputs' mean loses exactly its 1 s Gaussian (a constant offset entirely, a wrong sign would
     double it), and so does the root's height; the root's horizontal position is never touched."""
     from scipy.ndimage import gaussian_filter1d
 
-    from elastic_motion.apps.blend import _anchor_euler
+    from elastic_motion.apps.blend.anchor import anchor_euler
 
     fps, f, j = 30.0, 90, 4
     rng = np.random.default_rng(3)
@@ -400,7 +402,7 @@ def test_euler_anchor_removes_the_slow_part_of_the_angles_drift():
     drift[:, 1] = 0.07  # its height (y up): removed entirely
     drift[:, 3] = 0.3  # constant: removed entirely
     drift[:, 4] = 0.2 * np.sin(2 * np.pi * 0.4 * tt) + 0.05 * np.sin(2 * np.pi * 3.0 * tt)
-    out, largest, lift = _anchor_euler(mean + drift, mean, fps, up=1)
+    out, largest, lift = anchor_euler(mean + drift, mean, fps, up=1)
     np.testing.assert_allclose(out[:, [0, 2]], mean[:, [0, 2]] + 0.5, atol=1e-12)
     np.testing.assert_allclose(out[:, 1], mean[:, 1], atol=1e-12)
     assert lift == pytest.approx(0.07, rel=1e-12)
@@ -418,7 +420,7 @@ def test_anchor_off_gives_the_plain_srv_blend(pair, method):
     slow change (the fast part of the motion is the SRV blend's own)."""
     plain = blend_motions(list(pair), 0.5, method=method, warp="dp", contacts="off", anchor=False)
     anchored = blend_motions(list(pair), 0.5, method=method, warp="dp", contacts="off")
-    assert plain.pose_anchor_deg is None and not any("anchored" in n for n in plain.notes)
+    assert plain.pose_anchor_deg is None and not any(n.kind == NOTE_ANCHOR for n in plain.notes)
     assert anchored.pose_anchor_deg is not None and anchored.pose_anchor_deg > 0.1
     assert anchored.summary()["pose_anchor_deg"] == anchored.pose_anchor_deg
     change = SO3G.log(np.swapaxes(plain.motion.rotations, -1, -2) @ anchored.motion.rotations)
@@ -460,17 +462,20 @@ def test_anchored_blend_stays_at_the_inputs_height(mocap_dir):
     assert below(poses_only) > 0.05  # what the height anchoring is for
     assert abs(res.motion.root_translation[-1, 1] * res.motion.metres_per_unit - end) < 0.01
     assert below(res.motion) < 0.015
-    assert 0.05 < res.height_anchor_m < 0.15 and "and 8." in next(n for n in res.notes if "anchored" in n)
+    assert 0.05 < res.height_anchor_m < 0.15 and "and 8." in str(
+        next(n for n in res.notes if n.kind == NOTE_ANCHOR)
+    )
 
 
 def test_extrapolated_blends_are_not_anchored(pair):
     """Beyond the inputs the mean pose is extrapolated too: no anchor (it bent Bandai knees 48
     degrees backwards at s = 1.5); the note says so."""
     res = blend_motions(list(pair), 1.5, method="lie", warp="dp", extrapolate=True, contacts="off")
-    assert "poses not anchored: the weights extrapolate beyond the inputs" in res.notes
-    assert not any(n.startswith("poses anchored") for n in res.notes)
+    (note,) = (n for n in res.notes if n.kind == NOTE_ANCHOR)
+    assert str(note) == "poses not anchored: the weights extrapolate beyond the inputs" and not note.data
     inside = blend_motions(list(pair), 0.7, method="lie", warp="dp", contacts="off")
-    assert any(n.startswith("poses anchored") for n in inside.notes)
+    (note,) = (n for n in inside.notes if n.kind == NOTE_ANCHOR)
+    assert str(note).startswith("poses anchored") and note.data["pose_deg"] == inside.pose_anchor_deg
 
 
 @pytest.mark.parametrize("method", ["lie", "euler-elastic"])
@@ -488,7 +493,7 @@ def test_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir, method):
     if not all(p.is_file() for p in files):
         pytest.skip("Bandai walks not found")
     res = blend_motions(files, 0.5, method=method, warp="dp", contacts="off")
-    assert any(n.startswith("poses anchored") for n in res.notes)
+    assert any(n.kind == NOTE_ANCHOR and n.data for n in res.notes)
 
     def signed_bends(m):
         pos, glob = joint_positions_and_rotations(m.skeleton.parents, m.local_translations(), m.rotations)
@@ -509,3 +514,67 @@ def test_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir, method):
         [*res.prepared.motions, res.motion], prepare=PrepareOptions(joints="common", drop_tpose=False)
     ).matrix
     assert max(d[2, 0], d[2, 1]) < 1.15 * d[0, 1] / 2
+
+
+@pytest.mark.parametrize(
+    ("changes", "option", "message"),
+    [
+        ({"method": "quaternion"}, "method", "expected one of"),
+        ({"warp": "dtw"}, "warp", "expected one of"),
+        ({"skeleton": "last"}, "skeleton", "expected 'blend' or 'first'"),
+        ({"contacts": "sometimes"}, "contacts", "expected one of ['keep', 'report', 'off']"),
+        ({"weight_curve": "0:0,1:2"}, "weight_curve", "expected weights s in [0, 1]"),
+        ({"landmarks": "manual"}, "landmarks", "expected None, 'auto' or pairs"),
+        ({"landmarks": [(0.1, 0.2, 0.3)]}, "landmarks", "of shape (M, 2)"),
+        ({"landmarks": "auto", "warp": "none"}, "landmarks", "expected a time warp"),
+        ({"landmarks": [(0.5, 0.5)], "cycles": True}, "landmarks", "expected no landmarks with cycles"),
+        ({"max_pairs": 0}, "max_pairs", "expected None or an integer >= 1"),
+        ({"landmark_kinds": "left_knee_passes"}, "landmark_kinds", "expected a sequence of event kinds"),
+        ({"prepare": {"joints": "common"}}, "prepare", "expected PrepareOptions"),
+        ({"contact_options": 0.03}, "contact_options", "expected ContactOptions"),
+        ({"anchor": "no"}, "anchor", "expected True or False"),
+        ({"metrics": 1}, "metrics", "expected True or False"),
+    ],
+)
+def test_blend_options_name_the_bad_option(changes, option, message):
+    """Every option is validated when the options are made, and the error names it (the
+    command line shows the flag instead)."""
+    with pytest.raises(OptionError) as err:
+        BlendOptions(**changes)
+    assert err.value.option == option and message in err.value.message
+
+
+def test_blend_options_are_converted_once():
+    """Names and old spellings are converted where the options are made: a warp method to
+    WarpOptions, "euler" to "euler-elastic", "auto" contacts to "keep", landmark pairs and a
+    weight curve to tuples (so options compare and hash)."""
+    o = BlendOptions(method="euler", warp="dp", contacts="auto", landmarks=np.array([[0.5, 0.6]]))
+    assert o.method == "euler-elastic" and o.warp == WarpOptions(method="dp") and o.contacts == "keep"
+    assert o.landmarks == ((0.5, 0.6),) and BlendOptions(landmarks="none").landmarks is None
+    assert BlendOptions(weight_curve="0:0,0.5:0.2,1:1").weight_curve == ((0.0, 0.0), (0.5, 0.2), (1.0, 1.0))
+    assert hash(o) == hash(o.replace()) and o == o.replace()
+    assert o.to_json()["warp"] == WarpOptions(method="dp").to_json() and o.to_json()["landmarks"] == (
+        (0.5, 0.6),
+    )
+    assert BlendOptions(loop=True).matches_cycles and not BlendOptions().matches_cycles
+
+
+def test_overrides_give_the_blend_of_the_options_object(pair):
+    """``blend_motions(ms, s, method=..., ...)`` is ``blend_motions(ms, s, BlendOptions(...))``;
+    overrides change the options given; an unknown keyword is refused, naming it."""
+    a, b = pair
+    opts = BlendOptions(method="euler-elastic", warp="dp", contacts="off", anchor=False)
+    by_options = blend_motions([a, b], 0.4, opts)
+    by_keywords = blend_motions([a, b], 0.4, method="euler-elastic", warp="dp", contacts="off", anchor=False)
+    changed = blend_motions(
+        [a, b], 0.4, BlendOptions(method="lie", contacts="off"), method="euler", warp="dp", anchor=False
+    )
+    assert by_options.options == by_keywords.options == changed.options == opts
+    for res in (by_keywords, changed):
+        np.testing.assert_array_equal(res.motion.rotations, by_options.motion.rotations)
+        np.testing.assert_array_equal(res.motion.root_translation, by_options.motion.root_translation)
+        assert res.summary() == by_options.summary()
+    with pytest.raises(OptionError, match=r"^metric: unknown option \['metric'\] of BlendOptions"):
+        blend_motions([a, b], 0.4, metric=True)
+    with pytest.raises(OptionError, match=r"^options: expected a BlendOptions"):
+        blend_motions([a, b], 0.4, WarpOptions())

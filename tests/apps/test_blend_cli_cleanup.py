@@ -138,3 +138,47 @@ def test_contact_height_sets_the_contacts_of_blend_and_loop(mocap_dir, capsys, t
     assert counts["default"][0] > counts["low"][0] and counts["default"][1] > counts["low"][1]
     code, _, err = run(capsys, "blend", a, b, "-o", tmp_path / "x.bvh", "--contact-height", "0")
     assert code == 2 and "--contact-height: expected a height in metres in (0, 0.2]" in err
+
+
+def test_blend_cli_choices_are_the_options_types():
+    """The choices of `blend` and `blendspace` are read from the API's Literal types: what the
+    command line offers is what the Python options accept."""
+    from typing import get_args
+
+    from elastic_motion.apps.align import CurveMethod
+    from elastic_motion.apps.blend_options import SkeletonMode
+    from elastic_motion.cli import build_parser
+    from elastic_motion.motion.contacts import ContactPolicy
+    from elastic_motion.motion.representations import Method
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices
+    want = {
+        "blend": {"--method": CurveMethod, "--skeleton": SkeletonMode, "--contacts": ContactPolicy},
+        "blendspace": {"--method": Method, "--contacts": ContactPolicy},
+    }
+    for command, flags in want.items():
+        actions = {a.option_strings[0]: a for a in sub[command]._actions if a.option_strings}
+        for flag, literal in flags.items():
+            assert tuple(actions[flag].choices) == get_args(literal), (command, flag)
+    assert sub["blend"].get_default("contacts") == "keep"
+
+
+def test_blend_contacts_auto_still_parses_and_report_measures(files, capsys, tmp_path):
+    """`--contacts auto` (the old name) is `keep`; `report` writes the blend of `off` and
+    reports its skating; an unknown policy is refused with the choices."""
+    outs = {}
+    for policy in ("auto", "keep", "report", "off"):
+        rep = tmp_path / f"{policy}.json"
+        code, _, err = run(
+            capsys, "blend", files["a"], files["b"], "-o", tmp_path / f"{policy}.bvh", "--contacts", policy,
+            "--contact-height", "0.2", "--json", rep, "-q", "--no-metrics",
+        )  # fmt: skip
+        assert code == 0, err
+        outs[policy] = ((tmp_path / f"{policy}.bvh").read_bytes(), json.loads(rep.read_text()))
+    assert outs["auto"][0] == outs["keep"][0] and outs["auto"][1]["cleanup"]["applied"] is True
+    assert outs["report"][0] == outs["off"][0] != outs["keep"][0]
+    assert outs["report"][1]["cleanup"]["applied"] is False and outs["off"][1]["cleanup"] is None
+    with pytest.raises(SystemExit) as exit_:
+        main(["blend", files["a"], files["b"], "-o", str(tmp_path / "x.bvh"), "--contacts", "on"])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "--contacts: expected one of 'keep', 'report', 'off'; got 'on'" in err

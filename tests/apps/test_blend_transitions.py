@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from blend_testlib import walker
 
-from elastic_motion.apps.blend import _sample_rotations, blend_motions, parse_weight_curve
+from elastic_motion.apps.blend import NOTE_WEIGHT_CURVE, blend_motions, parse_weight_curve
+from elastic_motion.apps.blend.sampling import sample_rotations
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import forward_kinematics
@@ -48,7 +49,7 @@ def test_transition_starts_like_a_ends_like_b_and_runs_on_the_blended_clock(pair
     # the last frame: s(u) ~ 1, B's pose at the matched time
     u = res.timing[-1]
     tb = np.interp(u, res.warps[1][:, 0], res.warps[1][:, 1]) * pb.duration
-    want = _sample_rotations(pb, np.arange(1, 10), np.array([tb]))[0]
+    want = sample_rotations(pb, np.arange(1, 10), np.array([tb]))[0]
     assert u > 0.98 and _angle(m.rotations[-1, 1:10], want).max() < 1.0 * (1 - u) + 1e-6  # |A - B| < 1 rad
     # dT/du = (1 - u) dA + u dB phi'(u): with phi the identity, T(1) = (dA + dB) / 2
     ident = blend_motions([a, b], weight_curve="0:0,1:1", warp="none", contacts="off")
@@ -56,7 +57,8 @@ def test_transition_starts_like_a_ends_like_b_and_runs_on_the_blended_clock(pair
     # the root moves forward all the way (velocities blended, no jump)
     z = forward_kinematics(m)[:, 0, 2]
     assert (np.diff(z) > 0).all() and np.abs(np.diff(z, 2)).max() < 0.02
-    assert "weight curve" in " ".join(res.notes)
+    (note,) = (n for n in res.notes if n.kind == NOTE_WEIGHT_CURVE)
+    assert "weight curve" in str(note) and note.data["knots"] == [[0.0, 0.0], [1.0, 1.0]]
 
 
 @pytest.mark.parametrize(

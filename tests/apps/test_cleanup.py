@@ -9,8 +9,16 @@ import numpy as np
 import pytest
 from blend_testlib import walker
 
-from elastic_motion.apps.blend import blend_motions
-from elastic_motion.apps.cleanup import _ease, carry_contacts, cleanup_footskate, find_legs, settle_offset
+from elastic_motion.apps.blend import NOTE_CLEANUP, BlendOptions, blend_motions
+from elastic_motion.apps.cleanup import (
+    NOTE_SKIPPED,
+    CleanupOptions,
+    _ease,
+    carry_contacts,
+    cleanup_footskate,
+    find_legs,
+    settle_offset,
+)
 from elastic_motion.apps.metrics import bone_length_error, contact_skating
 from elastic_motion.motion import drop_tpose, forward_kinematics, read_motion, trim
 from elastic_motion.motion.contacts import ContactOptions, Contacts, detect_contacts
@@ -244,16 +252,16 @@ def test_blend_cleans_up_by_default_and_says_so():
     a = walker(duration=2.0, name="A")
     b = walker(duration=2.4, freq=1.2, speed=1.3, phase=0.3, name="B")
     opts = ContactOptions(speed_enter=3.0, speed_exit=4.0, height_enter=0.1, height_exit=0.15)
-    res = blend_motions([a, b], 0.5, contacts=opts)
+    res = blend_motions([a, b], 0.5, contact_options=opts)
     assert res.cleanup is not None and res.cleanup.applied and res.before_cleanup is not None
     s = res.summary()["cleanup"]
     assert s["skating_after"]["skating_mean_m_s"] < s["skating_before"]["skating_mean_m_s"]
-    assert any(n.startswith("clean-up:") for n in res.notes)
+    assert any(n.kind == NOTE_CLEANUP and str(n).startswith("clean-up:") for n in res.notes)
     off = blend_motions([a, b], 0.5, contacts="off")
     assert off.cleanup is None and off.summary()["cleanup"] is None
     np.testing.assert_allclose(off.motion.rotations, res.before_cleanup.rotations)
     one = blend_motions([a, b], 1.0)
-    assert one.cleanup is None and any("weight of 1" in n for n in one.notes)
+    assert one.cleanup is None and any(n.kind == NOTE_CLEANUP and "weight of 1" in str(n) for n in one.notes)
     with pytest.raises(ValueError, match="contacts"):
         blend_motions([a, b], 0.5, contacts="sometimes")
 
@@ -261,8 +269,85 @@ def test_blend_cleans_up_by_default_and_says_so():
 def test_blend_without_contacts_skips_the_cleanup():
     a = walker(duration=1.0, name="A")
     b = walker(duration=1.2, freq=1.2, name="B")
-    res = blend_motions([a, b], 0.5, contacts=ContactOptions(max_ground_offset=0.0, height_enter=0.0))
-    assert res.cleanup is None and any("no contacts found" in n for n in res.notes)
+    res = blend_motions([a, b], 0.5, contact_options=ContactOptions(max_ground_offset=0.0, height_enter=0.0))
+    assert res.cleanup is None and any(
+        n.kind == NOTE_CLEANUP and "no contacts found" in str(n) for n in res.notes
+    )
+
+
+#: Thresholds under which the synthetic walkers have contacts (their feet slide all the time).
+WALKER_CONTACTS = ContactOptions(speed_enter=3.0, speed_exit=4.0, height_enter=0.1, height_exit=0.15)
+
+
+@pytest.fixture(scope="module")
+def walkers():
+    return walker(duration=2.0, name="A"), walker(duration=2.4, freq=1.2, speed=1.3, phase=0.3, name="B")
+
+
+def test_contacts_auto_is_keep(walkers):
+    """``contacts="auto"`` (the old name) is the clean-up of ``"keep"``: the same options, the
+    same motion; ``contacts=ContactOptions(...)`` (the old way to give thresholds) is refused
+    with a pointer to ``contact_options``."""
+    assert BlendOptions(contacts="auto") == BlendOptions(contacts="keep")
+    assert BlendOptions(contacts="auto").contacts == "keep" and BlendOptions(contacts=None).contacts == "off"
+    auto = blend_motions(list(walkers), 0.5, contacts="auto", contact_options=WALKER_CONTACTS)
+    keep = blend_motions(list(walkers), 0.5, contacts="keep", contact_options=WALKER_CONTACTS)
+    assert auto.cleanup.applied and auto.options.contacts == "keep"
+    np.testing.assert_array_equal(auto.motion.rotations, keep.motion.rotations)
+    np.testing.assert_array_equal(auto.motion.root_translation, keep.motion.root_translation)
+    with pytest.raises(ValueError, match=r"contacts: .*contact_options="):
+        BlendOptions(contacts=WALKER_CONTACTS)
+
+
+def test_contacts_report_measures_without_changing_the_blend(walkers):
+    """``contacts="report"``: the blend is the one of ``"off"``, and its skating against the
+    contacts carried from the inputs is measured (the skating ``"keep"`` starts from)."""
+    report = blend_motions(list(walkers), 0.5, contacts="report", contact_options=WALKER_CONTACTS)
+    off = blend_motions(list(walkers), 0.5, contacts="off", contact_options=WALKER_CONTACTS)
+    keep = blend_motions(list(walkers), 0.5, contacts="keep", contact_options=WALKER_CONTACTS)
+    np.testing.assert_array_equal(report.motion.rotations, off.motion.rotations)
+    np.testing.assert_array_equal(report.motion.root_translation, off.motion.root_translation)
+    assert report.before_cleanup is None and off.cleanup is None
+    measured = report.cleanup
+    assert measured is not None and not measured.applied and measured.motion is report.motion
+    assert measured.skating_before.mean_speed == pytest.approx(
+        keep.cleanup.skating_before.mean_speed, rel=1e-12
+    )
+    assert measured.skating_after.mean_speed > 0.05  # the walkers' feet slide
+    assert measured.max_position_change == 0.0 and measured.legs == ()
+    (note,) = (n for n in report.notes if n.kind == NOTE_CLEANUP)
+    assert str(note).startswith("clean-up: not applied (contacts 'report')")
+    assert note.data["skating_m_s"] == measured.skating_after.mean_speed
+    assert report.summary()["cleanup"]["applied"] is False
+
+
+def test_cleanup_options_overrides_and_validation():
+    """``cleanup_footskate(m, c, smooth=0.0)`` is ``cleanup_footskate(m, c, CleanupOptions(smooth=0.0))``;
+    an unknown keyword and a bad value are errors naming the option."""
+    m = walker(duration=1.5)
+    mask = np.zeros((m.n_frames, 2), dtype=bool)
+    mask[8:20, 0] = True
+    mask[24:38, 1] = True
+    c = _contacts(
+        ("LeftFoot", "RightFoot"), mask, floor=float(forward_kinematics(m, end_sites=True)[..., 1].min())
+    )
+    by_keywords = cleanup_footskate(m, c, smooth=0.0, strength=0.5, knee_hinge=False)
+    by_options = cleanup_footskate(m, c, CleanupOptions(smooth=0.0, strength=0.5, knee_hinge=False))
+    np.testing.assert_array_equal(by_keywords.motion.rotations, by_options.motion.rotations)
+    assert by_keywords.strength == 0.5 and by_keywords.smooth == 0.0
+    with pytest.raises(ValueError, match="smoothing"):
+        cleanup_footskate(m, c, smoothing=0.1)
+    for name, bad in (
+        ("blend_time", -0.1),
+        ("smooth", float("nan")),
+        ("strength", -0.5),
+        ("knee_hinge", "yes"),
+    ):
+        with pytest.raises(ValueError, match=f"^{name}: expected"):
+            CleanupOptions(**{name: bad})
+    no_legs = cleanup_footskate(m, _contacts(("Head",), mask[:, :1]), legs=[])
+    assert not no_legs.applied and [n.kind for n in no_legs.notes][-1] == NOTE_SKIPPED
+    assert no_legs.summary()["notes"][-1] == "clean-up skipped: no contacts of the legs' ankle or toe joints"
 
 
 @pytest.mark.mocap
@@ -274,14 +359,16 @@ def test_real_walks_skate_no_more_than_their_inputs(mocap_dir):
     assert cl is not None and cl.applied
     inputs = [contact_skating(m, detect_contacts(m)).mean_speed for m in res.prepared.motions]
     assert cl.skating_after.mean_speed <= 1.1 * min(inputs)
-    # the least change that skates no more than 0.95x the lesser input (apps.blend._SKATE_GOAL).
-    # The pose-anchored blend (apps.blend._anchor_poses) already skates less than that (before
+    # the least change that skates no more than 0.95x the lesser input (apps.blend.contacts.SKATE_GOAL).
+    # The pose-anchored blend (apps.blend.anchor.anchor_poses) already skates less than that (before
     # the anchoring it skated more, and the clean-up took 0.2 s and part of the plants'
     # way), so the clean-up takes the smoothest change and the least fraction (1/64)
     goal = 0.95 * min(inputs)
     assert cl.skating_before.mean_speed <= goal and cl.skating_after.mean_speed <= goal
     assert cl.smooth == 0.4 and cl.strength == 1 / 64
-    assert f"{100 * cl.strength:.0f} % of it kept" in " ".join(res.notes)
+    assert f"{100 * cl.strength:.0f} % of it kept" in " ".join(
+        str(n) for n in res.notes if n.kind == NOTE_CLEANUP
+    )
     assert cl.skating_after.below_floor <= 0.01
     assert bone_length_error(res.motion).max_relative < 1e-9
 

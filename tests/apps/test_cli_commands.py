@@ -210,7 +210,7 @@ def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
     res = em.blend([files["a"], files["b"]], landmarks=lm)
     em.write(res, tmp_path / "h_api.bvh")
     assert (tmp_path / "h_api.bvh").read_bytes() == (tmp_path / "h_file.bvh").read_bytes()
-    assert any("relative weight it records (3000)" in n for n in res.notes)
+    assert any("relative weight it records (3000)" in str(n) for n in res.notes)
     with pytest.raises(ValueError, match="the other way round"):
         em.read_landmarks(heavy, inputs=[files["b"], files["a"]])
     bad = tmp_path / "bad.json"

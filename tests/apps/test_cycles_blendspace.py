@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from blend_testlib import walker
 
-from elastic_motion.apps.blend import blend_motions
+from elastic_motion.apps.blend import NOTE_CYCLES, NOTE_LOOP, BlendOptions, blend_motions
 from elastic_motion.apps.blendspace import blendspace, motion_speed
 from elastic_motion.apps.cycles import GaitCycles, match_cycles
 from elastic_motion.errors import OptionError
@@ -49,7 +49,9 @@ def test_blend_by_cycles_falls_back_on_clips_without_steps():
     b = walker(duration=1.2, freq=1.2, name="B")
     res = blend_motions([a, b], 0.5, cycles=True, contacts="off")
     assert res.cycles is not None and res.cycles.n == 0
-    assert any(n.startswith("cycles:") and "fall back" in n for n in res.notes)
+    assert any(
+        n.kind == NOTE_CYCLES and "fall back" in str(n) and n.data["matched_cycles"] == 0 for n in res.notes
+    )
     with pytest.raises(OptionError, match="two motions"):
         blend_motions([a, b, a], cycles=True)
 
@@ -73,7 +75,7 @@ def test_cmu_walks_by_cycles_and_a_looped_blend(mocap_dir):
     # closed C1: the joints' velocities match at the seam too (a C0 seam left a hitch)
     assert looped.loop.c1 and looped.loop.seam_after.seam_angular_velocity_max_deg_s < 1e-2
     ratio = looped.loop.seam_after.seam_velocity_jump_ratio
-    assert any(n.startswith("loop:") and f"hitch {ratio:.2f}x" in n for n in looped.notes)
+    assert any(n.kind == NOTE_LOOP and f"hitch {ratio:.2f}x" in str(n) for n in looped.notes)
     assert looped.summary()["loop"] is not None
     # the last closing must not push a foot into the floor (issue 16: at most 1 cm)
     from elastic_motion.apps.metrics import contact_skating
@@ -123,6 +125,26 @@ def test_blendspace_passes_the_pose_anchoring_on(capsys, tmp_path):
     assert main([*argv, "--contacts", "off", "--no-anchor", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["pose_anchor_deg"] is None and report["blendspace"]["anchor"] is False
+
+
+def test_blendspace_takes_the_blend_options():
+    """The space's blends take one BlendOptions (or its overrides): the same space either way,
+    its preparation done once (the blends get prepared motions), the options a space sets
+    itself refused."""
+    ms = [walker(duration=1.0, speed=s, phase=0.3 * s, name=f"w{s}") for s in (1.0, 1.5, 2.0)]
+    by_options = blendspace(ms, [1.0, 2.0, 3.0], BlendOptions(method="euler-elastic", contacts="off"))
+    by_keywords = blendspace(ms, [1.0, 2.0, 3.0], method="euler", contacts="off")
+    assert by_options.options == by_keywords.options and by_options.method == "euler-elastic"
+    assert by_options.options.prepare is None
+    a, b = by_options.at(1.5), by_keywords.at(1.5)
+    np.testing.assert_array_equal(a.motion.rotations, b.motion.rotations)
+    assert a.cleanup is None and a.options.method == "euler-elastic"
+    with pytest.raises(OptionError, match=r"^weight_curve: expected none in a blend space"):
+        blendspace(ms, [1.0, 2.0, 3.0], weight_curve="0:0,1:1")
+    with pytest.raises(OptionError, match=r"^cycles:"):
+        blendspace(ms, [1.0, 2.0, 3.0], loop=True)
+    with pytest.raises(OptionError, match=r"^at:"):
+        blendspace(ms, [1.0, 2.0, 3.0], at=2.0)
 
 
 def test_blendspace_speed_is_blended_once_per_trial(monkeypatch):

@@ -246,7 +246,7 @@ def test_gait_events_on_a_real_walk_alternate_feet(mocap_dir):
 
 @pytest.mark.mocap
 def test_auto_landmarks_on_the_obstacle_walks_drop_what_the_prior_meets(mocap_dir):
-    from elastic_motion.apps.blend import blend_motions
+    from elastic_motion.apps.blend import NOTE_LANDMARKS, blend_motions
 
     a = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/107_02_30hz.bvh")), 1.0, 3.4)
     b = trim(drop_tpose(read_motion(mocap_dir / "cmu/bvh/108_01_30hz.bvh")), 1.3, 4.8)
@@ -258,7 +258,7 @@ def test_auto_landmarks_on_the_obstacle_walks_drop_what_the_prior_meets(mocap_di
     assert all(abs(d["offset_s"]) > d["window_s"] > 0 for d in rep["pairs"])
     assert all(abs(d["offset_s"]) <= d["window_s"] for d in rep["dropped"])
     assert [list(p) for p in res.landmarks] == [[d["time_a_s"], d["target_b_s"]] for d in rep["pairs"]]
-    assert any(n.startswith("landmarks auto: dropped") for n in res.notes)
+    assert any(n.kind == NOTE_LANDMARKS and str(n).startswith("landmarks auto: dropped") for n in res.notes)
 
 
 def test_a_knee_crossings_uncertainty_is_the_linear_interpolation_error():

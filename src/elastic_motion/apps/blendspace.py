@@ -23,18 +23,36 @@ Paper 000, sec. 5.3 (future work). What happens:
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from elastic_motion.apps.blend import BlendResult, blend_metrics, blend_motions
-from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
+from elastic_motion._options import with_overrides
+from elastic_motion.apps.align import motion_curves
+from elastic_motion.apps.blend import BlendResult, blend_motions
+from elastic_motion.apps.blend.result import NOTE_PREPARE, as_notes
+from elastic_motion.apps.blend_options import BlendOptions
+from elastic_motion.apps.cycles import gait_cycles
+from elastic_motion.apps.metrics import blend_metrics
+from elastic_motion.apps.prepare import PreparedMotions, Source, prepare_motions
+from elastic_motion.apps.statistics import karcher_mean
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import Motion
+from elastic_motion.motion import Motion, trim
+from elastic_motion.notes import Note
+from elastic_motion.warp import WarpOptions
 
-__all__ = ["BlendSpace", "blendspace", "motion_speed"]
+__all__ = ["NOTE_ONE_CYCLE", "NOTE_TEMPLATE", "BlendSpace", "blendspace", "motion_speed"]
+
+#: The gait cycle kept of a motion (``one_cycle=True``), or why it was kept whole.
+NOTE_ONE_CYCLE = "blendspace.one_cycle"
+#: The common template: the Karcher mean's iterations and convergence.
+NOTE_TEMPLATE = "blendspace.template"
+#: Options of the blends that a blend space sets itself: its warps are the template's, its
+#: weights come from the parameter.
+_NOT_IN_A_SPACE = ("landmarks", "weight_curve")
 
 
 def motion_speed(motion: Motion) -> float:
@@ -61,18 +79,27 @@ class BlendSpace:
     param_name : str
     warps : tuple of ndarray
         ``phi_k``: template parameter -> motion ``k``'s (vertices).
-    method : str
-    notes : tuple of str
+    options : BlendOptions
+        The options of every blend of the space (``prepare`` None: the motions are prepared).
+    notes : tuple of Note
     """
 
     prepared: PreparedMotions
     params: np.ndarray
     param_name: str
     warps: tuple[np.ndarray, ...]
-    method: str = "lie"
-    contacts: Any = "auto"
-    notes: tuple[str, ...] = field(default=())
-    anchor: bool = True
+    options: BlendOptions = field(default_factory=BlendOptions)
+    notes: tuple[Note, ...] = field(default=())
+
+    @property
+    def method(self) -> str:
+        """The blends' curve method."""
+        return self.options.method
+
+    @property
+    def anchor(self) -> bool:
+        """Whether the blends are pose-anchored."""
+        return self.options.anchor
 
     def weights(self, p: float) -> np.ndarray:
         """Weights ``(N,)`` of parameter ``p`` (module docstring, step 4)."""
@@ -106,13 +133,7 @@ class BlendSpace:
     def _blend(self, w: np.ndarray, *, metrics: bool = False) -> BlendResult:
         """The blend of weights ``w`` ``(N,)`` on the template's warps, with this space's options."""
         return blend_motions(
-            self.prepared,
-            w,
-            method=self.method,
-            template_warps=self.warps,
-            contacts=self.contacts,
-            metrics=metrics,
-            anchor=self.anchor,
+            self.prepared, w, options=self.options, template_warps=self.warps, metrics=metrics
         )
 
     def _speed_weights(self, p: float, w: np.ndarray) -> tuple[np.ndarray, BlendResult | None]:
@@ -143,19 +164,17 @@ class BlendSpace:
             "method": self.method,
             "anchor": self.anchor,
             "template_warps": [v.tolist() for v in self.warps],
-            "notes": list(self.notes),
+            "notes": [str(n) for n in self.notes],
         }
 
 
 def blendspace(
     motions: Sequence[Source],
     params: str | Sequence[float] = "speed",
+    options: BlendOptions | None = None,
     *,
-    method: str = "lie",
-    prepare: PrepareOptions | None = None,
-    contacts: Any = "auto",
     one_cycle: bool = False,
-    anchor: bool = True,
+    **overrides: Any,
 ) -> BlendSpace:
     """Build a blend space (module docstring).
 
@@ -165,16 +184,18 @@ def blendspace(
         ``N >= 3`` motions of one skeleton.
     params : "speed" or sequence of float
         One parameter per motion, all different, or ``"speed"`` (m/s of the root).
-    method : {"lie", "euler-elastic"}
-    prepare : PrepareOptions, optional
-    contacts : "auto", "off" or ContactOptions
-        The foot-skate clean-up of each blend (:func:`~elastic_motion.apps.blend.blend_motions`).
+    options : BlendOptions, optional
+        The options of every blend of the space (:func:`~elastic_motion.apps.blend.blend_motions`:
+        ``method``, ``contacts``, ``anchor``, ...); its ``prepare`` prepares the motions
+        together, once. No ``landmarks``, ``weight_curve``, ``cycles`` or ``loop``: the space's
+        warps are the template's.
     one_cycle : bool, default False
         Keep one gait cycle of each motion (:func:`elastic_motion.apps.cycles.gait_cycles`:
         the cycle whose duration is the clip's median, from heel strike to heel strike of the
         same foot); a motion without a full cycle is kept whole (a note says so).
-    anchor : bool, default True
-        The pose anchoring of each blend (:func:`~elastic_motion.apps.blend.blend_motions`).
+    **overrides
+        Fields of :class:`~elastic_motion.apps.blend_options.BlendOptions` changed from
+        ``options`` (``method="euler-elastic"``, ``contacts="off"``, ``anchor=False``, ...).
 
     Returns
     -------
@@ -184,16 +205,61 @@ def blendspace(
     ------
     OptionError
         Fewer than 3 motions, different skeletons, parameters not one per motion or not all
-        different.
+        different, options a blend space sets itself.
     """
-    from elastic_motion.apps.align import motion_curves
-    from elastic_motion.apps.statistics import karcher_mean
-    from elastic_motion.warp import WarpOptions
-
+    opts = _space_options(with_overrides(BlendOptions, options, overrides))
     motions = list(motions)
     if len(motions) < 3:
         raise OptionError("motions", f"expected at least 3 motions for a blend space; got {len(motions)}")
-    prep = prepare_motions(motions, prepare)
+    prep = prepare_motions(motions, opts.prepare)
+    _check_one_skeleton(prep)
+    extra_notes: tuple[Note, ...] = ()
+    if one_cycle:
+        prep, extra_notes = _one_cycle_each(prep)
+    x, name = _parameters(params, prep, len(motions))
+    order = np.argsort(x, kind="stable")
+    if (np.diff(x[order]) <= 1e-9 * max(1.0, np.abs(x).max())).any():
+        raise OptionError("params", f"expected different parameters for the motions; got {x.tolist()}")
+    sorted_prep = dataclasses.replace(
+        prep,
+        motions=tuple(prep.motions[i] for i in order),
+        labels=tuple(prep.labels[i] for i in order),
+        inputs=tuple(prep.inputs[i] for i in order) if prep.inputs else prep.inputs,
+    )
+    warp = WarpOptions(method="dp")
+    coarse = motion_curves(sorted_prep, opts.method, fps=warp.sample_fps, smoothing=warp.sample_smoothing)
+    n = max(c.n_points for c in coarse) - 1
+    km = karcher_mean(coarse, n_samples=n, warp=warp)
+    template = Note(
+        NOTE_TEMPLATE,
+        f"one alignment: Karcher mean template of {len(motions)} motions, {km.iterations} iterations, "
+        f"{'converged' if km.converged else 'not converged'}",
+    )
+    return BlendSpace(
+        prepared=sorted_prep,
+        params=x[order],
+        param_name=name,
+        warps=tuple(np.asarray(v) for v in km.warps),
+        options=opts.replace(prepare=None),
+        notes=(*as_notes(prep.notes, NOTE_PREPARE), *extra_notes, template),
+    )
+
+
+def _space_options(opts: BlendOptions) -> BlendOptions:
+    """``opts``, refused when it sets what a blend space sets itself."""
+    for name in _NOT_IN_A_SPACE:
+        if getattr(opts, name) is not None:
+            raise OptionError(
+                name,
+                f"expected none in a blend space (its warps are the template's); got {getattr(opts, name)!r}",
+            )
+    if opts.matches_cycles:
+        raise OptionError("cycles", "expected no cycles or loop in a blend space (use one_cycle=True)")
+    return opts
+
+
+def _check_one_skeleton(prep: PreparedMotions) -> None:
+    """Refuse motions of different skeletons (not the same joints in the same order)."""
     names = [m.skeleton.names for m in prep.motions]
     for lab, n in zip(prep.labels[1:], names[1:], strict=True):
         if n != names[0]:
@@ -203,58 +269,21 @@ def blendspace(
                 f"expected motions of one skeleton (the same joints); {lab} differs from {prep.labels[0]}"
                 + (f" in {diff}" if diff else " in the joint order"),
             )
-    extra_notes: list[str] = []
-    if one_cycle:
-        prep, extra_notes = _one_cycle_each(prep)
+
+
+def _parameters(params: str | Sequence[float], prep: PreparedMotions, k: int) -> tuple[np.ndarray, str]:
+    """The motions' parameters ``(N,)`` (given, or their root speeds) and their name."""
     if isinstance(params, str):
         if params != "speed":
             raise OptionError("params", f"expected 'speed' or one number per motion; got {params!r}")
-        x = np.array([motion_speed(m) for m in prep.motions])
-        name = "speed_m_s"
-    else:
-        x = np.asarray(params, dtype=np.float64).reshape(-1)
-        if x.shape != (len(motions),) or not np.isfinite(x).all():
-            raise OptionError(
-                "params", f"expected {len(motions)} finite numbers (one per motion); got {list(params)}"
-            )
-        name = "param"
-    order = np.argsort(x, kind="stable")
-    if (np.diff(x[order]) <= 1e-9 * max(1.0, np.abs(x).max())).any():
-        raise OptionError("params", f"expected different parameters for the motions; got {x.tolist()}")
-    import dataclasses
-
-    sorted_prep = dataclasses.replace(
-        prep,
-        motions=tuple(prep.motions[i] for i in order),
-        labels=tuple(prep.labels[i] for i in order),
-        inputs=tuple(prep.inputs[i] for i in order) if prep.inputs else prep.inputs,
-    )
-    opts = WarpOptions(method="dp")
-    coarse = motion_curves(sorted_prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
-    n = max(c.n_points for c in coarse) - 1
-    km = karcher_mean(coarse, n_samples=n, warp=opts)
-    notes = (
-        f"one alignment: Karcher mean template of {len(motions)} motions, {km.iterations} iterations, "
-        f"{'converged' if km.converged else 'not converged'}",
-    )
-    return BlendSpace(
-        prepared=sorted_prep,
-        params=x[order],
-        param_name=name,
-        warps=tuple(np.asarray(v) for v in km.warps),
-        method=method,
-        contacts=contacts,
-        notes=prep.notes + tuple(extra_notes) + notes,
-        anchor=anchor,
-    )
+        return np.array([motion_speed(m) for m in prep.motions]), "speed_m_s"
+    x = np.asarray(params, dtype=np.float64).reshape(-1)
+    if x.shape != (k,) or not np.isfinite(x).all():
+        raise OptionError("params", f"expected {k} finite numbers (one per motion); got {list(params)}")
+    return x, "param"
 
 
-def _one_cycle_each(prep: PreparedMotions) -> tuple[PreparedMotions, list[str]]:
-    import dataclasses
-
-    from elastic_motion.apps.cycles import gait_cycles
-    from elastic_motion.motion import trim
-
+def _one_cycle_each(prep: PreparedMotions) -> tuple[PreparedMotions, tuple[Note, ...]]:
     out, notes = [], []
     first = gait_cycles(prep.motions[0])
     for lab, m in zip(prep.labels, prep.motions, strict=True):
@@ -262,7 +291,9 @@ def _one_cycle_each(prep: PreparedMotions) -> tuple[PreparedMotions, list[str]]:
         if not c.n_cycles:
             c = gait_cycles(m)
         if not c.n_cycles:
-            notes.append(f"{lab}: no full gait cycle (a foot must strike twice); kept whole")
+            notes.append(
+                Note(NOTE_ONE_CYCLE, f"{lab}: no full gait cycle (a foot must strike twice); kept whole")
+            )
             out.append(m)
             continue
         d = np.diff(c.strikes)
@@ -270,7 +301,10 @@ def _one_cycle_each(prep: PreparedMotions) -> tuple[PreparedMotions, list[str]]:
         a, b = c.cycle(i)
         out.append(trim(m, a, b))
         notes.append(
-            f"{lab}: one gait cycle kept, {c.foot} heel strikes {a:.2f}-{b:.2f} s "
-            f"(cycle {i + 1} of {c.n_cycles})"
+            Note(
+                NOTE_ONE_CYCLE,
+                f"{lab}: one gait cycle kept, {c.foot} heel strikes {a:.2f}-{b:.2f} s "
+                f"(cycle {i + 1} of {c.n_cycles})",
+            )
         )
-    return dataclasses.replace(prep, motions=tuple(out)), notes
+    return dataclasses.replace(prep, motions=tuple(out)), tuple(notes)

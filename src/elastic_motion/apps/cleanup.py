@@ -36,6 +36,12 @@ Legs are found by name (:func:`elastic_motion.apps.landmarks.find_leg_joints`); 
 other joints (hands) are measured but not enforced (a note says so), unless their arms are
 passed as ``legs`` (:func:`find_arms`: shoulder, elbow, hand; a loop's planted hands). Lengths are in the
 motion's unit (metres after :mod:`elastic_motion.apps.prepare`).
+
+:func:`cleanup_footskate` takes one :class:`CleanupOptions` (or keyword overrides of its
+fields: ``cleanup_footskate(m, c, smooth=0.0)``) and runs its stages in order: the vertical
+settle, each leg's target (:func:`plant_targets`), the IK (root correction, legs, toe
+turns, smoothing of the change), the last lift out of the floor, the fixed frames, the
+measures.
 """
 
 from __future__ import annotations
@@ -43,14 +49,17 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from elastic_motion._options import with_overrides
+from elastic_motion.apps.landmarks import find_leg_joints
 from elastic_motion.apps.metrics import ContactSkating, contact_skating
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
-from elastic_motion.motion import Motion
+from elastic_motion.motion import Motion, Skeleton
 from elastic_motion.motion.contacts import ContactOptions, Contacts, close_gaps, mask_runs
 from elastic_motion.motion.edit import (
     eased_envelope,
@@ -69,8 +78,22 @@ from elastic_motion.motion.ik import (
     turn_joint,
 )
 from elastic_motion.motion.kinematics import forward_kinematics, joint_positions_and_rotations
+from elastic_motion.notes import Note, note_texts
 
-__all__ = ["CleanupResult", "carry_contacts", "cleanup_footskate", "find_legs"]
+__all__ = [
+    "NOTE_LEGS",
+    "NOTE_SKIPPED",
+    "NOTE_UNENFORCED",
+    "SETTLE_BELOW",
+    "CleanupOptions",
+    "CleanupResult",
+    "carry_contacts",
+    "cleanup_footskate",
+    "find_arms",
+    "find_legs",
+    "plant_targets",
+    "settle_offset",
+]
 
 _SO3 = SO3()
 _AXES = "xyz"
@@ -79,6 +102,84 @@ _STILL = 1e-6
 #: Metres: the vertical settle never puts a planted ankle or toe more than this under its
 #: ground height (:func:`settle_offset`).
 SETTLE_BELOW = 0.01
+#: A leg that could not be used (no hip, knee and ankle found by name; a bad chain).
+NOTE_LEGS = "cleanup.legs"
+#: Contacts of joints without IK (hands without ``legs=``): measured, not enforced.
+NOTE_UNENFORCED = "cleanup.unenforced"
+#: Nothing to enforce: no contact of the legs' ankle or toe joints.
+NOTE_SKIPPED = "cleanup.skipped"
+
+
+@dataclass(frozen=True)
+class CleanupOptions:
+    """How :func:`cleanup_footskate` enforces contacts.
+
+    Attributes
+    ----------
+    blend_time : float, default 0.15
+        Seconds over which a correction eases in before and out after a contact (and a raise
+        out of the floor); the root correction is smoothed over half of it. Must be >= 0.
+    smooth : float, default 0.05
+        Standard deviation (seconds) of a Gaussian that smooths the change the clean-up
+        makes (the root offset and each joint's rotation change ``log(R^T R')``) in time;
+        0 keeps the exact plants. Smoothing trades a little skating for a smaller change of
+        the motion's velocities (which the elastic distance measures). Must be >= 0.
+    strength : float, default 1.0
+        Fraction in [0, 1] of the way from the feet to their plants (the ankle's correction
+        and the foot's turn are scaled by it): less leaves part of the skating and changes
+        the motion less. The floor is enforced in full whatever the fraction.
+    knee_hinge : bool, default True
+        As ``hinge`` of :func:`elastic_motion.motion.ik.solve_legs`: False keeps each frame's
+        own knee plane (small corrections of a motion whose knees are right, e.g. a loop's).
+    settle : float or tuple of float, default 0
+        Seconds; when positive, first a slow vertical root offset puts the planted ankles and
+        toes at their ground heights (:func:`settle_offset`, Gaussian of this standard
+        deviation): a motion whose feet sink into the floor or float above it is moved as a
+        whole, which its legs' angles and the elastic distance do not see, instead of bending
+        every stance leg by IK. 0: none (the plants' heights are then reached by the IK). An
+        array (kept as a tuple): that offset per frame (motion's unit), e.g.
+        :func:`settle_offset` computed once for several calls. Applied in full whatever
+        ``strength`` (like the floor).
+    """
+
+    blend_time: float = 0.15
+    smooth: float = 0.05
+    strength: float = 1.0
+    knee_hinge: bool = True
+    settle: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("blend_time", "smooth"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+                raise OptionError(name, f"expected seconds >= 0; got {value!r}")
+            if not (math.isfinite(value) and value >= 0):
+                raise OptionError(name, f"expected seconds >= 0; got {value!r}")
+        if not (0.0 <= self.strength <= 1.0):
+            raise OptionError("strength", f"expected a fraction in [0, 1]; got {self.strength!r}")
+        if not isinstance(self.knee_hinge, bool | np.bool_):
+            raise OptionError("knee_hinge", f"expected True or False; got {self.knee_hinge!r}")
+        object.__setattr__(self, "settle", _settle_option(self.settle))
+
+    def replace(self, **changes: Any) -> CleanupOptions:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+
+def _settle_option(settle: Any) -> float | tuple[float, ...]:
+    """The ``settle`` option: seconds (a number >= 0) or finite offsets, one a frame (a tuple)."""
+    if np.ndim(settle) > 0:
+        offsets = np.asarray(settle, dtype=np.float64)
+        if offsets.ndim != 1 or not np.isfinite(offsets).all():
+            raise OptionError("settle", f"expected finite offsets, one a frame; got shape {offsets.shape}")
+        return tuple(offsets.tolist())
+    if (
+        isinstance(settle, bool)  # True is not "1 s"
+        or not isinstance(settle, int | float | np.integer | np.floating)
+        or not (np.isfinite(settle) and settle >= 0)
+    ):
+        raise OptionError("settle", f"expected seconds >= 0 or an offset per frame; got {settle!r}")
+    return settle
 
 
 def carry_contacts(
@@ -177,8 +278,6 @@ def find_legs(motion: Motion) -> tuple[list[LegChain], list[str]]:
     notes : list of str
         Legs that could not be used, and why.
     """
-    from elastic_motion.apps.landmarks import find_leg_joints
-
     sk = motion.skeleton
     lj = find_leg_joints(sk)
     legs, notes = [], []
@@ -250,7 +349,9 @@ class CleanupResult:
         The ankle joints of the legs used.
     applied : bool
         False when there was nothing to enforce (no contacts, no legs).
-    notes : tuple of str
+    notes : tuple of Note
+        Legs that could not be used (``NOTE_LEGS``), contacts measured but not enforced
+        (``NOTE_UNENFORCED``), why nothing was done (``NOTE_SKIPPED``).
     smooth : float
         The smoothing of the change used (seconds, :func:`cleanup_footskate`).
     strength : float
@@ -269,7 +370,7 @@ class CleanupResult:
     max_root_offset: float
     legs: tuple[str, ...]
     applied: bool
-    notes: tuple[str, ...] = field(default=())
+    notes: tuple[Note, ...] = field(default=())
     smooth: float = 0.0
     strength: float = 1.0
     settle_offset: float = 0.0
@@ -288,7 +389,7 @@ class CleanupResult:
             "strength": self.strength,
             "settle_offset_m": self.settle_offset,
             "contacts": self.contacts.summary(),
-            "notes": list(self.notes),
+            "notes": note_texts(self.notes),
         }
 
 
@@ -455,18 +556,222 @@ def _given(plants: Mapping[str, np.ndarray], name: str, p: np.ndarray) -> np.nda
     return np.where(np.isnan(given), p, given)
 
 
+@dataclass(frozen=True, eq=False)
+class _Feet:
+    """A motion's joints and end sites before the IK, and the contacts its feet are planted by.
+
+    ``pos`` ``(F, J, 3)`` joint positions, ``points`` ``(F, J + E, 3)`` joints and end sites,
+    ``up`` the up axis's coordinate, ``floor`` ``(F,)`` the floor under each frame, ``width``
+    the frames a correction eases in and out over.
+    """
+
+    skeleton: Skeleton
+    contacts: Contacts
+    pos: np.ndarray
+    points: np.ndarray
+    up: int
+    floor: np.ndarray
+    width: int
+
+    @classmethod
+    def of(cls, motion: Motion, contacts: Contacts, blend_time: float) -> _Feet:
+        pos, _ = joint_positions_and_rotations(
+            motion.skeleton.parents, motion.local_translations(), motion.rotations
+        )
+        return cls(
+            motion.skeleton,
+            contacts,
+            pos,
+            forward_kinematics(motion, end_sites=True),
+            _AXES.index(motion.up_axis),
+            contacts.floor_heights(),  # (F,): a floor that is not level, frame by frame
+            max(1, round(blend_time * motion.fps)),
+        )
+
+    def column(self, j: int) -> tuple[np.ndarray, np.ndarray | None]:
+        """Joint ``j``'s contact mask ``(F,)`` and its ground height per frame (None unknown)."""
+        c = self.contacts
+        if j < 0 or self.skeleton.names[j] not in c.joints:
+            return np.zeros(self.floor.shape[0], dtype=bool), None
+        k = c.joints.index(self.skeleton.names[j])
+        g = c.ground_height[k]
+        return c.mask[:, k], (self.floor + g) if np.isfinite(g) else None
+
+    def low(self, ankle: int) -> np.ndarray:
+        """Lowest height per frame of the foot below ``ankle`` ``(F,)``."""
+        return _foot_low(self.points, self.skeleton, ankle, self.up)
+
+    def plant_positions(
+        self, plants: Mapping[str, np.ndarray] | None, j: int, mask: np.ndarray, ground: np.ndarray | None
+    ) -> np.ndarray:
+        """Joint ``j``'s plants ``(F, 3)``: the given ones, else the mean over each run."""
+        p = self.pos[:, j]
+        given = _given(plants, self.skeleton.names[j], p) if plants else None
+        return _plants(p, mask, ground, self.up) if given is None else given
+
+
+def _out_of_floor_target(leg: LegChain, feet: _Feet) -> np.ndarray | None:
+    """A leg without contacts: its ankle raised where the foot is under the floor (None: never)."""
+    under = feet.floor - feet.low(leg.ankle)
+    if not (under > 0).any():
+        return None
+    tgt = np.full((under.shape[0], 3), np.nan)
+    tgt[under > 0] = feet.pos[under > 0, leg.ankle]
+    tgt[under > 0, feet.up] += under[under > 0]
+    return tgt
+
+
+def _foot_turn(
+    pa: np.ndarray, plant_a: np.ndarray, pt: np.ndarray, plant_t: np.ndarray, both: np.ndarray, ease: int
+) -> np.ndarray:
+    """The foot's turn about the ankle ``(F, 3)`` (rotation vectors): where ankle and toe are
+    both planted it takes ``toe - ankle`` to ``plant_toe - plant_ankle``; eased over ``ease``
+    frames into the heel-off (toe only) and swing frames."""
+    vec = np.zeros_like(pa)
+    if both.any():
+        vec[both] = _SO3.log(rotation_between(pt[both] - pa[both], plant_t[both] - plant_a[both]))
+    return _ease(vec, both, ease)
+
+
+def _planted_target(
+    leg: LegChain, feet: _Feet, plants: Mapping[str, np.ndarray] | None, strength: float
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """A planted leg's ankle targets ``(F, 3)`` (NaN: stays) and its foot's turn ``(F, 3, 3)``
+    (None without toe contacts): module docstring, step 2."""
+    sk, up, width = feet.skeleton, feet.up, feet.width
+    ma, ha = feet.column(leg.ankle)
+    mt, ht = feet.column(leg.toe)
+    pa = feet.pos[:, leg.ankle]
+    plant_a = feet.plant_positions(plants, leg.ankle, ma, ha)
+    delta = np.zeros_like(pa)
+    turn = None
+    if mt.any():
+        pt = feet.pos[:, leg.toe]
+        plant_t = feet.plant_positions(plants, leg.toe, mt, ht)
+        given_t = plants and sk.names[leg.toe] in plants
+        if not given_t and not (plants and sk.names[leg.ankle] in plants):
+            _rigid_foot_plants(pa, plant_a, ma, pt, plant_t, mt, up)
+        turn = _SO3.exp(strength * _foot_turn(pa, plant_a, pt, plant_t, ma & mt, width))
+        # heel off: the ankle goes where the turned foot puts the toe on its plant
+        only_toe = mt & ~ma
+        foot = np.einsum("fij,fj->fi", turn[only_toe], pt[only_toe] - pa[only_toe])
+        delta[only_toe] = plant_t[only_toe] - foot - pa[only_toe]
+    delta[ma] = plant_a[ma] - pa[ma]  # (after the toe's plants: they may move the ankle's)
+    delta = strength * _ease(delta, ma | mt, width)
+    # no point of the foot below the floor: raise the ankle where the foot would go under
+    # (eased in and out like the plants: a raise of one frame would jerk the knee)
+    delta[:, up] += eased_envelope(np.maximum(feet.floor - feet.low(leg.ankle) - delta[:, up], 0.0), width)
+    # a target within _STILL leg lengths of the ankle is where it is: IK there would only
+    # bend a straight knee by its reach margin (cm at the knee for nothing)
+    length = np.median(
+        np.linalg.norm(feet.pos[:, leg.knee] - feet.pos[:, leg.hip], axis=1)
+        + np.linalg.norm(pa - feet.pos[:, leg.knee], axis=1)
+    )
+    moved = np.linalg.norm(delta, axis=1) > _STILL * length
+    return np.where(moved[:, None], pa + delta, np.nan), turn
+
+
+def plant_targets(
+    motion: Motion,
+    contacts: Contacts,
+    legs: Sequence[LegChain],
+    options: CleanupOptions,
+    plants: Mapping[str, np.ndarray] | None = None,
+) -> tuple[list[np.ndarray | None], list[np.ndarray | None], list[str]]:
+    """Each leg's ankle targets ``(F, 3)`` (NaN where it stays; None: the leg is not moved)
+    and foot turn ``(F, 3, 3)`` (None: none), and the ankle names of the legs moved (module
+    docstring, step 2). A leg without contacts is only raised out of the floor."""
+    feet = _Feet.of(motion, contacts, options.blend_time)
+    targets: list[np.ndarray | None] = []
+    turns: list[np.ndarray | None] = []
+    used = []
+    for leg in legs:
+        ma, _ = feet.column(leg.ankle)
+        mt, _ = feet.column(leg.toe)
+        if ma.any() or mt.any():
+            target, turn = _planted_target(leg, feet, plants, options.strength)
+        else:
+            target, turn = _out_of_floor_target(leg, feet), None  # no contact: out of the floor only
+        if target is not None:
+            used.append(motion.skeleton.names[leg.ankle])
+        targets.append(target)
+        turns.append(turn)
+    return targets, turns, used
+
+
+def _settled(motion: Motion, contacts: Contacts, legs: Sequence[LegChain], settle: Any) -> np.ndarray:
+    """The vertical settle ``(F,)`` of the motion (``CleanupOptions.settle``)."""
+    if isinstance(settle, tuple):
+        offsets = np.asarray(settle, dtype=np.float64)
+        if offsets.shape != (motion.n_frames,):
+            raise OptionError(
+                "settle",
+                f"expected {motion.n_frames} finite offsets (one a frame); got shape {offsets.shape}",
+            )
+        return offsets
+    return settle_offset(motion, contacts, legs, sigma=settle) if settle > 0 else np.zeros(motion.n_frames)
+
+
+def _unenforced(contacts: Contacts, skeleton: Skeleton, legs: Sequence[LegChain]) -> list[str]:
+    """Joints in contact somewhere that no leg's ankle or toe is."""
+    feet = {skeleton.names[j] for leg in legs for j in (leg.ankle, leg.toe) if j >= 0}
+    return [n for n in contacts.joints if contacts.mask[:, contacts.joints.index(n)].any() and n not in feet]
+
+
+def _enforce(
+    base: Motion,
+    motion: Motion,
+    legs: Sequence[LegChain],
+    targets: Sequence[np.ndarray | None],
+    turns: Sequence[np.ndarray | None],
+    options: CleanupOptions,
+) -> Motion:
+    """Module docstring, step 3: root correction, leg IK, toe turns; the change from
+    ``motion`` smoothed (``options.smooth``)."""
+    offset = root_correction(base, legs, targets, sigma=options.blend_time / 2)
+    out = base.replace(root_translation=base.root_translation + offset) if offset.any() else base
+    out = solve_legs(out, legs, targets, hinge=options.knee_hinge)
+    for leg, turn in zip(legs, turns, strict=True):
+        if turn is not None:
+            out = turn_joint(out, leg.ankle, turn)
+    if options.smooth > 0:
+        out = smooth_change(motion, out, options.smooth * motion.fps)
+    return out
+
+
+def _lift_out_of_floor(
+    out: Motion, legs: Sequence[LegChain], floor: np.ndarray, width: int, hinge: bool
+) -> Motion:
+    """Last, exactly: no point of a foot below ``floor`` ``(F,)`` (the smoothing may have
+    lowered one); the raise eased in and out over ``width`` frames."""
+    sk = out.skeleton
+    up = _AXES.index(out.up_axis)
+    p_out = forward_kinematics(out, end_sites=True)
+    lift = []
+    for leg in legs:
+        raise_ = eased_envelope(np.maximum(floor - _foot_low(p_out, sk, leg.ankle, up), 0.0), width)
+        under = raise_ > 0
+        if not under.any():
+            lift.append(None)
+            continue
+        t = np.full((out.n_frames, 3), np.nan)
+        t[under] = p_out[under, leg.ankle]
+        t[under, up] += raise_[under]
+        lift.append(t)
+    if any(t is not None for t in lift):
+        out = solve_legs(out, legs, lift, hinge=hinge)
+    return out
+
+
 def cleanup_footskate(
     motion: Motion,
     contacts: Contacts,
+    options: CleanupOptions | None = None,
     *,
-    blend_time: float = 0.15,
-    smooth: float = 0.05,
-    strength: float = 1.0,
     legs: Sequence[LegChain] | None = None,
     plants: Mapping[str, np.ndarray] | None = None,
     fixed: Sequence[int] = (),
-    knee_hinge: bool = True,
-    settle: float | np.ndarray = 0.0,
+    **overrides: Any,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
 
@@ -476,17 +781,9 @@ def cleanup_footskate(
         Lengths in metres (or consistent with ``contacts.floor``).
     contacts : Contacts
         On the motion's frames (e.g. :func:`carry_contacts`).
-    blend_time : float, default 0.15
-        Seconds over which a correction eases in before and out after a contact.
-    smooth : float, default 0.05
-        Standard deviation (seconds) of a Gaussian that smooths the change the clean-up
-        makes (the root offset and each joint's rotation change ``log(R^T R')``) in time;
-        0 keeps the exact plants. Smoothing trades a little skating for a smaller change of
-        the motion's velocities (which the elastic distance measures).
-    strength : float, default 1.0
-        Fraction in [0, 1] of the way from the blend's feet to their plants (the ankle's
-        correction and the foot's turn are scaled by it): less leaves part of the blend's
-        skating and changes it less. The floor is enforced in full whatever the fraction.
+    options : CleanupOptions, optional
+        How (``blend_time``, ``smooth``, ``strength``, ``knee_hinge``, ``settle``); default
+        ``CleanupOptions()``.
     legs : sequence of LegChain, optional
         Default :func:`find_legs`.
     plants : mapping of str to ndarray of shape (F, 3), optional
@@ -497,188 +794,61 @@ def cleanup_footskate(
     fixed : sequence of int
         Frames that must not change (a loop's seam frames): the clean-up's change fades to 0
         there, within a third of ``blend_time`` (:func:`elastic_motion.motion.edit.fade_change`).
-    knee_hinge : bool, default True
-        As ``hinge`` of :func:`elastic_motion.motion.ik.solve_legs`: False keeps each frame's
-        own knee plane (small corrections of a motion whose knees are right, e.g. a loop's).
-    settle : float or ndarray of shape (F,), default 0
-        Seconds; when positive, first a slow vertical root offset puts the planted ankles and
-        toes at their ground heights (:func:`settle_offset`, Gaussian of this standard
-        deviation): a blend whose feet sink into the floor or float above it is moved as a
-        whole, which its legs' angles and the elastic distance do not see, instead of bending
-        every stance leg by IK. 0: none (the plants' heights are then reached by the IK). An
-        array: that offset (motion's unit), e.g. :func:`settle_offset` computed once for
-        several calls. Applied in full whatever ``strength`` (like the floor).
+    **overrides
+        Fields of :class:`CleanupOptions` changed from ``options`` (``smooth=0.0``, ...).
 
     Returns
     -------
     CleanupResult
         ``applied=False`` (and the motion unchanged) when no leg joint has a contact.
     """
+    opts = with_overrides(CleanupOptions, options, overrides)
     if contacts.n_frames != motion.n_frames:
         raise ValueError(
             f"contacts: expected {motion.n_frames} frames like the motion; got {contacts.n_frames}"
         )
-    if not (0.0 <= strength <= 1.0):
-        raise ValueError(f"strength: expected a fraction in [0, 1]; got {strength!r}")
-    notes: list[str] = []
+    notes: list[Note] = []
     if legs is None:
         found, leg_notes = find_legs(motion)
-        notes += leg_notes
+        notes += [Note(NOTE_LEGS, n) for n in leg_notes]
     else:
         found = list(legs)
     before = contact_skating(motion, contacts)
-    sk = motion.skeleton
-    up = _AXES.index(motion.up_axis)
-    width = max(1, round(blend_time * motion.fps))
-    parents = sk.parents
+    settled = _settled(motion, contacts, found, opts.settle)
     base = motion
-    if np.ndim(settle) > 0:
-        settled = np.asarray(settle, dtype=np.float64)
-        if settled.shape != (motion.n_frames,) or not np.isfinite(settled).all():
-            raise ValueError(
-                f"settle: expected {motion.n_frames} finite offsets (one a frame); got shape {settled.shape}"
-            )
-    elif (
-        isinstance(settle, bool)  # True is not "1 s"
-        or not isinstance(settle, (int, float, np.integer, np.floating))
-        or not (np.isfinite(settle) and settle >= 0)
-    ):
-        raise ValueError(f"settle: expected seconds >= 0 or an offset per frame; got {settle!r}")
-    else:
-        settled = (
-            settle_offset(motion, contacts, found, sigma=settle) if settle > 0 else np.zeros(motion.n_frames)
-        )
     if settled.any():
         root = motion.root_translation.copy()
-        root[:, up] += settled
+        root[:, _AXES.index(motion.up_axis)] += settled
         base = motion.replace(root_translation=root)
-    pos, _ = joint_positions_and_rotations(parents, base.local_translations(), base.rotations)
-    pos_all = forward_kinematics(base, end_sites=True)
-
-    floor = contacts.floor_heights()  # (F,): a floor that is not level, frame by frame
-
-    def col(j: int) -> tuple[np.ndarray, np.ndarray | None]:
-        name = sk.names[j]
-        if j < 0 or name not in contacts.joints:
-            return np.zeros(motion.n_frames, dtype=bool), None
-        k = contacts.joints.index(name)
-        g = contacts.ground_height[k]
-        return contacts.mask[:, k], (floor + g) if np.isfinite(g) else None
-
-    used, targets, turns = [], [], []
-    for leg in found:
-        ma, ha = col(leg.ankle)
-        mt, ht = col(leg.toe) if leg.toe >= 0 else (np.zeros(motion.n_frames, dtype=bool), None)
-        if not (ma.any() or mt.any()):
-            # no contact: only keep the foot out of the floor
-            under = floor - _foot_low(pos_all, sk, leg.ankle, up)
-            if (under > 0).any():
-                tgt = np.full((motion.n_frames, 3), np.nan)
-                tgt[under > 0] = pos[under > 0, leg.ankle]
-                tgt[under > 0, up] += under[under > 0]
-                targets.append(tgt)
-                used.append(sk.names[leg.ankle])
-            else:
-                targets.append(None)
-            turns.append(None)
-            continue
-        used.append(sk.names[leg.ankle])
-        pa = pos[:, leg.ankle]
-        plant_a = _given(plants, sk.names[leg.ankle], pa) if plants else None
-        plant_a = _plants(pa, ma, ha, up) if plant_a is None else plant_a
-        delta = np.zeros_like(pa)
-        turn = None
-        if mt.any():
-            pt = pos[:, leg.toe]
-            plant_t = _given(plants, sk.names[leg.toe], pt) if plants else None
-            if plant_t is None:
-                plant_t = _plants(pt, mt, ht, up)
-                if not (plants and sk.names[leg.ankle] in plants):
-                    _rigid_foot_plants(pa, plant_a, ma, pt, plant_t, mt, up)
-            # the foot's turn about the ankle: where both are planted it takes toe - ankle to
-            # plant_toe - plant_ankle; eased into the heel-off (toe only) and swing frames
-            both = ma & mt
-            vec = np.zeros_like(pa)
-            if both.any():
-                vec[both] = _SO3.log(rotation_between(pt[both] - pa[both], plant_t[both] - plant_a[both]))
-            vec = strength * _ease(vec, both, width)
-            turn = _SO3.exp(vec)
-            # heel off: the ankle goes where the turned foot puts the toe on its plant
-            only_toe = mt & ~ma
-            foot = np.einsum("fij,fj->fi", turn[only_toe], pt[only_toe] - pa[only_toe])
-            delta[only_toe] = plant_t[only_toe] - foot - pa[only_toe]
-        delta[ma] = plant_a[ma] - pa[ma]  # (after the toe's plants: they may move the ankle's)
-        known = ma | mt
-        delta = strength * _ease(delta, known, width)
-        # no point of the foot below the floor: raise the ankle where the foot would go under
-        low = _foot_low(pos_all, sk, leg.ankle, up)
-        # (eased in and out like the plants: a raise of one frame would jerk the knee)
-        delta[:, up] += eased_envelope(np.maximum(floor - low - delta[:, up], 0.0), width)
-        # a target within _STILL leg lengths of the ankle is where it is: IK there would only
-        # bend a straight knee by its reach margin (cm at the knee for nothing)
-        length = np.median(
-            np.linalg.norm(pos[:, leg.knee] - pos[:, leg.hip], axis=1)
-            + np.linalg.norm(pa - pos[:, leg.knee], axis=1)
-        )
-        moved = np.linalg.norm(delta, axis=1) > _STILL * length
-        tgt = np.where(moved[:, None], pa + delta, np.nan)
-        targets.append(tgt)
-        turns.append(turn)
-    other = [n for n in contacts.joints if contacts.mask[:, contacts.joints.index(n)].any()]
-    other = [
-        n for n in other if n not in {sk.names[j] for leg in found for j in (leg.ankle, leg.toe) if j >= 0}
-    ]
+    targets, turns, used = plant_targets(base, contacts, found, opts, plants)
+    other = _unenforced(contacts, motion.skeleton, found)
     if other:
-        notes.append(f"contacts of {other} are measured, not enforced (no IK for them)")
+        notes.append(
+            Note(NOTE_UNENFORCED, f"contacts of {other} are measured, not enforced (no IK for them)")
+        )
     if not used:
-        notes.append("clean-up skipped: no contacts of the legs' ankle or toe joints")
+        notes.append(Note(NOTE_SKIPPED, "clean-up skipped: no contacts of the legs' ankle or toe joints"))
         return CleanupResult(motion, contacts, before, before, 0.0, 0.0, 0.0, (), False, tuple(notes))
-
-    # 1. root correction, 2. leg IK, 3. toe turns
-    offset = root_correction(base, found, targets, sigma=blend_time / 2)
-    out = base.replace(root_translation=base.root_translation + offset) if offset.any() else base
-    out = solve_legs(out, found, targets, hinge=knee_hinge)
-    for leg, turn in zip(found, turns, strict=True):
-        if turn is not None:
-            out = turn_joint(out, leg.ankle, turn)
-    if smooth > 0:
-        out = smooth_change(motion, out, smooth * motion.fps)
-    # last, exactly: no point of a foot below the floor (the smoothing may have lowered one)
-    p_out = forward_kinematics(out, end_sites=True)
-    lift = []
-    for leg in found:
-        low = _foot_low(p_out, sk, leg.ankle, up)
-        raise_ = eased_envelope(np.maximum(floor - low, 0.0), width)
-        under = raise_ > 0
-        if not under.any():
-            lift.append(None)
-            continue
-        t = np.full((motion.n_frames, 3), np.nan)
-        t[under] = p_out[under, leg.ankle]
-        t[under, up] += raise_[under]
-        lift.append(t)
-    if any(t is not None for t in lift):
-        out = solve_legs(out, found, lift, hinge=knee_hinge)
+    width = max(1, round(opts.blend_time * motion.fps))
+    out = _enforce(base, motion, found, targets, turns, opts)
+    out = _lift_out_of_floor(out, found, contacts.floor_heights(), width, opts.knee_hinge)
     if len(fixed):
         out = fade_change(motion, out, fixed_frames_weight(motion.n_frames, fixed, max(1, width // 3)))
-    after = contact_skating(out, contacts)
-    p0 = pos_all
+    p0 = forward_kinematics(base, end_sites=True)
     p1 = forward_kinematics(out, end_sites=True)
-    dpos = float(np.linalg.norm(p1 - p0, axis=-1).max())
     rel = np.swapaxes(motion.rotations, -1, -2) @ out.rotations
-    drot = float(np.degrees(np.linalg.norm(_SO3.log(rel), axis=-1).max()))
     return CleanupResult(
         motion=out,
         contacts=contacts,
         skating_before=before,
-        skating_after=after,
-        max_position_change=dpos,
-        max_rotation_change_deg=drot,
+        skating_after=contact_skating(out, contacts),
+        max_position_change=float(np.linalg.norm(p1 - p0, axis=-1).max()),
+        max_rotation_change_deg=float(np.degrees(np.linalg.norm(_SO3.log(rel), axis=-1).max())),
         max_root_offset=float(np.linalg.norm(out.root_translation - motion.root_translation, axis=1).max()),
         legs=tuple(used),
         applied=True,
         notes=tuple(notes),
-        smooth=float(smooth),
-        strength=float(strength),
+        smooth=float(opts.smooth),
+        strength=float(opts.strength),
         settle_offset=float(settled[np.argmax(np.abs(settled))]),
     )

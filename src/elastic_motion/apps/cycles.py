@@ -18,7 +18,7 @@ Conventions
   alike consecutive cycles of B.
 * Within matched cycles the warp passes through every cycle boundary and every strike of
   the other foot (landmarks: "steps matched one by one"), see
-  :func:`elastic_motion.apps.blend.blend_motions` (``cycles=True``).
+  :func:`elastic_motion.apps.blend.blend_motions` (``cycles=True``: :mod:`elastic_motion.apps.blend.inputs`).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from elastic_motion.apps.landmarks import contact_events
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions
 
@@ -92,8 +93,6 @@ def gait_cycles(
     GaitCycles
         With no cycle (``foot=""``) when neither foot strikes twice.
     """
-    from elastic_motion.apps.landmarks import contact_events
-
     ev = contact_events(motion, options=options)
     left = tuple(e.time for e in ev if e.kind == "left_heel_strike")
     right = tuple(e.time for e in ev if e.kind == "right_heel_strike")

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from elastic_motion._options import choices
+from elastic_motion.apps.align import CurveMethod
+from elastic_motion.apps.blend_options import SkeletonMode
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_contact_height_option,
@@ -25,6 +28,8 @@ from elastic_motion.cli_commands._common import (
     warp_options,
     write_motion,
 )
+from elastic_motion.errors import OptionError
+from elastic_motion.motion.contacts import ContactPolicy, contact_policy
 
 _METHOD_HELP = (
     "euler-linear: frame-by-frame linear interpolation of Euler angles (paper 001 Fig. 5a); "
@@ -63,9 +68,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="one weight per input, summing to 1 (default: equal weights)",
     )
-    p.add_argument(
-        "--method", choices=("lie", "euler-elastic", "euler-linear"), default="lie", help=_METHOD_HELP
-    )
+    p.add_argument("--method", choices=choices(CurveMethod), default="lie", help=_METHOD_HELP)
     add_warp_options(p)
     add_landmark_options(p)
     add_joint_options(p)
@@ -74,7 +77,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--skeleton",
-        choices=("blend", "first"),
+        choices=choices(SkeletonMode),
         default="blend",
         help="bone offsets of the result: weighted mean of the inputs' (default) or A's",
     )
@@ -88,10 +91,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--contacts",
-        choices=("auto", "off"),
-        default="auto",
-        help="foot-skate clean-up: auto (default) carries the inputs' foot contacts through the warp "
-        "and enforces them by leg IK (bone lengths kept) when contacts are found; off skips it",
+        type=contacts_flag,
+        choices=choices(ContactPolicy),
+        default="keep",
+        help="the inputs' foot contacts, carried through the warp: keep (default) enforces them by leg "
+        "IK (the foot-skate clean-up, bone lengths kept) when contacts are found; report only measures "
+        "the blend's skating against them; off skips both (auto, the old name of keep, is still "
+        "accepted)",
     )
     add_contact_height_option(p)
     p.add_argument(
@@ -124,9 +130,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=lambda a: run_guarded("blend", run, a))
 
 
+def contacts_flag(value: str) -> str:
+    """``--contacts``: a contact policy, its old names (``auto`` for ``keep``) accepted; other
+    words are left for argparse to refuse with the choices."""
+    try:
+        return contact_policy(value, "--contacts")
+    except OptionError:
+        return value
+
+
 def run(args: argparse.Namespace) -> int:
     """Blend ``args.inputs`` into ``args.output``; exit code 0, or 2 for bad input."""
-    from elastic_motion.apps.blend import blend_motions
+    # the app is imported here, not at the top: the command line starts without loading it
+    from elastic_motion.apps.blend import BlendOptions, blend_motions
     from elastic_motion.apps.report import report_header
 
     inputs = list(args.inputs)
@@ -145,30 +161,29 @@ def run(args: argparse.Namespace) -> int:
     prep = prepare_inputs(args, inputs)
     fps = [r.fps for r in prep.inputs]
     landmarks, file_weight = read_landmarks(args.landmarks, args.landmark_units, fps[0], fps[1], inputs)
+    options = BlendOptions(
+        method=args.method,
+        warp=warp_options(args, file_weight),
+        landmarks=landmarks,
+        landmark_kinds=landmark_kinds(args.landmark_kinds),
+        max_pairs=args.max_pairs,
+        extrapolate=args.extrapolate,
+        skeleton=args.skeleton,
+        weight_curve=args.weight_curve,
+        anchor=not args.no_anchor,
+        contacts=args.contacts,
+        contact_options=contact_options(args),
+        cycles=args.cycles,
+        loop=args.loop,
+        metrics=not args.no_metrics,
+    )
     bar = progress_for("blend", args)
     try:
-        res = blend_motions(
-            prep,
-            weights,
-            method=args.method,
-            warp=warp_options(args, file_weight),
-            landmarks=landmarks,
-            extrapolate=args.extrapolate,
-            skeleton=args.skeleton,
-            landmark_kinds=landmark_kinds(args.landmark_kinds),
-            max_pairs=args.max_pairs,
-            metrics=not args.no_metrics,
-            progress=bar,
-            contacts=args.contacts if args.contacts == "off" else contact_options(args) or args.contacts,
-            weight_curve=args.weight_curve,
-            cycles=args.cycles,
-            loop=args.loop,
-            anchor=not args.no_anchor,
-        )
+        res = blend_motions(prep, weights, options, progress=bar)
     finally:
         bar.close()
     write_motion(res.motion, res.prepared, out, inputs)
-    report = report_header("blend", inputs, [str(out)], res.notes)
+    report = report_header("blend", inputs, [str(out)], [str(n) for n in res.notes])
     report.update(res.summary())
     emit_report(args, report, [*inputs, str(out)], _summary(res, out, list(res.notes)))
     return 0

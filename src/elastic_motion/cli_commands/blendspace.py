@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from elastic_motion._options import choices
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
@@ -16,6 +17,9 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
     write_motion,
 )
+from elastic_motion.cli_commands.blend import contacts_flag
+from elastic_motion.motion.contacts import ContactPolicy
+from elastic_motion.motion.representations import Method
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,13 +54,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "cycle is kept whole) (default: whole clips)",
     )
     p.add_argument(
-        "--method", choices=("lie", "euler-elastic"), default="lie", help="curves of the blend (default: lie)"
+        "--method", choices=choices(Method), default="lie", help="curves of the blend (default: lie)"
     )
     p.add_argument(
         "--contacts",
-        choices=("auto", "off"),
-        default="auto",
-        help="foot-skate clean-up of the blend (as `blend --contacts`; default: auto)",
+        type=contacts_flag,
+        choices=choices(ContactPolicy),
+        default="keep",
+        help="the blend's foot contacts (as `blend --contacts`: keep plants them, report measures, off "
+        "skips; auto is still accepted for keep; default: keep)",
     )
     p.add_argument(
         "--no-anchor",
@@ -70,6 +76,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the motion at ``args.at``; exit code 0, or 2 for bad input."""
+    # the app is imported here, not at the top: the command line starts without loading it
+    from elastic_motion.apps.blend_options import BlendOptions
     from elastic_motion.apps.blendspace import blendspace
     from elastic_motion.apps.report import report_header
 
@@ -86,18 +94,17 @@ def run(args: argparse.Namespace) -> int:
             raise CommandError(
                 f"--params: expected 'speed' or numbers like 1,2,3; got {args.params!r}"
             ) from None
-    space = blendspace(
-        inputs,
-        params,
+    options = BlendOptions(
         method=args.method,
         prepare=prepare_options(args, len(inputs)),
         contacts=args.contacts,
-        one_cycle=args.one_cycle,
         anchor=not args.no_anchor,
     )
+    space = blendspace(inputs, params, options, one_cycle=args.one_cycle)
     res = space.at(args.at)
     write_motion(res.motion, res.prepared, out, inputs)
-    notes = [*space.notes, *[n for n in res.notes if n not in space.notes]]
+    texts = [str(n) for n in space.notes]
+    notes = [*texts, *[str(n) for n in res.notes if str(n) not in texts]]
     report = report_header("blendspace", inputs, [str(out)], notes)
     report["blendspace"] = space.summary()
     report["at"] = args.at

@@ -1,0 +1,244 @@
+"""The options of a blend: one frozen :class:`BlendOptions`, every knob once, validated when made.
+
+:func:`elastic_motion.apps.blend.blend_motions` takes a ``BlendOptions`` (or keyword overrides
+of its fields: ``blend_motions([a, b], 0.5, method="euler-elastic")``) and passes it down its
+stages unchanged; the blend space (:mod:`elastic_motion.apps.blendspace`) takes the same object
+for its blends. The weights are not options: they are data (an argument of the blend).
+
+This module sits beside the blend package, not in it, so that the command line reads its
+choices (:data:`SkeletonMode`, the methods, the contact policies) without loading the blend
+app: the package imports the loop app for ``loop=True``, 1.1 s of the command line's start.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Literal, get_args
+
+import numpy as np
+
+from elastic_motion.apps.align import CurveMethod, check_method, warp_options
+from elastic_motion.apps.landmark_files import LandmarkFile
+from elastic_motion.apps.prepare import PrepareOptions
+from elastic_motion.errors import OptionError
+from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contact_policy
+from elastic_motion.motion.representations import EULER, Representation, representation
+from elastic_motion.warp import WarpOptions
+
+__all__ = ["SKELETON_MODES", "BlendOptions", "SkeletonMode", "parse_weight_curve"]
+
+#: Bone offsets of a blend: the weighted mean of the inputs' (``"blend"``) or the first input's.
+SkeletonMode = Literal["blend", "first"]
+SKELETON_MODES: tuple[str, ...] = get_args(SkeletonMode)
+
+_FLAGS = ("extrapolate", "anchor", "cycles", "loop", "metrics")
+
+
+@dataclass(frozen=True)
+class BlendOptions:
+    """How to blend motions (:func:`elastic_motion.apps.blend.blend_motions`; the steps are
+    those of its module docstring).
+
+    Attributes
+    ----------
+    method : {"lie", "euler-elastic", "euler-linear"}, default "lie"
+        The curves blended (:data:`elastic_motion.apps.align.CurveMethod`; ``"euler"`` is
+        accepted for ``"euler-elastic"``): the SRV geodesic in ``R^3 x SO(3)^J`` (paper 000),
+        in the Euler angles' ``R^d``, or the Euler angles interpolated frame by frame.
+    warp : WarpOptions, default ``WarpOptions()``
+        How the warp of B onto A (of each input onto the template) is found; a method name
+        (``"dp"``, ``"dp+refine"``, ``"none"``) is taken as ``WarpOptions(method=name)``.
+    landmarks : None, "auto", LandmarkFile or pairs ``(tA, tB)``, default None
+        Two motions only: pairs of times in seconds (after preparation, from each motion's
+        first frame) the warp meets, or ``"auto"`` (events paired by phase,
+        :func:`elastic_motion.apps.landmarks.phase_landmarks`); ``"none"`` is None. Pairs are
+        kept as a tuple of ``(float, float)``. Needs a warp; not with ``cycles``.
+    landmark_kinds : tuple of str or None, default None
+        ``landmarks="auto"``: the event kinds paired (None: the library's default kinds).
+    max_pairs : int or None, default None
+        ``landmarks="auto"``: at most this many pairs (None: all).
+    prepare : PrepareOptions or None, default None
+        The preparation step (:func:`elastic_motion.apps.prepare.prepare_motions`); None: its
+        defaults. Must be None for motions already prepared (a ``PreparedMotions``).
+    extrapolate : bool, default False
+        Allow a weight outside ``[0, 1]`` (two motions only).
+    skeleton : {"blend", "first"}, default "blend"
+        Bone offsets of the result: the inputs' weighted mean, or A's.
+    weight_curve : tuple of (float, float) or None, default None
+        Two motions only, instead of weights: knots ``(u, s)`` of B's weight as a piecewise
+        linear function of the result's normalised time (``u`` from 0 to 1, increasing; ``s``
+        in ``[0, 1]``); the string ``"0:0,1:1"`` (a transition from A into B) is parsed by
+        :func:`parse_weight_curve`.
+    anchor : bool, default True
+        Pose anchoring of the elastic methods with constant weights in ``[0, 1]``: the slow
+        drift (Gaussian, 1 s) of the joint angles and of the root's height from the aligned
+        inputs' mean is removed. False: the papers' plain SRV blend.
+    contacts : {"keep", "report", "off"}, default "keep"
+        The inputs' foot contacts (:data:`elastic_motion.motion.contacts.ContactPolicy`):
+        ``"keep"`` carries them through the warps and plants them by leg IK (the foot-skate
+        clean-up; ``"auto"`` is accepted for it), ``"report"`` carries them and measures the
+        blend's skating against them without changing it, ``"off"`` (or None) does neither.
+    contact_options : ContactOptions, default ``ContactOptions()``
+        Thresholds of the contact detection (metres, m/s, seconds), for the clean-up and for
+        the gait cycles.
+    cycles : bool, default False
+        Two motions: match their gait cycles (:mod:`elastic_motion.apps.cycles`), keep the
+        matched spans and make the warp pass through every cycle boundary and step.
+    loop : bool, default False
+        Two motions: blend one matched cycle of each and close it into a seamless loop
+        (:func:`elastic_motion.apps.loop.loop_motion`, root "travel", C1).
+    metrics : bool, default False
+        Compute the quality metrics (:func:`elastic_motion.apps.metrics.blend_metrics`:
+        ``K (K + 1) / 2`` extra DP solves).
+    """
+
+    method: CurveMethod = "lie"
+    warp: WarpOptions = field(default_factory=WarpOptions)
+    landmarks: Any = None
+    landmark_kinds: tuple[str, ...] | None = None
+    max_pairs: int | None = None
+    prepare: PrepareOptions | None = None
+    extrapolate: bool = False
+    skeleton: SkeletonMode = "blend"
+    weight_curve: tuple[tuple[float, float], ...] | None = None
+    anchor: bool = True
+    contacts: ContactPolicy = "keep"
+    contact_options: ContactOptions = field(default_factory=ContactOptions)
+    cycles: bool = False
+    loop: bool = False
+    metrics: bool = False
+
+    def __post_init__(self) -> None:
+        self._set("method", check_method(self.method))
+        self._set("warp", warp_options(self.warp))
+        self._set("landmarks", _landmarks(self.landmarks))
+        self._set("landmark_kinds", _kinds(self.landmark_kinds))
+        mp = self.max_pairs
+        if mp is not None and (isinstance(mp, bool) or not isinstance(mp, int | np.integer) or mp < 1):
+            raise OptionError("max_pairs", f"expected None or an integer >= 1; got {mp!r}")
+        if self.prepare is not None and not isinstance(self.prepare, PrepareOptions):
+            raise OptionError(
+                "prepare", f"expected PrepareOptions or None; got {type(self.prepare).__name__}"
+            )
+        if self.skeleton not in SKELETON_MODES:
+            raise OptionError("skeleton", f"expected 'blend' or 'first'; got {self.skeleton!r}")
+        if self.weight_curve is not None:
+            self._set(
+                "weight_curve", tuple((float(u), float(s)) for u, s in parse_weight_curve(self.weight_curve))
+            )
+        if isinstance(self.contacts, ContactOptions):
+            raise OptionError(
+                "contacts",
+                "expected one of ['keep', 'report', 'off']; got ContactOptions: give the thresholds as "
+                "contact_options= (and contacts='keep')",
+            )
+        self._set("contacts", contact_policy(self.contacts))
+        self._set(
+            "contact_options", ContactOptions() if self.contact_options is None else self.contact_options
+        )
+        if not isinstance(self.contact_options, ContactOptions):
+            raise OptionError(
+                "contact_options", f"expected ContactOptions; got {type(self.contact_options).__name__}"
+            )
+        for name in _FLAGS:
+            value = getattr(self, name)
+            if not isinstance(value, bool | np.bool_):
+                raise OptionError(name, f"expected True or False; got {value!r}")
+            self._set(name, bool(value))
+        self._check_together()
+
+    def _set(self, name: str, value: Any) -> None:
+        object.__setattr__(self, name, value)
+
+    def _check_together(self) -> None:
+        """Cross-field checks, naming the option that cannot be given with the others."""
+        if self.landmarks is None:
+            return
+        if self.warp.method == "none":
+            raise OptionError("landmarks", "expected a time warp (warp 'dp' or 'dp+refine'); got warp 'none'")
+        if self.cycles or self.loop:
+            raise OptionError("landmarks", "expected no landmarks with cycles (the cycles give them)")
+
+    @property
+    def representation(self) -> Representation:
+        """The curves' representation (:data:`~elastic_motion.motion.representations.LIE` or
+        ``EULER``; ``"euler-linear"`` interpolates Euler curves)."""
+        return EULER if self.method == "euler-linear" else representation(self.method)
+
+    @property
+    def matches_cycles(self) -> bool:
+        """Whether the gait cycles are matched first (``cycles``, or ``loop``, which needs them)."""
+        return self.cycles or self.loop
+
+    def replace(self, **changes: Any) -> BlendOptions:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def to_json(self) -> dict[str, Any]:
+        """The fields as a JSON-ready dict (a landmarks file as its pairs)."""
+        out = asdict(self)
+        out["warp"] = self.warp.to_json()
+        if isinstance(self.landmarks, LandmarkFile):
+            out["landmarks"] = [list(p) for p in self.landmarks.pairs]
+        return out
+
+
+def _landmarks(value: Any) -> Any:
+    """The ``landmarks`` option: None, ``"auto"``, a LandmarkFile, or a tuple of pairs (s)."""
+    if value is None or isinstance(value, LandmarkFile) or (isinstance(value, str) and value == "auto"):
+        return value
+    if isinstance(value, str):
+        if value == "none":
+            return None
+        raise OptionError("landmarks", f"expected None, 'auto' or pairs (tA, tB) in seconds; got {value!r}")
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.size == 0:
+        return ()
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise OptionError("landmarks", f"expected pairs (tA, tB) of shape (M, 2); got shape {arr.shape}")
+    return tuple((float(a), float(b)) for a, b in arr)
+
+
+def _kinds(value: Any) -> tuple[str, ...] | None:
+    if value is None:
+        return None
+    if isinstance(value, str) or not all(isinstance(k, str) for k in value):
+        raise OptionError("landmark_kinds", f"expected a sequence of event kinds; got {value!r}")
+    return tuple(value)
+
+
+def parse_weight_curve(value: Any) -> np.ndarray:
+    """Knots ``(u, s)`` of a weight curve from ``"u:s,u:s,..."`` or an array ``(M, 2)``.
+
+    Returns
+    -------
+    ndarray, shape (M, 2)
+
+    Raises
+    ------
+    OptionError
+        Not defined on [0, 1] (first ``u`` not 0, last not 1, not increasing), a weight
+        outside [0, 1], fewer than two knots, a malformed string.
+    """
+    if isinstance(value, str):
+        try:
+            arr = np.array([[float(x) for x in item.split(":")] for item in value.split(",") if item.strip()])
+        except ValueError:
+            arr = np.zeros((0, 1))
+        if arr.ndim != 2 or arr.shape[1:] != (2,):
+            raise OptionError("weight_curve", f"expected knots 'u:s,u:s,...' like '0:0,1:1'; got {value!r}")
+    else:
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.ndim != 2 or arr.shape[1] != 2:
+            raise OptionError("weight_curve", f"expected knots (u, s) of shape (M, 2); got shape {arr.shape}")
+    if arr.shape[0] < 2 or not np.isfinite(arr).all():
+        raise OptionError("weight_curve", f"expected at least two finite knots (u, s); got {arr.tolist()}")
+    u, s = arr[:, 0], arr[:, 1]
+    if abs(u[0]) > 1e-12 or abs(u[-1] - 1.0) > 1e-12 or not (np.diff(u) > 0).all():
+        raise OptionError(
+            "weight_curve",
+            f"expected a curve defined on [0, 1]: times u from 0 to 1, increasing; got u = {u.tolist()}",
+        )
+    if (s < 0).any() or (s > 1).any():
+        raise OptionError("weight_curve", f"expected weights s in [0, 1]; got s = {s.tolist()}")
+    return arr
