@@ -209,3 +209,28 @@ def test_settings_take_representations_by_name_key_or_object() -> None:
         DatabaseSettings(representations=(LIE, "lie"))
     with pytest.raises(OptionError, match="representations: expected distinct entries"):
         DatabaseSettings(representations=("quaternion",))
+
+
+def test_cli_choices_are_the_api_types() -> None:
+    """``--method``, ``--linkage`` and ``--engine`` list what the Python types accept."""
+    from elastic_motion._options import choices
+    from elastic_motion.apps.database.engines import EngineName
+    from elastic_motion.apps.statistics import Linkage
+    from elastic_motion.cli_commands import database, distance
+    from elastic_motion.cli_commands._argparse import CliParser
+    from elastic_motion.motion.representations import Method
+
+    parser = CliParser(prog="elastic-motion")
+    sub = parser.add_subparsers(dest="command")
+    database.register(sub)
+    distance.register(sub)
+
+    def action(command: str, flag: str):
+        p = sub.choices[command]
+        return next(a for a in p._actions if flag in a.option_strings)
+
+    assert tuple(action("cluster", "--linkage").choices) == choices(Linkage)
+    assert tuple(action("matrix", "--engine").choices) == choices(EngineName)
+    assert tuple(action("distance", "--method").choices) == choices(Method)
+    assert action("mean", "--method").metavar == "{" + ",".join(choices(Method)) + "}"
+    assert action("matrix", "--method").metavar == "{" + ",".join(choices(Method)) + "}[,...]"
