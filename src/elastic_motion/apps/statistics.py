@@ -1,10 +1,19 @@
-"""Statistics over motion databases: k-NN search and classification, Karcher mean, clustering.
+"""Statistics over motion databases: labels, k-NN search and classification, Karcher mean,
+clustering.
+
+The numerical layer under :mod:`elastic_motion.apps.database` (which imports this module, never
+the other way): functions of distance matrices and of curves. The commands over a database's
+files and matrix folders are :func:`~elastic_motion.apps.database.classify_motions`,
+:func:`~elastic_motion.apps.database.mean_motion` and
+:func:`~elastic_motion.apps.database.cluster_motions`.
 
 Conventions
 -----------
 * A **distance matrix** is a symmetric float64 array ``(M, M)`` with zeros on the diagonal,
   as written by :mod:`elastic_motion.apps.database` (``+inf`` between motions of different
   skeleton groups; NaN = not computed, which the functions here refuse).
+* **Labels** of motions come from their names (:func:`bandai_labels`, :func:`cmu_label`, the
+  rules of :func:`motion_labels`) or a CSV file.
 * **k-NN, leave one out**: motion ``i`` is classified by the majority label of its ``k``
   nearest other motions (finite distances only); a tie goes to the tied label whose
   nearest member is closest. With ``blocks`` (e.g. the source clip of each segment), the
@@ -14,12 +23,12 @@ Conventions
   ``mu = argmin sum_k w_k min_phi ||mu - q_k * phi||^2``, by alternating (i) the optimal warp of
   each ``q_k`` onto the current mean (:func:`elastic_motion.warp.optimal_warp`) and (ii) the
   weighted average of the aligned SRV functions (projected on the common grid). With the
-  DP (``WarpOptions(method="dp")``, the default) each step does not increase the energy (the
+  DP (:data:`MEAN_WARP`, the default) each step does not increase the energy (the
   previous warp is a path of the next DP; the average is the L2 minimiser). The mean curve
   is reconstructed with :func:`elastic_motion.curves.weighted_blend` from the aligned inputs
   (start point: the group's weighted mean of the start points). The warps are not re-centred
-  (fdasrsf's ``srsf_align`` re-centres them so their mean is the identity); the mean
-  therefore keeps the time-parametrisation the iteration converges to.
+  unless asked (fdasrsf's ``srsf_align`` re-centres them so their mean is the identity); the
+  mean therefore keeps the time-parametrisation the iteration converges to.
 * **Hierarchical clustering**: :func:`scipy.cluster.hierarchy.linkage` on the condensed
   matrix; ``+inf`` entries are replaced by twice the largest finite distance (so motions of
   different skeletons join last).
