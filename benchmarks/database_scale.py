@@ -429,108 +429,18 @@ def small(src: Path, tmp: Path, m: int) -> dict:
 
 
 def markdown(r: dict) -> str:
+    """The tables of a result (the sections it holds, in order), as Markdown."""
+    sections = (
+        ("per_pair", _markdown_per_pair),
+        ("scale", _markdown_scale),
+        ("quality", _markdown_quality),
+        ("speedup", _markdown_speedup),
+        ("small", _markdown_small),
+    )
     lines = []
-    if "per_pair" in r:
-        p = r["per_pair"]
-        lines += [
-            f"### Seconds per pair, one core (N = {p['n_samples']}, D = {p['D']}, {p['pairs']} pairs)",
-            "",
-            "| DP neighbourhood | optimal_warp, ms | batched, ms | speed-up | max relative difference |",
-            "|---|---|---|---|---|",
-        ]
-        for nb in (6, 10):
-            x = p[f"neighbourhood {nb}"]
-            lines.append(
-                f"| {nb} | {x['ms_optimal_warp']:.3f} | {x['ms_batched']:.3f} | "
-                f"{x['ms_optimal_warp'] / x['ms_batched']:.2f}x | {x['max_relative_difference']:.1e} |"
-            )
-    if "scale" in r:
-        runs = r["scale"]
-        lines += [
-            "",
-            f"### All pairs of {next(iter(runs.values()))['motions']} motions x {FRAMES} frames (measured "
-            "end to end; Lie, N = 64, exact DP neighbourhood 10, tiles of 32)",
-            "",
-            "| engine | read + SRV s | pairs s | other s | total s | pairs | load average | 10 min |",
-            "|---|---|---|---|---|---|---|---|",
-        ]
-
-        def who(s: dict) -> str:
-            if s["engine"] == "serial":
-                return f"{s.get('numba_threads', '?')} numba threads"
-            return f"{s['workers']} workers"
-
-        for s in runs.values():
-            lines.append(
-                f"| {s['engine']} ({who(s)}) | {s['seconds_read_and_srv']:.1f} | "
-                f"{s['seconds_pairs']:.1f} | {s['seconds_other']:.1f} | **{s['seconds_total']:.1f}** "
-                f"({s['seconds_total'] / 60:.1f} min) | {s['pairs']} | {s.get('load_average')} | "
-                f"{'met' if s['seconds_total'] <= 600 and s['complete'] else 'NOT met'} |"
-            )
-            if s.get("engine_note"):
-                lines.append(f"\n{s['engine_note']}")
-    if "quality" in r:
-        q = r["quality"]
-        lines += [
-            "",
-            f"### Energy of the matrix above the exact DP ({q['pairs']} sampled pairs; reference: "
-            f"{q['reference']})",
-            "",
-            "| pairs > 0.1 % above | max excess | max deficit | zero-energy pairs |",
-            "|---|---|---|---|",
-            f"| {100 * q['share_over_tolerance']:.2f} % | {q['max_relative_excess']:.1e} | "
-            f"{q['max_relative_deficit']:.1e} | {q['zero_energy_pairs']} |",
-        ]
-        if "engines_bit_identical" in q:
-            lines.append(f"\nMatrices of the engines equal bit for bit: {q['engines_bit_identical']}.")
-    if "speedup" in r:
-        sp = r["speedup"]
-        if "skipped" in sp:
-            lines += ["", f"Dask speed-ups skipped: {sp['skipped']}"]
-        else:
-            lines += [
-                "",
-                f"### Dask speed-ups ({sp['motions']} motions, {sp['pairs']} pairs, against serial on one "
-                "thread)",
-                "",
-                "| run | engine | total s | read + SRV s | read on | pairs s | speed-up total | "
-                "speed-up read | speed-up pairs | identical | load before -> after (others' CPU) |",
-                "|---|---|---|---|---|---|---|---|---|---|---|",
-            ]
-            for k, run in enumerate(r.get("speedup_runs") or [sp]):
-                for name, x in run["rows"].items():
-                    la = x.get("load_average_before_after")
-                    la = f"{la[0][0]:.2f} -> {la[1][0]:.2f}" if la else "?"
-                    if "cpu_seconds_others" in x:
-                        la += f" ({x['cpu_seconds_others']:.1f} s)"
-                    lines.append(
-                        f"| {k + 1} | {name} | {x['seconds_total']:.1f} | {x['seconds_read_and_srv']:.1f} | "
-                        f"{x.get('read_where', '?')} | {x['seconds_pairs']:.1f} | {x['speedup_total']:.2f} | "
-                        f"{x.get('speedup_read', float('nan')):.2f} | {x['speedup_pairs']:.2f} | "
-                        f"{x['identical_to_serial']} | {la} |"
-                    )
-            d = sp["rows"].get("dask scheduler + 2 dask workers (127.0.0.1)", {})
-            if "seconds_cluster_start_not_included" in d:
-                lines.append(
-                    f"\n(the separately started scheduler and workers took "
-                    f"{d['seconds_cluster_start_not_included']:.1f} s to start, not included)"
-                )
-    if "small" in r:
-        sm = r["small"]
-        loc = sm["local"]
-        lines += [
-            "",
-            f"### Small input ({sm['serial']['motions']} motions): serial "
-            f"{sm['serial']['seconds_total']:.1f} s, "
-            + (
-                f"--engine local {loc['seconds_total']:.1f} s (ran as: {loc['engine']}; "
-                f"{loc.get('engine_note')})"
-                if "skipped" not in loc
-                else f"--engine local skipped: {loc['skipped']}"
-            ),
-        ]
-        if "local_forced" in sm:
-            lines.append(f"(a local cluster started anyway: {sm['local_forced']['seconds_total']:.1f} s)")
+    for key, table in sections:
+        if key in r:
+            lines += table(r)
     meta = r.get("meta", {})
     if meta:
         lines += ["", "Load average (1, 5, 15 min) after each section: "]
@@ -542,7 +452,121 @@ def markdown(r: dict) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
+def _markdown_per_pair(r: dict) -> list[str]:
+    p = r["per_pair"]
+    lines = [
+        f"### Seconds per pair, one core (N = {p['n_samples']}, D = {p['D']}, {p['pairs']} pairs)",
+        "",
+        "| DP neighbourhood | optimal_warp, ms | batched, ms | speed-up | max relative difference |",
+        "|---|---|---|---|---|",
+    ]
+    for nb in (6, 10):
+        x = p[f"neighbourhood {nb}"]
+        lines.append(
+            f"| {nb} | {x['ms_optimal_warp']:.3f} | {x['ms_batched']:.3f} | "
+            f"{x['ms_optimal_warp'] / x['ms_batched']:.2f}x | {x['max_relative_difference']:.1e} |"
+        )
+    return lines
+
+
+def _markdown_scale(r: dict) -> list[str]:
+    runs = r["scale"]
+    lines = [
+        "",
+        f"### All pairs of {next(iter(runs.values()))['motions']} motions x {FRAMES} frames (measured "
+        "end to end; Lie, N = 64, exact DP neighbourhood 10, tiles of 32)",
+        "",
+        "| engine | read + SRV s | pairs s | other s | total s | pairs | load average | 10 min |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+
+    def who(s: dict) -> str:
+        if s["engine"] == "serial":
+            return f"{s.get('numba_threads', '?')} numba threads"
+        return f"{s['workers']} workers"
+
+    for s in runs.values():
+        lines.append(
+            f"| {s['engine']} ({who(s)}) | {s['seconds_read_and_srv']:.1f} | "
+            f"{s['seconds_pairs']:.1f} | {s['seconds_other']:.1f} | **{s['seconds_total']:.1f}** "
+            f"({s['seconds_total'] / 60:.1f} min) | {s['pairs']} | {s.get('load_average')} | "
+            f"{'met' if s['seconds_total'] <= 600 and s['complete'] else 'NOT met'} |"
+        )
+        if s.get("engine_note"):
+            lines.append(f"\n{s['engine_note']}")
+    return lines
+
+
+def _markdown_quality(r: dict) -> list[str]:
+    q = r["quality"]
+    lines = [
+        "",
+        f"### Energy of the matrix above the exact DP ({q['pairs']} sampled pairs; reference: "
+        f"{q['reference']})",
+        "",
+        "| pairs > 0.1 % above | max excess | max deficit | zero-energy pairs |",
+        "|---|---|---|---|",
+        f"| {100 * q['share_over_tolerance']:.2f} % | {q['max_relative_excess']:.1e} | "
+        f"{q['max_relative_deficit']:.1e} | {q['zero_energy_pairs']} |",
+    ]
+    if "engines_bit_identical" in q:
+        lines.append(f"\nMatrices of the engines equal bit for bit: {q['engines_bit_identical']}.")
+    return lines
+
+
+def _markdown_speedup(r: dict) -> list[str]:
+    sp = r["speedup"]
+    if "skipped" in sp:
+        return ["", f"Dask speed-ups skipped: {sp['skipped']}"]
+    lines = [
+        "",
+        f"### Dask speed-ups ({sp['motions']} motions, {sp['pairs']} pairs, against serial on one thread)",
+        "",
+        "| run | engine | total s | read + SRV s | read on | pairs s | speed-up total | "
+        "speed-up read | speed-up pairs | identical | load before -> after (others' CPU) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for k, run in enumerate(r.get("speedup_runs") or [sp]):
+        for name, x in run["rows"].items():
+            la = x.get("load_average_before_after")
+            la = f"{la[0][0]:.2f} -> {la[1][0]:.2f}" if la else "?"
+            if "cpu_seconds_others" in x:
+                la += f" ({x['cpu_seconds_others']:.1f} s)"
+            lines.append(
+                f"| {k + 1} | {name} | {x['seconds_total']:.1f} | {x['seconds_read_and_srv']:.1f} | "
+                f"{x.get('read_where', '?')} | {x['seconds_pairs']:.1f} | {x['speedup_total']:.2f} | "
+                f"{x.get('speedup_read', float('nan')):.2f} | {x['speedup_pairs']:.2f} | "
+                f"{x['identical_to_serial']} | {la} |"
+            )
+    d = sp["rows"].get("dask scheduler + 2 dask workers (127.0.0.1)", {})
+    if "seconds_cluster_start_not_included" in d:
+        lines.append(
+            f"\n(the separately started scheduler and workers took "
+            f"{d['seconds_cluster_start_not_included']:.1f} s to start, not included)"
+        )
+    return lines
+
+
+def _markdown_small(r: dict) -> list[str]:
+    sm = r["small"]
+    loc = sm["local"]
+    lines = [
+        "",
+        f"### Small input ({sm['serial']['motions']} motions): serial "
+        f"{sm['serial']['seconds_total']:.1f} s, "
+        + (
+            f"--engine local {loc['seconds_total']:.1f} s (ran as: {loc['engine']}; {loc.get('engine_note')})"
+            if "skipped" not in loc
+            else f"--engine local skipped: {loc['skipped']}"
+        ),
+    ]
+    if "local_forced" in sm:
+        lines.append(f"(a local cluster started anyway: {sm['local_forced']['seconds_total']:.1f} s)")
+    return lines
+
+
+def _arguments() -> argparse.Namespace:
+    """The command line of this script."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument(
         "--mocap",
@@ -566,7 +590,57 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes (a smoke test of the script)")
     parser.add_argument("--out", type=Path, default=RESULTS / "database_scale.json")
     parser.add_argument("--markdown", action="store_true", help="only print the tables of the existing JSON")
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def _run_section(
+    section: str,
+    result: dict,
+    args: argparse.Namespace,
+    src: Path,
+    inputs: list[Path],
+    sub: Path,
+    tmp: Path,
+    engines: list[str],
+) -> None:
+    """Run one section into ``result`` (``src``: the windows, ``inputs`` their files, ``sub`` the
+    speed-up's subset, ``tmp`` the scratch folder)."""
+    if section == "per_pair":
+        result["per_pair"] = per_pair(inputs, pairs=200 if args.quick else 1000)
+    elif section == "scale":
+        result["scale"] = {}
+        for engine in engines:
+            before_run = load("before")
+            out = tmp / f"scale_{engine}"
+            result["scale"][engine] = run_matrix(src, out, engine, args.workers)
+            result["scale"][engine]["load_average"] = [
+                before_run["load_average"],
+                load("after")["load_average"],
+            ]
+            print(f"  {engine}: {result['scale'][engine]['seconds_total']:.1f} s", flush=True)
+    elif section == "quality":
+        outs = [tmp / f"scale_{e}" for e in engines if (tmp / f"scale_{e}" / "distances_lie.npy").exists()]
+        if not outs:
+            raise SystemExit("--sections: 'quality' checks the matrix of 'scale'; run them together")
+        result["quality"] = quality(outs[0], args.sample)
+        ref = np.load(outs[0] / "distances_lie.npy").tobytes()
+        result["quality"]["engines_bit_identical"] = all(
+            np.load(o / "distances_lie.npy").tobytes() == ref for o in outs
+        )
+    elif section == "speedup":
+        result["speedup_runs"] = []
+        for k in range(max(1, args.repeat)):
+            result["speedup"] = speedup(sub, tmp)
+            result["speedup"]["date"] = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
+            result["speedup_runs"].append(result["speedup"])
+            if len(result["speedup_runs"]) > 1:
+                print(f"  run {k + 1}:\n" + markdown({"speedup": result["speedup"]}), flush=True)
+    elif section == "small":
+        result["small"] = small(src, tmp, 40)
+
+
+def main() -> None:
+    args = _arguments()
     if args.markdown:
         print(markdown(json.loads(args.out.read_text())))
         return
@@ -603,40 +677,7 @@ def main() -> None:
             print(f"[{time.strftime('%H:%M:%S')}] {section} ...", flush=True)
             before = load("before")
             t0 = time.perf_counter()
-            if section == "per_pair":
-                result["per_pair"] = per_pair(inputs, pairs=200 if args.quick else 1000)
-            elif section == "scale":
-                result["scale"] = {}
-                for engine in engines:
-                    before_run = load("before")
-                    out = tmp / f"scale_{engine}"
-                    result["scale"][engine] = run_matrix(src, out, engine, args.workers)
-                    result["scale"][engine]["load_average"] = [
-                        before_run["load_average"],
-                        load("after")["load_average"],
-                    ]
-                    print(f"  {engine}: {result['scale'][engine]['seconds_total']:.1f} s", flush=True)
-            elif section == "quality":
-                outs = [
-                    tmp / f"scale_{e}" for e in engines if (tmp / f"scale_{e}" / "distances_lie.npy").exists()
-                ]
-                if not outs:
-                    raise SystemExit("--sections: 'quality' checks the matrix of 'scale'; run them together")
-                result["quality"] = quality(outs[0], args.sample)
-                ref = np.load(outs[0] / "distances_lie.npy").tobytes()
-                result["quality"]["engines_bit_identical"] = all(
-                    np.load(o / "distances_lie.npy").tobytes() == ref for o in outs
-                )
-            elif section == "speedup":
-                result["speedup_runs"] = []
-                for k in range(max(1, args.repeat)):
-                    result["speedup"] = speedup(sub, tmp)
-                    result["speedup"]["date"] = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
-                    result["speedup_runs"].append(result["speedup"])
-                    if len(result["speedup_runs"]) > 1:
-                        print(f"  run {k + 1}:\n" + markdown({"speedup": result["speedup"]}), flush=True)
-            elif section == "small":
-                result["small"] = small(src, tmp, 40)
+            _run_section(section, result, args, src, inputs, sub, tmp, engines)
             result["meta"][section] = {
                 "seconds": round(time.perf_counter() - t0, 1),
                 "before": before,

@@ -101,8 +101,7 @@ def test_compute_tile_layout() -> None:
     tile = compute_tile(
         np.array([0, 1]),
         np.array([1, 2, 3]),
-        q[:2],
-        q[1:],
+        q,  # indexed by the global indices
         np.array([0, 0]),
         np.array([0, 0, 1]),
         WarpOptions(method="none"),
@@ -110,9 +109,7 @@ def test_compute_tile_layout() -> None:
     assert tile[0, 0] == pytest.approx(np.sqrt(2.0))  # d(0, 1): |0 - 1| in 2 dims
     assert tile[1, 0] == 0.0  # diagonal
     assert tile[0, 2] == np.inf and tile[1, 2] == np.inf  # other group
-    assert np.isnan(
-        compute_tile(np.array([2]), np.array([1]), q[2:3], q[1:2], [0], [0], WarpOptions("none"))
-    ).all()
+    assert np.isnan(compute_tile(np.array([2]), np.array([1]), q, [0], [0], WarpOptions("none"))).all()
 
 
 def test_compute_tile_batched_dp_equals_one_optimal_warp_per_pair() -> None:
@@ -128,7 +125,7 @@ def test_compute_tile_batched_dp_equals_one_optimal_warp_per_pair() -> None:
     groups = np.array([0, 0, 0, 0, 1, 1, 0])
     rows, cols = np.array([0, 1, 4]), np.arange(7)
     warp = WarpOptions(method="dp", neighbourhood=5)
-    tile = compute_tile(rows, cols, [q[i] for i in rows], q, groups[rows], groups, warp)
+    tile = compute_tile(rows, cols, q, groups[rows], groups, warp)
     for a, i in enumerate(rows):
         for j in cols:
             if i == j:
@@ -141,9 +138,7 @@ def test_compute_tile_batched_dp_equals_one_optimal_warp_per_pair() -> None:
                 ref = optimal_warp(q[i], q[j], method="dp", neighbourhood=5).distance
                 assert tile[a, j] == pytest.approx(ref, rel=1e-12), (i, j)
                 assert tile[a, j] == pair_distance(q[i], q[j], warp)  # the same numbers one by one
-    c2f = compute_tile(
-        rows[:1], cols[:3], q[:1], q[:3], groups[:1], groups[:3], warp.replace(coarse_to_fine=True)
-    )
+    c2f = compute_tile(rows[:1], cols[:3], q, groups[:1], groups[:3], warp.replace(coarse_to_fine=True))
     assert c2f[0, 1] == pytest.approx(
         optimal_warp(q[0], q[1], **warp.replace(coarse_to_fine=True).solver_kwargs()).distance
     )
@@ -521,7 +516,7 @@ def test_cli_matrix_search_classify_cluster(db_dir: Path, tmp_path: Path, capsys
     # a rule that labels none of these files is an error, not an accuracy of nan
     assert _cli(["classify", str(out), "--labels", "cmu"]) == 2
     assert (
-        "--labels cmu: expected labels for at least 2 motions of the matrix; got 0 of"
+        "--labels: cmu: expected labels for at least 2 motions of the matrix; got 0 of"
         in capsys.readouterr().err
     )
     # several stored databases at once: refused, named; -k larger than the candidates: say how many

@@ -443,9 +443,8 @@ def test_two_conversions_in_one_database_share_the_first_rest_pose(mocap_dir: Pa
     the later one is re-expressed in its group's first rest pose (a note), the index stores
     that rest pose, and a query of that conversion is re-expressed the same way, so it
     measures its own matrix row exactly; a mean of both conversions stands."""
-    from elastic_motion.apps.database import compute_matrix
+    from elastic_motion.apps.database import compute_matrix, mean_motion
     from elastic_motion.apps.database.cache import SRVCache
-    from elastic_motion.apps.statistics import mean_motion
     from elastic_motion.motion import forward_kinematics
 
     bvh = mocap_dir / "cmu" / "bvh"

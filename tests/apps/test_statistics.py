@@ -9,15 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from elastic_motion.apps.database import MeanMotionResult, mean_motion
 from elastic_motion.apps.statistics import (
-    MeanMotionResult,
     bandai_labels,
     cluster,
     cmu_label,
     dtw_matrix,
     karcher_mean,
     knn_evaluate,
-    mean_motion,
     nearest,
 )
 from elastic_motion.curves import DiscreteCurve, reparametrize_curve, srv_distance, srv_transform

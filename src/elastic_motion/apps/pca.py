@@ -32,11 +32,17 @@ from typing import Any
 
 import numpy as np
 
+from elastic_motion import motion as mm
+from elastic_motion._options import with_overrides
+from elastic_motion.apps.database.mean import MeanOptions
+from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
+from elastic_motion.apps.statistics import karcher_mean
+from elastic_motion.curves import SRVFunction, inverse_srv_transform, reparametrize_srv, srv_transform
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import Motion
-from elastic_motion.warp import WarpOptions
+from elastic_motion.motion import Motion, write_bvh
+from elastic_motion.motion.representations import representation
 
 __all__ = ["MotionPCA", "motion_pca", "write_modes"]
 
@@ -103,16 +109,14 @@ class MotionPCA:
 
     def motion_at(self, z: Sequence[float], *, name: str = "") -> Motion:
         """The motion of the model at ``z`` (standard deviations along the first ``len(z)`` modes)."""
-        from elastic_motion import motion as mm
-        from elastic_motion.curves import SRVFunction, inverse_srv_transform
-
         q = self.srv_at(z)
         t = np.linspace(0.0, 1.0, self.n_samples + 1)
         curve = inverse_srv_transform(SRVFunction(q, t, self._start, self._group))
-        conv = mm.from_lie_curve if self.method == "lie" else mm.from_euler_curve
         like = self._like
         assert like is not None
-        m = conv(curve, like, fps=self.n_samples / self.duration if self.duration > 0 else like.fps)
+        m = representation(self.method).from_curve(
+            curve, like, fps=self.n_samples / self.duration if self.duration > 0 else like.fps
+        )
         if self.duration > 0 and self.fps > 0:
             m = mm.resample(m, self.fps)
         return m.replace(name=name or "pca sample")
@@ -149,17 +153,10 @@ class MotionPCA:
 
 def motion_pca(
     files: Sequence[str | os.PathLike[str]],
+    options: MeanOptions | None = None,
     *,
-    n_samples: int = 64,
-    method: str = "lie",
-    joints: str | Sequence[str] = "all",
-    drop_fingers: bool = True,
-    align_heading: bool = True,
-    warp: WarpOptions | str | None = None,
-    max_iter: int = 20,
-    tol: float = 1e-4,
-    fps: float | None = None,
     progress: Progress | None = None,
+    **overrides: Any,
 ) -> MotionPCA:
     """Principal component analysis of motions aligned by their Karcher mean (module docstring).
 
@@ -167,18 +164,15 @@ def motion_pca(
     ----------
     files : sequence of paths
         At least two motion files of one skeleton (or ``joints="common"``).
-    n_samples : int, default 64
-    method : {"lie", "euler-elastic"}, default "lie"
-        ``"euler"`` is accepted for ``"euler-elastic"``.
-    joints, drop_fingers, align_heading
-        As in :class:`elastic_motion.apps.database.DatabaseSettings`.
-    warp : WarpOptions or method name, optional
-        Default: DP, neighbourhood 10; ``"none"`` gives the PCA of the unaligned SRVs.
-    max_iter, tol
-        Of the Karcher mean.
-    fps : float, optional
-        Frame rate of the motions made (default: the first file's).
+    options : MeanOptions, optional
+        How the motions are prepared and aligned (:class:`~elastic_motion.apps.database.MeanOptions`:
+        ``n_samples``, ``method``, ``joints``, ``drop_fingers``, ``align_heading``, ``warp``
+        (``"none"`` gives the PCA of the unaligned SRVs), ``max_iter`` and ``tol`` of the Karcher
+        mean, ``fps`` of the motions made: default the first file's).
     progress : callable, optional
+        ``progress("mean", iteration, max_iter)``.
+    **overrides
+        Fields of :class:`~elastic_motion.apps.database.MeanOptions` (``n_samples=32``, ``warp="none"``...).
 
     Returns
     -------
@@ -187,24 +181,25 @@ def motion_pca(
     Raises
     ------
     OptionError
-        Fewer than two files, different skeletons, a bad method.
+        Fewer than two files, different skeletons, a bad option.
     """
-    from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
-    from elastic_motion.apps.database.settings import canonical_method, public_method
-    from elastic_motion.apps.statistics import _warp_options, karcher_mean
-    from elastic_motion.curves import reparametrize_srv, srv_transform
-
-    key = canonical_method(method)
+    opts = with_overrides(MeanOptions, options, overrides)
     files = [os.fspath(f) for f in files]
     if len(files) < 2:
         raise OptionError("files", f"expected at least two motion files; got {len(files)}")
-    opts = _warp_options(warp)
+    n_samples = opts.n_samples
     prepared = prepare_same_skeleton(
-        files, n_samples, joints=joints, drop_fingers=drop_fingers, align_heading=align_heading
+        files, n_samples, joints=opts.joints, drop_fingers=opts.drop_fingers, align_heading=opts.align_heading
     )
-    curves = database_curves(prepared, key)
+    curves = database_curves(prepared, opts.method)
     km = karcher_mean(
-        curves, n_samples=n_samples, warp=opts, max_iter=max_iter, tol=tol, progress=progress, recenter=True
+        curves,
+        n_samples=n_samples,
+        warp=opts.warp,
+        max_iter=opts.max_iter,
+        tol=opts.tol,
+        progress=progress,
+        recenter=True,
     )
     t = np.linspace(0.0, 1.0, n_samples + 1)
     srvs = [srv_transform(c) for c in curves]
@@ -215,25 +210,19 @@ def motion_pca(
     _, sv, vt = np.linalg.svd(v, full_matrices=False)
     r = max(1, min(kk - 1, int(np.sum(sv > sv[0] * 1e-10)) if sv[0] > 0 else 1))
     total = float(np.sum(sv**2))
-    modes = (vt[:r] * np.sqrt(n)).reshape(r, n, d)  # unit L2 norm: sum e^2 / n = 1
-    sigmas = sv[:r] / np.sqrt(kk - 1)
-    explained = sv[:r] ** 2 / total if total > 0 else np.zeros(r)
-    scores = v @ vt[:r].T
-    duration = float(np.mean([p.duration for p in prepared]))
     p0 = prepared[0]
-    out_fps = float(fps) if fps is not None else (p0.original_frames - 1) / p0.duration
     return MotionPCA(
         mean_srv=mu,
-        modes=modes,
-        sigmas=sigmas,
-        explained=explained,
-        scores=scores,
+        modes=(vt[:r] * np.sqrt(n)).reshape(r, n, d),  # unit L2 norm: sum e^2 / n = 1
+        sigmas=sv[:r] / np.sqrt(kk - 1),
+        explained=sv[:r] ** 2 / total if total > 0 else np.zeros(r),
+        scores=v @ vt[:r].T,
         warps=km.warps,
         inputs=tuple(files),
-        method=public_method(key),
+        method=opts.method,
         n_samples=n_samples,
-        duration=duration,
-        fps=out_fps,
+        duration=float(np.mean([p.duration for p in prepared])),
+        fps=float(opts.fps) if opts.fps is not None else (p0.original_frames - 1) / p0.duration,
         karcher_energies=km.energies,
         notes={p.path: p.notes for p in prepared},
         _start=km.mean.values[0],
@@ -260,8 +249,6 @@ def write_modes(
     list of Path
         The files written, in that order.
     """
-    from elastic_motion.motion import write_bvh
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{spread:g}".replace(".", "p")

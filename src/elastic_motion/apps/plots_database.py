@@ -18,6 +18,9 @@ __all__ = ["plot_dendrogram", "plot_distance_matrix", "plot_energies"]
 
 
 def _figure(width: float, height: float):
+    """A new figure of ``width`` x ``height`` inches, and pyplot (non-interactive backend)."""
+    # matplotlib is imported on the first plot: it takes a second, and the apps that import
+    # this module (the database's clustering) run without plotting
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -56,7 +59,7 @@ def plot_dendrogram(
         A category per leaf (e.g. the motion class): leaf labels are coloured by category.
     dpi : int
     """
-    from scipy.cluster.hierarchy import dendrogram
+    from scipy.cluster.hierarchy import dendrogram  # 0.5 s to import: only a dendrogram needs it
 
     m = len(result.names)
     plt, fig = _figure(8.0, max(3.0, 0.28 * m + 1.0))

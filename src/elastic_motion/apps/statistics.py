@@ -1,10 +1,19 @@
-"""Statistics over motion databases: k-NN search and classification, Karcher mean, clustering.
+"""Statistics over motion databases: labels, k-NN search and classification, Karcher mean,
+clustering.
+
+The numerical layer under :mod:`elastic_motion.apps.database` (which imports this module, never
+the other way): functions of distance matrices and of curves. The commands over a database's
+files and matrix folders are :func:`~elastic_motion.apps.database.classify_motions`,
+:func:`~elastic_motion.apps.database.mean_motion` and
+:func:`~elastic_motion.apps.database.cluster_motions`.
 
 Conventions
 -----------
 * A **distance matrix** is a symmetric float64 array ``(M, M)`` with zeros on the diagonal,
   as written by :mod:`elastic_motion.apps.database` (``+inf`` between motions of different
   skeleton groups; NaN = not computed, which the functions here refuse).
+* **Labels** of motions come from their names (:func:`bandai_labels`, :func:`cmu_label`, the
+  rules of :func:`motion_labels`) or a CSV file.
 * **k-NN, leave one out**: motion ``i`` is classified by the majority label of its ``k``
   nearest other motions (finite distances only); a tie goes to the tied label whose
   nearest member is closest. With ``blocks`` (e.g. the source clip of each segment), the
@@ -14,12 +23,12 @@ Conventions
   ``mu = argmin sum_k w_k min_phi ||mu - q_k * phi||^2``, by alternating (i) the optimal warp of
   each ``q_k`` onto the current mean (:func:`elastic_motion.warp.optimal_warp`) and (ii) the
   weighted average of the aligned SRV functions (projected on the common grid). With the
-  DP (``WarpOptions(method="dp")``, the default) each step does not increase the energy (the
+  DP (:data:`MEAN_WARP`, the default) each step does not increase the energy (the
   previous warp is a path of the next DP; the average is the L2 minimiser). The mean curve
   is reconstructed with :func:`elastic_motion.curves.weighted_blend` from the aligned inputs
   (start point: the group's weighted mean of the start points). The warps are not re-centred
-  (fdasrsf's ``srsf_align`` re-centres them so their mean is the identity); the mean
-  therefore keeps the time-parametrisation the iteration converges to.
+  unless asked (fdasrsf's ``srsf_align`` re-centres them so their mean is the identity); the
+  mean therefore keeps the time-parametrisation the iteration converges to.
 * **Hierarchical clustering**: :func:`scipy.cluster.hierarchy.linkage` on the condensed
   matrix; ``+inf`` entries are replaced by twice the largest finite distance (so motions of
   different skeletons join last).
@@ -29,18 +38,18 @@ Numerical code prints nothing.
 
 from __future__ import annotations
 
+import csv
 import os
 import re
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
 from elastic_motion.apps.progress import Progress
-from elastic_motion.apps.report import jsonable
 from elastic_motion.curves import (
     DiscreteCurve,
     SRVFunction,
@@ -49,25 +58,28 @@ from elastic_motion.curves import (
     weighted_blend,
 )
 from elastic_motion.errors import OptionError
-from elastic_motion.warp import WarpOptions
-
-if TYPE_CHECKING:
-    from elastic_motion.motion import Motion
+from elastic_motion.warp import WarpOptions, compose_warps, optimal_warp, warp_energy
 
 __all__ = [
     "CMU_CATEGORIES",
+    "LABEL_RULES",
+    "LINKAGES",
+    "MEAN_WARP",
     "ClusterResult",
     "KarcherMeanResult",
     "KnnEvaluation",
-    "MeanMotionResult",
+    "Linkage",
+    "as_warp_options",
     "bandai_labels",
     "cluster",
     "cmu_label",
     "dtw_matrix",
     "karcher_mean",
     "knn_evaluate",
-    "mean_motion",
+    "mean_warp",
+    "motion_labels",
     "nearest",
+    "recenter_warps",
 ]
 
 #: Categories of the CMU trials in the project's test data (CMU database descriptions).
@@ -107,6 +119,46 @@ def cmu_label(name: str) -> str | None:
     stem = Path(name).stem
     m = re.match(r"(\d+_\d+)", stem)
     return CMU_CATEGORIES.get(m.group(1)) if m else None
+
+
+#: The rules that label motions by their names (:func:`motion_labels`): the content or the
+#: style of a Bandai-Namco file name (:func:`bandai_labels`), the category of a CMU trial
+#: (:func:`cmu_label`).
+LABEL_RULES = ("bandai-content", "bandai-style", "cmu")
+
+
+def motion_labels(names: Sequence[str], rule: str | os.PathLike[str]) -> list[str | None]:
+    """The label of each motion name by a rule of :data:`LABEL_RULES` or a CSV file.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Motion names (e.g. :attr:`elastic_motion.apps.database.DistanceMatrix.names`).
+    rule : {"bandai-content", "bandai-style", "cmu"} or path
+        A rule, or a CSV file of rows ``name,label`` (rows of fewer fields are ignored).
+
+    Returns
+    -------
+    list of (str or None)
+        One per name; None where the rule or the file gives none.
+
+    Raises
+    ------
+    OptionError
+        ``rule`` neither a rule nor a file.
+    """
+    if rule in ("bandai-content", "bandai-style"):
+        part = 0 if rule == "bandai-content" else 1
+        return [(lab[part] if (lab := bandai_labels(n)) else None) for n in names]
+    if rule == "cmu":
+        return [cmu_label(n) for n in names]
+    if not Path(rule).is_file():
+        raise OptionError(
+            "labels", f"expected a CSV file (name,label) or {', '.join(LABEL_RULES)}; got {rule!r}"
+        )
+    with open(rule, newline="") as fh:
+        table = {row[0]: row[1] for row in csv.reader(fh) if len(row) >= 2}
+    return [table.get(n) for n in names]
 
 
 # --------------------------------------------------------------------------------------------
@@ -301,11 +353,26 @@ def dtw_matrix(
 # --------------------------------------------------------------------------------------------
 
 
-def _warp_options(warp: WarpOptions | str | None) -> WarpOptions:
-    if warp is None:
-        from elastic_motion.apps.database.settings import DEFAULT_WARP
+#: The warp of a Karcher mean when none is given: the DP alone on the grid (neighbourhood 10,
+#: :class:`~elastic_motion.warp.WarpOptions`' default), under which each iteration's energy is
+#: non-increasing (the previous warp is a path of the next DP; the refinement off the grid,
+#: ``"dp+refine"``, gives closer warps but loses that). A database compares its motions with
+#: the same warp (:data:`elastic_motion.apps.database.DEFAULT_WARP`).
+MEAN_WARP = WarpOptions(method="dp")
 
-        return DEFAULT_WARP
+
+def as_warp_options(warp: WarpOptions | str | None, default: WarpOptions | None = MEAN_WARP) -> WarpOptions:
+    """The :class:`~elastic_motion.warp.WarpOptions` of ``warp``: itself, ``WarpOptions(method=warp)``
+    for a method name (``"dp"``, ``"dp+refine"``, ``"none"``), ``default`` for None.
+
+    Raises
+    ------
+    OptionError
+        Anything else (None too when ``default`` is None); an unknown method name (from
+        ``WarpOptions``).
+    """
+    if warp is None and default is not None:
+        return default
     if isinstance(warp, WarpOptions):
         return warp
     if isinstance(warp, str):
@@ -366,12 +433,11 @@ def karcher_mean(
     n_samples : int, optional
         Cells ``n`` of the common uniform grid (default: the largest ``n_points - 1``).
     warp : WarpOptions or {"dp", "dp+refine", "none"}, optional
-        How each curve is aligned to the mean (default
-        :data:`elastic_motion.apps.database.DEFAULT_WARP`: DP, neighbourhood 10, as for a
-        database); a method name stands for ``WarpOptions(method=name)``. ``"none"``: the
-        plain SRV average (one iteration, no alignment). ``"dp+refine"`` gives each input a
-        closer warp, but the energy is then no longer guaranteed to decrease (the refined
-        warp of one iteration is not a path of the next DP).
+        How each curve is aligned to the mean (default :data:`MEAN_WARP`: DP, neighbourhood
+        10, as for a database); a method name stands for ``WarpOptions(method=name)``.
+        ``"none"``: the plain SRV average (one iteration, no alignment). ``"dp+refine"`` gives
+        each input a closer warp, but the energy is then no longer guaranteed to decrease (the
+        refined warp of one iteration is not a path of the next DP).
     max_iter : int, default 20
         Alignment iterations at most.
     tol : float, default 1e-4
@@ -396,8 +462,41 @@ def karcher_mean(
     Cost per iteration: ``K`` DP solves on ``n x n`` grids. Energies are exact for the
     piecewise constant SRV functions (:attr:`WarpResult.energy`).
     """
-    from elastic_motion.warp import optimal_warp, warp_energy
+    curves = _checked_curves(curves)
+    w = _normalised_weights(weights, len(curves))
+    opts = as_warp_options(warp)
+    n = int(n_samples) if n_samples is not None else max(c.n_points for c in curves) - 1
+    if n < 2:
+        raise OptionError("n_samples", f"expected at least 2 cells; got {n}")
+    g = curves[0].group
+    t = np.linspace(0.0, 1.0, n + 1)
+    uniform = [
+        c if c.n_points == n + 1 and np.array_equal(c.t, t) else DiscreteCurve(c.evaluate(t), g, t)
+        for c in curves
+    ]
+    state = _KarcherState.start([srv_transform(c) for c in uniform], w, t)
+    if opts.method == "none":
+        state.energies.append(float(np.dot(w, state.distances**2)))
+        state.converged = True
+    else:
+        _align_and_average(state, opts, max_iter, tol, progress)
+        if recenter:
+            state.warps = recenter_warps(state.warps, w)
+            state.average()
+    mean_curve = weighted_blend(uniform, w, state.warps if opts.method != "none" else None, t_out=t)
+    return KarcherMeanResult(
+        mean=mean_curve,
+        srv=SRVFunction(state.mu, t, mean_curve.values[0], g),
+        warps=[np.asarray(v) for v in state.warps],
+        energies=np.array(state.energies),
+        distances=state.distances,
+        iterations=state.iterations,
+        converged=state.converged,
+    )
 
+
+def _checked_curves(curves: Sequence[DiscreteCurve]) -> list[DiscreteCurve]:
+    """``curves`` as a list of at least one curve, all in the first one's group."""
     curves = list(curves)
     if not curves:
         raise ValueError("curves: expected at least one curve")
@@ -407,67 +506,80 @@ def karcher_mean(
             raise ValueError(f"curves[{k}]: expected a DiscreteCurve; got {type(c).__name__}")
         if c.group != g:
             raise ValueError(f"curves[{k}]: expected a curve in {g!r} like curves[0]; got {c.group!r}")
-    kk = len(curves)
+    return curves
+
+
+def _normalised_weights(weights: Sequence[float] | None, kk: int) -> np.ndarray:
+    """``(K,)`` weights summing to 1 (equal by default)."""
     w = np.full(kk, 1.0 / kk) if weights is None else np.asarray(weights, dtype=np.float64)
     if w.shape != (kk,) or (w < 0).any() or not w.sum() > 0:
         raise OptionError(
             "weights", f"expected {kk} non-negative weights with a positive sum; got {weights!r}"
         )
-    w = w / w.sum()
-    opts = _warp_options(warp)
-    n = int(n_samples) if n_samples is not None else max(c.n_points for c in curves) - 1
-    if n < 2:
-        raise OptionError("n_samples", f"expected at least 2 cells; got {n}")
-    t = np.linspace(0.0, 1.0, n + 1)
-    uniform = [
-        c if c.n_points == n + 1 and np.array_equal(c.t, t) else DiscreteCurve(c.evaluate(t), g, t)
-        for c in curves
-    ]
-    srvs = [srv_transform(c) for c in uniform]
-    q = np.stack([s.q for s in srvs])  # (K, n, D)
-    mu = np.einsum("k,kij->ij", w, q)
-    identity = np.array([[0.0, 0.0], [1.0, 1.0]])
-    warps = [identity] * kk
-    energies: list[float] = []
-    dists = np.sqrt(np.array([warp_energy(mu, q[k], identity) for k in range(kk)]))
-    converged = False
-    iterations = 0
-    if opts.method == "none":
-        energies.append(float(np.dot(w, dists**2)))
-        converged = True
-    else:
-        solver = opts.solver_kwargs()
-        for it in range(max_iter):
-            results = [optimal_warp(mu, q[k], **solver) for k in range(kk)]
-            e = float(sum(w[k] * r.energy for k, r in enumerate(results)))
-            energies.append(e)
-            warps = [r.vertices for r in results]
-            dists = np.array([r.distance for r in results])
-            iterations = it + 1
-            if progress is not None:
-                progress("mean", iterations, max_iter)
-            if len(energies) >= 2 and energies[-2] > 0 and (energies[-2] - e) / energies[-2] < tol:
-                converged = True
-                break
-            aligned = [reparametrize_srv(srvs[k], warps[k]).on_grid(t).q for k in range(kk)]
-            mu = np.einsum("k,kij->ij", w, np.stack(aligned))
-            if e == 0.0:
-                converged = True
-                break
-        if recenter:
-            warps = recenter_warps(warps, w)
-            aligned = [reparametrize_srv(srvs[k], warps[k]).on_grid(t).q for k in range(kk)]
-            mu = np.einsum("k,kij->ij", w, np.stack(aligned))
-    mean_curve = weighted_blend(uniform, w, warps if opts.method != "none" else None, t_out=t)
-    return KarcherMeanResult(
-        mean=mean_curve,
-        srv=SRVFunction(mu, t, mean_curve.values[0], g),
-        warps=[np.asarray(v) for v in warps],
-        energies=np.array(energies),
-        distances=dists,
-        iterations=iterations,
-        converged=converged,
-    )
+    return w / w.sum()
+
+
+#: The identity warp's vertices.
+_IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
+
+
+@dataclass(eq=False)
+class _KarcherState:
+    """The iterate of :func:`karcher_mean`: the inputs' SRVs ``srvs`` (stacked: ``q``, shape
+    ``(K, n, D)``) with their weights ``w`` on the grid ``t``, the current mean ``mu`` and the
+    warps aligning each input to it, the energy per iteration so far."""
+
+    srvs: list[SRVFunction]
+    q: np.ndarray
+    w: np.ndarray
+    t: np.ndarray
+    mu: np.ndarray
+    warps: list[np.ndarray]
+    distances: np.ndarray
+    energies: list[float] = field(default_factory=list)
+    iterations: int = 0
+    converged: bool = False
+
+    @classmethod
+    def start(cls, srvs: list[SRVFunction], w: np.ndarray, t: np.ndarray) -> _KarcherState:
+        """``mu_0``: the plain weighted average of the SRVs, every warp the identity."""
+        q = np.stack([s.q for s in srvs])  # (K, n, D)
+        mu = np.einsum("k,kij->ij", w, q)
+        dists = np.sqrt(np.array([warp_energy(mu, q[k], _IDENTITY) for k in range(len(srvs))]))
+        return cls(srvs, q, w, t, mu, [_IDENTITY] * len(srvs), dists)
+
+    def average(self) -> None:
+        """``mu``: the weighted average of the inputs aligned by the current warps, on the grid."""
+        pairs = zip(self.srvs, self.warps, strict=True)
+        aligned = [reparametrize_srv(s, v).on_grid(self.t).q for s, v in pairs]
+        self.mu = np.einsum("k,kij->ij", self.w, np.stack(aligned))
+
+
+def _align_and_average(
+    state: _KarcherState, opts: WarpOptions, max_iter: int, tol: float, progress: Progress | None
+) -> None:
+    """The iterations of :func:`karcher_mean`: (i) the optimal warp of each input onto ``mu``,
+    (ii) ``mu`` the average of the aligned inputs; until the relative energy decrease is below
+    ``tol``, the energy is 0, or ``max_iter`` iterations."""
+    solver = opts.solver_kwargs()
+    w = state.w
+    for it in range(max_iter):
+        results = [optimal_warp(state.mu, state.q[k], **solver) for k in range(len(state.srvs))]
+        e = float(sum(w[k] * r.energy for k, r in enumerate(results)))
+        energies = state.energies
+        energies.append(e)
+        state.warps = [r.vertices for r in results]
+        state.distances = np.array([r.distance for r in results])
+        state.iterations = it + 1
+        if progress is not None:
+            progress("mean", state.iterations, max_iter)
+        if len(energies) >= 2 and energies[-2] > 0 and (energies[-2] - e) / energies[-2] < tol:
+            state.converged = True
+            return
+        state.average()
+        if e == 0.0:
+            state.converged = True
+            return
 
 
 def mean_warp(warps: Sequence[np.ndarray], weights: Sequence[float] | None = None) -> np.ndarray:
@@ -503,174 +615,21 @@ def recenter_warps(warps: Sequence[np.ndarray], weights: Sequence[float] | None 
     list of ndarray, shapes (K'_k, 2)
         ``sum_k w_k (phi_k o h)(x) = x`` for every ``x`` (``h = gbar^{-1}``), up to rounding.
     """
-    from elastic_motion.warp import compose_warps
-
     g = mean_warp(warps, weights)
     h = g[:, ::-1].copy()  # the inverse of an increasing piecewise linear map: swap the columns
     return [compose_warps(v, h) for v in warps]
 
 
-@dataclass(frozen=True, eq=False)
-class MeanMotionResult:
-    """Karcher mean of motion files, as a motion (:func:`mean_motion`).
-
-    Attributes
-    ----------
-    motion : Motion
-        The mean, on the skeleton of the first file (after preparation: metres when the
-        unit is known, Y-up, no finger joints by default), lasting ``duration`` seconds at
-        the output frame rate.
-    karcher : KarcherMeanResult
-        The mean curve, its SRV function, the warps, energies and distances.
-    inputs : tuple of str
-        The files, in order (length ``K``).
-    representation : {"lie", "euler"}
-    n_samples : int
-        Cells of the common grid the mean was computed on (``n_samples + 1`` frames).
-    duration : float
-        Seconds: the mean of the inputs' durations.
-    notes : dict of str -> tuple of str
-        What the preparation did to each input file.
-    """
-
-    motion: Motion
-    karcher: KarcherMeanResult
-    inputs: tuple[str, ...]
-    representation: str
-    n_samples: int
-    duration: float
-    notes: dict[str, tuple[str, ...]] = field(default_factory=dict)
-
-    @property
-    def energies(self) -> np.ndarray:
-        """``(iterations,)``: Karcher energy ``sum_k w_k d(mu_i, c_k)^2`` per iteration."""
-        return self.karcher.energies
-
-    @property
-    def converged(self) -> bool:
-        """The relative energy decrease fell below ``tol``."""
-        return self.karcher.converged
-
-    @property
-    def distances(self) -> np.ndarray:
-        """``(K,)``: elastic distance of each input to the mean (SRV norm units)."""
-        return self.karcher.distances
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-ready fields of a report, through :func:`~elastic_motion.apps.report.jsonable`."""
-        return jsonable(
-            {
-                "inputs": self.inputs,
-                "representation": self.representation,
-                "method": "euler-elastic" if self.representation == "euler" else self.representation,
-                "n_samples": self.n_samples,
-                "energies": self.karcher.energies,
-                "iterations": self.karcher.iterations,
-                "converged": self.karcher.converged,
-                "distances": dict(zip(self.inputs, self.karcher.distances, strict=True)),
-                "duration": self.duration,
-                "fps": self.motion.fps,
-                "frames": self.motion.n_frames,
-                "notes": self.notes,
-            }
-        )
-
-
-def mean_motion(
-    files: Sequence[str | os.PathLike[str]],
-    *,
-    n_samples: int = 64,
-    method: str = "lie",
-    representation: str | None = None,
-    joints: str | Sequence[str] = "all",
-    drop_fingers: bool = True,
-    align_heading: bool = True,
-    warp: WarpOptions | str | None = None,
-    max_iter: int = 20,
-    tol: float = 1e-4,
-    fps: float | None = None,
-    progress: Progress | None = None,
-) -> MeanMotionResult:
-    """Karcher mean of motion files, as a motion.
-
-    The files are prepared as for a database (:func:`elastic_motion.apps.database.prepare_motion`,
-    ``n_samples + 1`` frames each), turned into Lie curves with shared weights (or Euler curves),
-    averaged by :func:`karcher_mean` and converted back (``from_lie_curve`` /
-    ``from_euler_curve``) on the skeleton of the first file, with the mean duration, and
-    resampled (geodesic interpolation) to ``fps`` (default: the first file's frame rate).
-
-    Parameters
-    ----------
-    files : sequence of paths
-        At least one motion file, of one skeleton (or ``joints="common"``).
-    n_samples : int, default 64
-    method : {"lie", "euler-elastic"}, default "lie"
-        The curve representation (``"euler"`` is accepted for ``"euler-elastic"``).
-    representation : str, optional
-        The name of ``method`` in earlier releases (``"lie"`` / ``"euler"``); overrides it.
-    joints : "all", "common" or sequence of str, default "all"
-    drop_fingers, align_heading : bool, default True
-        As in :class:`elastic_motion.apps.database.DatabaseSettings`.
-    warp : WarpOptions or method name, optional
-        Default: DP, neighbourhood 10 (see :func:`karcher_mean`).
-    max_iter : int, default 20
-    tol : float, default 1e-4
-    fps : float, optional
-        Frames per second of the result (default: the first file's, after preparation).
-    progress : callable, optional
-        ``progress("mean", iteration, max_iter)``.
-
-    Returns
-    -------
-    MeanMotionResult
-
-    Raises
-    ------
-    OptionError
-        No file, different skeletons (use ``joints="common"``), or an unknown representation.
-    ParseError
-        A malformed file.
-    """
-    from elastic_motion import motion as mm
-    from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
-    from elastic_motion.apps.database.settings import canonical_method
-
-    if representation is not None:
-        representation = canonical_method(representation, "representation")
-    else:
-        representation = canonical_method(method)
-    opts = _warp_options(warp)
-    files = [os.fspath(f) for f in files]
-    if not files:
-        raise OptionError("files", "expected at least one motion file; got none")
-    prepared = prepare_same_skeleton(
-        files, n_samples, joints=joints, drop_fingers=drop_fingers, align_heading=align_heading
-    )
-    curves = database_curves(prepared, representation)
-    res = karcher_mean(curves, n_samples=n_samples, warp=opts, max_iter=max_iter, tol=tol, progress=progress)
-    duration = float(np.mean([p.duration for p in prepared]))
-    like = prepared[0].motion
-    conv = mm.from_lie_curve if representation == "lie" else mm.from_euler_curve
-    motion = conv(res.mean, like, fps=n_samples / duration if duration > 0 else like.fps)
-    p0 = prepared[0]
-    out_fps = float(fps) if fps is not None else (p0.original_frames - 1) / p0.duration
-    if duration > 0 and out_fps > 0:
-        motion = mm.resample(motion, out_fps)
-    motion = motion.replace(name="karcher mean")
-    return MeanMotionResult(
-        motion=motion,
-        karcher=res,
-        inputs=tuple(files),
-        representation=representation,
-        n_samples=n_samples,
-        duration=duration,
-        notes={p.path: p.notes for p in prepared},
-    )
-
-
 # --------------------------------------------------------------------------------------------
 # Hierarchical clustering
 # --------------------------------------------------------------------------------------------
+
+
+#: How :func:`cluster` measures the distance between two clusters: the mean of their pairs'
+#: distances (UPGMA), the largest, the smallest, or the mean of the two clusters they merged
+#: (WPGMA). The linkages that assume Euclidean data (Ward, centroid, median) are not offered.
+Linkage = Literal["average", "complete", "single", "weighted"]
+LINKAGES: tuple[str, ...] = get_args(Linkage)
 
 
 @dataclass(frozen=True, eq=False)
@@ -716,10 +675,12 @@ def cluster(
     -------
     ClusterResult
     """
+    # scipy.cluster takes 0.5 s to import, and every start of the command line loads this module
+    # (the database's settings use its MEAN_WARP): only a clustering pays for it
     from scipy.cluster.hierarchy import fcluster, linkage
     from scipy.spatial.distance import squareform
 
-    if method not in ("average", "complete", "single", "weighted"):
+    if method not in LINKAGES:
         raise OptionError("method", f"expected 'average', 'complete', 'single' or 'weighted'; got {method!r}")
     d = _check_matrix(distances).copy()
     m = d.shape[0]

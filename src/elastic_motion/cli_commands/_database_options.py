@@ -1,22 +1,36 @@
 """Options and helpers shared by the database sub-commands (``matrix``, ``search``,
 ``classify``, ``mean``, ``cluster``, ``index``, ``pca``): the preparation and warp options,
 ``--method``, the settings they make, the error line and the report.
+
+The allowed values are read from the API's types: ``--method`` from
+:data:`elastic_motion.motion.representations.Method`, ``--linkage`` from
+:data:`elastic_motion.apps.statistics.Linkage`, ``--engine`` from
+:data:`elastic_motion.apps.database.engines.EngineName`, ``--joints`` from
+:data:`elastic_motion.apps.database.settings.JOINT_SELECTIONS`.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
+from elastic_motion._options import choices
+from elastic_motion.apps.database.engines import EngineName
+from elastic_motion.apps.database.settings import DEFAULT_WARP, JOINT_SELECTIONS, DatabaseSettings
+from elastic_motion.apps.report import report_header
+from elastic_motion.apps.statistics import Linkage
 from elastic_motion.cli_commands._argparse import EXIT_BAD_INPUT, add_alias, handle_error, print_error
 from elastic_motion.cli_commands._common import CommandError, add_warp_options, emit_report, joints_arg
 from elastic_motion.errors import OptionError, ParseError
+from elastic_motion.motion.representations import Method, Representation, representation
 
 #: Curve representations (``--method``) of the database commands (``euler`` is accepted for
 #: ``euler-elastic``, the name of the other commands).
-METHODS = ("lie", "euler-elastic")
-METHOD_KEYS = {"lie": "lie", "euler-elastic": "euler", "euler": "euler"}
+METHODS = choices(Method)
 #: Linkages of ``cluster --linkage``.
-LINKAGES = ("average", "complete", "single", "weighted")
+LINKAGES = choices(Linkage)
+#: Engines of ``matrix --engine``.
+ENGINES = choices(EngineName)
 #: Removed in this release (shown in the deprecation notes of the old spellings).
 ALIAS_UNTIL = "0.3"
 
@@ -88,12 +102,12 @@ def add_preparation(p: argparse.ArgumentParser) -> None:
 
 
 def joints_option(value: str) -> str | tuple[str, ...]:
-    return joints_arg(value, ("all", "common", "map"))
+    """``--joints``' value: one of :data:`JOINT_SELECTIONS` or a tuple of joint names."""
+    return joints_arg(value, JOINT_SELECTIONS)
 
 
 def add_warp(p: argparse.ArgumentParser) -> None:
-    from elastic_motion.apps.database.settings import DEFAULT_WARP
-
+    """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults."""
     # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
     add_warp_options(p, defaults=DEFAULT_WARP, sampling=False, coarse_to_fine=True)
 
@@ -120,11 +134,12 @@ def add_distance_terms(p: argparse.ArgumentParser) -> None:
 
 def add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
     """``--method`` (the curve representation), with the old spelling ``--repr``."""
+    names = "{" + ",".join(METHODS) + "}"
     if several:
         p.add_argument(
             "--method",
             default="lie,euler",
-            metavar="{lie,euler-elastic}[,...]",
+            metavar=names + "[,...]",
             help="curve representations, comma-separated: lie (R^3 x SO(3)^J) and/or euler-elastic (Euler "
             "angles, radians; 'euler' also accepted) (default: lie,euler)",
         )
@@ -132,18 +147,21 @@ def add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
         p.add_argument(
             "--method",
             default="lie",
-            metavar="{lie,euler-elastic}",
+            metavar=names,
             help="curve representation: lie (R^3 x SO(3)^J) or euler-elastic (Euler angles, radians; 'euler' "
             "also accepted) (default: lie)",
         )
     alias(p, "--repr", "--method")
 
 
-def methods(value: str, *, several: bool) -> tuple[str, ...]:
-    """The stored keys (``lie``, ``euler``) of ``--method``'s value."""
+def methods(value: str, *, several: bool) -> tuple[Representation, ...]:
+    """The representations of ``--method``'s value (names, comma-separated with ``several``)."""
     got = tuple(v.strip() for v in value.split(",") if v.strip()) if several else (value,)
-    keys = tuple(METHOD_KEYS.get(m, m) for m in got)
-    if not got or any(m not in METHOD_KEYS for m in got) or len(set(keys)) != len(keys):
+    try:
+        reps = tuple(representation(m) for m in got)
+    except OptionError:
+        reps = ()
+    if not got or len(reps) != len(got) or len(set(reps)) != len(reps):
         if not several and value in LINKAGES:
             raise CommandError(
                 f"--method: expected a curve representation, one of {', '.join(METHODS)}; got {value!r}, a "
@@ -151,7 +169,7 @@ def methods(value: str, *, several: bool) -> tuple[str, ...]:
             )
         what = "distinct entries of" if several else "one of"
         raise CommandError(f"--method: expected {what} {', '.join(METHODS)}; got {value!r}")
-    return keys
+    return reps
 
 
 def defaults_unset(p: argparse.ArgumentParser) -> None:
@@ -204,14 +222,9 @@ def given_fields(args: argparse.Namespace) -> tuple[str, ...]:
     return (*fields, *(f"warp.{f}" for f in warp))
 
 
-def database_settings(args: argparse.Namespace, reps: tuple[str, ...]):
+def database_settings(args: argparse.Namespace, reps: tuple[Representation, ...]) -> DatabaseSettings:
     """The :class:`~elastic_motion.apps.database.DatabaseSettings` of the parsed flags: those
     given, the defaults for the others."""
-    import dataclasses
-
-    from elastic_motion.apps.database import DatabaseSettings
-    from elastic_motion.apps.database.settings import DEFAULT_WARP
-
     fields, warp = _given(args)
     return DatabaseSettings(
         representations=reps,
@@ -242,7 +255,5 @@ USER_ERRORS = (CommandError, ValueError, KeyError, OSError, ParseError)
 
 def emit(args: argparse.Namespace, command: str, body: dict, inputs, outputs, lines: list[str]) -> None:
     """The shared report: header (command, version, time, inputs, outputs) + ``body``."""
-    from elastic_motion.apps.report import report_header
-
     report = {**report_header(command, inputs=inputs, outputs=outputs), **body}
     emit_report(args, report, [str(p) for p in inputs], "\n".join(lines))

@@ -10,13 +10,17 @@ representation, ``-o/--output`` the output, ``--no-align``, ``--warp`` and
 earlier releases (``--repr``, ``--out``, ``--no-align-heading``) still work for one release,
 hidden from ``--help``, with a note on stderr.
 
+Each command is one call of its Python function (``compute_matrix``, ``knn_search`` /
+``find_within``, ``classify_motions``, ``mean_motion``, ``cluster_motions`` of
+:mod:`elastic_motion.apps.database`) and prints its result; a command imports its app inside
+``run_*`` (the command line starts without loading what the other commands need).
+
 Exit codes: 0 success, 1 incomplete/interrupted run, 2 bad input, 3 cluster unreachable.
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
 from elastic_motion.cli_commands._argparse import (
@@ -31,6 +35,7 @@ from elastic_motion.cli_commands._common import (
     progress_for,
 )
 from elastic_motion.cli_commands._database_options import (
+    ENGINES,
     FIELD_FLAGS,
     LINKAGES,
     USER_ERRORS,
@@ -59,11 +64,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# Shared options and errors
-# --------------------------------------------------------------------------------------------
-
-
-# --------------------------------------------------------------------------------------------
 # matrix
 # --------------------------------------------------------------------------------------------
 
@@ -83,7 +83,7 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
     alias(p, "--out", "--output")
     p.add_argument(
         "--engine",
-        choices=("serial", "local", "dask"),
+        choices=ENGINES,
         default="serial",
         help="serial: this process; local: a Dask cluster of --workers processes started here (only "
         "when the work pays for its start; else serial, and the report says so); dask: the Dask "
@@ -127,23 +127,20 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_matrix(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.database import ClusterUnavailableError, compute_matrix
+    from elastic_motion.apps.database import ClusterUnavailableError, MatrixOptions, compute_matrix
 
     bar = progress_for("matrix", args)
     try:
         settings = database_settings(args, methods(args.method, several=True))
-        res = compute_matrix(
-            args.inputs,
-            args.output,
-            settings,
+        options = MatrixOptions(
             engine=args.engine,
             scheduler=args.scheduler,
             n_workers=args.workers,
             connect_timeout=args.timeout,
             recursive=args.recursive,
             overwrite=args.overwrite,
-            progress=bar,
         )
+        res = compute_matrix(args.inputs, args.output, settings, options, progress=bar)
     except KeyboardInterrupt:
         print_error("matrix", "interrupted (Ctrl-C): finished tiles are kept; run the same command to resume")
         return EXIT_INCOMPLETE
@@ -151,7 +148,7 @@ def run_matrix(args: argparse.Namespace) -> int:
         return fail("matrix", exc)
     finally:
         bar.close()
-    rep = res.report
+    rep = res.summary()
     t = rep.get("timings", {})
     lines = [
         f"{rep['n_motions']} motions -> {res.out_dir} ({'complete' if res.complete else 'INCOMPLETE'})",
@@ -296,7 +293,7 @@ def run_search(args: argparse.Namespace) -> int:
     lines += [f"note: {n}" for n in ignored]
     body = {
         "query": args.query,
-        "representation": method,
+        "representation": method.key,
         "method": res.method,
         "results": results,
         "candidates": s["candidates"],
@@ -337,61 +334,23 @@ def _register_classify(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_classify)
 
 
-def _labels_for(names: list[str], spec: str) -> list[str | None]:
-    from elastic_motion.apps.statistics import bandai_labels, cmu_label
-
-    if spec in ("bandai-content", "bandai-style"):
-        part = 0 if spec == "bandai-content" else 1
-        return [(lab[part] if (lab := bandai_labels(n)) else None) for n in names]
-    if spec == "cmu":
-        return [cmu_label(n) for n in names]
-    import csv
-
-    if not Path(spec).is_file():
-        raise CommandError(
-            f"--labels: expected a CSV file (name,label) or bandai-content, bandai-style, cmu; got {spec!r}"
-        )
-    with open(spec, newline="") as fh:
-        table = {row[0]: row[1] for row in csv.reader(fh) if len(row) >= 2}
-    return [table.get(n) for n in names]
-
-
-def _check_labelled(labels: list[str | None], spec: str) -> None:
-    """At least two motions must get a label, or there is nothing to classify."""
-    n = sum(lab is not None for lab in labels)
-    if n < 2:
-        raise CommandError(
-            f"--labels {spec}: expected labels for at least 2 motions of the matrix; got {n} of "
-            f"{len(labels)} (a rule labels its own files: bandai-* the Bandai names, cmu the CMU trial "
-            "numbers; a CSV by name)"
-        )
-
-
 def run_classify(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.database import load_matrix
-    from elastic_motion.apps.statistics import knn_evaluate
+    from elastic_motion.apps.database import classify_motions
 
-    out = {}
     try:
-        for rep in methods(args.method, several=True):
-            m = load_matrix(args.matrix_dir, rep)
-            labels = _labels_for(m.names, args.labels)
-            _check_labelled(labels, args.labels)
-            ev = knn_evaluate(m.distances, labels, args.k)
-            out[rep] = {
-                "accuracy": ev.accuracy,
-                "evaluated": ev.n_evaluated,
-                "k": ev.k,
-                "per_class": ev.per_class,
-                "predictions": dict(zip(m.names, ev.predictions, strict=True)),
-            }
+        results = {
+            rep.key: classify_motions(args.matrix_dir, args.labels, k=args.k, method=rep)
+            for rep in methods(args.method, several=True)
+        }
     except USER_ERRORS as exc:
         return fail("classify", exc)
     lines = []
-    for rep, r in out.items():
-        lines.append(f"{rep}: {r['accuracy']:.3f} ({r['evaluated']} evaluated, k={r['k']})")
-        lines += [f"    {c:20s} {ok}/{n}" for c, (ok, n) in r["per_class"].items()]
-    emit(args, "classify", {"results": out}, [args.matrix_dir], [], lines)
+    for key, res in results.items():
+        ev = res.evaluation
+        lines.append(f"{key}: {ev.accuracy:.3f} ({ev.n_evaluated} evaluated, k={ev.k})")
+        lines += [f"    {c:20s} {ok}/{n}" for c, (ok, n) in ev.per_class.items()]
+    body = {"results": {key: res.summary() for key, res in results.items()}}
+    emit(args, "classify", body, [args.matrix_dir], [], lines)
     return 0
 
 
@@ -438,7 +397,7 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_mean(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.statistics import mean_motion
+    from elastic_motion.apps.database import MeanOptions, mean_motion
     from elastic_motion.motion import write_bvh
     from elastic_motion.warp import WarpOptions
 
@@ -446,10 +405,9 @@ def run_mean(args: argparse.Namespace) -> int:
     try:
         check_output(args.output, args.files, suffixes=(".bvh",), what="--output")
         (method,) = methods(args.method, several=False)
-        res = mean_motion(
-            args.files,
+        options = MeanOptions(
             n_samples=args.samples,
-            method=method,
+            method=method.name,
             joints=joints_option(args.joints),
             drop_fingers=not args.keep_fingers,
             align_heading=not args.no_align,
@@ -459,8 +417,8 @@ def run_mean(args: argparse.Namespace) -> int:
             max_iter=args.max_iter,
             tol=args.tol,
             fps=args.fps,
-            progress=bar,
         )
+        res = mean_motion(args.files, options, progress=bar)
         path = write_bvh(res.motion, args.output, protected=args.files)
     except USER_ERRORS as exc:
         return fail("mean", exc)
@@ -515,33 +473,26 @@ def _register_cluster(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_cluster(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.database import load_matrix
-    from elastic_motion.apps.statistics import cluster
+    from elastic_motion.apps.database import cluster_motions
 
     try:
         (method,) = methods(args.method, several=False)
-        m = load_matrix(args.matrix_dir, method)
-        res = cluster(m.distances, m.names, method=args.linkage, n_clusters=args.clusters)
-        colors = None
-        if args.plot and args.labels:
-            colors = [lab or "?" for lab in _labels_for(m.names, args.labels)]
+        res = cluster_motions(
+            args.matrix_dir,
+            method=method,
+            linkage=args.linkage,
+            n_clusters=args.clusters,
+            labels=args.labels if args.plot else None,  # the labels colour the plot's leaves
+        )
     except USER_ERRORS as exc:
         return fail("cluster", exc)
-    out: dict[str, Any] = {
-        "linkage_method": res.method,
-        "representation": method,
-        "linkage": res.linkage.tolist(),
-    }
-    if res.labels is not None:
-        out["clusters"] = dict(zip(m.names, res.labels.tolist(), strict=True))
+    out = res.summary()
     if args.plot:
-        from elastic_motion.apps.plots_database import plot_dendrogram
-
-        out["plot"] = str(plot_dendrogram(res, args.plot, title=f"{method} elastic distance", colors=colors))
+        out["plot"] = str(res.plot(args.plot))
     lines = [f"{c:3d}  {n}" for n, c in out.get("clusters", {}).items()]
     if args.plot:
         lines.append(f"dendrogram -> {out['plot']}")
-    if res.labels is None and not args.plot:
+    if res.clusters is None and not args.plot:
         lines.append("nothing to show: pass --clusters K and/or --plot FILE.png (or --json for the linkage)")
     emit(args, "cluster", out, [args.matrix_dir], [out["plot"]] if args.plot else [], lines)
     return 0

@@ -1,12 +1,13 @@
 """``elastic-motion distance A B [C ...]``: elastic distances, serially.
 
-A thin layer over :mod:`elastic_motion.apps.distance`.
+A thin layer over :mod:`elastic_motion.apps.distance` (:func:`~elastic_motion.apps.distance.distance_table`).
 """
 
 from __future__ import annotations
 
 import argparse
 
+from elastic_motion._options import choices
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
@@ -20,6 +21,7 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
     warp_options,
 )
+from elastic_motion.motion.representations import Method
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("inputs", nargs="+", metavar="FILE", help="two or more motion files")
-    p.add_argument("--method", choices=("lie", "euler-elastic"), default="lie", help="curve representation")
+    p.add_argument("--method", choices=choices(Method), default="lie", help="curve representation")
     add_warp_options(p)
     p.add_argument(
         "--interpolation",
@@ -52,6 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # the app is imported here: the command line starts without loading what it does not run
     from elastic_motion.apps.distance import distance_table, format_table
     from elastic_motion.apps.report import report_header
 

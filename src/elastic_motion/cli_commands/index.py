@@ -50,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build the index; print a summary (or the ``--json`` report)."""
+    # the app is imported here: the command line starts without loading what it does not run
     from elastic_motion.apps.database import build_index
 
     bar = progress_for("index", args)

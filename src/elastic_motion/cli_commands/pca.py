@@ -64,7 +64,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit the model and write its files."""
+    # the apps are imported here: the command line starts without loading what it does not run
+    from elastic_motion.apps.database import MeanOptions
     from elastic_motion.apps.pca import motion_pca, write_modes
+    from elastic_motion.apps.plots_database import plot_variance_explained
     from elastic_motion.motion import write_bvh
     from elastic_motion.warp import WarpOptions
 
@@ -74,10 +77,9 @@ def run(args: argparse.Namespace) -> int:
         if out.exists() and not out.is_dir():
             raise ValueError(f"--output: expected a folder; got the file {args.output!r}")
         (method,) = methods(args.method, several=False)
-        model = motion_pca(
-            args.files,
+        options = MeanOptions(
             n_samples=args.samples,
-            method=method,
+            method=method.name,
             joints=joints_option(args.joints),
             drop_fingers=not args.keep_fingers,
             align_heading=not args.no_align,
@@ -86,13 +88,11 @@ def run(args: argparse.Namespace) -> int:
             ),
             max_iter=args.max_iter,
             fps=args.fps,
-            progress=bar,
         )
+        model = motion_pca(args.files, options, progress=bar)
         paths = write_modes(model, out, n_modes=args.modes, spread=args.spread, protected=args.files)
         for k, m in enumerate(model.sample(args.samples_out, seed=args.seed)):
             paths.append(Path(write_bvh(m, out / f"sample{k + 1}.bvh", protected=args.files)))
-        from elastic_motion.apps.plots_database import plot_variance_explained
-
         paths.append(
             plot_variance_explained(model.explained, out / "variance.png", title="PCA of aligned motions")
         )

@@ -20,16 +20,25 @@ compute_matrix``); each submodule does one job:
 ``index``      an on-disk index of SRV arrays and bounds (:func:`build_index`)
 ``partial``    where a short query happens inside long takes (:func:`find_within`)
 ``jointmap``   joint-name maps onto a common body (:func:`map_to_common_body`, ``joints="map"``)
+``classify``   leave-one-out k-NN classification of a matrix's motions (:func:`classify_motions`)
+``clustering`` hierarchical clustering of a matrix's motions (:func:`cluster_motions`)
+``mean``       the Karcher mean of motion files, as a motion (:func:`mean_motion`)
 ============== ===========================================================================
+
+The commands ``matrix``, ``search``, ``classify``, ``mean`` and ``cluster`` of the command line
+are :func:`compute_matrix`, :func:`knn_search` (:func:`find_within` with ``--within``),
+:func:`classify_motions`, :func:`mean_motion` and :func:`cluster_motions`: the same options
+give the same numbers.
 
 Conventions
 -----------
 * **Motions -> SRV arrays.** Every readable input is prepared once (:mod:`.preparation`),
   resampled to ``n_samples + 1`` frames uniformly in time and transformed to SRV arrays
   ``q`` of shape ``(n_samples, D)`` on the grid ``linspace(0, 1, n_samples + 1)`` (each
-  clip's duration normalised to 1), in the representations ``"lie"`` (``R^3 x SO(3)^J``,
-  weights shared by a skeleton group) and ``"euler"`` (root position in metres, Euler
-  angles in radians); see :mod:`.cache`.
+  clip's duration normalised to 1), in the representations of
+  :mod:`elastic_motion.motion.representations` (``LIE``: ``R^3 x SO(3)^J``, weights shared by
+  a skeleton group; ``EULER``: root position in metres, Euler angles in radians), stored under
+  their keys ``"lie"`` and ``"euler"``; see :mod:`.cache`.
 * **Pair distance**: with ``WarpOptions(method="dp")`` the elastic distance
   ``min_phi ||q_i - q_j * phi||_L2`` (:func:`elastic_motion.warp.optimal_warp`), with
   ``method="none"`` the distance of parametrised curves ``||q_i - q_j||_L2`` (paper 000,
@@ -45,11 +54,14 @@ from __future__ import annotations
 
 from elastic_motion.apps.database.bounds import lower_bounds, part_norms, upper_bound
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
+from elastic_motion.apps.database.classify import Classification, classify_motions
+from elastic_motion.apps.database.clustering import Clustering, cluster_motions
 from elastic_motion.apps.database.engines import ClusterUnavailableError
 from elastic_motion.apps.database.files import MOTION_EXTENSIONS, find_motion_files
 from elastic_motion.apps.database.index import MotionIndex, build_index, load_index
 from elastic_motion.apps.database.jointmap import COMMON_JOINTS, detect_convention, map_to_common_body
-from elastic_motion.apps.database.matrix import MatrixResult, compute_matrix, remove_run
+from elastic_motion.apps.database.matrix import MatrixOptions, MatrixResult, compute_matrix, remove_run
+from elastic_motion.apps.database.mean import MeanMotionResult, MeanOptions, mean_motion
 from elastic_motion.apps.database.partial import PartialMatch, WithinResult, find_within
 from elastic_motion.apps.database.preparation import (
     PreparedMotion,
@@ -64,14 +76,7 @@ from elastic_motion.apps.database.query import (
     query_distances,
 )
 from elastic_motion.apps.database.results import DistanceMatrix, load_matrix
-from elastic_motion.apps.database.settings import (
-    DEFAULT_WARP,
-    METHODS,
-    REPRESENTATIONS,
-    DatabaseSettings,
-    canonical_method,
-    public_method,
-)
+from elastic_motion.apps.database.settings import DEFAULT_WARP, DatabaseSettings
 from elastic_motion.apps.database.tiles import (
     compute_tile,
     distance_matrix,
@@ -86,13 +91,16 @@ from elastic_motion.warp import WarpOptions
 __all__ = [
     "COMMON_JOINTS",
     "DEFAULT_WARP",
-    "METHODS",
     "MOTION_EXTENSIONS",
-    "REPRESENTATIONS",
+    "Classification",
     "ClusterUnavailableError",
+    "Clustering",
     "DatabaseSettings",
     "DistanceMatrix",
+    "MatrixOptions",
     "MatrixResult",
+    "MeanMotionResult",
+    "MeanOptions",
     "MotionIndex",
     "PartialMatch",
     "PreparedMotion",
@@ -104,7 +112,8 @@ __all__ = [
     "WithinResult",
     "build_index",
     "build_srv_cache",
-    "canonical_method",
+    "classify_motions",
+    "cluster_motions",
     "compute_matrix",
     "compute_tile",
     "detect_convention",
@@ -117,11 +126,11 @@ __all__ = [
     "load_matrix",
     "lower_bounds",
     "map_to_common_body",
+    "mean_motion",
     "pair_distance",
     "pair_distances",
     "part_norms",
     "prepare_motion",
-    "public_method",
     "query_distances",
     "remove_run",
     "restrict_to_common_joints",

@@ -42,15 +42,8 @@ from elastic_motion.apps.prepare import rest_pose_like
 from elastic_motion.apps.progress import Progress
 from elastic_motion.curves import srv_transform
 from elastic_motion.errors import OptionError, ParseError
-from elastic_motion.motion import (
-    Motion,
-    Skeleton,
-    default_joint_weights,
-    default_translation_weight,
-    to_euler_curve,
-    to_lie_curve,
-)
-from elastic_motion.motion.representations import mean_weights
+from elastic_motion.motion import Motion, Skeleton, default_joint_weights, default_translation_weight
+from elastic_motion.motion.representations import mean_weights, representation
 
 __all__ = [
     "FilesNotSeenError",
@@ -59,7 +52,10 @@ __all__ = [
     "Stages",
     "build_srv_cache",
     "file_fingerprint",
+    "prepare_chunk",
     "srv_arrays",
+    "srv_chunk",
+    "summarise_chunk",
 ]
 
 
@@ -231,7 +227,9 @@ def srv_arrays(
     ----------
     prepared : PreparedMotion
         ``n + 1`` frames.
-    representations : sequence of {"lie", "euler"}
+    representations : sequence of str or Representation
+        Keys (``"lie"``, ``"euler"``) or names of :mod:`elastic_motion.motion.representations`;
+        the arrays are keyed as given.
     weights : (ndarray of shape (J,), float) or None
         Lie inner-product weights (joints, translation); None: the motion's own defaults.
     pose : bool, default False
@@ -248,7 +246,7 @@ def srv_arrays(
     sk = m.skeleton
     jw, tw = weights if weights is not None else (default_joint_weights(sk), default_translation_weight(sk))
     for r in representations:
-        curve = to_lie_curve(m, jw, translation_weight=tw) if r == "lie" else to_euler_curve(m)
+        curve = representation(r).to_curve(m, jw, tw)
         out[r] = np.ascontiguousarray(srv_transform(curve).q)
     if pose:
         out["pose"] = pose_arrays(m, jw)
@@ -284,12 +282,12 @@ def _prepare_one(
 # build_srv_cache runs in three stages over chunks of files; the prepared motions (about
 # 120 kB each) stay where they were prepared, only small summaries and the SRV arrays travel:
 #
-# 1. _prepare_chunk: read and prepare each file (where the chunk runs);
-#    _summarise_chunk: per motion its joint names and its default inner-product weights;
+# 1. prepare_chunk: read and prepare each file (where the chunk runs);
+#    summarise_chunk: per motion its joint names and its default inner-product weights;
 # 2. (joints='common' only) the driver intersects the joint names, _restrict_chunk applies them,
 #    summarised again;
 # 3. the driver groups the motions by joint names and takes each group's weights (means of the
-#    per-motion defaults, in input order: what group_weights computes); _srv_chunk computes the
+#    per-motion defaults, in input order: what group_weights computes); srv_chunk computes the
 #    SRV arrays where the motions are and sends them back (the cache keeps them).
 
 
@@ -312,7 +310,7 @@ def file_fingerprint(path: str) -> tuple[int, int] | None:
 ChunkItem = tuple[str, Motion | None, tuple[int, int] | None]
 
 
-def _prepare_chunk(
+def prepare_chunk(
     items: list[ChunkItem], settings: DatabaseSettings
 ) -> list[PreparedMotion | dict[str, str]]:
     """:func:`_prepare_one` of each item; an unexpected error names the file (as a note)."""
@@ -331,7 +329,7 @@ def _prepare_chunk(
     return out
 
 
-def _summarise_chunk(prepared: list[PreparedMotion | dict[str, str]]) -> list[dict[str, Any]]:
+def summarise_chunk(prepared: list[PreparedMotion | dict[str, str]]) -> list[dict[str, Any]]:
     """Per item: ``{"skipped": {"path", "reason"}}`` or ``{"names", "jw", "tw", "skeleton"}``
     (joint names, default joint weights ``(J,)`` and translation weight of its skeleton, and
     the skeleton)."""
@@ -382,7 +380,7 @@ def _motion_info(p: PreparedMotion) -> dict[str, Any]:
     }
 
 
-def _srv_chunk(
+def srv_chunk(
     prepared: list[PreparedMotion | dict[str, str]],
     weights: list[tuple[np.ndarray, float] | None],
     representations: tuple[str, ...],
@@ -539,77 +537,138 @@ def build_srv_cache(
         if progress is not None:
             progress("read", done[0], len(files))
 
-    prepared = stages.submit(_prepare_chunk, [(c, settings) for c in chunks])
+    prepared = stages.submit(prepare_chunk, [(c, settings) for c in chunks])
     try:
-        summary = [s for c in stages.gather(stages.then(_summarise_chunk, prepared), read) for s in c]
+        summary = [s for c in stages.gather(stages.then(summarise_chunk, prepared), read) for s in c]
         usable = [k for k, s in enumerate(summary) if "names" in s]
         if settings.joints == "common" and usable:
             common = common_joint_names([summary[k]["names"] for k in usable])
             restricted = stages.then(_restrict_chunk, prepared, [(common,)] * len(prepared))
             stages.release(prepared)
             prepared = restricted
-            summary = [s for c in stages.gather(stages.then(_summarise_chunk, prepared)) for s in c]
-        # groups by joint names, in order of first appearance; motions sorted by group, then input
-        # one rest pose per group, its first motion's: another conversion of the same skeleton
-        # is re-expressed in it (its rotations would mean other poses: distances, means and
-        # the pose term compared conversions instead of motions)
-        keys: dict[tuple[str, ...], int] = {}
-        first_of: dict[tuple[str, ...], int] = {}
-        for k in usable:
-            key = tuple(summary[k]["names"])
-            if key not in keys:
-                keys[key], first_of[key] = len(keys), k
-        group_rest = [
-            _rest_json(summary[first_of[key]]["skeleton"], Path(files[first_of[key]]).stem) for key in keys
-        ]
-        refs: list[tuple[Skeleton, str] | None] = [None] * len(items)
-        for k in usable:
-            f = first_of[tuple(summary[k]["names"])]
-            if f != k:
-                refs[k] = (summary[f]["skeleton"], Path(files[f]).stem)
+            summary = [s for c in stages.gather(stages.then(summarise_chunk, prepared)) for s in c]
+        groups = _SkeletonGroups.of(summary, usable, files)
+        refs = groups.rest_references(summary, files, len(items))
         if any(r is not None for r in refs):
             moved = stages.then(
                 _rest_chunk, prepared, [(refs[k : k + size],) for k in range(0, len(items), size)]
             )
             stages.release(prepared)
             prepared = moved
-        group_of_item = {k: keys[tuple(summary[k]["names"])] for k in usable}
-        order = sorted(usable, key=lambda k: (group_of_item[k], k))
-        weights: dict[int, tuple[np.ndarray, float]] = {}
-        for g in keys.values():  # = motion.group_weights of the group's motions, in this order
-            members = [summary[k] for k in order if group_of_item[k] == g]
-            weights[g] = mean_weights([s["jw"] for s in members], [s["tw"] for s in members])
-        item_weights = [weights[group_of_item[k]] if k in group_of_item else None for k in range(len(items))]
-        pose = bool(settings.pose_weight)
+        item_weights = [
+            groups.weights[groups.of_item[k]] if k in groups.of_item else None for k in range(len(items))
+        ]
         srv_args = [
-            (item_weights[k : k + size], tuple(settings.representations), pose)
+            (item_weights[k : k + size], tuple(settings.representations), bool(settings.pose_weight))
             for k in range(0, len(items), size)
         ]
-        srv = stages.then(_srv_chunk, prepared, srv_args)
+        srv = stages.then(srv_chunk, prepared, srv_args)
         arrays = [a for c in stages.gather(srv) for a in c]
         stages.release(srv)
     finally:
         stages.release(prepared)
+    return _assembled_cache(files, ignored, summary, groups, arrays, settings)
+
+
+@dataclass(eq=False)
+class _SkeletonGroups:
+    """The usable motions of :func:`build_srv_cache` grouped by joint names (step 3 of the comment
+    above), from the summaries of :func:`summarise_chunk`.
+
+    Attributes
+    ----------
+    keys : dict of tuple of str -> int
+        Joint names -> group, groups numbered in order of first appearance.
+    first_of : dict of tuple of str -> int
+        Joint names -> the item of the group's first motion, whose rest pose the group takes.
+    of_item : dict of int -> int
+        Usable item -> its group.
+    order : list of int
+        The usable items sorted by group, then input order (the order of the cache).
+    weights : dict of int -> (ndarray of shape (J,), float)
+        Group -> its Lie inner-product weights: the means of its motions' defaults, in the
+        cache's order (:func:`elastic_motion.motion.group_weights` of the group's motions).
+    rest : list of dict
+        Per group its rest pose in the cache's JSON meta (its first motion's skeleton).
+    """
+
+    keys: dict[tuple[str, ...], int]
+    first_of: dict[tuple[str, ...], int]
+    of_item: dict[int, int]
+    order: list[int]
+    weights: dict[int, tuple[np.ndarray, float]]
+    rest: list[dict[str, Any]]
+
+    @classmethod
+    def of(cls, summary: list[dict[str, Any]], usable: list[int], files: list[str]) -> _SkeletonGroups:
+        """The groups of the items ``usable`` of ``summary`` (``files``: the items' paths)."""
+        keys: dict[tuple[str, ...], int] = {}
+        first_of: dict[tuple[str, ...], int] = {}
+        for k in usable:
+            key = tuple(summary[k]["names"])
+            if key not in keys:
+                keys[key], first_of[key] = len(keys), k
+        of_item = {k: keys[tuple(summary[k]["names"])] for k in usable}
+        order = sorted(usable, key=lambda k: (of_item[k], k))
+        weights: dict[int, tuple[np.ndarray, float]] = {}
+        for g in keys.values():  # = motion.group_weights of the group's motions, in this order
+            members = [summary[k] for k in order if of_item[k] == g]
+            weights[g] = mean_weights([s["jw"] for s in members], [s["tw"] for s in members])
+        rest = [
+            _rest_json(summary[first_of[key]]["skeleton"], Path(files[first_of[key]]).stem) for key in keys
+        ]
+        return cls(keys, first_of, of_item, order, weights, rest)
+
+    def rest_references(
+        self, summary: list[dict[str, Any]], files: list[str], n_items: int
+    ) -> list[tuple[Skeleton, str] | None]:
+        """Per item the rest pose (skeleton, motion name) of its group's first motion when it is
+        not that motion itself, else None: one rest pose per group, so that another conversion
+        of the same skeleton is re-expressed in it (its rotations would mean other poses:
+        distances, means and the pose term compared conversions instead of motions)."""
+        refs: list[tuple[Skeleton, str] | None] = [None] * n_items
+        for k in self.of_item:
+            f = self.first_of[tuple(summary[k]["names"])]
+            if f != k:
+                refs[k] = (summary[f]["skeleton"], Path(files[f]).stem)
+        return refs
+
+
+def _assembled_cache(
+    files: list[str],
+    ignored: Sequence[str | os.PathLike[str]],
+    summary: list[dict[str, Any]],
+    groups: _SkeletonGroups,
+    arrays: list[tuple[dict[str, np.ndarray], dict[str, Any]] | None],
+    settings: DatabaseSettings,
+) -> SRVCache:
+    """The cache of the SRV ``arrays`` of each item (:func:`srv_chunk`), in the groups' order,
+    with the pose term appended when ``settings.pose_weight`` asks for it."""
+    order = groups.order
+    n_groups = len(groups.keys)
     q: dict[str, list[np.ndarray]] = {r: [arrays[k][0][r] for k in order] for r in settings.representations}
-    groups = np.array([group_of_item[k] for k in order], dtype=np.int64)
+    group_ids = np.array([groups.of_item[k] for k in order], dtype=np.int64)
     pose_weights: dict[str, list[float]] = {}
     if settings.pose_weight:
         poses = [arrays[k][0]["pose"] for k in order]
-        pose_weights = {r: _pose_weights(q[r], poses, groups, len(keys), settings) for r in q}
+        pose_weights = {r: _pose_weights(q[r], poses, group_ids, n_groups, settings) for r in q}
         q = {
-            r: [with_pose_term(a, b, pose_weights[r][g]) for a, b, g in zip(q[r], poses, groups, strict=True)]
+            r: [
+                with_pose_term(a, b, pose_weights[r][g])
+                for a, b, g in zip(q[r], poses, group_ids, strict=True)
+            ]
             for r in q
         }
     paths = [files[k] for k in order]
     return SRVCache(
         names=_unique_names(paths),
         paths=paths,
-        groups=groups,
+        groups=group_ids,
         q=q,
         info=[arrays[k][1] for k in order],
-        group_joints=[list(k) for k in keys],
-        group_weights=[(weights[g][0].tolist(), weights[g][1]) for g in range(len(keys))],
-        group_rest=group_rest,
+        group_joints=[list(k) for k in groups.keys],
+        group_weights=[(groups.weights[g][0].tolist(), groups.weights[g][1]) for g in range(n_groups)],
+        group_rest=groups.rest,
         skipped=[s["skipped"] for s in summary if "skipped" in s],
         ignored=[os.fspath(i) for i in ignored],
         settings=settings,

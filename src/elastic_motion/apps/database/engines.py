@@ -26,21 +26,37 @@ with the driver's size and modification time (else the driver reads them, and sa
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
 import contextlib
 import itertools
 import logging
+import math
 import os
 import sys
+import tempfile
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol, get_args
 
+import numba
 import numpy as np
 
-from elastic_motion.apps.database.cache import Stages, file_fingerprint
+from elastic_motion.apps.database.cache import (
+    Stages,
+    file_fingerprint,
+    prepare_chunk,
+    srv_chunk,
+    summarise_chunk,
+)
+from elastic_motion.apps.database.settings import DatabaseSettings
 from elastic_motion.apps.database.tiles import compute_tile, pair_distance
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import Motion, Skeleton, write_bvh
+from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -48,14 +64,18 @@ __all__ = [
     "ClusterUnavailableError",
     "DaskStages",
     "Engine",
+    "EngineName",
     "Task",
     "dask_setup",
     "local_start_method",
     "open_engine",
 ]
 
+#: Where a matrix run computes its tiles (module docstring): this process, a Dask
+#: ``LocalCluster`` started here, or a running Dask scheduler.
+EngineName = Literal["serial", "local", "dask"]
 #: Engine names accepted by :func:`open_engine`.
-ENGINES = ("serial", "local", "dask")
+ENGINES: tuple[str, ...] = get_args(EngineName)
 
 
 class ClusterUnavailableError(RuntimeError):
@@ -127,10 +147,8 @@ def _single_threaded_worker() -> None:
     share two cores without oversubscribing them. numba's thread count is per calling thread:
     set here for this one (warm-up), and by each tile's task itself (``compute_tile(...,
     numba_threads=1)``)."""
-    import numba
-
     numba.set_num_threads(1)
-    with contextlib.suppress(ImportError):
+    with contextlib.suppress(ImportError):  # threadpoolctl is optional (the "cluster" extra)
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(1, user_api="blas")  # process-wide, until changed again
@@ -154,13 +172,6 @@ def _warm_up() -> None:
 def _warm_up_preparation() -> None:
     """Load the code and compiled kernels of reading, preparing and the SRV (a small BVH file
     written to a temporary folder, prepared as a database does)."""
-    import tempfile
-
-    from elastic_motion.apps.database import cache
-    from elastic_motion.apps.database.settings import DatabaseSettings
-    from elastic_motion.motion import Motion, Skeleton, write_bvh
-    from elastic_motion.motion.rotations import euler_to_matrix
-
     rot = ("Zrotation", "Yrotation", "Xrotation")
     sk = Skeleton(
         ["Hips", "Spine", "LeftLeg", "RightLeg"],
@@ -178,11 +189,11 @@ def _warm_up_preparation() -> None:
     with tempfile.TemporaryDirectory(prefix="elastic-motion-warm-") as d:
         path = os.path.join(d, "warm.bvh")
         write_bvh(Motion(sk, 30.0, root, euler_to_matrix(ang, "ZYX"), metres_per_unit=1.0), path)
-        prepared = cache._prepare_chunk([(path, None, None)], settings)
-        summary = cache._summarise_chunk(prepared)
+        prepared = prepare_chunk([(path, None, None)], settings)
+        summary = summarise_chunk(prepared)
         if "names" in summary[0]:
             w = (np.asarray(summary[0]["jw"]), float(summary[0]["tw"]))
-            cache._srv_chunk(prepared, [w], tuple(settings.representations))
+            srv_chunk(prepared, [w], tuple(settings.representations))
 
 
 def dask_setup(worker: Any = None) -> None:
@@ -208,17 +219,7 @@ def tile_of(
     """:func:`~elastic_motion.apps.database.tiles.compute_tile` of motions ``rows`` against
     ``cols``, their SRV arrays taken from ``q`` (all the motions of the representation: what a
     task receives, :meth:`DaskEngine.share`); ``cyclic``: phase-free matching."""
-    return compute_tile(
-        rows,
-        cols,
-        [q[i] for i in rows],
-        [q[j] for j in cols],
-        g_rows,
-        g_cols,
-        warp,
-        numba_threads,
-        cyclic=cyclic,
-    )
+    return compute_tile(rows, cols, q, g_rows, g_cols, warp, cyclic=cyclic, numba_threads=numba_threads)
 
 
 def _timed_tile(*args: Any) -> tuple[np.ndarray, float]:
@@ -238,7 +239,7 @@ class DaskEngine:
     """Tiles as Dask tasks on a ``LocalCluster`` started here or on a running scheduler."""
 
     def __init__(self, name: str, scheduler: str | None, n_workers: int, timeout: float) -> None:
-        try:
+        try:  # Dask is optional (the "cluster" extra), and slow to import
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise ClusterUnavailableError(
@@ -249,7 +250,7 @@ class DaskEngine:
         self.cluster = None
         self.start_method: str | None = None
         if name == "local":
-            import dask
+            import dask  # installed with distributed (above)
 
             # Dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536, which turns off
             # glibc's adaptive mmap threshold: every array above 128 kB is then mmap'ed and
@@ -462,7 +463,7 @@ class _Completed:
 
     def next_batch(self, timeout: float) -> list[Any]:
         """The futures finished (done, failed or cancelled) within ``timeout`` s; [] if none."""
-        from distributed import wait
+        from distributed import wait  # optional: only a Dask engine makes these
 
         futures = list(self._pending.values())
         if not any(f.done() for f in futures):
@@ -562,9 +563,6 @@ class DaskStages:
 
 def _lost(exc: BaseException) -> bool:
     """Whether ``exc`` says a task's worker or input data went away (not an error of the task)."""
-    import asyncio
-    import concurrent.futures
-
     names = {"KilledWorker", "FutureCancelledError", "CancelledError", "CommClosedError"}
     if isinstance(exc, asyncio.CancelledError | concurrent.futures.CancelledError):
         return True
@@ -574,8 +572,6 @@ def _lost(exc: BaseException) -> bool:
 
 def _bounded(fn: Callable[[], Any], timeout: float, where: str | None) -> Any:
     """``fn()`` in a helper thread; ``ClusterUnavailableError`` if it has not returned in ``timeout`` s."""
-    import threading
-
     box: dict[str, Any] = {}
 
     def target() -> None:
@@ -655,7 +651,7 @@ def local_start_method() -> str:
     any DP runs in this process, so ``--engine local`` forks; a program that ran serial DPs
     first gets spawned workers.
     """
-    try:
+    try:  # Dask is optional (the "cluster" extra)
         import dask
     except ImportError:  # pragma: no cover - no Dask: open_engine says so
         return "spawn"
@@ -670,9 +666,6 @@ def local_start_method() -> str:
 
 def _numba_threading_layer() -> str | None:
     """numba's threading layer if it was started in this process, else None."""
-    numba = sys.modules.get("numba")
-    if numba is None:
-        return None
     try:
         return str(numba.threading_layer())
     except ValueError:  # not started yet: a forked child starts its own
@@ -711,10 +704,6 @@ def open_engine(
     ValueError
         An unknown engine name.
     """
-    import math
-
-    from elastic_motion.errors import OptionError
-
     if not (isinstance(timeout, int | float) and math.isfinite(timeout) and timeout > 0):
         raise OptionError("timeout", f"expected a positive number of seconds; got {timeout!r}")
     if engine == "local" and not (isinstance(n_workers, int) and 1 <= n_workers <= 1024):

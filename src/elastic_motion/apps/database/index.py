@@ -21,6 +21,7 @@ arrays follow that version's preparation.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 from collections.abc import Sequence
@@ -30,7 +31,9 @@ from typing import Any
 
 import numpy as np
 
+from elastic_motion import __version__
 from elastic_motion._io import atomic_write_bytes
+from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.bounds import part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
 from elastic_motion.apps.database.files import find_motion_files
@@ -47,8 +50,6 @@ CACHE = "srv_cache.npz"
 
 
 def _library_version() -> str:
-    from elastic_motion import __version__
-
     return str(__version__)
 
 
@@ -134,7 +135,7 @@ def build_index(
     if dest.exists():
         if not dest.is_dir():
             raise OptionError("out", f"expected a folder for the index; got the file {os.fspath(dest)!r}")
-        own = {INDEX_JSON, CACHE} | {f"norms_{r}.npy" for r in ("lie", "euler")}
+        own = {INDEX_JSON, CACHE} | {f"norms_{r.key}.npy" for r in storage.REPRESENTATIONS}
         other = [p.name for p in dest.iterdir() if p.name not in own]
         if other:
             raise OptionError(
@@ -179,8 +180,6 @@ def build_index(
 
 
 def _npy_bytes(a: np.ndarray) -> bytes:
-    import io
-
     buf = io.BytesIO()
     np.save(buf, a)
     return buf.getvalue()

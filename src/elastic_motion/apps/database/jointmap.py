@@ -48,6 +48,7 @@ import numpy as np
 
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, Skeleton
+from elastic_motion.motion.kinematics import joint_positions_and_rotations
 
 __all__ = [
     "COMMON_JOINTS",
@@ -196,8 +197,6 @@ def map_to_common_body(motion: Motion) -> Motion:
     OptionError
         ``joints``: the skeleton fits no convention (naming the joints it lacks).
     """
-    from elastic_motion.motion.kinematics import joint_positions_and_rotations
-
     sk = motion.skeleton
     conv = detect_convention(sk.names)
     if conv is None:

@@ -24,13 +24,22 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
+from elastic_motion._options import with_overrides
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.cache import FilesNotSeenError, SRVCache, build_srv_cache
-from elastic_motion.apps.database.engines import Engine, Task, local_start_method, open_engine, order_tiles
+from elastic_motion.apps.database.engines import (
+    ENGINES,
+    Engine,
+    EngineName,
+    Task,
+    local_start_method,
+    open_engine,
+    order_tiles,
+)
 from elastic_motion.apps.database.files import find_motion_files
 from elastic_motion.apps.database.settings import (
     FORMAT_VERSION,
@@ -46,9 +55,58 @@ from elastic_motion.apps.database.tiles import (
     tile_blocks,
 )
 from elastic_motion.apps.progress import Progress
+from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 
-__all__ = ["MatrixResult", "compute_matrix", "remove_run"]
+__all__ = ["MatrixOptions", "MatrixResult", "compute_matrix", "remove_run"]
+
+
+@dataclass(frozen=True)
+class MatrixOptions:
+    """How a matrix run computes (where its tiles run, which files it reads, what it may
+    replace), not what: that is :class:`~elastic_motion.apps.database.DatabaseSettings`.
+
+    Attributes
+    ----------
+    engine : {"serial", "local", "dask"}, default "serial"
+        Where the tiles run (:mod:`~elastic_motion.apps.database.engines`). ``"local"`` starts a
+        cluster of ``n_workers`` processes only when the estimated pair work pays for its start
+        (:func:`elastic_motion.apps.database.tiles.cluster_worth_it`); otherwise the run is
+        serial and the report's ``engine_note`` says why.
+    scheduler : str, optional
+        Address of the Dask scheduler for ``engine="dask"`` (``tcp://host:8786``).
+    n_workers : int, default 2
+        Worker processes of the ``"local"`` cluster (1 to 1024).
+    connect_timeout : float, default 10
+        Seconds to wait for the scheduler to answer (``"dask"``: connection and handshake; a
+        server that is not Dask's is an error within this time) and, mid-run, for a worker when
+        the cluster has none left. A worker lost mid-run costs nothing: its tiles run elsewhere.
+    recursive : bool, default False
+        Search input folders recursively.
+    overwrite : bool, default False
+        Replace a run with other settings or inputs found in the output folder (this module's
+        files only); otherwise that is an error.
+    force_cluster : bool, default False
+        Start the local cluster whatever the estimate (tests, measurements).
+
+    Raises
+    ------
+    OptionError
+        An unknown engine (the number of workers and the timeout are checked when the engine
+        starts, :func:`~elastic_motion.apps.database.engines.open_engine`).
+    """
+
+    engine: EngineName = "serial"
+    scheduler: str | None = None
+    n_workers: int = 2
+    connect_timeout: float = 10.0
+    recursive: bool = False
+    overwrite: bool = False
+    force_cluster: bool = False
+
+    def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            raise OptionError("engine", f"expected one of {list(ENGINES)}; got {self.engine!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,7 +119,8 @@ class MatrixResult:
     names : list of str
         Motion names, in matrix order.
     distances : dict of str -> ndarray, shape (M, M)
-        Read-only memory maps of ``distances_<repr>.npy`` (NaN where not computed yet).
+        Read-only memory maps of ``distances_<key>.npy`` by representation key (``"lie"``,
+        ``"euler"``; NaN where not computed yet).
     report : dict
         The content of ``report.json``.
     """
@@ -75,6 +134,10 @@ class MatrixResult:
     def complete(self) -> bool:
         """Every tile of every representation is on disk."""
         return bool(self.report.get("complete"))
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: the content of ``report.json`` (what ``elastic-motion matrix --json`` reports)."""
+        return jsonable(self.report)
 
 
 def _identity(settings: DatabaseSettings, files: Sequence[Path]) -> dict[str, Any]:
@@ -116,17 +179,14 @@ def compute_matrix(
     inputs: Sequence[str | os.PathLike[str]],
     out_dir: str | os.PathLike[str],
     settings: DatabaseSettings | None = None,
+    options: MatrixOptions | None = None,
     *,
-    engine: Literal["serial", "local", "dask"] = "serial",
-    scheduler: str | None = None,
-    n_workers: int = 2,
-    connect_timeout: float = 10.0,
-    recursive: bool = False,
-    overwrite: bool = False,
     progress: Progress | None = None,
-    force_cluster: bool = False,
+    **overrides: Any,
 ) -> MatrixResult:
     """All-pairs distances of the motions in ``inputs``, written tile by tile to ``out_dir``.
+
+    The Python face of ``elastic-motion matrix``: the same settings give the same files.
 
     Parameters
     ----------
@@ -137,27 +197,14 @@ def compute_matrix(
         run is resumed: finished tiles are kept, the rest computed. A different run there is
         an error unless ``overwrite=True`` (which deletes this module's files only).
     settings : DatabaseSettings, optional
-        Default ``DatabaseSettings()``.
-    engine : {"serial", "local", "dask"}, default "serial"
-        ``"local"`` starts a cluster of ``n_workers`` processes only when the estimated pair
-        work pays for its start (:func:`elastic_motion.apps.database.tiles.cluster_worth_it`);
-        otherwise the run is serial and the report's ``engine_note`` says why.
-    scheduler : str, optional
-        Address of the Dask scheduler for ``engine="dask"``.
-    n_workers : int, default 2
-        Worker processes of the ``"local"`` cluster.
-    connect_timeout : float, default 10
-        Seconds to wait for the scheduler to answer (``"dask"``: connection and handshake; a
-        server that is not Dask's is an error within this time) and, mid-run, for a worker when
-        the cluster has none left. A worker lost mid-run costs nothing: its tiles run elsewhere.
-    recursive : bool, default False
-        Search folders recursively.
-    force_cluster : bool, default False
-        Start the local cluster whatever the estimate (tests, measurements).
-    overwrite : bool, default False
+        What determines the numbers; default ``DatabaseSettings()``.
+    options : MatrixOptions, optional
+        How the run computes: engine, scheduler, workers, timeout, recursive, overwrite.
     progress : callable, optional
         ``progress(stage, done, total)`` with stages ``"read"`` and ``"tiles"``; called after
         each tile is safely on disk.
+    **overrides
+        Fields of :class:`MatrixOptions` (``engine="local"``, ``n_workers=4``, ...).
 
     Returns
     -------
@@ -170,22 +217,40 @@ def compute_matrix(
     OptionError
         ``out_dir`` holding another run (the message says how to resume or restart it) or
         an input, or inside an input folder (or holding one); no readable motion; ``n_workers``
-        below 1 or a non-positive ``connect_timeout``. A file that cannot be read (malformed,
-        beyond a resource limit, not a regular file) is never an error: it is skipped and
-        listed in the report.
+        below 1 or a non-positive ``connect_timeout``; an unknown field of ``overrides``. A file
+        that cannot be read (malformed, beyond a resource limit, not a regular file) is never an
+        error: it is skipped and listed in the report.
     ValueError
         Bad settings.
     """
+    opts = with_overrides(MatrixOptions, options, overrides)
     settings = settings or DatabaseSettings()
     out = Path(out_dir)
-    files, ignored = find_motion_files(inputs, recursive=recursive)
+    files, ignored = find_motion_files(inputs, recursive=opts.recursive)
+    _check_output_folder(out, inputs, files)
+    ident = _identity(settings, files)
+    _check_resumable(out, ident, opts.overwrite)
+    # connect before writing anything: an unreachable scheduler leaves no output behind
+    worth = None
+    if opts.engine == "local" and not opts.force_cluster:
+        worth = _cluster_pays(len(files), settings, opts.n_workers)
+    eng = open_engine(opts.engine, opts.scheduler, opts.n_workers, opts.connect_timeout, worth_it=worth)
+    try:
+        return _run(out, files, ignored, settings, ident, eng, progress)
+    finally:
+        eng.close()
+
+
+def _check_output_folder(out: Path, inputs: Sequence[str | os.PathLike[str]], files: list[Path]) -> None:
+    """Refuse an output folder that would overwrite an input, or that holds or lies inside an
+    input folder (a rerun would read its own files), or that is a file."""
     names = storage.our_names()
     if any(out.resolve() == f or (out.resolve() in f.parents and f.name in names) for f in files):
         raise OptionError(
             "out_dir",
             f"expected a folder that holds no input; got {os.fspath(out)!r}, which would overwrite one",
         )
-    for item in inputs:  # the folder and the inputs never overlap (else a rerun reads its own files)
+    for item in inputs:
         if Path(item).is_dir():
             folder = Path(item).resolve()
             o = out.resolve()
@@ -197,7 +262,11 @@ def compute_matrix(
                 )
     if out.exists() and not out.is_dir():
         raise OptionError("out_dir", f"expected a folder; got the file {os.fspath(out)!r}")
-    ident = _identity(settings, files)
+
+
+def _check_resumable(out: Path, ident: dict[str, Any], overwrite: bool) -> None:
+    """Refuse (or with ``overwrite`` clean) a folder holding a run of another identity; with
+    ``overwrite`` clean any run there."""
     manifest_path = out / storage.MANIFEST
     if manifest_path.exists():
         try:
@@ -216,26 +285,22 @@ def compute_matrix(
             storage.clean_outputs(out)
     elif overwrite and out.exists():
         storage.clean_outputs(out)
-    # connect before writing anything: an unreachable scheduler leaves no output behind
-    worth = None
-    if engine == "local" and not force_cluster:
-        n = len(files)
-        n_pairs = n * (n - 1) // 2 * len(settings.representations)
-        if settings.cyclic:  # every cyclic shift of either motion: 2 n_samples plain pairs each
-            n_pairs *= 2 * settings.n_samples
-        forked = local_start_method() == "fork"  # forked workers start in a fraction of a second
-        worth = cluster_worth_it(
-            n_pairs,
-            settings.n_samples,
-            settings.warp,
-            n_workers=max(2, n_workers),
-            startup=LOCAL_CLUSTER_STARTUP_FORKED if forked else LOCAL_CLUSTER_STARTUP,
-        )
-    eng = open_engine(engine, scheduler, n_workers, connect_timeout, worth_it=worth)
-    try:
-        return _run(out, files, ignored, settings, ident, eng, progress)
-    finally:
-        eng.close()
+
+
+def _cluster_pays(n: int, settings: DatabaseSettings, n_workers: int) -> tuple[bool, str]:
+    """Whether a local cluster pays for its start on ``n`` motions, and the sentence saying so
+    (:func:`~elastic_motion.apps.database.tiles.cluster_worth_it`)."""
+    n_pairs = n * (n - 1) // 2 * len(settings.representations)
+    if settings.cyclic:  # every cyclic shift of either motion: 2 n_samples plain pairs each
+        n_pairs *= 2 * settings.n_samples
+    forked = local_start_method() == "fork"  # forked workers start in a fraction of a second
+    return cluster_worth_it(
+        n_pairs,
+        settings.n_samples,
+        settings.warp,
+        n_workers=max(2, n_workers),
+        startup=LOCAL_CLUSTER_STARTUP_FORKED if forked else LOCAL_CLUSTER_STARTUP,
+    )
 
 
 def _load_or_build_cache(
@@ -288,6 +353,8 @@ def _run(
     eng: Engine,
     progress: Progress | None,
 ) -> MatrixResult:
+    """The run in ``out`` once its checks passed: read (or reuse) the SRV cache, adopt the
+    tiles on disk, compute the others on ``eng``, write the matrices and the reports."""
     started = time.time()
     manifest_path = out / storage.MANIFEST
     manifest = storage.read_json(manifest_path) if manifest_path.exists() else None
@@ -296,130 +363,205 @@ def _run(
         out, files, ignored, settings, manifest is not None, progress, eng
     )
     t_read = time.perf_counter() - t_read
-    tiles_dir = out / storage.TILES
-    tiles_dir.mkdir(parents=True, exist_ok=True)
+    (out / storage.TILES).mkdir(parents=True, exist_ok=True)
     storage.write_names(out, cache)
-    m = len(cache)
-    ts = settings.tile_size
-    blocks = tile_blocks(m, ts)
-    if manifest is None:
-        manifest = {"n_motions": m, "tile_size": ts, "n_blocks": -(-m // ts), "tiles": {}, "runs": []}
-    manifest["identity"] = ident  # a format-1 run resumed is written in this release's form
-    run_id = len(manifest["runs"]) + 1
-    # adopt tile files on disk (ground truth): also those finished after the last manifest write
-    on_disk = {f.name for f in tiles_dir.iterdir() if storage.TILE_RE.match(f.name)}
-    recovered = 0
-    for name in sorted(on_disk):
-        key = name[:-4]
-        if key not in manifest["tiles"]:
-            manifest["tiles"][key] = {"run": run_id, "recovered": True}
-            recovered += 1
-    for key in list(manifest["tiles"]):
-        if key + ".npy" not in on_disk:  # listed but file gone: recompute
-            del manifest["tiles"][key]
-    run_info: dict[str, Any] = {
-        "run": run_id,
-        "engine": eng.name,
-        "engine_note": getattr(eng, "note", None),
-        "workers": eng.n_workers,
-        "scheduler": getattr(eng, "scheduler", None),
-        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
-        "tiles_before": len(manifest["tiles"]),
-        "tiles_recovered": recovered,
-        "tiles_computed": 0,
-        "pairs_computed": 0,
-    }
-    manifest["runs"].append(run_info)
-    storage.write_json(manifest_path, manifest)
-
+    run = _TileRun.start(out, manifest, ident, len(cache), settings, eng, started)
     report = _report(cache, settings, eng, files, complete=False)
-    report["runs"] = manifest["runs"]
+    report["runs"] = run.manifest["runs"]
     storage.write_json(out / storage.REPORT, report)
 
-    # matrices: rebuilt from the tiles on disk
-    mats = {}
-    for r in settings.representations:
-        mm = np.lib.format.open_memmap(
-            out / storage.matrix_name(r), mode="w+", dtype=np.float64, shape=(m, m)
-        )
-        mm[:] = np.nan
-        mats[r] = mm
-    for key in manifest["tiles"]:
-        r, bi, bj = storage.parse_tile_key(key)
-        _place(mats[r], np.load(tiles_dir / (key + ".npy")), block(bi, ts, m), block(bj, ts, m))
-
-    todo = []
-    for r in settings.representations:
-        for bi, bj in blocks:
-            key = storage.tile_key(r, bi, bj)
-            if key not in manifest["tiles"]:
-                todo.append(Task(key, r, bi, bj, block(bi, ts, m), block(bj, ts, m)))
-    total = len(blocks) * len(settings.representations)
-    done = total - len(todo)
+    mats = run.open_matrices()  # rebuilt from the tiles on disk
+    todo = run.todo()
     if progress is not None:
-        progress("tiles", done, total)
-
-    warp = settings.warp
-    groups = cache.groups
-    handles: dict[str, Any] = {}
-
-    def args_of(t: Task) -> tuple:
-        if t.rep not in handles:
-            handles[t.rep] = eng.share(cache.q[t.rep])
-        return (t.rows, t.cols, handles[t.rep], groups[t.rows], groups[t.cols], warp, settings.cyclic)
-
+        progress("tiles", run.total - len(todo), run.total)
     if eng.n_workers > 1:  # the longest tiles first: the workers finish together
-        todo = order_tiles(todo, lambda t: _pairs_in(t.rows, t.cols, groups))
-
+        todo = order_tiles(todo, lambda t: _pairs_in(t.rows, t.cols, cache.groups))
     t_tiles = time.perf_counter()
-    tile_seconds = 0.0
-    last_manifest = time.monotonic()
-    for task, res, secs in eng.run(todo, args_of):
-        storage.save_npy(tiles_dir / (task.key + ".npy"), res)
-        _place(mats[task.rep], res, task.rows, task.cols)
-        n_pairs = _pairs_in(task.rows, task.cols, groups)
-        manifest["tiles"][task.key] = {"run": run_id, "seconds": round(secs, 4), "pairs": n_pairs}
-        run_info["tiles_computed"] += 1
-        run_info["pairs_computed"] += n_pairs
-        tile_seconds += secs
-        done += 1
-        if time.monotonic() - last_manifest > 2.0 or done == total:
-            storage.write_json(manifest_path, manifest)
-            last_manifest = time.monotonic()
-        if progress is not None:
-            progress("tiles", done, total)
+    tile_seconds = run.compute(todo, cache, eng, mats, progress)
     wall = time.perf_counter() - t_tiles
     for mm in mats.values():
         mm.flush()
-    complete = all(
-        storage.tile_key(r, bi, bj) in manifest["tiles"]
-        for r in settings.representations
-        for bi, bj in blocks
-    )
+    complete = run.complete()
     if complete:
         for r, mm in mats.items():
             if np.isnan(mm).any():  # every tile present, so this is a bug, not an interruption
                 raise RuntimeError(f"{storage.matrix_name(r)}: NaN left after all tiles were written")
-    run_info["seconds_tiles"] = round(wall, 3)
-    run_info["seconds_tile_work"] = round(tile_seconds, 3)
-    run_info["seconds_read"] = round(t_read, 3)
-    run_info.update(read_info)
-    run_info["pairs_per_second"] = (
-        round(run_info["pairs_computed"] / wall, 3) if wall > 0 and run_info["pairs_computed"] else None
+    run.info["seconds_tiles"] = round(wall, 3)
+    run.info["seconds_tile_work"] = round(tile_seconds, 3)
+    run.info["seconds_read"] = round(t_read, 3)
+    run.info.update(read_info)
+    run.info["pairs_per_second"] = (
+        round(run.info["pairs_computed"] / wall, 3) if wall > 0 and run.info["pairs_computed"] else None
     )
-    storage.write_json(manifest_path, manifest)
+    storage.write_json(manifest_path, run.manifest)
     report = _report(cache, settings, eng, files, complete=complete)
-    report["runs"] = manifest["runs"]
+    report["runs"] = run.manifest["runs"]
     report["timings"] = {
         "read_seconds": round(t_read, 3),
         "tiles_seconds": round(wall, 3),
-        "pairs_computed": run_info["pairs_computed"],
-        "pairs_per_second": run_info["pairs_per_second"],
+        "pairs_computed": run.info["pairs_computed"],
+        "pairs_per_second": run.info["pairs_per_second"],
     }
     storage.write_json(out / storage.REPORT, report)
     del mats
     dists = {r: np.load(out / storage.matrix_name(r), mmap_mode="r") for r in settings.representations}
     return MatrixResult(out, cache.names, dists, report)
+
+
+@dataclass(eq=False)
+class _TileRun:
+    """The tiles of one run in ``out``: its ``manifest`` (the tiles done, by key, and the runs;
+    written back as tiles finish) and this run's entry ``info`` in it.
+
+    Tile files are the ground truth (module docstring): :meth:`start` adopts every tile file on
+    disk, also those finished after the last manifest write, and forgets tiles listed whose
+    file is gone (they are computed again).
+    """
+
+    out: Path
+    manifest: dict[str, Any]
+    info: dict[str, Any]
+    settings: DatabaseSettings
+    m: int
+    blocks: list[tuple[int, int]]
+
+    @classmethod
+    def start(
+        cls,
+        out: Path,
+        manifest: dict[str, Any] | None,
+        ident: dict[str, Any],
+        m: int,
+        settings: DatabaseSettings,
+        eng: Engine,
+        started: float,
+    ) -> _TileRun:
+        """This run's entry in the manifest (new or resumed, with the tiles on disk adopted),
+        written."""
+        ts = settings.tile_size
+        if manifest is None:
+            manifest = {"n_motions": m, "tile_size": ts, "n_blocks": -(-m // ts), "tiles": {}, "runs": []}
+        manifest["identity"] = ident  # a format-1 run resumed is written in this release's form
+        run_id = len(manifest["runs"]) + 1
+        tiles_dir = out / storage.TILES
+        on_disk = {f.name for f in tiles_dir.iterdir() if storage.TILE_RE.match(f.name)}
+        recovered = 0
+        for name in sorted(on_disk):
+            key = name[:-4]
+            if key not in manifest["tiles"]:
+                manifest["tiles"][key] = {"run": run_id, "recovered": True}
+                recovered += 1
+        for key in list(manifest["tiles"]):
+            if key + ".npy" not in on_disk:  # listed but file gone: recompute
+                del manifest["tiles"][key]
+        info: dict[str, Any] = {
+            "run": run_id,
+            "engine": eng.name,
+            "engine_note": getattr(eng, "note", None),
+            "workers": eng.n_workers,
+            "scheduler": getattr(eng, "scheduler", None),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
+            "tiles_before": len(manifest["tiles"]),
+            "tiles_recovered": recovered,
+            "tiles_computed": 0,
+            "pairs_computed": 0,
+        }
+        manifest["runs"].append(info)
+        storage.write_json(out / storage.MANIFEST, manifest)
+        return cls(out, manifest, info, settings, m, tile_blocks(m, ts))
+
+    @property
+    def total(self) -> int:
+        """Tiles of the run: blocks times representations."""
+        return len(self.blocks) * len(self.settings.representations)
+
+    def block(self, i: int) -> np.ndarray:
+        """Motion indices of block ``i``."""
+        return block(i, self.settings.tile_size, self.m)
+
+    def open_matrices(self) -> dict[str, np.ndarray]:
+        """The matrix files, memory-mapped: NaN, then every tile on disk placed."""
+        mats = {}
+        for r in self.settings.representations:
+            mm = np.lib.format.open_memmap(
+                self.out / storage.matrix_name(r), mode="w+", dtype=np.float64, shape=(self.m, self.m)
+            )
+            mm[:] = np.nan
+            mats[r] = mm
+        for key in self.manifest["tiles"]:
+            r, bi, bj = storage.parse_tile_key(key)
+            tile = np.load(self.out / storage.TILES / (key + ".npy"))
+            _place(mats[r], tile, self.block(bi), self.block(bj))
+        return mats
+
+    def todo(self) -> list[Task]:
+        """The tiles not on disk, by representation then block."""
+        return [
+            Task(storage.tile_key(r, bi, bj), r, bi, bj, self.block(bi), self.block(bj))
+            for r in self.settings.representations
+            for bi, bj in self.blocks
+            if storage.tile_key(r, bi, bj) not in self.manifest["tiles"]
+        ]
+
+    def complete(self) -> bool:
+        """Every tile of every representation is on disk."""
+        tiles = self.manifest["tiles"]
+        return all(
+            storage.tile_key(r, bi, bj) in tiles
+            for r in self.settings.representations
+            for bi, bj in self.blocks
+        )
+
+    def compute(
+        self,
+        todo: list[Task],
+        cache: SRVCache,
+        eng: Engine,
+        mats: dict[str, np.ndarray],
+        progress: Progress | None,
+    ) -> float:
+        """Run the tiles ``todo`` on ``eng``: each finished tile written, placed in ``mats`` and
+        listed in the manifest (written at most every 2 s, and after the last); the seconds the
+        tiles took (summed over workers)."""
+        settings, groups = self.settings, cache.groups
+        handles: dict[str, Any] = {}
+
+        def args_of(t: Task) -> tuple:
+            if t.rep not in handles:
+                handles[t.rep] = eng.share(cache.q[t.rep])
+            return (
+                t.rows,
+                t.cols,
+                handles[t.rep],
+                groups[t.rows],
+                groups[t.cols],
+                settings.warp,
+                settings.cyclic,
+            )
+
+        done = self.total - len(todo)
+        tile_seconds = 0.0
+        last_manifest = time.monotonic()
+        manifest_path = self.out / storage.MANIFEST
+        for task, res, secs in eng.run(todo, args_of):
+            storage.save_npy(self.out / storage.TILES / (task.key + ".npy"), res)
+            _place(mats[task.rep], res, task.rows, task.cols)
+            n_pairs = _pairs_in(task.rows, task.cols, groups)
+            self.manifest["tiles"][task.key] = {
+                "run": self.info["run"],
+                "seconds": round(secs, 4),
+                "pairs": n_pairs,
+            }
+            self.info["tiles_computed"] += 1
+            self.info["pairs_computed"] += n_pairs
+            tile_seconds += secs
+            done += 1
+            if time.monotonic() - last_manifest > 2.0 or done == self.total:
+                storage.write_json(manifest_path, self.manifest)
+                last_manifest = time.monotonic()
+            if progress is not None:
+                progress("tiles", done, self.total)
+        return tile_seconds
 
 
 def _pairs_in(rows: np.ndarray, cols: np.ndarray, groups: np.ndarray) -> int:

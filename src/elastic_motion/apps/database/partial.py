@@ -32,13 +32,14 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.database.files import find_motion_files
-from elastic_motion.apps.database.preparation import heading_relative_root, prepare_motion
-from elastic_motion.apps.database.settings import canonical_method, public_method
+from elastic_motion.apps.database.preparation import PreparedMotion, heading_relative_root, prepare_motion
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.curves import srv_transform
 from elastic_motion.errors import OptionError, ParseError
-from elastic_motion.motion import group_weights, read_motion, to_euler_curve, to_lie_curve
+from elastic_motion.motion import Motion, group_weights, read_motion
+from elastic_motion.motion.representations import Representation, representation
+from elastic_motion.warp.partial import PartialWarp, partial_warp
 
 __all__ = ["PartialMatch", "WithinResult", "find_within"]
 
@@ -117,12 +118,9 @@ class WithinResult:
         )
 
 
-def _srv(motion, key: str, weights) -> np.ndarray:
-    if key == "lie":
-        jw, tw = weights
-        curve = to_lie_curve(motion, jw, translation_weight=tw)
-    else:
-        curve = to_euler_curve(motion)
+def _srv(motion: Motion, rep: Representation, weights: tuple[np.ndarray, float] | None) -> np.ndarray:
+    """The SRV array of ``motion`` in ``rep`` (Lie: with the inner-product ``weights``)."""
+    curve = rep.to_curve(motion, *(weights or (None, None)))
     return np.ascontiguousarray(srv_transform(curve).q)
 
 
@@ -168,68 +166,34 @@ def find_within(
     ParseError
         An unreadable query.
     """
-    from elastic_motion.warp.partial import partial_warp
-
-    key = canonical_method(method)
+    rep = representation(method)
     if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 2:
         raise OptionError("n_samples", f"expected an integer >= 2; got {n_samples!r}")
     if isinstance(neighbourhood, bool) or not isinstance(neighbourhood, int) or neighbourhood < 1:
         raise OptionError("neighbourhood", f"expected an integer >= 1; got {neighbourhood!r}")
     pq = prepare_motion(query, n_samples, drop_fingers=drop_fingers, align_heading=False)
     mq = heading_relative_root(pq.motion)
-    tq = pq.duration
     files, _ = find_motion_files(
         [takes] if isinstance(takes, str | os.PathLike) else takes, recursive=recursive
     )
+    qpath = os.path.realpath(query)
+    files = [f for f in files if os.path.realpath(f) != qpath]
     matches: list[PartialMatch] = []
     profiles: dict[str, np.ndarray] = {}
     skipped: list[dict[str, str]] = []
     t_dp = 0.0
-    qpath = os.path.realpath(query)
-    files = [f for f in files if os.path.realpath(f) != qpath]
     for n, f in enumerate(files):
         try:
-            raw = read_motion(f)
-            probe = prepare_motion(f, 2, drop_fingers=drop_fingers, align_heading=False, motion=raw)
-            if probe.joint_names != pq.joint_names:
-                a, b = set(pq.joint_names), set(probe.joint_names)
-                raise OptionError(
-                    "takes",
-                    f"expected the query's skeleton ({len(a)} joints); got {len(b)} joints: lacks "
-                    f"{sorted(a - b) or 'nothing'}, extra {sorted(b - a) or 'nothing'}",
-                )
-            n1 = max(1, round(n_samples * probe.duration / tq))
-            pt = prepare_motion(f, n1, drop_fingers=drop_fingers, align_heading=False, motion=raw)
-            mt = heading_relative_root(pt.motion)
-            weights = group_weights([mq, mt]) if key == "lie" else None
-            q0 = _srv(mq, key, weights)
-            q1 = _srv(mt, key, weights) / np.sqrt(n1 / n_samples)
-            t0 = time.perf_counter()
-            res = partial_warp(q0, q1, neighbourhood=neighbourhood)
-            t_dp += time.perf_counter() - t0
+            take = _match_take(f, pq, mq, rep, neighbourhood, drop_fingers)
         except (ParseError, ValueError, KeyError, OSError) as exc:
             skipped.append({"path": os.fspath(f), "reason": f"{type(exc).__name__}: {exc}"})
             continue
         finally:
             if progress is not None:
                 progress("within", n + 1, len(files))
-        cell = pt.duration / n1
-        fps = (pt.original_frames - 1) / pt.duration if pt.duration > 0 else 1.0
-        start, stop = res.start * cell, res.stop * cell
-        name = Path(f).stem
-        matches.append(
-            PartialMatch(
-                name=name,
-                path=os.fspath(f),
-                start=start,
-                stop=stop,
-                start_frame=round(start * fps),
-                stop_frame=round(stop * fps),
-                distance=res.distance,
-                duration=pt.duration,
-            )
-        )
-        profiles[name] = np.sqrt(np.maximum(res.end_energies, 0.0))
+        t_dp += take.seconds
+        matches.append(take.match(f))
+        profiles[matches[-1].name] = np.sqrt(np.maximum(take.result.end_energies, 0.0))
     if not matches:
         raise OptionError(
             "takes",
@@ -240,7 +204,7 @@ def find_within(
     matches.sort(key=lambda m: (m.distance, m.path))
     return WithinResult(
         query=os.fspath(query),
-        method=public_method(key),
+        method=rep.name,
         matches=matches,
         profiles=profiles,
         skipped=skipped,
@@ -248,3 +212,62 @@ def find_within(
         neighbourhood=neighbourhood,
         seconds=t_dp,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class _TakeWarp:
+    """A long take prepared on the query's cell length (``prepared``: ``n1 + 1`` frames) and
+    the open-ended DP's ``result`` on it, which took ``seconds``."""
+
+    prepared: PreparedMotion
+    result: PartialWarp
+    seconds: float
+
+    def match(self, path: str | os.PathLike[str]) -> PartialMatch:
+        """The best segment as seconds and frames of the take at ``path``."""
+        pt, res = self.prepared, self.result
+        cell = pt.duration / (pt.motion.n_frames - 1)
+        fps = (pt.original_frames - 1) / pt.duration if pt.duration > 0 else 1.0
+        start, stop = res.start * cell, res.stop * cell
+        return PartialMatch(
+            name=Path(path).stem,
+            path=os.fspath(path),
+            start=start,
+            stop=stop,
+            start_frame=round(start * fps),
+            stop_frame=round(stop * fps),
+            distance=res.distance,
+            duration=pt.duration,
+        )
+
+
+def _match_take(
+    path: str | os.PathLike[str],
+    pq: PreparedMotion,
+    mq: Motion,
+    rep: Representation,
+    neighbourhood: int,
+    drop_fingers: bool,
+) -> _TakeWarp:
+    """Steps 2-4 of the module docstring for one take against the prepared query ``pq``
+    (``n_samples`` cells), ``mq`` its motion with a heading-relative root; the errors of a take
+    it cannot use propagate (the caller skips the take)."""
+    n_samples = pq.motion.n_frames - 1
+    raw = read_motion(path)
+    probe = prepare_motion(path, 2, drop_fingers=drop_fingers, align_heading=False, motion=raw)
+    if probe.joint_names != pq.joint_names:
+        a, b = set(pq.joint_names), set(probe.joint_names)
+        raise OptionError(
+            "takes",
+            f"expected the query's skeleton ({len(a)} joints); got {len(b)} joints: lacks "
+            f"{sorted(a - b) or 'nothing'}, extra {sorted(b - a) or 'nothing'}",
+        )
+    n1 = max(1, round(n_samples * probe.duration / pq.duration))
+    pt = prepare_motion(path, n1, drop_fingers=drop_fingers, align_heading=False, motion=raw)
+    mt = heading_relative_root(pt.motion)
+    weights = group_weights([mq, mt]) if rep.is_lie else None
+    q0 = _srv(mq, rep, weights)
+    q1 = _srv(mt, rep, weights) / np.sqrt(n1 / n_samples)
+    t0 = time.perf_counter()
+    res = partial_warp(q0, q1, neighbourhood=neighbourhood)
+    return _TakeWarp(pt, res, time.perf_counter() - t0)

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from elastic_motion import motion as mm
+from elastic_motion.apps.database.jointmap import map_to_common_body
 from elastic_motion.apps.prepare import (
     MotionPreparation,
     PrepareOptions,
@@ -31,16 +32,22 @@ from elastic_motion.apps.prepare import (
     load_motion,
     rest_pose_like,
 )
+from elastic_motion.curves import DiscreteCurve
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
+from elastic_motion.motion.edit import heading_angle
+from elastic_motion.motion.representations import Representation, representation
+from elastic_motion.motion.rotations import axis_rotation
 
 __all__ = [
     "PreparedMotion",
     "balanced_pose_weight",
     "common_joint_names",
+    "database_curves",
     "heading_relative_root",
     "pose_arrays",
     "prepare_motion",
+    "prepare_same_skeleton",
     "restrict_prepared",
     "restrict_to_common_joints",
     "same_rest_pose",
@@ -133,8 +140,6 @@ def prepare_motion(
             m = mm.drop_joints(m, fingers)
             notes.append(f"{label}: dropped {len(fingers)} finger joints")
     if joints == "map":
-        from elastic_motion.apps.database.jointmap import map_to_common_body
-
         m = map_to_common_body(m.replace(name=m.name or label))
         notes.append(f"{label}: mapped onto the 13-joint common body model")
     if align_heading:
@@ -247,9 +252,6 @@ def heading_relative_root(motion: Motion) -> Motion:
     Motion
         Same skeleton, frames and joint rotations; new root translation and root rotation.
     """
-    from elastic_motion.motion.edit import heading_angle
-    from elastic_motion.motion.rotations import axis_rotation
-
     up = "xyz".index(motion.up_axis.lower())
     rot = np.array(motion.rotations, dtype=np.float64)
     root = rot[:, 0]
@@ -338,13 +340,13 @@ def same_rest_pose(prepared: Sequence[PreparedMotion]) -> list[PreparedMotion]:
     return out
 
 
-def database_curves(prepared: Sequence[PreparedMotion], method: str) -> list:
-    """The curves of prepared motions of one skeleton: ``"lie"`` with weights shared by all
-    (:func:`elastic_motion.motion.group_weights`), else the Euler-angle curves."""
-    if method == "lie":
-        jw, tw = mm.group_weights([p.motion for p in prepared])
-        return [mm.to_lie_curve(p.motion, jw, translation_weight=tw) for p in prepared]
-    return [mm.to_euler_curve(p.motion) for p in prepared]
+def database_curves(prepared: Sequence[PreparedMotion], method: str | Representation) -> list[DiscreteCurve]:
+    """The curves of prepared motions of one skeleton in the representation ``method``
+    (:func:`~elastic_motion.motion.representations.representation`): Lie curves with weights
+    shared by all (:func:`elastic_motion.motion.group_weights`), or the Euler-angle curves."""
+    rep = representation(method)
+    weights = mm.group_weights([p.motion for p in prepared]) if rep.is_lie else (None, None)
+    return [rep.to_curve(p.motion, *weights) for p in prepared]
 
 
 def pose_arrays(motion: Motion, joint_weights: Sequence[float] | np.ndarray) -> np.ndarray:

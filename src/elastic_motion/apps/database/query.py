@@ -15,22 +15,20 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.database import storage
+from elastic_motion.apps.database.bounds import lower_bounds, part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache, srv_arrays
 from elastic_motion.apps.database.files import find_motion_files
+from elastic_motion.apps.database.index import cache_norms, is_index, load_index
 from elastic_motion.apps.database.preparation import prepare_motion, with_pose_term
-from elastic_motion.apps.database.settings import (
-    QUERY_FIELDS,
-    DatabaseSettings,
-    canonical_method,
-    ignored_settings_note,
-    public_method,
-)
+from elastic_motion.apps.database.settings import QUERY_FIELDS, DatabaseSettings, ignored_settings_note
 from elastic_motion.apps.database.tiles import pair_distances, single_threaded_blas
 from elastic_motion.apps.prepare import rest_pose_like
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
+from elastic_motion.apps.statistics import nearest
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import group_weights
+from elastic_motion.motion.representations import representation
 
 __all__ = ["QueryResult", "SearchResult", "is_stored_database", "knn_search", "query_distances"]
 
@@ -84,7 +82,7 @@ class QueryResult:
     @property
     def method(self) -> str:
         """The curve representation's public name: ``"lie"`` or ``"euler-elastic"``."""
-        return public_method(self.representation)
+        return representation(self.representation).name
 
     def nearest(self, k: int = 5, *, exclude_query: bool = True) -> np.ndarray:
         """Indices of the ``k`` nearest motions (finite distances), nearest first.
@@ -100,8 +98,6 @@ class QueryResult:
         ndarray of int, shape (<= k,)
             Ties broken by index.
         """
-        from elastic_motion.apps.statistics import nearest
-
         query = os.path.realpath(self.query)
         exclude = [i for i, p in enumerate(self.paths) if exclude_query and os.path.realpath(p) == query]
         return nearest(self.distances, k, exclude=exclude)
@@ -114,8 +110,6 @@ class QueryResult:
 def is_stored_database(database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> bool:
     """Whether ``database`` is one stored database: an index (:mod:`.index`) or a matrix output
     folder (its ``srv_cache.npz``), measured with the settings it was built with."""
-    from elastic_motion.apps.database.index import is_index
-
     db = [database] if isinstance(database, str | os.PathLike) else list(database)
     return len(db) == 1 and (is_index(db[0]) or (Path(db[0]) / storage.CACHE).exists())
 
@@ -128,8 +122,6 @@ def _open_database(
 ) -> tuple[SRVCache, tuple[str, ...]]:
     """The SRV cache of a matrix folder, an index (:mod:`.index`) or files read now, and the
     note naming the ``settings`` a stored database does not use (none when it uses them)."""
-    from elastic_motion.apps.database.index import is_index, load_index
-
     db = [database] if isinstance(database, str | os.PathLike) else list(database)
     stored = [os.fspath(d) for d in db if is_stored_database(d)]
     if len(db) > 1 and stored:
@@ -152,7 +144,8 @@ def _open_database(
         raise OptionError(
             "method",
             "expected one of the representations of the database "
-            f"{[public_method(r) for r in cache.settings.representations]}; got {public_method(key)!r}",
+            f"{[representation(r).name for r in cache.settings.representations]}; "
+            f"got {representation(key).name!r}",
         )
     return cache, notes
 
@@ -195,10 +188,12 @@ def _query_srv(
     return qq, g, p.notes, p.joint_names
 
 
-def _method_key(method: str, representation: str | None) -> str:
-    if representation is not None:  # the name of earlier releases
-        return canonical_method(representation, "representation")
-    return canonical_method(method)
+def _method_key(method: str, legacy: str | None) -> str:
+    """The stored key of ``method``, or of ``legacy`` (the argument ``representation`` of
+    earlier releases) when given."""
+    if legacy is not None:
+        return representation(legacy, "representation").key
+    return representation(method).key
 
 
 def query_distances(
@@ -418,10 +413,7 @@ def knn_search(
     """
     if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
         raise OptionError("k", f"expected an integer >= 1; got {k!r}")
-    from elastic_motion.apps.database.bounds import lower_bounds, part_norms
-    from elastic_motion.apps.database.index import cache_norms
-
-    key = canonical_method(method)
+    key = representation(method).key
     cache, ignored = _open_database(database, key, settings, progress)
     qq, g, notes, joints = _query_srv(query, cache, key)
     notes = (*ignored, *notes)
@@ -444,31 +436,11 @@ def knn_search(
     elif len(members):
         norms = cache_norms(cache, key)
         lb[members] = lower_bounds(part_norms(qq), norms[members][:, :, : qq.shape[1]])  # one group: one D
-        order = members[np.lexsort((members, lb[members]))]
-        # in batches of growing size (k, then doubling up to KNN_BATCH): one compiled call per
-        # batch instead of one per pair; a batch holds only entries whose bound is below the
-        # current k-th distance, so at most a batch more is computed than one by one
-        pos, step = 0, k
-        with single_threaded_blas():
-            while pos < len(order):
-                batch = order[pos : pos + step]
-                if len(found) >= k:
-                    batch = batch[lb[batch] <= found[k - 1][0]]  # a prefix: the bounds are sorted
-                if not len(batch):
-                    break
-                pairs = np.column_stack([np.zeros(len(batch), dtype=np.int64), batch])
-                ds = pair_distances(
-                    [qq], cache.q[key], pairs, cache.settings.warp, cyclic=cache.settings.cyclic
-                )
-                computed[batch] = True
-                found.extend((float(d), int(i)) for d, i in zip(ds, batch, strict=True))
-                found.sort()
-                pos += step
-                step = min(2 * step, KNN_BATCH)
+        found = _exact_nearest(qq, cache.q[key], cache.settings, members, lb, k, computed)
     top = found[:k]
     return SearchResult(
         query=os.fspath(query),
-        method=public_method(key),
+        method=representation(key).name,
         indices=np.array([i for _, i in top], dtype=np.int64),
         distances=np.array([d for d, _ in top]),
         names=list(cache.names),
@@ -482,3 +454,41 @@ def knn_search(
         notes=tuple(notes),
         seconds=time.perf_counter() - t0,
     )
+
+
+def _exact_nearest(
+    qq: np.ndarray,
+    q: Sequence[np.ndarray],
+    settings: DatabaseSettings,
+    members: np.ndarray,
+    lb: np.ndarray,
+    k: int,
+    computed: np.ndarray,
+) -> list[tuple[float, int]]:
+    """The exact distances ``(d, index)`` of the query's SRV array ``qq`` to the entries
+    ``members`` of ``q`` that the lower bounds ``lb`` cannot exclude from the ``k`` nearest,
+    sorted; ``computed`` marks them.
+
+    Entries are visited by increasing bound (ties by index), in batches of growing size (``k``,
+    then doubling up to :data:`KNN_BATCH`): one compiled call per batch instead of one per
+    pair; a batch holds only entries whose bound is below the current k-th distance, so at most
+    a batch more is computed than one by one.
+    """
+    order = members[np.lexsort((members, lb[members]))]
+    found: list[tuple[float, int]] = []
+    pos, step = 0, k
+    with single_threaded_blas():
+        while pos < len(order):
+            batch = order[pos : pos + step]
+            if len(found) >= k:
+                batch = batch[lb[batch] <= found[k - 1][0]]  # a prefix: the bounds are sorted
+            if not len(batch):
+                break
+            pairs = np.column_stack([np.zeros(len(batch), dtype=np.int64), batch])
+            ds = pair_distances([qq], q, pairs, settings.warp, cyclic=settings.cyclic)
+            computed[batch] = True
+            found.extend((float(d), int(i)) for d, i in zip(ds, batch, strict=True))
+            found.sort()
+            pos += step
+            step = min(2 * step, KNN_BATCH)
+    return found

@@ -1,4 +1,5 @@
-"""Reading a finished matrix back: :func:`load_matrix` -> :class:`DistanceMatrix`."""
+"""Reading a finished matrix back: :func:`load_matrix` -> :class:`DistanceMatrix`; a matrix
+given as a folder, a run or itself: :func:`distance_matrix_of`."""
 
 from __future__ import annotations
 
@@ -10,10 +11,11 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.database import storage
-from elastic_motion.apps.database.settings import REPRESENTATIONS, canonical_method, public_method
+from elastic_motion.apps.database.matrix import MatrixResult
 from elastic_motion.errors import OptionError
+from elastic_motion.motion import representations
 
-__all__ = ["DistanceMatrix", "load_matrix"]
+__all__ = ["DistanceMatrix", "distance_matrix_of", "load_matrix"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,17 +79,17 @@ def load_matrix(
     """
     out = Path(out_dir)
     option = "representation" if representation is not None else "method"
-    representation = canonical_method(representation if representation is not None else method, option)
-    path = out / storage.matrix_name(representation)
+    rep = representations.representation(representation if representation is not None else method, option)
+    path = out / storage.matrix_name(rep.key)
     if not path.exists():
-        held = [public_method(r) for r in REPRESENTATIONS if (out / storage.matrix_name(r)).exists()]
+        held = [r.name for r in storage.REPRESENTATIONS if (out / storage.matrix_name(r.key)).exists()]
         if held:
             raise OptionError(
                 option,
                 f"{os.fspath(out)}: expected one of the representations this run computed {held}; "
-                f"got {public_method(representation)!r}",
+                f"got {rep.name!r}",
             )
-        name = storage.matrix_name(representation)
+        name = storage.matrix_name(rep.key)
         raise FileNotFoundError(
             f"{os.fspath(out)}: expected the output folder of a matrix run ({name}, {storage.NAMES}, "
             f"{storage.REPORT}); got no {name}"
@@ -106,6 +108,28 @@ def load_matrix(
         names=[r["name"] for r in rows],
         paths=[r["path"] for r in rows],
         groups=np.array([int(r["group"]) for r in rows], dtype=np.int64),
-        representation=representation,
+        representation=rep.key,
         report=report,
     )
+
+
+def distance_matrix_of(
+    matrix: str | os.PathLike[str] | DistanceMatrix | MatrixResult, method: str | None = None
+) -> DistanceMatrix:
+    """The :class:`DistanceMatrix` of ``matrix``: read from a matrix folder (or the folder of a
+    :class:`~elastic_motion.apps.database.MatrixResult`) in the representation ``method``
+    (default ``"lie"``), or ``matrix`` itself.
+
+    Raises
+    ------
+    OptionError
+        ``method`` other than the representation of a given ``DistanceMatrix``; as
+        :func:`load_matrix` for a folder.
+    """
+    if isinstance(matrix, DistanceMatrix):
+        if method is not None and representations.representation(method).key != matrix.representation:
+            held = representations.representation(matrix.representation).name
+            raise OptionError("method", f"expected the matrix's representation {held!r}; got {method!r}")
+        return matrix
+    folder = matrix.out_dir if isinstance(matrix, MatrixResult) else matrix
+    return load_matrix(folder, "lie" if method is None else method)

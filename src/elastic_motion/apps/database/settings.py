@@ -20,62 +20,79 @@ a run started then can be resumed with the same settings.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from elastic_motion.apps.statistics import MEAN_WARP, as_warp_options
 from elastic_motion.errors import OptionError
+from elastic_motion.motion.representations import EULER, LIE, METHODS, Representation, representation
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
     "DEFAULT_WARP",
     "FORMAT_VERSION",
-    "METHODS",
+    "JOINT_SELECTIONS",
     "QUERY_FIELDS",
-    "REPRESENTATIONS",
     "DatabaseSettings",
-    "canonical_method",
     "flat_settings",
     "ignored_settings_note",
-    "public_method",
+    "joint_selection",
+    "representation_keys",
     "settings_differences",
 ]
 
-#: Curve representations a matrix can hold, as stored (file names ``distances_<repr>.npy``,
-#: SRV cache keys; ``docs/database.md``).
-REPRESENTATIONS = ("lie", "euler")
 
-#: The public names of the curve representations (``method=``), as in the rest of the library
-#: (``em.distance``, ``em.loop``): ``"lie"`` and ``"euler-elastic"``. ``"euler"`` is accepted
-#: as an alias of ``"euler-elastic"``.
-METHODS = ("lie", "euler-elastic")
-_METHOD_KEYS = {"lie": "lie", "euler-elastic": "euler", "euler": "euler"}
-
-
-def canonical_method(value: Any, option: str = "method") -> str:
-    """The stored key (``"lie"`` / ``"euler"``) of a curve representation name.
+def representation_keys(value: Any, option: str = "representations") -> tuple[str, ...]:
+    """The stored keys (:attr:`~elastic_motion.motion.representations.Representation.key`:
+    ``"lie"``, ``"euler"``) of one representation or a sequence of distinct ones.
 
     Parameters
     ----------
-    value : {"lie", "euler-elastic", "euler"}
-        ``"euler"`` is an alias of ``"euler-elastic"``.
-    option : str, default "method"
+    value : str, Representation or sequence of them
+        Names as :func:`~elastic_motion.motion.representations.representation` accepts them
+        (``"lie"``, ``"euler-elastic"``, ``"euler"``).
+    option : str, default "representations"
         Named in the error.
 
     Raises
     ------
     OptionError
-        Any other value.
+        No entry, an unknown one, or one representation twice (``"euler"`` and
+        ``"euler-elastic"`` are one).
     """
-    if isinstance(value, str) and value in _METHOD_KEYS:
-        return _METHOD_KEYS[value]
-    raise OptionError(
-        option, f"expected one of {list(METHODS)} ('euler' is accepted for 'euler-elastic'); got {value!r}"
-    )
+    reps = (value,) if isinstance(value, str | Representation) else tuple(value)
+    try:
+        keys = tuple(representation(r, option).key for r in reps)
+    except OptionError:
+        keys = ()
+    if not reps or len(keys) != len(reps) or len(set(keys)) != len(keys):
+        raise OptionError(option, f"expected distinct entries of {list(METHODS)}; got {list(reps)}")
+    return keys
 
 
-def public_method(key: str) -> str:
-    """The public name (``"lie"`` / ``"euler-elastic"``) of a stored key (``"lie"`` / ``"euler"``)."""
-    return "euler-elastic" if key == "euler" else key
+#: The joint selections by name (``DatabaseSettings.joints``; otherwise a list of joint names).
+JOINT_SELECTIONS = ("all", "common", "map")
+
+
+def joint_selection(value: str | Sequence[str]) -> str | tuple[str, ...]:
+    """``value`` as a joint selection: one of :data:`JOINT_SELECTIONS`, or a tuple of joint names.
+
+    Raises
+    ------
+    OptionError
+        Another string, or an empty list of names.
+    """
+    if isinstance(value, str):
+        if value not in JOINT_SELECTIONS:
+            raise OptionError(
+                "joints", f"expected 'all', 'common', 'map' or a list of joint names; got {value!r}"
+            )
+        return value
+    names = tuple(str(n) for n in value)
+    if not names:
+        raise OptionError("joints", "expected at least one joint name; got none")
+    return names
 
 
 #: Version of the files of an output folder. 1: settings with ``"pair"``; 2: with ``"warp"``
@@ -85,19 +102,13 @@ FORMAT_VERSION = 2
 READABLE_FORMATS = (1, 2)
 
 #: The warp of a database: :class:`~elastic_motion.warp.WarpOptions`' defaults (neighbourhood
-#: 10) with the DP alone (``method="dp"``). The refinement off the grid (``"dp+refine"``) costs
-#: 15-30 times a DP pair at ``n_samples = 64`` (measured: 1 ms against 17 ms), which an
-#: all-pairs matrix multiplies by ``M^2 / 2``; the Karcher mean's energy is non-increasing
-#: only with the DP. Pass ``WarpOptions(method="dp+refine")`` for the closer distances.
-DEFAULT_WARP = WarpOptions(method="dp")
-
-
-def _warp_options(warp: Any) -> WarpOptions:
-    if isinstance(warp, WarpOptions):
-        return warp
-    if isinstance(warp, str):
-        return WarpOptions(method=warp)  # type: ignore[arg-type]
-    raise OptionError("warp", f"expected a WarpOptions or a method name ('dp', 'none'...); got {warp!r}")
+#: 10) with the DP alone (``method="dp"``), the warp of a Karcher mean
+#: (:data:`elastic_motion.apps.statistics.MEAN_WARP`: its energy is non-increasing only with the
+#: DP), so that a database's distances are those its mean minimises. The refinement off the grid
+#: (``"dp+refine"``) costs 15-30 times a DP pair at ``n_samples = 64`` (measured: 1 ms against
+#: 17 ms), which an all-pairs matrix multiplies by ``M^2 / 2``. Pass
+#: ``WarpOptions(method="dp+refine")`` for the closer distances.
+DEFAULT_WARP = MEAN_WARP
 
 
 @dataclass(frozen=True)
@@ -110,8 +121,10 @@ class DatabaseSettings:
         Cells of the common grid: each motion is resampled to ``n_samples + 1`` frames
         uniformly over its duration (normalised to 1).
     representations : tuple of {"lie", "euler-elastic"}, default ("lie", "euler")
-        Curve representations (``method`` names); ``"euler-elastic"`` is stored as its key
-        ``"euler"`` (:func:`canonical_method`), as are the matrix files.
+        Curve representations (``method`` names or
+        :class:`~elastic_motion.motion.representations.Representation` objects), held as their
+        stored keys ``"lie"`` / ``"euler"`` (:func:`representation_keys`), which name the
+        matrix files.
     warp : WarpOptions, default :data:`DEFAULT_WARP` (``WarpOptions(method="dp")``)
         How a pair distance is computed (:func:`~elastic_motion.apps.database.pair_distance`):
         ``method`` ``"dp"`` / ``"dp+refine"`` (elastic distance) or ``"none"`` (distance of
@@ -156,7 +169,7 @@ class DatabaseSettings:
     """
 
     n_samples: int = 64
-    representations: tuple[str, ...] = REPRESENTATIONS
+    representations: tuple[str, ...] = (LIE.key, EULER.key)
     warp: WarpOptions = DEFAULT_WARP
     joints: str | tuple[str, ...] = "all"
     drop_fingers: bool = True
@@ -168,28 +181,9 @@ class DatabaseSettings:
     def __post_init__(self) -> None:
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
-        reps = (
-            (self.representations,) if isinstance(self.representations, str) else tuple(self.representations)
-        )
-        bad = [r for r in reps if r not in _METHOD_KEYS]
-        keys = tuple(_METHOD_KEYS.get(r, r) for r in reps)
-        if not reps or bad or len(set(keys)) != len(keys):
-            raise OptionError(
-                "representations", f"expected distinct entries of {list(METHODS)}; got {list(reps)}"
-            )
-        reps = keys
-        object.__setattr__(self, "representations", reps)
-        object.__setattr__(self, "warp", _warp_options(self.warp))
-        if isinstance(self.joints, str):
-            if self.joints not in ("all", "common", "map"):
-                raise OptionError(
-                    "joints", f"expected 'all', 'common', 'map' or a list of joint names; got {self.joints!r}"
-                )
-        else:
-            names = tuple(str(n) for n in self.joints)
-            if not names:
-                raise OptionError("joints", "expected at least one joint name; got none")
-            object.__setattr__(self, "joints", names)
+        object.__setattr__(self, "representations", representation_keys(self.representations))
+        object.__setattr__(self, "warp", as_warp_options(self.warp, default=None))
+        object.__setattr__(self, "joints", joint_selection(self.joints))
         if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, int) or self.tile_size < 1:
             raise OptionError("tile_size", f"expected an integer >= 1; got {self.tile_size!r}")
         if self.pose_weight != "balanced":

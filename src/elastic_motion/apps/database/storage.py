@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from elastic_motion._io import atomic_write_bytes
-from elastic_motion.apps.database.settings import REPRESENTATIONS
 from elastic_motion.apps.report import jsonable
+from elastic_motion.motion.representations import EULER, LIE
 
 if TYPE_CHECKING:
     from elastic_motion.apps.database.cache import SRVCache
@@ -39,7 +39,10 @@ MANIFEST = "manifest.json"
 REPORT = "report.json"
 NAMES = "names.csv"
 TILES = "tiles"
-TILE_RE = re.compile(r"^(lie|euler)_(\d+)_(\d+)\.npy$")
+#: The representations a run may write, whose keys name its files (``distances_<key>.npy``,
+#: tiles ``<key>_<I>_<J>.npy``).
+REPRESENTATIONS = (LIE, EULER)
+TILE_RE = re.compile(rf"^({'|'.join(r.key for r in REPRESENTATIONS)})_(\d+)_(\d+)\.npy$")
 
 
 def matrix_name(representation: str) -> str:
@@ -60,7 +63,7 @@ def parse_tile_key(key: str) -> tuple[str, int, int]:
 
 def our_names() -> set[str]:
     """Names of the files a run writes at the top of its folder."""
-    return {MANIFEST, REPORT, NAMES, CACHE, *[matrix_name(r) for r in REPRESENTATIONS]}
+    return {MANIFEST, REPORT, NAMES, CACHE, *[matrix_name(r.key) for r in REPRESENTATIONS]}
 
 
 def write_json(dest: Path, obj: Any) -> None:

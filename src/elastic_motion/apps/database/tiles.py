@@ -13,13 +13,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 
 from elastic_motion._threads import single_threaded_blas
 from elastic_motion.apps.database.settings import DEFAULT_WARP
 from elastic_motion.apps.progress import Progress
 from elastic_motion.errors import OptionError
-from elastic_motion.warp import WarpOptions
+from elastic_motion.warp import WarpOptions, coprime_steps, optimal_warp
+from elastic_motion.warp.solver import dp_energies
 
 __all__ = [
     "cluster_worth_it",
@@ -65,8 +67,6 @@ def pair_distance(
         return float(math.sqrt(np.einsum("ij,ij->", d, d) / q0.shape[0]))
     if _batched(warp):
         return float(pair_distances([q0], [q1], np.zeros((1, 2), dtype=np.int64), warp)[0])
-    from elastic_motion.warp import optimal_warp
-
     return float(optimal_warp(q0, q1, **warp.solver_kwargs()).distance)
 
 
@@ -120,8 +120,6 @@ def pair_distances(
         for p, (a, b) in enumerate(pairs):
             out[p] = pair_distance(q0[a], q1[b], warp)
         return out
-    from elastic_motion.warp.solver import dp_energies
-
     by_shape: dict[tuple, list[int]] = {}
     for p, (a, b) in enumerate(pairs):
         by_shape.setdefault((np.shape(q0[a]), np.shape(q1[b])), []).append(p)
@@ -150,14 +148,13 @@ def pair_distances(
 def compute_tile(
     rows: np.ndarray,
     cols: np.ndarray,
-    q_rows: Sequence[np.ndarray],
-    q_cols: Sequence[np.ndarray],
+    q: Sequence[np.ndarray],
     g_rows: np.ndarray,
     g_cols: np.ndarray,
     warp: WarpOptions,
-    numba_threads: int | None = None,
     *,
     cyclic: bool = False,
+    numba_threads: int | None = None,
 ) -> np.ndarray:
     """Distances of one tile: motions ``rows`` against motions ``cols``.
 
@@ -165,16 +162,17 @@ def compute_tile(
     ----------
     rows, cols : ndarray of int, shapes (a,), (b,)
         Global motion indices.
-    q_rows, q_cols : sequences of ndarray, shapes (n, D_k)
-        SRV arrays of those motions.
+    q : sequence of ndarray, shapes (n, D_k)
+        SRV arrays of the motions, indexed by the global indices (``q[rows[r]]``, ``q[cols[c]]``;
+        e.g. all the motions of the representation).
     g_rows, g_cols : ndarray of int, shapes (a,), (b,)
-        Skeleton group of each motion.
+        Skeleton group of each motion of ``rows`` and ``cols``.
     warp : WarpOptions
+    cyclic : bool, default False
+        Phase-free matching (:func:`pair_distances`).
     numba_threads : int, optional
         Threads of numba's parallel DP inside this call (1 on single-threaded Dask
         workers, so two workers do not oversubscribe two cores). Results do not depend on it.
-    cyclic : bool, default False
-        Phase-free matching (:func:`pair_distances`).
 
     Returns
     -------
@@ -184,13 +182,11 @@ def compute_tile(
         entry is computed by the tile holding the pair with the lower index first).
     """
     if numba_threads is not None:
-        import numba
-
         numba.set_num_threads(max(1, min(int(numba_threads), numba.config.NUMBA_NUM_THREADS)))
     # one memory layout everywhere (arrays received from a Dask scheduler are read-only and
     # unaligned): the same compiled kernel runs in every engine, and it is the fast one
-    q_rows = [np.require(q, np.float64, ["C", "A", "W"]) for q in q_rows]
-    q_cols = [np.require(q, np.float64, ["C", "A", "W"]) for q in q_cols]
+    q_rows = [np.require(q[i], np.float64, ["C", "A", "W"]) for i in rows]
+    q_cols = [np.require(q[j], np.float64, ["C", "A", "W"]) for j in cols]
     out = np.full((len(rows), len(cols)), np.nan)
     rows = np.asarray(rows)
     cols = np.asarray(cols)
@@ -238,9 +234,7 @@ def distance_matrix(
     out = np.zeros((m, m))
     for i in range(m):
         idx = np.arange(i, m)
-        row = compute_tile(
-            np.array([i]), idx, [q[i]], [q[j] for j in idx], g[[i]], g[idx], warp, cyclic=cyclic
-        )
+        row = compute_tile(np.array([i]), idx, q, g[[i]], g[idx], warp, cyclic=cyclic)
         out[i, i:] = row[0]
         out[i:, i] = row[0]
         if progress is not None:
@@ -285,8 +279,6 @@ def estimated_serial_seconds(n_pairs: int, n_samples: int, warp: WarpOptions = D
     (``dp+refine``) about 15 times that, the coarse-to-fine DP (one ``optimal_warp`` call per
     pair) about 2.3 times; the no-warp distance ``1e-6 * n / 64`` s.
     """
-    from elastic_motion.warp import coprime_steps
-
     if warp.method == "none":
         return n_pairs * 1e-6 * n_samples / 64
     steps = len(coprime_steps(int(warp.neighbourhood))) / len(coprime_steps(6))

@@ -1,0 +1,270 @@
+"""The Karcher mean of motion files, as a motion: :func:`mean_motion` (``elastic-motion mean``).
+
+The files are prepared as for a database
+(:func:`~elastic_motion.apps.database.preparation.prepare_same_skeleton`: ``n_samples + 1``
+frames each, one skeleton, one rest pose), turned into curves of one representation
+(:func:`~elastic_motion.apps.database.preparation.database_curves`: Lie curves with weights
+shared by all, or Euler curves), averaged in SRV space by
+:func:`elastic_motion.apps.statistics.karcher_mean` and converted back on the skeleton of the
+first file, lasting the inputs' mean duration, resampled (geodesic interpolation) to the output
+frame rate. :class:`MeanOptions` holds every knob; :mod:`elastic_motion.apps.pca` builds its
+model around the same mean.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from elastic_motion import motion as mm
+from elastic_motion._options import options_from_json, with_overrides
+from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
+from elastic_motion.apps.database.settings import DEFAULT_WARP, joint_selection
+from elastic_motion.apps.progress import Progress
+from elastic_motion.apps.report import jsonable
+from elastic_motion.apps.statistics import KarcherMeanResult, as_warp_options, karcher_mean
+from elastic_motion.errors import OptionError
+from elastic_motion.motion import Motion, representations
+from elastic_motion.warp import WarpOptions
+
+__all__ = ["MeanMotionResult", "MeanOptions", "mean_motion"]
+
+
+@dataclass(frozen=True)
+class MeanOptions:
+    """How the Karcher mean of motion files is taken (:func:`mean_motion`; the alignment of
+    :func:`elastic_motion.apps.pca.motion_pca`).
+
+    Attributes
+    ----------
+    n_samples : int, default 64
+        Cells of the common time grid: each motion is resampled to ``n_samples + 1`` frames
+        uniformly over its duration (normalised to 1).
+    method : {"lie", "euler-elastic"}, default "lie"
+        The curve representation (``"euler"`` is accepted for ``"euler-elastic"``; held as the
+        public name).
+    joints : "all", "common", "map" or tuple of str, default "all"
+        As :attr:`elastic_motion.apps.database.DatabaseSettings.joints`; ``"all"`` needs one
+        skeleton.
+    drop_fingers, align_heading : bool, default True
+        As in :class:`~elastic_motion.apps.database.DatabaseSettings`.
+    warp : WarpOptions, default :data:`~elastic_motion.apps.database.DEFAULT_WARP`
+        How each motion is aligned to the mean (DP, neighbourhood 10); a method name is
+        accepted for ``WarpOptions(method=name)``; ``"none"``: the plain SRV average.
+    max_iter : int, default 20
+        Alignment iterations at most (0: the plain average, unaligned).
+    tol : float, default 1e-4
+        Stop when the relative energy decrease falls below it (dimensionless).
+    fps : float, optional
+        Frames per second of the mean (default: the first file's, after preparation).
+
+    Raises
+    ------
+    OptionError
+        A value out of range, naming the field.
+    """
+
+    n_samples: int = 64
+    method: str = "lie"
+    joints: str | tuple[str, ...] = "all"
+    drop_fingers: bool = True
+    align_heading: bool = True
+    warp: WarpOptions = DEFAULT_WARP
+    max_iter: int = 20
+    tol: float = 1e-4
+    fps: float | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
+            raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
+        object.__setattr__(self, "method", representations.representation(self.method).name)
+        object.__setattr__(self, "joints", joint_selection(self.joints))
+        object.__setattr__(self, "warp", as_warp_options(self.warp, default=DEFAULT_WARP))
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 0:
+            raise OptionError("max_iter", f"expected an integer >= 0; got {self.max_iter!r}")
+        if isinstance(self.tol, bool) or not isinstance(self.tol, int | float) or not self.tol >= 0:
+            raise OptionError("tol", f"expected a number >= 0; got {self.tol!r}")
+        if self.fps is not None and not (
+            isinstance(self.fps, int | float)
+            and not isinstance(self.fps, bool)
+            and math.isfinite(self.fps)
+            and self.fps > 0
+        ):
+            raise OptionError("fps", f"expected a positive frame rate; got {self.fps!r}")
+
+    def replace(self, **changes: Any) -> MeanOptions:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_json(self) -> dict[str, Any]:
+        """The fields as a JSON-ready dict (the warp as :meth:`WarpOptions.to_json`, joints as a list)."""
+        return {
+            **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)},
+            "joints": self.joints if isinstance(self.joints, str) else list(self.joints),
+            "warp": self.warp.to_json(),
+        }
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> MeanOptions:
+        """Inverse of :meth:`to_json`; unknown keys are an error naming them."""
+        d = dict(data)
+        if isinstance(d.get("warp"), dict):
+            d["warp"] = WarpOptions.from_json(d["warp"])
+        if isinstance(d.get("joints"), list):
+            d["joints"] = tuple(d["joints"])
+        return options_from_json(cls, d, argument="mean options")
+
+
+@dataclass(frozen=True, eq=False)
+class MeanMotionResult:
+    """Karcher mean of motion files, as a motion (:func:`mean_motion`).
+
+    Attributes
+    ----------
+    motion : Motion
+        The mean, on the skeleton of the first file (after preparation: metres when the
+        unit is known, Y-up, no finger joints by default), lasting ``duration`` seconds at
+        the output frame rate.
+    karcher : KarcherMeanResult
+        The mean curve, its SRV function, the warps, energies and distances.
+    inputs : tuple of str
+        The files, in order (length ``K``).
+    representation : {"lie", "euler"}
+        The stored key of the curve representation.
+    n_samples : int
+        Cells of the common grid the mean was computed on (``n_samples + 1`` frames).
+    duration : float
+        Seconds: the mean of the inputs' durations.
+    notes : dict of str -> tuple of str
+        What the preparation did to each input file.
+    """
+
+    motion: Motion
+    karcher: KarcherMeanResult
+    inputs: tuple[str, ...]
+    representation: str
+    n_samples: int
+    duration: float
+    notes: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    @property
+    def energies(self) -> np.ndarray:
+        """``(iterations,)``: Karcher energy ``sum_k w_k d(mu_i, c_k)^2`` per iteration."""
+        return self.karcher.energies
+
+    @property
+    def converged(self) -> bool:
+        """The relative energy decrease fell below ``tol``."""
+        return self.karcher.converged
+
+    @property
+    def distances(self) -> np.ndarray:
+        """``(K,)``: elastic distance of each input to the mean (SRV norm units)."""
+        return self.karcher.distances
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready fields of a report, through :func:`~elastic_motion.apps.report.jsonable`."""
+        return jsonable(
+            {
+                "inputs": self.inputs,
+                "representation": self.representation,
+                "method": representations.representation(self.representation).name,
+                "n_samples": self.n_samples,
+                "energies": self.karcher.energies,
+                "iterations": self.karcher.iterations,
+                "converged": self.karcher.converged,
+                "distances": dict(zip(self.inputs, self.karcher.distances, strict=True)),
+                "duration": self.duration,
+                "fps": self.motion.fps,
+                "frames": self.motion.n_frames,
+                "notes": self.notes,
+            }
+        )
+
+
+def mean_motion(
+    files: Sequence[str | os.PathLike[str]],
+    options: MeanOptions | None = None,
+    *,
+    representation: str | None = None,
+    progress: Progress | None = None,
+    **overrides: Any,
+) -> MeanMotionResult:
+    """Karcher mean of motion files, as a motion (module docstring).
+
+    The Python face of ``elastic-motion mean``: the same options give the same numbers.
+
+    Parameters
+    ----------
+    files : sequence of paths
+        At least one motion file, of one skeleton (or ``joints="common"`` / ``"map"``).
+    options : MeanOptions, optional
+        Every knob; default ``MeanOptions()``.
+    representation : str, optional
+        The name of ``method`` in earlier releases (``"lie"`` / ``"euler"``); overrides it.
+    progress : callable, optional
+        ``progress("mean", iteration, max_iter)``.
+    **overrides
+        Fields of :class:`MeanOptions` (``n_samples=32``, ``method="euler-elastic"``, ``warp="none"``...).
+
+    Returns
+    -------
+    MeanMotionResult
+
+    Raises
+    ------
+    OptionError
+        No file, different skeletons (use ``joints="common"``), an unknown representation or
+        another bad option.
+    ParseError
+        A malformed file.
+    """
+    if representation is not None:
+        overrides = {
+            **overrides,
+            "method": representations.representation(representation, "representation").name,
+        }
+    opts = with_overrides(MeanOptions, options, overrides)
+    files = [os.fspath(f) for f in files]
+    if not files:
+        raise OptionError("files", "expected at least one motion file; got none")
+    prepared = prepare_same_skeleton(
+        files,
+        opts.n_samples,
+        joints=opts.joints,
+        drop_fingers=opts.drop_fingers,
+        align_heading=opts.align_heading,
+    )
+    rep = representations.representation(opts.method)
+    curves = database_curves(prepared, rep)
+    res = karcher_mean(
+        curves,
+        n_samples=opts.n_samples,
+        warp=opts.warp,
+        max_iter=opts.max_iter,
+        tol=opts.tol,
+        progress=progress,
+    )
+    duration = float(np.mean([p.duration for p in prepared]))
+    like = prepared[0].motion
+    motion = rep.from_curve(res.mean, like, fps=opts.n_samples / duration if duration > 0 else like.fps)
+    p0 = prepared[0]
+    out_fps = float(opts.fps) if opts.fps is not None else (p0.original_frames - 1) / p0.duration
+    if duration > 0 and out_fps > 0:
+        motion = mm.resample(motion, out_fps)
+    motion = motion.replace(name="karcher mean")
+    return MeanMotionResult(
+        motion=motion,
+        karcher=res,
+        inputs=tuple(files),
+        representation=rep.key,
+        n_samples=opts.n_samples,
+        duration=duration,
+        notes={p.path: p.notes for p in prepared},
+    )
