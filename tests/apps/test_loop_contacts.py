@@ -9,7 +9,7 @@ import pytest
 from test_loop_window import periodic
 
 from elastic_motion.apps.loop import LIFT_TIME, loop_motion
-from elastic_motion.apps.loop_contacts import ROW_BUDGET, contact_grid, grid_step, lift_correction
+from elastic_motion.apps.loop.contact_rows import ROW_BUDGET, contact_grid, grid_step, lift_correction
 from elastic_motion.groups import SO3
 from elastic_motion.motion import select_frames
 
@@ -162,7 +162,7 @@ def test_feet_stay_planted_between_the_grid_frames_of_a_whole_cartwheel_clip(moc
 
 
 def test_lifted_contacts_keep_the_floor_plane_and_drop_the_height_rows():
-    from elastic_motion.apps.loop_contacts import contact_rows
+    from elastic_motion.apps.loop.contact_rows import contact_rows
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -242,7 +242,7 @@ def test_the_lift_window_is_measured_in_the_clips_time_on_a_coarse_grid():
 
 
 def test_row_plants_are_the_rows_targets_and_released_contacts_are_dropped_whole():
-    from elastic_motion.apps.loop_contacts import fine_contacts, row_plants
+    from elastic_motion.apps.loop.contact_rows import fine_contacts, row_plants
     from elastic_motion.motion import forward_kinematics
     from elastic_motion.motion.contacts import Contacts
 
@@ -314,7 +314,7 @@ def test_the_floor_per_frame_is_in_metres_whatever_the_clips_unit():
 
 
 def test_floor_rows_pin_the_deepest_frame_of_each_dip_at_the_inputs_height():
-    from elastic_motion.apps.loop_contacts import _Row, floor_rows
+    from elastic_motion.apps.loop.contact_rows import _Row, floor_rows
 
     m = periodic(f=60)
     root = m.root_translation.copy()
@@ -403,7 +403,7 @@ def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():
     on the first: the heel's last contact gets no rows (rows on both fought over the rigid
     foot and stalled the solver); the toe's are relative to the last frame, its heights too
     (held absolutely they dropped a toe 2.1 cm in a CMU loop's last step)."""
-    from elastic_motion.apps.loop_contacts import contact_rows
+    from elastic_motion.apps.loop.contact_rows import contact_rows
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -442,7 +442,7 @@ def test_a_heel_planted_with_its_toes_seam_contact_moves_with_the_toe():
     the last frame) has begun: its floor-plane rows are relative to the toe's last-frame
     position (the toe's own offsets and the heel's from the toe are the input's, so the foot
     moves as one piece), its heights absolute; a heel contact before the toe's is absolute."""
-    from elastic_motion.apps.loop_contacts import contact_rows, row_plants
+    from elastic_motion.apps.loop.contact_rows import contact_rows, row_plants
     from elastic_motion.motion import forward_kinematics
     from elastic_motion.motion.contacts import Contacts
 

@@ -11,7 +11,7 @@ import pytest
 from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
-from elastic_motion.apps.loop_limits import LimitConstraints, StackedConstraints, joint_limit_report
+from elastic_motion.apps.loop.limits import LimitConstraints, StackedConstraints, joint_limit_report
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3

@@ -11,7 +11,7 @@ import pytest
 from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
-from elastic_motion.apps.loop_window import cycle_candidates, estimate_period, pose_dissimilarity
+from elastic_motion.apps.loop.window_candidates import cycle_candidates, estimate_period, pose_dissimilarity
 from elastic_motion.apps.metrics import seam_metrics
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
@@ -92,7 +92,7 @@ def test_yaw_rate_and_active_windows_formulas():
     """The turning rate about the up axis is +omega (rad/s) for a root turning at omega,
     also on the end frames; a window moves when its mean speed is at least 0.3 times the mean
     over the busier half of the frames."""
-    from elastic_motion.apps.loop_window import _active_windows, _yaw_rate
+    from elastic_motion.apps.loop.window_candidates import _active_windows, _yaw_rate
 
     fps, omega = 30.0, 0.8
     t = np.arange(20) / fps
@@ -229,7 +229,7 @@ def test_auto_window_of_cmu_cartwheels_changes_a_third_of_the_whole_clip(mocap_d
 
 
 def test_contact_rows_jacobian_matches_central_differences():
-    from elastic_motion.apps.loop_contacts import ContactConstraints, _Row
+    from elastic_motion.apps.loop.contact_rows import ContactConstraints, _Row
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -290,7 +290,7 @@ def test_contacts_kept_plant_the_deepmimic_run(mocap_dir):
 
 
 def test_contacts_that_give_way_are_reported():
-    from elastic_motion.apps.loop_contacts import ContactConstraints
+    from elastic_motion.apps.loop.contact_rows import ContactConstraints
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)

@@ -55,7 +55,7 @@ import numpy as np
 from elastic_motion import limits
 from elastic_motion._threads import single_threaded_blas
 from elastic_motion.apps.cleanup import cleanup_footskate, find_arms, find_legs
-from elastic_motion.apps.loop_contacts import (
+from elastic_motion.apps.loop.contact_rows import (
     ContactConstraints,
     contact_grid,
     fine_contacts,
@@ -64,8 +64,8 @@ from elastic_motion.apps.loop_contacts import (
     lift_correction,
     row_plants,
 )
-from elastic_motion.apps.loop_limits import LoopLimits, limits_report, solve_within_limits
-from elastic_motion.apps.loop_window import CycleWindow, cycle_candidates
+from elastic_motion.apps.loop.limits import LoopLimits, limits_report, solve_within_limits
+from elastic_motion.apps.loop.window_candidates import CycleWindow, cycle_candidates
 from elastic_motion.apps.metrics import ContactSkating, SeamMetrics, contact_skating, seam_metrics
 from elastic_motion.apps.prepare import (
     PreparedMotions,
@@ -129,7 +129,7 @@ CLOSING_SOLVERS = ("kkt", "gauss-newton", "gradient")
 #: them, or ignore them.
 LOOP_CONTACTS = ("keep", "report", "off")
 #: What the loop does with joint limits (ASF ``limits``): keep them (an active set of the
-#: projection, :mod:`elastic_motion.apps.loop_limits`), report them, or ignore them.
+#: projection, :mod:`elastic_motion.apps.loop.limits`), report them, or ignore them.
 LOOP_JOINT_LIMITS = ("keep", "report", "off")
 #: Seconds before the seam over which a contact planted on the last frame, of a joint in the
 #: air on the first, is kept in the floor plane only: the joint rises there to the first
@@ -466,7 +466,7 @@ def _plant_and_lift(
     Between the grid's frames the interpolated correction lets planted feet drift (by its
     curvature: cm on a clip changed by decimetres), and a polished solve misses them by up to
     :data:`POLISH_MISS`: leg and arm IK put them on the rows' targets
-    (:func:`~elastic_motion.apps.loop_contacts.row_plants`), eased in and out of the contacts
+    (:func:`~elastic_motion.apps.loop.contact_rows.row_plants`), eased in and out of the contacts
     like a blend's clean-up. On a grid the IK runs twice: its change smoothed over the grid's
     spacing, then exactly. The drift is zero on the grid's frames and up to a millimetre
     between them, which a straight stance leg can only take up by bending its knee by degrees
@@ -520,7 +520,7 @@ def _close_keeping_contacts(
     c1: bool = False,
 ) -> tuple[Motion | None, ClosingResult, ContactConstraints, dict]:
     """Close a prepared clip with its contacts kept (``contacts="keep"``, module
-    :mod:`elastic_motion.apps.loop_contacts`).
+    :mod:`elastic_motion.apps.loop.contact_rows`).
 
     The clip is closed on a grid of its frames (every frame while the rows fit in the
     budget, at most ``max_step`` seconds apart; 0: every frame), conflicting contacts are
@@ -660,7 +660,7 @@ def _close_clip(
     """Close one prepared clip (module docstring): the looped motion, the curve result and,
     with ``contacts="keep"``, what became of the contacts (rows, which gave way). With
     ``joint_limits`` (needs ``method="lie"``, ``solver="kkt"``) the limits are kept by the
-    active set of :mod:`elastic_motion.apps.loop_limits`; its :class:`LoopLimits` is returned
+    active set of :mod:`elastic_motion.apps.loop.limits`; its :class:`LoopLimits` is returned
     under ``"joint_limits"`` in the third value."""
     names = motion.skeleton.names
     j = motion.n_joints
@@ -963,7 +963,7 @@ def loop_motion(
     window : None, "auto" or (start, stop)
         Loop the whole clip (default), the best cycle (``"auto"``: the window
         ``[start, stop)`` of frames whose loop changes the motion least, see
-        :mod:`elastic_motion.apps.loop_window`; the whole clip is closed too, for the report) or
+        :mod:`elastic_motion.apps.loop.window_candidates`; the whole clip is closed too, for the report) or
         the given frames.
     min_length : float, optional
         Shortest window for ``"auto"``, seconds (default: 90 % of the clip's period, or
@@ -973,7 +973,7 @@ def loop_motion(
     contacts : {"keep", "report", "off"}, optional
         Default ``"keep"`` with ``method="lie"`` and ``solver="kkt"``, else ``"report"``.
         ``"keep"``: the input's contacts are constraints of the same projection
-        (:mod:`elastic_motion.apps.loop_contacts`: a planted joint stays where the input had
+        (:mod:`elastic_motion.apps.loop.contact_rows`: a planted joint stays where the input had
         it, a contact across the seam moves as one piece, every frame of a 30 fps grid
         constrained; needs ``method="lie"`` and ``solver="kkt"``); with no contact found the
         plain projection. A contact planted on the last frame by a joint in the air on the
@@ -1002,15 +1002,15 @@ def loop_motion(
         its ``follow_floor`` (a loop is periodic: :func:`_level`).
     contact_step : float, default 1/30
         With ``contacts="keep"``: a clip whose contacts need more rows than
-        :data:`elastic_motion.apps.loop_contacts.ROW_BUDGET` is closed on a grid of its
+        :data:`elastic_motion.apps.loop.contact_rows.ROW_BUDGET` is closed on a grid of its
         frames at most this many seconds apart, every grid frame of a contact constrained,
         and the correction interpolated to the other frames
-        (:func:`~elastic_motion.apps.loop_contacts.grid_step`); 0: every frame always.
+        (:func:`~elastic_motion.apps.loop.contact_rows.grid_step`); 0: every frame always.
     joint_limits : {"report", "keep", "off"} or JointLimits, default "report"
         Limits of the joints' DOF angles: those of the ASF file the clip was read from
         (:func:`elastic_motion.motion.asfamc.read_joint_limits`; nothing happens when there
         are none), or the given ones (kept). ``"keep"``: the loop stays within every limit
-        the input respects (:mod:`elastic_motion.apps.loop_limits`; needs ``method="lie"``
+        the input respects (:mod:`elastic_motion.apps.loop.limits`; needs ``method="lie"``
         and ``solver="kkt"``, otherwise reported only); ``"report"``: only measured.
         Either way the report lists the joints at a limit and every limit the input itself
         violates (reported, never enforced, never an error). ``"keep"`` is not the default
