@@ -147,7 +147,12 @@ def real_rows() -> list[dict]:
             for c1 in (False, True):
                 t0 = time.perf_counter()
                 try:
-                    res = loop_motion(motion, method=rep, c1=c1, prepare=PrepareOptions(drop_tpose=False))
+                    res = loop_motion(
+                        motion,
+                        method=rep,
+                        seam="c1" if c1 else "c0",
+                        prepare=PrepareOptions(drop_tpose=False),
+                    )
                 except ValueError as exc:
                     rows.append({**base, "variant": f"{rep}{' C1' if c1 else ''}", "error": str(exc)})
                     continue

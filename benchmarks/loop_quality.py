@@ -11,7 +11,7 @@ measured by forward kinematics against the prepared input's frames of the same w
   against input, over all frames (:func:`~elastic_motion.apps.metrics.seam_metrics`).
 * ``seam`` (rad, m): the largest joint angle across the seam (closed joints, root relative
   to heading) and the largest FK position jump.
-* ``C1``, ``hitch``: the seam the default ``c1="auto"`` took (C0, or C1 where the C0 seam had
+* ``C1``, ``hitch``: the seam the default ``seam="auto"`` took (C0, or C1 where the C0 seam had
   a hitch and C1 was better), and the seam's velocity jump over the input's own quick
   changes of velocity (the largest ratio over the FK points;
   :attr:`~elastic_motion.apps.metrics.SeamMetrics.seam_velocity_jump_ratio`): about 1 or less is
@@ -79,9 +79,9 @@ def mocap_dir() -> Path:
     return Path(env) if env else Path(__file__).resolve().parents[2] / "shared" / "mocap"
 
 
-def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report", c1="auto") -> dict:
+def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report", seam: str = "auto") -> dict:
     t0 = time.perf_counter()
-    res = loop_motion(path, window=window, contacts=contacts, c1=c1)
+    res = loop_motion(path, window=window, contacts=contacts, seam=seam)
     total = time.perf_counter() - t0
     out = em.write(res, tmp / f"{path.stem}.{window or 'whole'}.{contacts}.bvh")
     back = read_motion(out)
@@ -117,7 +117,7 @@ def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report",
         "total_s": total,
         "kkt_residual": res.closing.kkt_residual,
         "converged": res.closing.converged,
-        "contacts_kept": res.contacts_kept,
+        "contacts_kept": None if res.contacts_kept is None else res.contacts_kept.summary(),
     }
 
 
@@ -151,8 +151,8 @@ def main() -> None:
             for window, contacts in modes:
                 try:
                     # the speed row times the closing itself (C0, the paper's), not the seam choice
-                    c1 = False if window == SPEED_ROW[1] else "auto"
-                    r = measure(path, window, tmp, contacts, c1)
+                    seam = "c0" if window == SPEED_ROW[1] else "auto"
+                    r = measure(path, window, tmp, contacts, seam)
                 except Exception as exc:  # a row that fails is reported, not fatal
                     r = {"error": f"{type(exc).__name__}: {exc}"}
                 label = f"frames {window[0]}:{window[1]}" if isinstance(window, tuple) else window or "whole"

@@ -40,7 +40,7 @@ from elastic_motion.apps.database import (  # motion databases (issue 15)
 from elastic_motion.apps.distance import DistanceTable, distance_table
 from elastic_motion.apps.landmark_files import LandmarkFile, read_landmark_file
 from elastic_motion.apps.loop import LoopResult, loop_motion, repeat_loop
-from elastic_motion.apps.loop_limits import joint_limit_report
+from elastic_motion.apps.loop.limits import joint_limit_report
 from elastic_motion.apps.metrics import BlendMetrics, SeamMetrics, blend_metrics, seam_metrics
 from elastic_motion.apps.pca import MotionPCA, motion_pca
 from elastic_motion.apps.prepare import (

@@ -7,13 +7,10 @@ import numpy as np
 import pytest
 from loop_testlib import chain_skeleton
 
-from elastic_motion.apps.loop import (
-    cycle_transform,
-    loop_motion,
-    repeat_motion,
-    seam_metrics,
-)
-from elastic_motion.apps.metrics import foot_joints
+from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.loop import notes as loop_notes
+from elastic_motion.apps.loop.seam_choice import SEAM_C0_KEPT, SEAM_C1_TAKEN
+from elastic_motion.apps.metrics import foot_joints, seam_metrics
 from elastic_motion.closing import close_curve
 from elastic_motion.curves import curve_distance
 from elastic_motion.errors import OptionError
@@ -28,6 +25,8 @@ from elastic_motion.motion import (
     select_frames,
     to_lie_curve,
 )
+from elastic_motion.motion.looping import cycle_transform, repeat_motion
+from elastic_motion.notes import of_kind
 
 SO3G = SO3()
 
@@ -195,8 +194,9 @@ def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
     planted feet move."""
     m = load(mocap_dir, "dm_run")
     res = loop_motion(m, root="inplace")
-    assert res.contacts_kept is not None and res.contacts_kept["treadmill"]["travel_m"] > 2.5
-    assert any(n.startswith("contacts kept on a treadmill") for n in res.notes)
+    assert res.contacts_kept is not None and res.contacts_kept.treadmill["travel_m"] > 2.5
+    (note,) = of_kind(res.notes, loop_notes.TREADMILL)
+    assert str(note).startswith("contacts kept on a treadmill") and note.data["travel_m"] > 2.5
     out = res.motion
 
     def root_speed(x):
@@ -212,7 +212,8 @@ def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
     assert res.summary()["skating_on_treadmill"]["skating_mean_m_s"] == pytest.approx(belt.mean_speed)
     # travel keeps the planted feet where they are: no treadmill there
     travel = loop_motion(m, root="travel")
-    assert "treadmill" not in (travel.contacts_kept or {}) and travel.skating_on_treadmill is None
+    assert travel.contacts_kept.treadmill is None and travel.skating_on_treadmill is None
+    assert "treadmill" not in travel.summary()["contacts_kept"]
 
 
 @pytest.mark.mocap
@@ -220,20 +221,24 @@ def test_dropped_contacts_close_the_clip_itself_not_its_treadmill(mocap_dir, mon
     """When the kept contacts cannot be solved (dropped), the in-place loop is the clip closed
     without them, as with ``contacts="report"``: not the treadmilled clip, whose travel would
     be gone without a note."""
-    import elastic_motion.apps.loop as loop_mod
+    import dataclasses
+
+    import elastic_motion.apps.loop.close as close_mod
 
     m = load(mocap_dir, "dm_run")
-    keep = loop_mod._close_keeping_contacts
+    keep = close_mod.close_keeping_contacts
 
     def dropped(*args, **kwargs):
-        _, res, extra, kept = keep(*args, **kwargs)
-        return None, res, extra, {**kept, "dropped": "contacts dropped (forced); closed without them"}
+        closing = keep(*args, **kwargs)
+        kept = closing.kept.replace(dropped="contacts dropped (forced); closed without them")
+        return dataclasses.replace(closing, motion=None, kept=kept)
 
-    monkeypatch.setattr(loop_mod, "_close_keeping_contacts", dropped)
+    monkeypatch.setattr(close_mod, "close_keeping_contacts", dropped)
     out = loop_motion(m, root="inplace")
     plain = loop_motion(m, root="inplace", contacts="report")
     np.testing.assert_allclose(out.motion.root_translation, plain.motion.root_translation, atol=1e-9)
-    assert not any("treadmill" in n for n in out.notes)
+    assert not any("treadmill" in str(n) for n in out.notes) and not of_kind(out.notes, loop_notes.TREADMILL)
+    assert of_kind(out.notes, loop_notes.DROPPED)
 
 
 @pytest.mark.mocap
@@ -242,14 +247,19 @@ def test_auto_seam_keeps_c0_when_c1_is_worse(mocap_dir):
     (3.8x at an elbow), but closed C1 the loop whips a wrist at 52 m/s on its last step. The
     default keeps the C0 loop and says why, without suggesting C1."""
     res = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174))
-    assert not res.c1
-    note = [n for n in res.notes if n.startswith("a hitch at the seam")]
-    assert len(note) == 1 and "closed C1 too (c1='auto') and not taken" in note[0]
-    assert "it whips a limb" in note[0] and "--seam c1" not in note[0]
-    plain = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174), c1=False)
+    assert not res.c1 and res.seam == "c0"
+    assert not of_kind(res.notes, loop_notes.HITCH)
+    (note,) = of_kind(res.notes, SEAM_C0_KEPT)
+    text = str(note)
+    assert text.startswith("a hitch at the seam") and "closed C1 too (c1='auto') and not taken" in text
+    assert "it whips a limb" in text and "--seam c1" not in text
+    assert note.data["ratio"] > 1.5 and any(w.startswith("it whips a limb") for w in note.data["c1_refused"])
+    plain = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174), seam="c0")
     np.testing.assert_allclose(res.motion.rotations, plain.motion.rotations, atol=1e-12)
-    with pytest.raises(OptionError, match="c1"):
-        loop_motion(plain.motion, c1="yes")
+    with pytest.raises(OptionError, match="seam"):
+        loop_motion(plain.motion, seam="yes")
+    with pytest.raises(OptionError, match=r"^c1: unknown option \['c1'\] of LoopOptions"):
+        loop_motion(plain.motion, c1=True)
 
 
 @pytest.mark.mocap
@@ -257,8 +267,8 @@ def test_auto_seam_keeps_c0_when_c1_is_worse(mocap_dir):
 @pytest.mark.parametrize("root", ["travel", "inplace"])
 def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     m = load(mocap_dir, key)
-    c0 = loop_motion(m, root=root, c1=False)
-    c1 = loop_motion(m, root=root, c1=True)
+    c0 = loop_motion(m, root=root, seam="c0")
+    c1 = loop_motion(m, root=root, seam="c1")
     assert c1.closing.converged
     s0 = seam_metrics(c0.motion, original=m, root=root, joints=c0.closed_joints)
     s1 = seam_metrics(c1.motion, original=m, root=root, joints=c1.closed_joints)
@@ -268,19 +278,22 @@ def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     # what an animator sees: the cartwheel's C0 seam jerks the wrist 2.7-3x harder than any
     # quick move inside the clip, and a note says so; C1 is within the clip's own (the run's
     # C0 seam is too: no note)
-    hitch = [n for n in c0.notes if n.startswith("a hitch at the seam")]
-    assert s1.seam_velocity_jump_ratio < 1.0 and not any(n.startswith("a hitch") for n in c1.notes)
-    auto = loop_motion(m, root=root)  # the default, c1="auto"
+    hitch = [str(n) for n in of_kind(c0.notes, loop_notes.HITCH)]
+    assert all(h.startswith("a hitch at the seam") for h in hitch)
+    assert s1.seam_velocity_jump_ratio < 1.0 and not of_kind(c1.notes, loop_notes.HITCH)
+    auto = loop_motion(m, root=root)  # the default, seam="auto"
     if key == "dm_cartwheel":
         assert s0.seam_velocity_jump_ratio > 2.5 and s0.seam_velocity_jump_point == "right_wrist"
         assert len(hitch) == 1 and "right_wrist" in hitch[0] and "--seam c1" in hitch[0]
         # the default closes C1 too and takes it: smoother, no more change or skating
-        assert auto.c1 and any(n.startswith("seam C1 (c1='auto')") for n in auto.notes)
+        (taken,) = of_kind(auto.notes, SEAM_C1_TAKEN)
+        assert auto.c1 and str(taken).startswith("seam C1 (c1='auto')")
         np.testing.assert_allclose(auto.motion.rotations, c1.motion.rotations, atol=1e-12)
     else:
         assert s0.seam_velocity_jump_ratio < 1.0 and not hitch
         # no hitch: the default is the C0 loop, untouched
-        assert not auto.c1 and not any("c1='auto'" in n for n in auto.notes)
+        assert not auto.c1 and not of_kind(auto.notes, SEAM_C1_TAKEN, SEAM_C0_KEPT)
+        assert not any("c1='auto'" in str(n) for n in auto.notes)
         np.testing.assert_allclose(auto.motion.rotations, c0.motion.rotations, atol=1e-12)
     if root == "inplace":
         # everything closed, so the FK velocities match too, up to second order in the step:
@@ -429,7 +442,7 @@ def test_the_closing_reports_its_iterations(tmp_path, monkeypatch):
     """``progress("closing", k, 0)`` after each KKT iteration, from the API and the command
     line (whose bar is the callback)."""
     calls = []
-    res = loop_motion(synthetic(), progress=lambda *a: calls.append(a), contacts="off", c1=False)
+    res = loop_motion(synthetic(), progress=lambda *a: calls.append(a), contacts="off", seam="c0")
     assert res.closing.iterations >= 1
     assert calls == [("closing", k, 0) for k in range(1, res.closing.iterations + 1)]
 
@@ -460,9 +473,153 @@ def test_a_whole_clip_that_whips_a_limb_says_where_and_what_to_do(mocap_dir):
     toe, lifting off in the last frames, whips at 9.3 m/s (the input's fastest point 3.8):
     a note names it and the auto window; the auto window's loop has no such note."""
     path = mocap_dir / "bandai" / "dataset-1_walk_tired_001.bvh"
-    whole = loop_motion(path, c1=False)
-    (note,) = [n for n in whole.notes if n.startswith("fast point:")]
-    assert note.startswith("fast point: Toes_R moves 9.31 m/s at frames 245-246 of the loop, 2.5x")
-    assert "--window auto" in note and "ends 61 deg and 0.56 m from the pose it starts in" in note
-    auto = loop_motion(path, window="auto", c1=False)
-    assert not [n for n in auto.notes if n.startswith("fast point:")]
+    whole = loop_motion(path, seam="c0")
+    (note,) = of_kind(whole.notes, loop_notes.WHIP)
+    assert note.data["point"] == "Toes_R" and note.data["speed_m_s"] == pytest.approx(9.31, abs=0.005)
+    text = str(note)
+    assert text.startswith("fast point: Toes_R moves 9.31 m/s at frames 245-246 of the loop, 2.5x")
+    assert "--window auto" in text and "ends 61 deg and 0.56 m from the pose it starts in" in text
+    auto = loop_motion(path, window="auto", seam="c0")
+    assert not of_kind(auto.notes, loop_notes.WHIP)
+
+
+# ----------------------------------------------------------------- options, records, notes
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("root", "floating", r"^root: expected 'travel' or 'inplace'"),
+        ("seam", True, r"^seam: expected one of \['auto', 'c0', 'c1'\]"),
+        ("method", "quaternion", r"^method: expected one of \['lie', 'euler-elastic'\]"),
+        ("solver", "newton", r"^solver: expected one of \['kkt', 'gauss-newton', 'gradient'\]"),
+        ("tol", -1.0, r"^tol: expected a non-negative number"),
+        ("max_iter", 2.5, r"^max_iter: expected a non-negative integer"),
+        ("candidates", 0, r"^candidates: expected a positive integer"),
+        ("contacts", "plant", r"^contacts: expected one of \['keep', 'report', 'off'\]"),
+        ("contact_step", float("nan"), r"^contact_step: expected a non-negative number of seconds"),
+        ("joint_limits", "sometimes", r"^joint_limits: expected one of \['keep', 'report', 'off'\] or a"),
+        ("limit_tol", -0.5, r"^limit_tol: expected a non-negative number of degrees"),
+        ("window", "best", r"^window: expected 'auto', None or \(start, stop\) frames; got 'best'"),
+        ("free_joints", "toes", r"^free_joints: expected 'fingers', None or a list of joint names"),
+        ("translation_weight", 0.0, r"^translation_weight: expected a positive number or None"),
+        ("min_length", 0.5, r"^min_length: expected only with window='auto'.*the whole clip"),
+        ("prepare", {"drop_tpose": False}, r"^prepare: expected PrepareOptions or None; got dict"),
+    ],
+)
+def test_loop_options_name_the_bad_option(field, value, match):
+    from elastic_motion.apps.loop import LoopOptions
+
+    with pytest.raises(OptionError, match=match):
+        LoopOptions(**{field: value})
+    with pytest.raises(OptionError, match=match):  # the same check through an override
+        loop_motion(synthetic(), **{field: value})
+
+
+def test_loop_options_normalise_and_cross_check():
+    from elastic_motion.apps.loop import LoopOptions
+
+    o = LoopOptions(method="euler", window="whole", free_joints=["foot"], joint_weights=np.ones(4))
+    assert o.method == "euler-elastic" and o.window is None and o.free_joints == ("foot",)
+    assert o.joint_weights == (1.0, 1.0, 1.0, 1.0) and o.contact_mode == "report"
+    assert LoopOptions().contact_mode == "keep" and LoopOptions(contacts="none").contacts == "off"
+    assert LoopOptions(window=[2, 30]).window == (2, 30)
+    with pytest.raises(OptionError, match=r"^contacts: 'keep' needs method='lie' and solver='kkt'"):
+        LoopOptions(contacts="keep", solver="gradient")
+    # the default contacts follow the solver (an override of the solver alone is fine)
+    assert LoopOptions().replace(solver="gradient").contact_mode == "report"
+
+
+def test_overrides_are_the_options_object():
+    """``loop_motion(m, **fields)`` is ``loop_motion(m, LoopOptions(**fields))``: the same loop,
+    the same report; overrides change an options object given too; unknown keywords (the old
+    ``c1=``) are refused, naming them."""
+    from elastic_motion.apps.loop import LoopOptions
+
+    m = synthetic()
+    fields = dict(root="inplace", seam="c1", contacts="off", tol=1e-8)
+    a = loop_motion(m, **fields)
+    b = loop_motion(m, LoopOptions(**fields))
+    c = loop_motion(m, LoopOptions(root="inplace", seam="c0"), seam="c1", contacts="off", tol=1e-8)
+    for other in (b, c):
+        np.testing.assert_array_equal(other.motion.rotations, a.motion.rotations)
+        np.testing.assert_array_equal(other.motion.root_translation, a.motion.root_translation)
+        sa, so = a.summary(), other.summary()
+        sa["closing"].pop("time_s"), so["closing"].pop("time_s")
+        assert so == sa
+    assert a.c1 and a.seam == "c1" and a.summary()["c1"] is True and a.root == "inplace"
+    with pytest.raises(OptionError, match=r"^rot: unknown option \['rot'\] of LoopOptions"):
+        loop_motion(m, rot="inplace")
+    with pytest.raises(OptionError, match=r"^options: expected a LoopOptions; got dict"):
+        loop_motion(m, {"root": "inplace"})
+
+
+def test_kept_contacts_summary_is_the_report_dict_and_round_trips():
+    """``KeptContacts.summary()`` is the report's ``contacts_kept``: the same keys in the same
+    order, the optional ones only when set; ``from_summary`` gives the record back."""
+    from elastic_motion.apps.loop import KeptContacts
+
+    gave = {"joint": "LeftFoot", "frames": [3, 9], "largest_miss_m": 0.002}
+    kept = KeptContacts(
+        rows=12, grid_frames=40, grid_fps=30.0, converged=True, polished=None,
+        released=({**gave, "why": "missed most when the projection with it failed"},),
+        lifted_early=({"joint": "RightToe", "frames": [35, 40]},),
+        floor_pins=({"joint": "Head", "frame": 7},),
+        gave_way=(gave,), planted_by_ik={"skating_before_m_s": 0.1, "skating_after_m_s": 0.05,
+                                         "max_position_change_m": 0.01},
+        lifted_max_m=0.0, treadmill={"travel_m": 2.9, "turn_deg": 1.0},
+    )  # fmt: skip
+    s = kept.summary()
+    assert list(s) == [
+        "rows", "grid_frames", "grid_fps", "converged", "polished", "released", "lifted_early",
+        "floor_pins", "gave_way", "planted_by_ik", "lifted_max_m", "treadmill",
+    ]  # fmt: skip
+    assert s["gave_way"] == [gave] and s["polished"] is None
+    assert KeptContacts.from_summary(s) == kept
+    dropped = KeptContacts(rows=3, grid_frames=10, grid_fps=30.0, converged=False, dropped="contacts dropped")
+    d = dropped.summary()
+    assert list(d)[-1] == "dropped" and "lifted_max_m" not in d and "treadmill" not in d
+    assert KeptContacts.from_summary(d) == dropped
+
+
+def test_the_seam_stage_reads_the_notes_kinds_not_their_words():
+    """``choose_seam``: the C1 loop is refused when it whips a limb the C0 loop did not, by
+    the notes' kind ``loop.whip`` whatever their text; the C0 loop kept loses its hitch note
+    (kind ``loop.hitch``) for the note that says why, other notes kept whatever their words."""
+    import dataclasses
+
+    from elastic_motion.apps.loop.seam_choice import choose_seam
+    from elastic_motion.notes import Note
+
+    c0 = loop_motion(synthetic(), seam="c0", contacts="off")
+    assert c0.seam_after.seam_velocity_jump_ratio > 0
+    smoother = dataclasses.replace(
+        c0.seam_after, seam_velocity_jump_ratio=c0.seam_after.seam_velocity_jump_ratio / 2
+    )
+    hitch = Note(loop_notes.HITCH, "the hitch, in any words")
+    lookalike = Note("loop.other", "a hitch at the seam (not a hitch note) fast point")
+    c0 = dataclasses.replace(c0, notes=(*c0.notes, hitch, lookalike))
+    c1 = dataclasses.replace(c0, seam="c1", seam_after=smoother, notes=(lookalike,))
+    taken = choose_seam(c0, c1)
+    assert taken.c1 and of_kind(taken.notes, SEAM_C1_TAKEN)  # a text starting "fast point" is no whip
+    whip = Note(loop_notes.WHIP, "a wrist at 52 m/s", {"point": "wrist"})
+    kept = choose_seam(c0, dataclasses.replace(c1, notes=(whip,)))
+    assert not kept.c1
+    (why,) = of_kind(kept.notes, SEAM_C0_KEPT)
+    assert "it whips a limb (a wrist at 52 m/s)" in str(why)
+    assert hitch not in kept.notes and lookalike in kept.notes
+    # both whip: not a reason to refuse C1
+    both = choose_seam(
+        dataclasses.replace(c0, notes=(*c0.notes, whip)), dataclasses.replace(c1, notes=(whip,))
+    )
+    assert both.c1
+
+
+def test_notes_are_notes_with_kinds_and_the_report_lists_their_texts():
+    from elastic_motion.notes import Note
+
+    m = synthetic().replace(metres_per_unit=0.01)  # prepared: "lengths from cm to metres"
+    res = loop_motion(m, seam="c0")
+    assert res.notes and all(isinstance(n, Note) for n in res.notes)
+    assert of_kind(res.notes, loop_notes.PREPARE)
+    assert res.summary()["notes"] == [str(n) for n in res.notes]

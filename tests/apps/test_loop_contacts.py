@@ -1,6 +1,7 @@
-"""Tests of the contacts kept by the loop (apps.loop_contacts): the grid a high-rate clip is
-closed on, the lift of the grid's correction to every frame, the release of contacts that
-conflict with closure, and the real 120 fps clips where rows every few frames skated."""
+"""Tests of the contacts kept by the loop (apps.loop.kept_contacts, contact_rows, contact_grid):
+the grid a high-rate clip is closed on, the lift of the grid's correction to every frame, the
+release of contacts that conflict with closure, and the real 120 fps clips where rows every
+few frames skated."""
 
 from __future__ import annotations
 
@@ -8,10 +9,13 @@ import numpy as np
 import pytest
 from test_loop_window import periodic
 
-from elastic_motion.apps.loop import LIFT_TIME, loop_motion
-from elastic_motion.apps.loop_contacts import ROW_BUDGET, contact_grid, grid_step, lift_correction
+from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.loop import notes as loop_notes
+from elastic_motion.apps.loop.contact_grid import ROW_BUDGET, contact_grid, grid_step, lift_correction
+from elastic_motion.apps.loop.kept_contacts import LIFT_TIME, GridClip, solve_with_contacts
 from elastic_motion.groups import SO3
 from elastic_motion.motion import select_frames
+from elastic_motion.notes import of_kind
 
 SO3G = SO3()
 
@@ -78,13 +82,13 @@ def test_kept_contacts_of_a_120fps_clip_do_not_skate(mocap_dir):
     """CMU 07_01 (120 fps): closed on a 30 fps grid with every grid frame of a contact kept,
     the loop skates about as the input (rows every 4th frame of the clip itself skated)."""
     path = mocap_dir / "cmu/bvh/07_01.bvh"
-    plain = loop_motion(path, contacts="report", c1=False)
-    kept = loop_motion(path, contacts="keep", c1=False)
+    plain = loop_motion(path, contacts="report", seam="c0")
+    kept = loop_motion(path, contacts="keep", seam="c0")
     info = kept.contacts_kept
     # 1368 rows on every frame: above the budget, so a 60 fps grid (every 2nd frame)
-    assert kept.closing.converged and info["grid_fps"] == pytest.approx(60.0, rel=0.01)
-    assert info["rows"] <= ROW_BUDGET
-    assert info["released"] == [] and info["gave_way"] == []
+    assert kept.closing.converged and info.grid_fps == pytest.approx(60.0, rel=0.01)
+    assert info.rows <= ROW_BUDGET
+    assert info.released == () and info.gave_way == ()
     assert kept.seam_after.seam_angle_max_deg < 1e-3
     before = kept.skating_before.mean_speed
     assert plain.skating_after.mean_speed > 2.0 * before
@@ -109,9 +113,9 @@ def test_a_c1_loop_keeps_its_contacts_on_a_coarse_grid(mocap_dir):
     """CMU 07_01 (120 fps), C1: closed on the contacts' grid like C0 (on every frame a long
     clip needs too many rows: CMU 01_01 18915, refused), the grid's first and last steps are
     the clip's own, so the clip's seam velocities match exactly."""
-    res = loop_motion(mocap_dir / "cmu/bvh/07_01.bvh", c1=True)
+    res = loop_motion(mocap_dir / "cmu/bvh/07_01.bvh", seam="c1")
     info = res.contacts_kept
-    assert res.closing.converged and info["grid_frames"] < res.motion.n_frames // 1.5
+    assert res.closing.converged and info.grid_frames < res.motion.n_frames // 1.5
     assert res.seam_after.seam_angle_max_deg < 1e-3
     # C0 leaves a velocity jump of hundreds of deg/s at the seam
     assert res.seam_before.seam_angular_velocity_max_deg_s > 100.0
@@ -129,12 +133,14 @@ def test_a_contact_planted_at_the_end_but_not_the_start_lifts_early_without_slid
     plain = loop_motion(path, contacts="report")
     kept = loop_motion(path, contacts="keep")
     info = kept.contacts_kept
-    assert kept.closing.converged and "dropped" not in info and info["released"] == []
+    assert kept.closing.converged and info.dropped is None and info.released == ()
     n = kept.motion.n_frames
-    lifted = {g["joint"]: g["frames"] for g in info["lifted_early"]}
+    lifted = {g["joint"]: g["frames"] for g in info.lifted_early}
     assert set(lifted) == {"RightFoot", "RightToeBase"}
     assert all(b == n and n - a <= round(LIFT_TIME * 120) for a, b in lifted.values())
-    assert any("lifted early" in note and "RightFoot" in note for note in kept.notes)
+    lifted_notes = of_kind(kept.notes, loop_notes.LIFTED_EARLY)
+    assert {n.data["joint"] for n in lifted_notes} == {"RightFoot", "RightToeBase"}
+    assert any("lifted early" in str(note) and "RightFoot" in str(note) for note in lifted_notes)
     assert kept.seam_after.seam_angle_max_deg < 1e-3
     sk_in, sk_out = kept.skating_before.per_joint, kept.skating_after.per_joint
     for joint in ("LeftFoot", "RightFoot", "RightToeBase"):
@@ -150,8 +156,8 @@ def test_feet_stay_planted_between_the_grid_frames_of_a_whole_cartwheel_clip(moc
     input's); leg IK plants them on every frame, the seam untouched."""
     res = loop_motion(mocap_dir / "cmu/bvh/49_08.bvh", contacts="keep")
     info = res.contacts_kept
-    assert info["grid_fps"] == pytest.approx(30.0, rel=0.02) and info["released"] == []
-    ik = info["planted_by_ik"]
+    assert info.grid_fps == pytest.approx(30.0, rel=0.02) and info.released == ()
+    ik = info.planted_by_ik
     assert ik["skating_after_m_s"] < 0.9 * ik["skating_before_m_s"]
     assert res.skating_after.mean_speed <= 1.1 * res.skating_before.mean_speed
     # the feet by leg IK, the hands of the cartwheels by arm IK
@@ -162,7 +168,7 @@ def test_feet_stay_planted_between_the_grid_frames_of_a_whole_cartwheel_clip(moc
 
 
 def test_lifted_contacts_keep_the_floor_plane_and_drop_the_height_rows():
-    from elastic_motion.apps.loop_contacts import contact_rows
+    from elastic_motion.apps.loop.contact_rows import contact_rows
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -180,12 +186,11 @@ def test_lifted_contacts_keep_the_floor_plane_and_drop_the_height_rows():
 
 
 def test_contacts_are_lifted_first_and_the_worst_missed_released_after_a_failed_solve():
-    """The release policy of apps.loop._solve_with_contacts, with a stand-in solver: the
+    """The release policy of apps.loop.kept_contacts.solve_with_contacts, with a stand-in solver: the
     contact at the seam is lifted from the start; a failed solve releases the contact it
     missed most (and only that); the next solve converges."""
     from types import SimpleNamespace
 
-    from elastic_motion.apps.loop import LIFT_TIME, _solve_with_contacts
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -205,7 +210,8 @@ def test_contacts_are_lifted_first_and_the_worst_missed_released_after_a_failed_
             return SimpleNamespace(converged=False, curve=SimpleNamespace(values=vals))
         return SimpleNamespace(converged=True, curve=SimpleNamespace(values=flat))
 
-    res, extra, released, lifting = _solve_with_contacts(None, m, c, max_release=8, solve=solve)
+    solved = solve_with_contacts(GridClip(m, None, np.arange(50)), c, solve, max_release=8)
+    res, extra, released, lifting = solved.result, solved.constraints, solved.released, list(solved.lifting)
     assert res.converged and len(calls) == 2
     lift_n = round(LIFT_TIME * m.fps)
     assert lifting == [{"joint": "foot", "frames": [50 - lift_n, 50]}]
@@ -220,8 +226,6 @@ def test_the_lift_window_is_measured_in_the_clips_time_on_a_coarse_grid():
     is lifted, not LIFT_TIME worth of grid frames (4 times longer on every 4th frame)."""
     from types import SimpleNamespace
 
-    from elastic_motion.apps.loop import LIFT_TIME, _solve_with_contacts
-    from elastic_motion.motion import select_frames
     from elastic_motion.motion.contacts import Contacts
 
     fine = periodic(f=121, fps=120.0)
@@ -235,14 +239,15 @@ def test_the_lift_window_is_measured_in_the_clips_time_on_a_coarse_grid():
     def solve(lie, extra):
         return SimpleNamespace(converged=True, curve=SimpleNamespace(values=flat))
 
-    *_, lifting = _solve_with_contacts(None, m, c, max_release=0, solve=solve, grid=grid)
+    lifting = solve_with_contacts(GridClip(m, None, grid), c, solve, max_release=0).lifting
     start = grid[lifting[0]["frames"][0]]
     assert start == grid[np.searchsorted(grid, 121 - round(LIFT_TIME * 120))]
     assert 0 < (120 - start) / 120 <= LIFT_TIME + 1 / 30
 
 
 def test_row_plants_are_the_rows_targets_and_released_contacts_are_dropped_whole():
-    from elastic_motion.apps.loop_contacts import fine_contacts, row_plants
+    from elastic_motion.apps.loop.contact_grid import fine_contacts
+    from elastic_motion.apps.loop.contact_rows import row_plants
     from elastic_motion.motion import forward_kinematics
     from elastic_motion.motion.contacts import Contacts
 
@@ -286,18 +291,18 @@ def test_kept_feet_do_not_push_the_body_into_the_floor(mocap_dir):
     again: nothing goes under, and no body is raised."""
     res = loop_motion(mocap_dir / "cmu/asfamc/backflip.amc")
     info = res.contacts_kept
-    assert info["floor_pins"] and all(0 < p["frame"] < res.motion.n_frames - 1 for p in info["floor_pins"])
-    assert info["lifted_max_m"] < 0.01
+    assert info.floor_pins and all(0 < p["frame"] < res.motion.n_frames - 1 for p in info.floor_pins)
+    assert info.lifted_max_m < 0.01
     assert res.skating_after.below_floor <= 0.01
     assert res.skating_after.mean_speed <= 1.1 * res.skating_before.mean_speed
     assert res.seam_after.seam_angle_max_deg < 1e-3 and res.seam_after.seam_position_max_m < 1e-9
 
 
 def test_the_floor_per_frame_is_in_metres_whatever_the_clips_unit():
-    """``_floor_per_frame`` (metres): the floor, or the input's own lowest point there when
+    """``floor_per_frame`` (metres): the floor, or the input's own lowest point there when
     lower, at most FLOOR_TOLERANCE under the floor; the same clip in centimetres gives the same
     metres (a unit factor applied twice, or not at all, would not)."""
-    from elastic_motion.apps.loop import FLOOR_TOLERANCE, _floor_per_frame
+    from elastic_motion.apps.loop.planting import FLOOR_TOLERANCE, floor_per_frame
     from elastic_motion.motion import forward_kinematics
     from elastic_motion.motion.contacts import Contacts
     from elastic_motion.motion.edit import to_metres
@@ -308,13 +313,13 @@ def test_the_floor_per_frame_is_in_metres_whatever_the_clips_unit():
     c = Contacts(("foot",), np.array([3]), np.zeros((60, 1), dtype=bool), floor, np.zeros(1), m.fps, "y")
     want = np.minimum(floor, np.maximum(lowest, floor - FLOOR_TOLERANCE))
     assert (want < floor).any() and (want == floor).any()
-    np.testing.assert_allclose(_floor_per_frame(m, c), want, atol=1e-12)
+    np.testing.assert_allclose(floor_per_frame(m, c), want, atol=1e-12)
     cm = to_metres(m.replace(metres_per_unit=100.0)).replace(metres_per_unit=0.01)
-    np.testing.assert_allclose(_floor_per_frame(cm, c), want, atol=1e-9)
+    np.testing.assert_allclose(floor_per_frame(cm, c), want, atol=1e-9)
 
 
 def test_floor_rows_pin_the_deepest_frame_of_each_dip_at_the_inputs_height():
-    from elastic_motion.apps.loop_contacts import _Row, floor_rows
+    from elastic_motion.apps.loop.contact_rows import Row, floor_rows
 
     m = periodic(f=60)
     root = m.root_translation.copy()
@@ -335,7 +340,7 @@ def test_floor_rows_pin_the_deepest_frame_of_each_dip_at_the_inputs_height():
     assert any(r.joint == 4 and r.name == "foot end site above the floor" for r in rows)  # end sites too
     # a frame whose height a row already holds is not pinned again (the rest of its dip is:
     # the next round of the active set)
-    held = [_Row(r.joint, "x", (r.frame, r.frame + 1), r.frame, 1, -1, 0.0) for r in rows]
+    held = [Row(r.joint, "x", (r.frame, r.frame + 1), r.frame, 1, -1, 0.0) for r in rows]
     again = floor_rows(m, closed, floor, held)
     assert again and not {(r.joint, r.frame) for r in again} & {(r.joint, r.frame) for r in held}
 
@@ -345,13 +350,13 @@ def test_the_hands_of_a_deepmimic_cartwheel_are_contacts_and_stay_planted(mocap_
     """DeepMimic's wrists are fixed joints of the skeleton: the hands on the floor are
     contacts, kept by the loop (arm IK between rows), and no longer pushed under the floor
     (with the feet alone kept an elbow's end site went 12 cm under)."""
-    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_cartwheel.txt", c1=False)
+    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_cartwheel.txt", seam="c0")
     found = res.contacts.all_intervals()
     assert found["right_wrist"] and found["left_wrist"]
     before, after = res.skating_before.per_joint, res.skating_after.per_joint
     for joint in ("right_wrist", "left_wrist", "right_ankle", "left_ankle"):
         assert after[joint] <= 1.05 * before[joint]
-    assert res.contacts_kept["released"] == [] and res.contacts_kept["lifted_max_m"] < 0.03
+    assert res.contacts_kept.released == () and res.contacts_kept.lifted_max_m < 0.03
     assert res.skating_after.below_floor <= 0.01
     assert res.seam_after.seam_angle_max_deg < 1e-3
 
@@ -362,16 +367,17 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     contact within a few mm; the loop is closed exactly from there instead of releasing or
     dropping contacts."""
     path = mocap_dir / "cmu/bvh/49_08.bvh"
-    res = loop_motion(path, window=(231, 569), c1=False)
+    res = loop_motion(path, window=(231, 569), seam="c0")
     info = res.contacts_kept
-    assert info["polished"] is not None and "mm" in info["polished"]
-    assert info["released"] == [] and "dropped" not in info
-    assert all(g["largest_miss_m"] <= 0.01 for g in info["gave_way"])  # within a centimetre
+    assert info.polished is not None and "mm" in info.polished
+    assert info.released == () and info.dropped is None
+    assert all(g["largest_miss_m"] <= 0.01 for g in info.gave_way)  # within a centimetre
     assert res.closing.converged and res.seam_after.seam_angle_max_deg < 1e-3
-    assert any("closed exactly from there" in n for n in res.notes)
-    assert not any(n.startswith("warning: the loop skates") for n in res.notes)
+    (polished,) = of_kind(res.notes, loop_notes.POLISHED)
+    assert "closed exactly from there" in str(polished)
+    assert not of_kind(res.notes, loop_notes.SKATING_WARNING)
     # the change is measured from the input (not from where the solver stopped)
-    plain = loop_motion(path, window=(231, 569), contacts="report", c1=False)
+    plain = loop_motion(path, window=(231, 569), contacts="report", seam="c0")
     assert res.closing.change > plain.closing.change
 
 
@@ -384,17 +390,19 @@ def test_contacts_lost_by_the_exact_closing_are_released_not_all_dropped(mocap_d
     kept."""
     res = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102))
     info = res.contacts_kept
-    assert "dropped" not in info and res.closing.converged
-    assert 1 <= len(info["released"]) <= 6
-    assert all(r["why"].startswith("missed most") for r in info["released"])
+    assert info.dropped is None and res.closing.converged
+    assert 1 <= len(info.released) <= 6
+    assert all(r["why"].startswith("missed most") for r in info.released)
     assert res.skating_after.mean_speed < 2.0 * res.skating_before.mean_speed
     assert res.seam_after.seam_angle_max_deg < 1e-3
-    assert any(n.startswith("contact released") for n in res.notes)
+    released = of_kind(res.notes, loop_notes.RELEASED)
+    assert len(released) == len(info.released) and str(released[0]).startswith("contact released")
     # it still skates 1.7x the input (the released final stance slides to the seam): said
-    warn = [n for n in res.notes if n.startswith("warning: the loop skates")]
-    assert len(warn) == 1 and "contacts released to close it" in warn[0] and "window='auto'" not in warn[0]
+    warn = [str(n) for n in of_kind(res.notes, loop_notes.SKATING_WARNING)]
+    assert len(warn) == 1 and warn[0].startswith("warning: the loop skates")
+    assert "contacts released to close it" in warn[0] and "window='auto'" not in warn[0]
     plain = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102), contacts="report")
-    warn = [n for n in plain.notes if n.startswith("warning: the loop skates")]
+    warn = [str(n) for n in of_kind(plain.notes, loop_notes.SKATING_WARNING)]
     assert len(warn) == 1 and "contacts not kept (contacts='report'" in warn[0]
 
 
@@ -403,7 +411,7 @@ def test_a_heel_lifting_at_the_start_leaves_its_last_contact_to_the_toe():
     on the first: the heel's last contact gets no rows (rows on both fought over the rigid
     foot and stalled the solver); the toe's are relative to the last frame, its heights too
     (held absolutely they dropped a toe 2.1 cm in a CMU loop's last step)."""
-    from elastic_motion.apps.loop_contacts import contact_rows
+    from elastic_motion.apps.loop.contact_rows import contact_rows
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -442,7 +450,7 @@ def test_a_heel_planted_with_its_toes_seam_contact_moves_with_the_toe():
     the last frame) has begun: its floor-plane rows are relative to the toe's last-frame
     position (the toe's own offsets and the heel's from the toe are the input's, so the foot
     moves as one piece), its heights absolute; a heel contact before the toe's is absolute."""
-    from elastic_motion.apps.loop_contacts import contact_rows, row_plants
+    from elastic_motion.apps.loop.contact_rows import contact_rows, row_plants
     from elastic_motion.motion import forward_kinematics
     from elastic_motion.motion.contacts import Contacts
 
@@ -488,7 +496,7 @@ def test_a_foot_whose_toe_lifts_at_the_seam_keeps_its_direction(mocap_dir):
     from elastic_motion.motion.kinematics import global_rotations
 
     res = loop_motion(mocap_dir / "bandai/dataset-1_walk_normal_001.bvh", window="auto")
-    assert res.closing.converged and res.contacts_kept["gave_way"] == []
+    assert res.closing.converged and res.contacts_kept.gave_way == ()
     assert res.seam_after.seam_angle_max_deg < 1e-3
     j = res.motion.skeleton.index("Foot_R")
     a, b = res.contacts.intervals("Foot_R")[-1]
@@ -507,7 +515,7 @@ def test_kept_contacts_are_bounded_and_checked(mocap_dir):
     for bad in (-0.1, "0.1", float("nan")):
         with pytest.raises(OptionError, match="contact_step"):
             loop_motion(path, contact_step=bad)
-    rows = loop_motion(path, contact_step=0.0).contacts_kept["rows"]
+    rows = loop_motion(path, contact_step=0.0).contacts_kept.rows
     assert rows > 6
     with (
         limits.override(max_constraint_rows=rows // 2),
@@ -522,7 +530,6 @@ def test_a_contact_across_the_seam_does_not_pop_in_the_last_step(mocap_dir):
     4.5 cm on the first frame and 6.7 cm on the last. With its heights held absolutely the
     closing dropped it 2.1 cm in the last 1/120 s (2.6 m/s, the left toe 6.9 m/s against 4.3
     before); relative to the last frame, the last step is like the steps before it."""
-    from elastic_motion.apps.loop import loop_motion
     from elastic_motion.motion import forward_kinematics
 
     res = loop_motion(mocap_dir / "cmu" / "bvh" / "07_01.bvh", window="auto")
@@ -541,8 +548,8 @@ def test_a_polish_stalled_at_the_rounding_floor_keeps_the_contacts(mocap_dir):
     with the seam shut. That loop was thrown away ("contacts dropped ... gap 1.38e-07") and
     the clip closed without its contacts (skating 0.0924 -> 0.0946 m/s, 3.4 mm under the
     floor); it is kept."""
-    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh", c1=False)
-    assert "dropped" not in res.contacts_kept and res.contacts_kept["polished"]
+    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh", seam="c0")
+    assert res.contacts_kept.dropped is None and res.contacts_kept.polished
     assert res.skating_after.mean_speed <= 1.01 * res.skating_before.mean_speed
     assert res.skating_after.below_floor <= res.skating_before.below_floor + 1e-4
     assert res.seam_after.seam_angle_max_deg < 1e-3

@@ -11,7 +11,14 @@ import pytest
 from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
-from elastic_motion.apps.loop_limits import LimitConstraints, StackedConstraints, joint_limit_report
+from elastic_motion.apps.loop.limits import (
+    AT_LIMIT_NOTE,
+    INPUT_VIOLATES_NOTE,
+    REPORTED_ONLY_NOTE,
+    LimitConstraints,
+    StackedConstraints,
+    joint_limit_report,
+)
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
@@ -23,6 +30,7 @@ from elastic_motion.motion.joint_limits import (
     dof_angles,
     dof_angles_jacobian,
 )
+from elastic_motion.notes import of_kind
 
 SO3G = SO3()
 AXES = ["XYZ", "ZXY", "YZX", "XZ", "ZY", "X", "Y", "Z"]
@@ -113,10 +121,10 @@ def test_limit_rows_and_stacking_match_finite_differences():
 def test_constrained_loop_stays_within_a_tight_limit_the_unconstrained_one_crosses():
     m = drifting_clip()
     lim = knee_limits()
-    free = loop_motion(m, root="inplace", joint_limits="off", c1=False)
+    free = loop_motion(m, root="inplace", joint_limits="off", seam="c0")
     knee_free = np.degrees(lim.angles(free.motion.rotations, m.skeleton.names)[:, 0])
     assert knee_free.min() < -25  # closing pushes the knee 10 degrees past its limit
-    kept = loop_motion(m, root="inplace", joint_limits=lim, c1=False)
+    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0")
     knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
     assert knee.min() >= -15 - 0.5 and knee.max() <= 60 + 0.5  # limit_tol: 0.5 degrees
     assert kept.seam_after.seam_angle_max_deg < 1e-3
@@ -125,7 +133,8 @@ def test_constrained_loop_stays_within_a_tight_limit_the_unconstrained_one_cross
     assert jl.new_violations == () and jl.before.ok and jl.after.ok
     s = json.loads(json.dumps(jsonable(kept.summary())))["joint_limits"]
     assert "knee" in s["joints_at_limit"] and s["input_violations"] == []
-    assert any("knee" in n for n in kept.notes)
+    (at_limit,) = of_kind(kept.notes, AT_LIMIT_NOTE)
+    assert "knee" in at_limit.data["joints"] and "knee" in str(at_limit)
     # the limit costs change: the constrained loop is farther from the input than the free one
     assert kept.closing.change > free.closing.change
     # "report" reads the limits of the clip's ASF file: a synthetic clip has none
@@ -139,7 +148,8 @@ def test_limits_the_input_violates_are_reported_not_enforced():
     jl = res.joint_limits
     assert [h.joint for h in jl.before.violations] == ["knee"]
     assert jl.before.violations[0].worst_deg == pytest.approx(7.8, abs=0.2)
-    assert any("the input violates" in n and "knee.rx" in n for n in res.notes)
+    (violates,) = of_kind(res.notes, INPUT_VIOLATES_NOTE)
+    assert violates.data["dofs"] == ["knee.rx"] and "the input violates" in str(violates)
     assert res.closing.converged
 
 
@@ -213,3 +223,12 @@ def test_cmu_backflip_loop_keeps_its_limits_on_the_written_bvh(mocap_dir, tmp_pa
     assert res.seam_after.seam_angle_max_deg < 1e-3
     s = json.loads(em.to_json(res))["joint_limits"]
     assert s["mode"] == "keep" and s["joints_at_limit"] and s["input_violations"]
+
+
+def test_limits_kept_only_with_the_kkt_projection_of_the_lie_curve():
+    """Given limits with the Euler baseline are reported, not kept, and a note of kind
+    ``loop.limits_reported_only`` says why."""
+    res = loop_motion(drifting_clip(), root="inplace", joint_limits=knee_limits(), method="euler")
+    assert res.joint_limits.mode == "report" and res.method == "euler-elastic"
+    (note,) = of_kind(res.notes, REPORTED_ONLY_NOTE)
+    assert str(note) == "joint limits: reported only (keeping them needs method='lie' and solver='kkt')"

@@ -1,4 +1,4 @@
-"""Tests of the best-cycle search (apps.loop_window + loop_motion(window=...)): the dissimilarity,
+"""Tests of the best-cycle search (apps.loop.window_candidates + loop_motion(window=...)): the dissimilarity,
 the period, the candidates, the chosen window on real cartwheels, the contacts report and the
 bad inputs of issue 11."""
 
@@ -11,11 +11,13 @@ import pytest
 from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
-from elastic_motion.apps.loop_window import cycle_candidates, estimate_period, pose_dissimilarity
+from elastic_motion.apps.loop import notes as loop_notes
+from elastic_motion.apps.loop.window_candidates import cycle_candidates, estimate_period, pose_dissimilarity
 from elastic_motion.apps.metrics import seam_metrics
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion, drop_tpose, read_motion
+from elastic_motion.notes import of_kind
 
 SO3G = SO3()
 
@@ -92,7 +94,7 @@ def test_yaw_rate_and_active_windows_formulas():
     """The turning rate about the up axis is +omega (rad/s) for a root turning at omega,
     also on the end frames; a window moves when its mean speed is at least 0.3 times the mean
     over the busier half of the frames."""
-    from elastic_motion.apps.loop_window import _active_windows, _yaw_rate
+    from elastic_motion.apps.loop.window_candidates import _active_windows, _yaw_rate
 
     fps, omega = 30.0, 0.8
     t = np.arange(20) / fps
@@ -150,8 +152,8 @@ def test_period_and_candidates_of_a_periodic_clip():
 
 def test_auto_window_loops_one_period_with_almost_no_change():
     m = periodic()
-    whole = loop_motion(m, c1=False)
-    res = loop_motion(m, window="auto", c1=False)
+    whole = loop_motion(m, seam="c0")
+    res = loop_motion(m, window="auto", seam="c0")
     w = res.window
     assert (w.stop - 1 - w.start) % 40 == 0 and w.start >= 17
     assert res.motion.n_frames == w.stop - w.start
@@ -161,7 +163,7 @@ def test_auto_window_loops_one_period_with_almost_no_change():
     json.dumps(s)
     assert s["window"]["start_frame"] == w.start and s["window"]["length_s"] == pytest.approx(w.length)
     # an explicit window
-    res2 = loop_motion(m, window=(20, 100), c1=False)
+    res2 = loop_motion(m, window=(20, 100), seam="c0")
     assert res2.motion.n_frames == 80 and res2.window.start == 20
     np.testing.assert_allclose(res2.motion.rotations[0], m.rotations[20], atol=1e-12)
 
@@ -211,7 +213,8 @@ def test_contacts_reported_or_skipped():
     bare = periodic(names=("root", "a", "b", "c"))
     res = loop_motion(bare)
     assert res.skating_before is None
-    assert any("contacts skipped" in n for n in res.notes)
+    (skipped,) = of_kind(res.notes, loop_notes.CONTACTS_SKIPPED)
+    assert "contacts skipped" in str(skipped)
     assert loop_motion(m, contacts="off").contacts is None
 
 
@@ -229,7 +232,7 @@ def test_auto_window_of_cmu_cartwheels_changes_a_third_of_the_whole_clip(mocap_d
 
 
 def test_contact_rows_jacobian_matches_central_differences():
-    from elastic_motion.apps.loop_contacts import ContactConstraints, _Row
+    from elastic_motion.apps.loop.contact_rows import ContactConstraints, Row
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)
@@ -239,9 +242,9 @@ def test_contact_rows_jacobian_matches_central_differences():
     contacts = Contacts(("foot",), np.array([3]), mask, 0.0, np.array([0.0]), m.fps, "y")
     # two rows on the foot's end site (point J + 0): an absolute height, a relative position
     sites = [
-        _Row(4, "foot end site", (30, 31), 30, 1, -1, 0.0),
-        _Row(4, "foot end site", (35, 36), 35, 0, 49, 0.0),
-        _Row(2, "knee from the foot", (36, 37), 36, 2, 49, 0.0, 3),  # relative to another joint
+        Row(4, "foot end site", (30, 31), 30, 1, -1, 0.0),
+        Row(4, "foot end site", (35, 36), 35, 0, 49, 0.0),
+        Row(2, "knee from the foot", (36, 37), 36, 2, 49, 0.0, 3),  # relative to another joint
     ]
     cc = ContactConstraints(m, contacts, more_rows=sites)
     rng = np.random.default_rng(1)
@@ -279,18 +282,19 @@ def test_contacts_kept_plant_the_deepmimic_run(mocap_dir):
     plain = loop_motion(path, contacts="report")
     kept = loop_motion(path)  # the default: contacts kept
     assert kept.closing.converged and kept.closing.kkt_residual < 1e-8
-    assert kept.contacts_kept["rows"] > 0 and "dropped" not in kept.contacts_kept
+    assert kept.contacts_kept.rows > 0 and kept.contacts_kept.dropped is None
     assert kept.seam_after.seam_angle_max_deg < 1e-3
     # skating during the input's contacts: the plain loop slides, the kept one as the input
     assert plain.skating_after.mean_speed > 1.5 * plain.skating_before.mean_speed
     assert kept.skating_after.mean_speed <= 1.1 * kept.skating_before.mean_speed
     assert kept.summary()["contacts_kept"]["gave_way"] == []
+    assert kept.summary()["contacts_kept"] == kept.contacts_kept.summary()
     with pytest.raises(OptionError, match="contacts"):
         loop_motion(path, contacts="keep", solver="gauss-newton")
 
 
 def test_contacts_that_give_way_are_reported():
-    from elastic_motion.apps.loop_contacts import ContactConstraints
+    from elastic_motion.apps.loop.contact_rows import ContactConstraints
     from elastic_motion.motion.contacts import Contacts
 
     m = periodic(f=50)

@@ -1,10 +1,19 @@
-"""``elastic-motion loop IN -o OUT.bvh``: make a clip loop seamlessly (:mod:`elastic_motion.apps.loop`)."""
+"""``elastic-motion loop IN -o OUT.bvh``: make a clip loop seamlessly (:mod:`elastic_motion.apps.loop`).
+
+The allowed values of every option are read from the types of
+:class:`~elastic_motion.apps.loop.LoopOptions` (never re-typed), and the arguments become one
+``LoopOptions``.
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+from elastic_motion._options import choices
+from elastic_motion.apps.loop import LoopOptions, loop_motion, repeat_loop
+from elastic_motion.apps.loop.options import LimitPolicy, Seam, Solver, WindowMode
+from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
     CommandError,
@@ -22,11 +31,21 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
     write_motion,
 )
+from elastic_motion.errors import OptionError
+from elastic_motion.motion.contacts import ContactPolicy
+from elastic_motion.motion.looping import RootMode
+from elastic_motion.motion.representations import Method, representation
+
+#: The API's defaults, which the flags default to (both doors agree).
+_DEFAULTS = LoopOptions()
 
 
 def _representation(value: str) -> str:
     # the old --representation said "euler" for what --method calls "euler-elastic"
-    return "euler-elastic" if value == "euler" else value
+    try:
+        return representation(value).name
+    except OptionError:
+        return value  # argparse names the allowed choices
 
 
 def _method(value: str) -> str:
@@ -52,86 +71,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("input", metavar="IN", help="motion file (.bvh, .amc, DeepMimic .txt)")
     p.add_argument("-o", "--output", required=True, help="output .bvh file: one closed cycle")
-    p.add_argument(
-        "--root",
-        choices=("travel", "inplace"),
-        default="travel",
-        help="loop convention: keep one cycle's displacement and turn, or come back to the start",
-    )
-    p.add_argument(
-        "--seam",
-        choices=("auto", "c0", "c1"),
-        default="auto",
-        help="what closes at the seam: 'c0' the poses (paper 000), 'c1' the velocities too, "
-        "'auto' C0 unless its seam has a hitch (a velocity jump above 1.5x the clip's own quick "
-        "changes), then C1 when that is smoother without skating or changing the clip more (a note "
-        "says which)",
-    )
-    p.add_argument("--c1", dest="seam", action="store_const", const="c1", help="the same as --seam c1")
-    p.add_argument(
-        "--method",
-        type=_method,
-        choices=("lie", "euler-elastic"),
-        default="lie",
-        help="close the Lie group curve or the Euler-angle curve (the baseline of paper 001)",
-    )
-    add_alias(p, "--representation", "--method", convert=_representation)
-    p.add_argument(
-        "--solver",
-        choices=("kkt", "gauss-newton", "gradient"),
-        default="kkt",
-        help="closing solver: 'kkt' the closed curve nearest the input in SRV L2 (a KKT point of the "
-        "projection); 'gauss-newton' / 'gradient' the closing flows (closed, nearest only to first order)",
-    )
-    p.add_argument(
-        "--window",
-        choices=("whole", "auto"),
-        default="whole",
-        help="loop the whole clip, or 'auto': the sub-clip (start and end frame) that closes with the "
-        "least change (the whole clip is closed too, for the report)",
-    )
-    p.add_argument(
-        "--min-length",
-        type=float,
-        default=None,
-        metavar="SECONDS",
-        help="shortest window for --window auto, seconds (default: 90%% of the clip's period, or half "
-        "the clip when it does not repeat)",
-    )
-    p.add_argument(
-        "--contacts",
-        choices=("keep", "report", "off"),
-        default=None,
-        help="'keep' (default with --method lie and --solver kkt): plant the input's foot/toe/hand "
-        "contacts, as constraints of the same projection on a 30 fps grid (with --root inplace on a "
-        "treadmill: the clip's travel removed at a constant rate, the planted feet move back with it); "
-        "contacts that conflict with closing are released and named; 'report' (the default otherwise): "
-        "detect them and "
-        "report skating and depth below the floor of input and loop during them; 'off': skip",
-    )
-    add_contact_height_option(p)
-    p.add_argument(
-        "--joint-limits",
-        choices=("keep", "report", "off"),
-        default="report",
-        help="limits of the joints' DOF angles, from the ASF file of an .amc input (none: nothing "
-        "happens): 'keep': the loop stays within every limit the input respects (DOFs pinned at "
-        "their limit in the same projection; 16-110 s on CMU clips); 'report': only measured; "
-        "'off': skip. Limits the input itself violates are reported, never enforced",
-    )
-    p.add_argument(
-        "--tol",
-        type=non_negative_float,
-        default=1e-6,
-        help="stop when the seam gap is below this (radians for joint rotations; the weighted norm "
-        "of the closing residual)",
-    )
-    p.add_argument("--max-iter", type=int, default=100, help="iterations of the closing solver at most")
-    p.add_argument(
-        "--free-joints",
-        default="fingers",
-        help="joints left free: 'fingers' (finger/thumb joints), 'none', or comma-separated names",
-    )
+    _add_closing_options(p)
+    _add_window_and_contact_options(p)
+    _add_stopping_options(p)
     p.add_argument(
         "--repeat",
         type=int,
@@ -146,6 +88,100 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=lambda a: run_guarded("loop", run, a))
 
 
+def _add_closing_options(p: argparse.ArgumentParser) -> None:
+    """The loop convention, the seam, the curve and the solver."""
+    p.add_argument(
+        "--root",
+        choices=choices(RootMode),
+        default=_DEFAULTS.root,
+        help="loop convention: keep one cycle's displacement and turn, or come back to the start",
+    )
+    p.add_argument(
+        "--seam",
+        choices=choices(Seam),
+        default=_DEFAULTS.seam,
+        help="what closes at the seam: 'c0' the poses (paper 000), 'c1' the velocities too, "
+        "'auto' C0 unless its seam has a hitch (a velocity jump above 1.5x the clip's own quick "
+        "changes), then C1 when that is smoother without skating or changing the clip more (a note "
+        "says which)",
+    )
+    p.add_argument("--c1", dest="seam", action="store_const", const="c1", help="the same as --seam c1")
+    p.add_argument(
+        "--method",
+        type=_method,
+        choices=choices(Method),
+        default=_DEFAULTS.method,
+        help="close the Lie group curve or the Euler-angle curve (the baseline of paper 001)",
+    )
+    add_alias(p, "--representation", "--method", convert=_representation)
+    p.add_argument(
+        "--solver",
+        choices=choices(Solver),
+        default=_DEFAULTS.solver,
+        help="closing solver: 'kkt' the closed curve nearest the input in SRV L2 (a KKT point of the "
+        "projection); 'gauss-newton' / 'gradient' the closing flows (closed, nearest only to first order)",
+    )
+
+
+def _add_window_and_contact_options(p: argparse.ArgumentParser) -> None:
+    """Which frames loop, and what the loop does with contacts and joint limits."""
+    p.add_argument(
+        "--window",
+        choices=choices(WindowMode),
+        default="whole",
+        help="loop the whole clip, or 'auto': the sub-clip (start and end frame) that closes with the "
+        "least change (the whole clip is closed too, for the report)",
+    )
+    p.add_argument(
+        "--min-length",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="shortest window for --window auto, seconds (default: 90%% of the clip's period, or half "
+        "the clip when it does not repeat)",
+    )
+    p.add_argument(
+        "--contacts",
+        choices=choices(ContactPolicy),
+        default=_DEFAULTS.contacts,
+        help="'keep' (default with --method lie and --solver kkt): plant the input's foot/toe/hand "
+        "contacts, as constraints of the same projection on a 30 fps grid (with --root inplace on a "
+        "treadmill: the clip's travel removed at a constant rate, the planted feet move back with it); "
+        "contacts that conflict with closing are released and named; 'report' (the default otherwise): "
+        "detect them and "
+        "report skating and depth below the floor of input and loop during them; 'off': skip",
+    )
+    add_contact_height_option(p)
+    p.add_argument(
+        "--joint-limits",
+        choices=choices(LimitPolicy),
+        default=_DEFAULTS.joint_limits,
+        help="limits of the joints' DOF angles, from the ASF file of an .amc input (none: nothing "
+        "happens): 'keep': the loop stays within every limit the input respects (DOFs pinned at "
+        "their limit in the same projection; 16-110 s on CMU clips); 'report': only measured; "
+        "'off': skip. Limits the input itself violates are reported, never enforced",
+    )
+
+
+def _add_stopping_options(p: argparse.ArgumentParser) -> None:
+    """The closing solver's stopping rule, and the joints left free."""
+    p.add_argument(
+        "--tol",
+        type=non_negative_float,
+        default=_DEFAULTS.tol,
+        help="stop when the seam gap is below this (radians for joint rotations; the weighted norm "
+        "of the closing residual)",
+    )
+    p.add_argument(
+        "--max-iter", type=int, default=_DEFAULTS.max_iter, help="iterations of the closing solver at most"
+    )
+    p.add_argument(
+        "--free-joints",
+        default=_DEFAULTS.free_joints,
+        help="joints left free: 'fingers' (finger/thumb joints), 'none', or comma-separated names",
+    )
+
+
 def _free(value: str):
     if value == "fingers":
         return "fingers"
@@ -154,9 +190,25 @@ def _free(value: str):
     return [v.strip() for v in value.split(",") if v.strip()]
 
 
-def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.loop import loop_motion, repeat_loop
+def _options(args: argparse.Namespace) -> LoopOptions:
+    """The arguments as one :class:`LoopOptions`."""
+    return LoopOptions(
+        root=args.root,
+        seam=args.seam,
+        method=args.method,
+        solver=args.solver,
+        tol=args.tol,
+        max_iter=args.max_iter,
+        free_joints=_free(args.free_joints),
+        window=args.window,
+        min_length=args.min_length,
+        contacts=args.contacts,
+        contact_options=contact_options(args),
+        joint_limits=args.joint_limits,
+    )
 
+
+def run(args: argparse.Namespace) -> int:
     inputs = [args.input]
     out = check_output(args.output, inputs, suffixes=(".bvh",))
     preview = None
@@ -167,22 +219,8 @@ def run(args: argparse.Namespace) -> int:
         check_output(str(preview), [*inputs, str(out)], suffixes=(".bvh",), what="--preview")
     bar = progress_for("loop", args)
     try:
-        res = loop_motion(
-            prepare_inputs(args, inputs),
-            root=args.root,
-            c1={"auto": "auto", "c0": False, "c1": True}[args.seam],
-            method=args.method,
-            solver=args.solver,
-            tol=args.tol,
-            max_iter=args.max_iter,
-            free_joints=_free(args.free_joints),
-            window="auto" if args.window == "auto" else None,
-            min_length=args.min_length,
-            contacts=args.contacts,
-            contact_options=contact_options(args),
-            joint_limits=args.joint_limits,
-            progress=bar,
-        )
+        prepared = prepare_inputs(args, inputs)
+        res = loop_motion(prepared, _options(args), progress=bar)
     finally:
         bar.close()
     write_motion(res.motion, res.prepared, out, inputs)
@@ -190,8 +228,6 @@ def run(args: argparse.Namespace) -> int:
     if preview is not None:
         write_motion(repeat_loop(res, args.repeat, args.root), res.prepared, preview, inputs)
         outputs.append(str(preview))
-    from elastic_motion.apps.report import report_header
-
     report = report_header("loop", inputs, outputs, res.notes)
     report.update(res.summary())
     before, after, c = res.seam_before, res.seam_after, res.closing

@@ -1,6 +1,7 @@
 """Contacts kept by the loop: planted joints as constraints of the closing projection.
 
-:func:`elastic_motion.apps.loop.loop_motion` with ``contacts="keep"`` solves, in one
+:func:`elastic_motion.apps.loop.loop_motion` with ``contacts="keep"``
+(:mod:`elastic_motion.apps.loop.kept_contacts`) solves, in one
 projection (:func:`elastic_motion.closing_kkt.project_closed`), ``min ||q - q_orig||^2``
 subject to closure *and* the input's contacts
 (:func:`elastic_motion.motion.contacts.detect_contacts` on the prepared clip):
@@ -16,7 +17,8 @@ subject to closure *and* the input's contacts
   rows are relative to the last frame as well (the seam sets the last frame's height to the
   first's; held absolutely, a CMU 07_01 toe at 6.7 cm over a first frame's 4.5 cm dropped
   2.1 cm in the last step). That holds only when the joint is planted on the first frame
-  (else closing it may fail and the contact is released, see ``apps.loop``). A foot whose
+  (else closing it may fail and the contact is released,
+  :func:`elastic_motion.apps.loop.kept_contacts.solve_with_contacts`). A foot whose
   toe crosses the seam while its heel (ankle) is planted on the last frame but lifted on
   the first leaves that last heel contact to the toe: rows on both (the heel's absolute,
   the toe's relative to the seam) fight over the rigid foot by a few mm and the solver
@@ -36,19 +38,13 @@ subject to closure *and* the input's contacts
   measured on CMU 09_11, 120 fps, rows every 4th frame, the right foot skated 2.6 m/s
   against the input's 0.36). With rows on every frame the correction cannot drift, but a
   120 fps clip has four times the rows of a 30 fps one (and the solve grows as their
-  cube). So a clip whose contacts need more than :data:`ROW_BUDGET` rows is closed on a
-  grid of its frames (:func:`grid_step`, at most ``step`` seconds apart, default 1/30 s;
-  :func:`contact_grid`: nearly uniform, first and last frame included), every grid frame
-  of a contact constrained; the grid's correction (per joint
-  ``R' R^T``, root offset) is then interpolated to all frames (:func:`lift_correction`,
-  geodesic in time). The seam frames are grid frames, so the loop closes exactly (with a C1
-  seam frames 1 and ``F - 2`` too: the velocities it matches are the clip's own first and
-  last frame steps); between grid frames a planted joint moves by the curvature of the
-  correction only.
+  cube). So a long clip is closed on a grid of its frames, every grid frame of a contact
+  constrained, and the grid's correction is interpolated to all frames
+  (:mod:`elastic_motion.apps.loop.contact_grid`); between grid frames a planted joint moves
+  by the curvature of the correction only.
 * **Planted on every frame.** Between grid frames (and after a solve polished from
   within ``POLISH_MISS``) :func:`row_plants` gives every kept contact's target on every
-  frame, and :func:`elastic_motion.apps.cleanup.cleanup_footskate` (``plants=``, leg and
-  arm IK, the seam frames fixed) puts the joints there.
+  frame, and :func:`elastic_motion.apps.loop.planting.plant_and_lift` puts the joints there.
 * **Lifted early.** A contact on the last frame of a joint in the air on the first
   (``lift_from`` of :func:`contact_rows`) keeps its floor-plane rows to the end but no
   height rows over its last frames: closing puts the first pose, that joint in the air,
@@ -57,51 +53,62 @@ subject to closure *and* the input's contacts
   under the floor, at the deepest frame of each dip (an active set; end site ``J + e`` of a
   row is ``p_parent + G_parent offset``, its ancestors the parent's chain and the parent).
 * **Gave way.** When contacts and closure cannot all hold, the projection's least-squares
-  multipliers spread the conflict; :func:`contact_residuals` reports, per contact, the
+  multipliers spread the conflict; :meth:`ContactConstraints.gave_way` reports, per contact, the
   largest distance (m) between the loop's joint and its constrained position.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from elastic_motion.closing_kkt import ExtraConstraints
-from elastic_motion.groups import SO3
-from elastic_motion.motion import Motion
+from elastic_motion.motion import Motion, Skeleton
 from elastic_motion.motion.contacts import Contacts, mask_runs
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
 
-__all__ = [
-    "ROW_BUDGET",
-    "ContactConstraints",
-    "contact_grid",
-    "contact_rows",
-    "fine_contacts",
-    "floor_rows",
-    "grid_step",
-    "lift_correction",
-    "row_plants",
-]
+__all__ = ["FLOOR_ROW", "ContactConstraints", "Row", "contact_rows", "floor_rows", "row_plants"]
 
 _AXES = "xyz"
-_SO3 = SO3()
+
+
+#: The end of a floor row's name: ``"<joint> above the floor"`` (:func:`floor_rows`).
+FLOOR_ROW = " above the floor"
 
 
 @dataclass(frozen=True)
-class _Row:
-    joint: int  # skeleton index
+class Row:
+    """One constraint row: the coordinate ``axis`` of point ``joint``'s position (metres,
+    world) at ``frame``, minus that of ``anchor_point`` at frame ``anchor`` when relative,
+    equals ``target``.
+
+    Attributes
+    ----------
+    joint : int
+        Skeleton index of a joint, or ``J + e`` for end site ``e``.
+    name : str
+        The contact's joint (or ``"<point> above the floor"``, :func:`floor_rows`).
+    interval : tuple of int
+        The contact's frames ``[a, b)``.
+    frame, axis : int
+    anchor : int
+        -1: an absolute row; else the frame it is relative to.
+    target : float
+        Metres.
+    anchor_joint : int
+        A relative row's point at ``anchor``: -1 its own joint.
+    """
+
+    joint: int
     name: str
     interval: tuple[int, int]
     frame: int
     axis: int
-    anchor: int  # -1: absolute row; else the frame it is relative to
+    anchor: int
     target: float
-    anchor_joint: int = -1  # a relative row's point at ``anchor``: -1 its own joint
+    anchor_joint: int = -1
 
     @property
     def anchor_point(self) -> int:
@@ -115,7 +122,7 @@ def contact_rows(
     lift_from: Mapping[str, int] | None = None,
     *,
     c1: bool = False,
-) -> list[_Row]:
+) -> list[Row]:
     """The constraint rows of a clip's contacts on every contact frame (module docstring), metres.
 
     ``lift_from`` maps a joint whose last contact reaches the last frame to the frame from
@@ -129,80 +136,138 @@ def contact_rows(
     """
     lift_from = dict(lift_from or {})
     f_count = motion.n_frames
-    up = _AXES.index(motion.up_axis)
-    horiz = [a for a in range(3) if a != up]
     scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
     pos = _fk(motion, motion.rotations, motion.root_translation)[0] * scale
-    rows: list[_Row] = []
-    intervals = contacts.all_intervals()
-    sk = motion.skeleton
+    rows: list[Row] = []
+    plan = _SeamPlan.of(motion.skeleton, contacts.all_intervals(), f_count)
+    up = _AXES.index(motion.up_axis)
+    for name, runs in plan.intervals.items():
+        j = motion.skeleton.index(name)
+        for a, b in runs:
+            block = _Block(j, name, (a, b), up, c1)
+            if b == f_count and a > 0:  # a contact across the seam
+                if not plan.left_to_toe(name):
+                    rows += _seam_rows(block, pos, lift_from.get(name, f_count), name in plan.start)
+                continue
+            anchor = plan.anchor_of(name, j, a, b)
+            rows += _rows_with_the_toe(block, pos, anchor) if anchor >= 0 else _absolute_rows(block, pos)
+    return rows
 
-    def body(name: str) -> str:  # the top-most contact joint above (a toe's foot)
+
+@dataclass(frozen=True)
+class _SeamPlan:
+    """Which contacts cross the seam, and which move with another's (:func:`contact_rows`).
+
+    A foot planted on the last frame with its toe but lifting its heel on the first: the
+    heel's last contact is left to the toe (rows on both, the heel's absolute and the toe's
+    relative to the seam, fight over the rigid foot by a few mm and stall the solver).
+    """
+
+    skeleton: Skeleton
+    intervals: dict[str, list[tuple[int, int]]]
+    start: set[str]  # joints planted on the first frame
+    crossing_bodies: set[str]  # bodies with a joint planted on the first and the last frame
+    seam_runs: dict[str, list[tuple[int, int]]]  # per body: (joint, first frame) kept relative
+
+    @classmethod
+    def of(cls, sk: Skeleton, intervals: dict[str, list[tuple[int, int]]], f_count: int) -> _SeamPlan:
+        start = {n for n, runs in intervals.items() if runs and runs[0][0] == 0}
+        end = {n for n, runs in intervals.items() if runs and runs[-1][1] == f_count}
+        plan = cls(sk, intervals, start, set(), {})
+        plan.crossing_bodies.update(plan.body(n) for n in end & start)
+        # the seam contacts kept relative to the last frame, per body: (joint, first frame)
+        for name in end:
+            a = intervals[name][-1][0]
+            if a > 0 and not plan.left_to_toe(name):
+                plan.seam_runs.setdefault(plan.body(name), []).append((sk.index(name), a))
+        return plan
+
+    def body(self, name: str) -> str:
+        """The top-most contact joint above ``name`` (a toe's foot), or ``name``."""
+        sk = self.skeleton
         top, p = name, sk.parents[sk.index(name)]
         while p >= 0:
-            if sk.names[p] in intervals:
+            if sk.names[p] in self.intervals:
                 top = sk.names[p]
             p = sk.parents[p]
         return top
 
-    # a foot planted on the last frame with its toe but lifting its heel on the first: the
-    # heel's last contact is left to the toe (rows on both, the heel's absolute and the toe's
-    # relative to the seam, fight over the rigid foot by a few mm and stall the solver)
-    start = {n for n, runs in intervals.items() if runs and runs[0][0] == 0}
-    end = {n for n, runs in intervals.items() if runs and runs[-1][1] == f_count}
-    crossing_bodies = {body(n) for n in end & start}
-    # the seam contacts kept relative to the last frame, per body: (joint, first frame)
-    seam_runs: dict[str, list[tuple[int, int]]] = {}
-    for name in end:
-        a = intervals[name][-1][0]
-        if a > 0 and not (name not in start and body(name) in crossing_bodies):
-            seam_runs.setdefault(body(name), []).append((sk.index(name), a))
-    for name, runs in intervals.items():
-        j = sk.index(name)
-        for a, b in runs:
-            seam = b == f_count and a > 0
-            if seam and name not in start and body(name) in crossing_bodies:
-                continue
-            # a heel planted mostly within its toe's seam contact: it moves with the toe as one
-            # piece (absolute, it held the heel where it was while the toe went with the seam,
-            # and the foot turned about the heel: 22 deg through a Bandai walk's stance); a heel
-            # contact of an earlier step that the toe's last one only overlaps stays absolute
-            with_seam = (
-                -1
-                if seam
-                else next(
-                    (k for k, s in seam_runs.get(body(name), []) if k != j and 2 * (b - max(a, s)) > b - a),
-                    -1,
-                )
-            )
-            for f in range(a, b):
-                if seam:
-                    if f == f_count - 1 or (c1 and f == f_count - 2):
-                        continue
-                    lifting = f >= lift_from.get(name, f_count)
-                    for ax in horiz if not (c1 and lifting) else ():
-                        rows.append(_Row(j, name, (a, b), f, ax, f_count - 1, pos[f, j, ax] - pos[-1, j, ax]))
-                    if not lifting and name in start:
-                        # planted on the first frame too: the seam sets the last frame's height
-                        # to the first's, so the block keeps its heights relative to the last
-                        # frame (held absolutely, a toe at 6.7 cm over a first frame's 4.5 cm
-                        # dropped 2.1 cm in the last step of a CMU walk's loop)
-                        rows.append(_Row(j, name, (a, b), f, up, f_count - 1, pos[f, j, up] - pos[-1, j, up]))
-                    elif not lifting:
-                        rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
-                elif with_seam >= 0:
-                    if f == 0 or (c1 and f >= f_count - 2):
-                        continue
-                    for ax in horiz:
-                        target = pos[f, j, ax] - pos[-1, with_seam, ax]
-                        rows.append(_Row(j, name, (a, b), f, ax, f_count - 1, target, with_seam))
-                    rows.append(_Row(j, name, (a, b), f, up, -1, pos[f, j, up]))
-                else:
-                    if f == 0:
-                        continue  # the first frame never changes
-                    for ax in range(3):
-                        rows.append(_Row(j, name, (a, b), f, ax, -1, pos[f, j, ax]))
+    def left_to_toe(self, name: str) -> bool:
+        """Whether ``name``'s contact across the seam is left to its toe (class docstring)."""
+        return name not in self.start and self.body(name) in self.crossing_bodies
+
+    def anchor_of(self, name: str, joint: int, a: int, b: int) -> int:
+        """The joint whose seam contact the contact ``[a, b)`` of ``name`` moves with, or -1.
+
+        A heel planted mostly within its toe's seam contact moves with the toe as one piece
+        (absolute, it held the heel where it was while the toe went with the seam, and the
+        foot turned about the heel: 22 deg through a Bandai walk's stance); a heel contact of
+        an earlier step that the toe's last one only overlaps stays absolute.
+        """
+        runs = self.seam_runs.get(self.body(name), [])
+        return next((k for k, s in runs if k != joint and 2 * (b - max(a, s)) > b - a), -1)
+
+
+@dataclass(frozen=True)
+class _Block:
+    """One contact interval of one joint, and the frame's conventions (:func:`contact_rows`)."""
+
+    joint: int
+    name: str
+    interval: tuple[int, int]
+    up: int  # index of the up axis
+    c1: bool
+
+    @property
+    def horizontal(self) -> list[int]:
+        return [a for a in range(3) if a != self.up]
+
+    def row(self, frame: int, axis: int, anchor: int, target: float, anchor_joint: int = -1) -> Row:
+        return Row(self.joint, self.name, self.interval, frame, axis, anchor, target, anchor_joint)
+
+
+def _seam_rows(block: _Block, pos: np.ndarray, lift: int, planted_first: bool) -> list[Row]:
+    """Rows of a contact across the seam: floor plane relative to the last frame; heights
+    absolute, or relative too when the joint is planted on the first frame; none from ``lift``
+    on (the floor plane kept there, but with a C1 seam)."""
+    (a, b), j, up, last = block.interval, block.joint, block.up, pos.shape[0] - 1
+    rows = []
+    for f in range(a, b):
+        if f == last or (block.c1 and f == last - 1):
+            continue
+        lifting = f >= lift
+        for ax in block.horizontal if not (block.c1 and lifting) else ():
+            rows.append(block.row(f, ax, last, pos[f, j, ax] - pos[-1, j, ax]))
+        if not lifting and planted_first:
+            # planted on the first frame too: the seam sets the last frame's height to the
+            # first's, so the block keeps its heights relative to the last frame (held
+            # absolutely, a toe at 6.7 cm over a first frame's 4.5 cm dropped 2.1 cm in the
+            # last step of a CMU walk's loop)
+            rows.append(block.row(f, up, last, pos[f, j, up] - pos[-1, j, up]))
+        elif not lifting:
+            rows.append(block.row(f, up, -1, pos[f, j, up]))
     return rows
+
+
+def _rows_with_the_toe(block: _Block, pos: np.ndarray, anchor: int) -> list[Row]:
+    """Rows of a contact that moves with joint ``anchor``'s seam contact: floor plane relative
+    to ``anchor`` on the last frame, heights absolute."""
+    (a, b), j, up, last = block.interval, block.joint, block.up, pos.shape[0] - 1
+    rows = []
+    for f in range(a, b):
+        if f == 0 or (block.c1 and f >= last - 1):
+            continue
+        for ax in block.horizontal:
+            rows.append(block.row(f, ax, last, pos[f, j, ax] - pos[-1, anchor, ax], anchor))
+        rows.append(block.row(f, up, -1, pos[f, j, up]))
+    return rows
+
+
+def _absolute_rows(block: _Block, pos: np.ndarray) -> list[Row]:
+    """Rows of an interior contact: the joint where the input had it (the first frame never
+    changes: no rows there)."""
+    (a, b), j = block.interval, block.joint
+    return [block.row(f, ax, -1, pos[f, j, ax]) for f in range(max(a, 1), b) for ax in range(3)]
 
 
 def _fk(
@@ -244,7 +309,7 @@ class ContactConstraints(ExtraConstraints):
         self,
         motion: Motion,
         contacts: Contacts,
-        more_rows: Sequence[_Row] = (),
+        more_rows: Sequence[Row] = (),
         lift_from: Mapping[str, int] | None = None,
         c1: bool = False,
     ) -> None:
@@ -340,108 +405,6 @@ class ContactConstraints(ExtraConstraints):
         ]
 
 
-#: Rows of kept contacts solved on the clip's own frames; above it the grid gets coarser
-#: (each solve factors an ``R x R`` matrix: about 0.1 s per iteration at 1200 rows).
-ROW_BUDGET = 1200
-
-
-def grid_step(contacts: Contacts, step: float, budget: int = ROW_BUDGET) -> float:
-    """Seconds between the frames a clip with kept contacts is closed on.
-
-    Every frame while the contacts' rows (3 per contact frame) fit in ``budget``; else the
-    spacing that brings them under it, at most ``step`` seconds (:func:`contact_grid`).
-    """
-    rows = 3 * int(np.count_nonzero(contacts.mask))
-    if rows <= budget or step <= 0:
-        return 0.0
-    return min(step, math.ceil(rows / budget) / contacts.fps)
-
-
-def contact_grid(n_frames: int, fps: float, step: float, *, seam_cells: bool = False) -> np.ndarray:
-    """The frames a clip with kept contacts is closed on (module docstring, "every frame").
-
-    Parameters
-    ----------
-    n_frames : int
-    fps : float
-        The clip's frame rate.
-    step : float
-        Seconds between grid frames (at most; 0 or a step below 1.5 frames: every frame).
-    seam_cells : bool, default False
-        Also frames ``1`` and ``n_frames - 2``: the first and last steps of the grid are the
-        clip's own first and last frame steps, whose velocities a C1 seam matches (the
-        correction lifted to the clip is exact on grid frames, so the clip's seam is C1 too).
-
-    Returns
-    -------
-    ndarray of int
-        Increasing frame indices, ``0`` and ``n_frames - 1`` included, spacing
-        ``floor(step fps)`` or one more (one frame for the seam cells).
-    """
-    if step <= 0 or step * fps < 1.5 or n_frames < 3:
-        return np.arange(n_frames)
-    k = max(3, math.ceil((n_frames - 1) / (step * fps)) + 1)
-    grid = np.round(np.linspace(0, n_frames - 1, k)).astype(np.int64)
-    if seam_cells:
-        grid = np.concatenate([grid, [1, n_frames - 2]])
-    return np.unique(grid)
-
-
-def lift_correction(fine: Motion, grid: np.ndarray, before: Motion, after: Motion) -> Motion:
-    """``fine`` with the change ``before -> after`` of its grid frames interpolated to all frames.
-
-    Parameters
-    ----------
-    fine : Motion
-        The clip (``F`` frames).
-    grid : ndarray of int, shape (K,)
-        Increasing frames of ``fine``, ``0`` and ``F - 1`` included.
-    before, after : Motion
-        ``fine`` on the grid frames, and the same frames changed (e.g. closed).
-
-    Returns
-    -------
-    Motion
-        On the grid frames exactly ``after``; in between, each joint's left correction
-        ``D = R_after R_before^T`` follows the geodesic between the neighbouring grid frames'
-        (``exp(a log(D_1 D_0^T)) D_0``) and the root offset the straight line.
-    """
-    f = fine.n_frames
-    if grid.size == f:
-        return after
-    k = np.clip(np.searchsorted(grid, np.arange(f), side="right") - 1, 0, grid.size - 2)
-    a = (np.arange(f) - grid[k]) / (grid[k + 1] - grid[k])
-    d = after.rotations @ np.swapaxes(before.rotations, -1, -2)  # (K, J, 3, 3)
-    step = _SO3.log(d[1:] @ np.swapaxes(d[:-1], -1, -2))  # (K-1, J, 3)
-    corr = _SO3.exp(a[:, None, None] * step[k]) @ d[k]
-    off = after.root_translation - before.root_translation
-    root = fine.root_translation + (1.0 - a)[:, None] * off[k] + a[:, None] * off[k + 1]
-    rot = corr @ fine.rotations
-    rot[grid] = after.rotations  # exactly (no rounding of the seam frames)
-    root[grid] = after.root_translation
-    same = np.all(after.rotations == before.rotations, axis=(0, 2, 3))
-    rot[:, same] = fine.rotations[:, same]  # unchanged joints (e.g. free ones) stay bit for bit
-    return fine.replace(rotations=rot, root_translation=root)
-
-
-def fine_contacts(contacts: Contacts, grid: np.ndarray, released: Sequence[dict]) -> Contacts:
-    """A clip's contacts without those released on its grid (whole contacts of the clip's frames;
-    ``grid = arange(F)``: released on the clip's own frames).
-
-    ``released`` items carry ``joint`` and ``frames`` ``[a, b)`` on the grid's frames
-    (:func:`elastic_motion.apps.loop._solve_with_contacts`); every contact of the clip that
-    overlaps grid frames ``grid[a] .. grid[b - 1]`` is dropped.
-    """
-    mask = np.array(contacts.mask)
-    for g in released:
-        k = contacts.joints.index(g["joint"])
-        lo, hi = int(grid[g["frames"][0]]), int(grid[g["frames"][1] - 1])
-        for a, b in contacts.intervals(g["joint"]):
-            if a <= hi and b > lo:
-                mask[a:b, k] = False
-    return dataclasses.replace(contacts, mask=mask)
-
-
 def row_plants(
     motion: Motion,
     contacts: Contacts,
@@ -482,8 +445,8 @@ def row_plants(
 
 
 def floor_rows(
-    motion: Motion, closed: Motion, floor: np.ndarray, rows: Sequence[_Row], *, tol: float = 0.005
-) -> list[_Row]:
+    motion: Motion, closed: Motion, floor: np.ndarray, rows: Sequence[Row], *, tol: float = 0.005
+) -> list[Row]:
     """Rows that put back above the floor the joints a closed loop takes under it.
 
     Per joint or end site and run of frames where ``closed`` has it more than ``tol`` under
@@ -522,5 +485,5 @@ def floor_rows(
         name = names[j]
         for a, b in mask_runs(under[:, j]):
             f = a + int(np.argmin(h_out[a:b, j]))
-            out.append(_Row(int(j), f"{name} above the floor", (f, f + 1), f, up, -1, float(h_in[f, j])))
+            out.append(Row(int(j), f"{name}{FLOOR_ROW}", (f, f + 1), f, up, -1, float(h_in[f, j])))
     return out

@@ -35,9 +35,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastic_motion.apps.loop.options import LoopOptions
+from elastic_motion.closing import ClosingResult
 from elastic_motion.closing_kkt import ExtraConstraints
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
+from elastic_motion.motion.asfamc import read_joint_limits
 from elastic_motion.motion.joint_limits import (
     JointLimitReport,
     JointLimits,
@@ -46,15 +49,31 @@ from elastic_motion.motion.joint_limits import (
     dof_angles_jacobian,
     limit_excess,
 )
+from elastic_motion.notes import Note
 
 __all__ = [
+    "LIMIT_STEP",
     "LimitConstraints",
+    "LimitsPlan",
     "LoopLimits",
     "StackedConstraints",
     "joint_limit_report",
+    "lie_rotations",
+    "limits_plan",
     "limits_report",
     "solve_within_limits",
 ]
+
+#: Seconds between the frames of a run beyond a limit that the loop pins (the worst frame and
+#: every this many seconds from it): a DOF held still on every frame makes the SRV singular.
+LIMIT_STEP = 0.1
+
+#: Kinds of the notes on joint limits (:meth:`LoopLimits.notes`, :func:`limits_plan`).
+REPORTED_ONLY_NOTE = "loop.limits_reported_only"
+INPUT_VIOLATES_NOTE = "loop.limits_input_violates"
+AT_LIMIT_NOTE = "loop.limits_at_limit"
+NEWLY_CROSSED_NOTE = "loop.limits_newly_crossed"
+LIMITS_MESSAGE_NOTE = "loop.limits_message"
 
 
 class LimitConstraints(ExtraConstraints):
@@ -201,21 +220,30 @@ class LoopLimits:
             "message": self.message,
         }
 
-    def notes(self) -> list[str]:
+    def notes(self) -> list[Note]:
         """Report lines: limits the input violates, joints at a limit, limits the loop crossed."""
         out = []
         if self.before.violations:
             out.append(
-                "joint limits the input violates (reported, not enforced): "
-                + ", ".join(f"{h.joint}.{h.dof} by {h.worst_deg:.2f} deg" for h in self.before.violations)
+                Note(
+                    INPUT_VIOLATES_NOTE,
+                    "joint limits the input violates (reported, not enforced): "
+                    + ", ".join(
+                        f"{h.joint}.{h.dof} by {h.worst_deg:.2f} deg" for h in self.before.violations
+                    ),
+                    {"dofs": [f"{h.joint}.{h.dof}" for h in self.before.violations]},
+                )
             )
         joints = sorted({*self.pinned_joints, *(h.joint for h in self.after.at_limit)})
         if joints:
-            out.append("joints at a limit in the loop: " + ", ".join(joints))
+            out.append(
+                Note(AT_LIMIT_NOTE, "joints at a limit in the loop: " + ", ".join(joints), {"joints": joints})
+            )
         if self.new_violations:
-            out.append("loop beyond a limit the input respected: " + ", ".join(self.new_violations))
+            text = "loop beyond a limit the input respected: " + ", ".join(self.new_violations)
+            out.append(Note(NEWLY_CROSSED_NOTE, text, {"dofs": list(self.new_violations)}))
         if self.message:
-            out.append(self.message)
+            out.append(Note(LIMITS_MESSAGE_NOTE, self.message))
         return out
 
 
@@ -249,8 +277,6 @@ def joint_limit_report(
         No limits given and none in the motion's source.
     """
     if limits is None:
-        from elastic_motion.motion.asfamc import read_joint_limits
-
         limits = read_joint_limits(motion)
         if limits is None:
             raise OptionError(
@@ -304,34 +330,29 @@ def _pick(beyond: np.ndarray, excess: np.ndarray, step: int) -> np.ndarray:
 
 
 def solve_within_limits(
-    solve: Callable[[ExtraConstraints | None], object],
-    rotations_of: Callable[[object], np.ndarray],
-    original: np.ndarray,
-    names: list[str] | tuple[str, ...],
+    solve: Callable[[ExtraConstraints | None], ClosingResult],
+    clip: Motion,
     limits: JointLimits,
     *,
     base: ExtraConstraints | None = None,
-    first: object | None = None,
+    first: ClosingResult | None = None,
     rounds: int = 6,
     step: int = 1,
     tol_deg: float = 0.01,
-) -> tuple[object, LoopLimits]:
+) -> tuple[ClosingResult, LoopLimits]:
     """The active-set loop of the module docstring.
 
     Parameters
     ----------
     solve : callable
-        ``solve(extra) -> result`` (a :class:`~elastic_motion.closing.ClosingResult` of
-        :func:`~elastic_motion.closing_kkt.project_closed` with ``extra``).
-    rotations_of : callable
-        ``rotations_of(result) -> (F, J, 3, 3)`` local rotations of the loop.
-    original : ndarray, shape (F, J, 3, 3)
-        The input's local rotations.
-    names : sequence of str
+        ``solve(extra) -> result``: :func:`~elastic_motion.closing_kkt.project_closed` of the
+        clip's Lie curve with the rows ``extra``.
+    clip : Motion
+        The input (its local rotations and joint names).
     limits : JointLimits
     base : ExtraConstraints, optional
         Rows solved with every round (the contacts).
-    first : result, optional
+    first : ClosingResult, optional
         The solve without limit rows, when already done.
     rounds : int, default 6
         Solves with limit rows at most. A solve that does not converge (pins too dense:
@@ -343,9 +364,15 @@ def solve_within_limits(
 
     Returns
     -------
-    result, LoopLimits
+    ClosingResult, LoopLimits
         The last solve that converged (the first one when none with limit rows did).
     """
+    original, names = clip.rotations, clip.skeleton.names
+    n_joints = clip.n_joints
+
+    def rotations_of(res: ClosingResult) -> np.ndarray:
+        return lie_rotations(res, n_joints)
+
     limits = limits.restricted_to(list(names))
     before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
     tol = math.radians(tol_deg)
@@ -376,12 +403,11 @@ def solve_within_limits(
         extra = StackedConstraints(base, rows) if base is not None and len(base) else rows
         cand = solve(extra)
         done += 1
-        if not getattr(cand, "converged", True):
+        if not cand.converged:
             if stride < n_frames:  # pins too dense for the solver: sparser ones
                 stride *= 2
                 continue
-            why = getattr(cand, "message", "")
-            message = f"joint limits: solve {done} did not converge ({why}); kept the previous loop"
+            message = f"joint limits: solve {done} did not converge ({cand.message}); kept the previous loop"
             break
         res, pinned = cand, trial
         after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
@@ -400,3 +426,69 @@ def solve_within_limits(
         message=message,
     )
     return res, info
+
+
+def lie_rotations(result: ClosingResult, n_joints: int) -> np.ndarray:
+    """The local rotations ``(F, J, 3, 3)`` of a closed Lie curve (root position first)."""
+    return np.asarray(result.curve.values)[:, 3:].reshape(-1, n_joints, 3, 3)
+
+
+@dataclass(frozen=True, eq=False)
+class LimitsPlan:
+    """What a loop does with the joint limits of a prepared clip (:func:`limits_plan`).
+
+    Attributes
+    ----------
+    mode : {"keep", "report", "off"}
+    limits : JointLimits or None
+        The limits of the clip's joints (None: none to keep or report).
+    notes : tuple of Note
+        Why ``"keep"`` became ``"report"``, if it did.
+    tol_deg : float
+        Beyond a limit means by more than this, degrees (``limit_tol``).
+    """
+
+    mode: str
+    limits: JointLimits | None
+    notes: tuple[Note, ...] = ()
+    tol_deg: float = 0.5
+
+    @property
+    def kept(self) -> JointLimits | None:
+        """The limits the closing keeps (mode ``"keep"``), or None."""
+        return self.limits if self.mode == "keep" else None
+
+    def measured(self, clip: Motion, loop: Motion, solved: LoopLimits | None) -> LoopLimits | None:
+        """What the loop did with the limits: ``solved`` (kept by the closing), else the
+        limits of ``clip`` and its ``loop`` measured; None without limits."""
+        if solved is not None or self.limits is None:
+            return solved
+        names = clip.skeleton.names
+        return limits_report(clip.rotations, loop.rotations, names, self.limits, tol_deg=self.tol_deg)
+
+
+def limits_plan(clip: Motion, options: LoopOptions) -> LimitsPlan:
+    """The joint limits of a prepared clip and what the loop does with them
+    (``options.joint_limits``: given limits are kept; ``"keep"`` and ``"report"`` read the
+    clip's ASF file; keeping needs the Lie curve and the KKT solver, else they are reported,
+    with a note)."""
+    option = options.joint_limits
+    if isinstance(option, JointLimits):
+        mode, lim = "keep", option
+    elif option == "off":
+        return LimitsPlan("off", None, tol_deg=options.limit_tol)
+    else:
+        mode, lim = option, read_joint_limits(clip)
+    notes = ()
+    if mode == "keep" and not options.solves_kkt_on_lie:
+        mode = "report"
+        notes = (
+            Note(
+                REPORTED_ONLY_NOTE,
+                "joint limits: reported only (keeping them needs method='lie' and solver='kkt')",
+            ),
+        )
+    if lim is not None:
+        lim = lim.restricted_to(clip.skeleton.names)
+        lim = lim if lim.joints else None
+    return LimitsPlan(mode, lim, notes, options.limit_tol)

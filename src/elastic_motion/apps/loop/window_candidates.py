@@ -1,16 +1,17 @@
-"""The best cycle of a clip: which sub-clip closes with the least change (cheap part).
+"""The best cycle of a clip, the cheap pass: which sub-clips may close with little change.
 
 :func:`elastic_motion.apps.loop.loop_motion` with ``window="auto"`` loops a sub-clip
 instead of the whole clip. This module does the cheap first pass: a pose and velocity
 dissimilarity of every (start, end) frame pair, the clip's period (the default minimum
 length) and the few best candidate windows; the loop then closes each candidate exactly
-and keeps the one whose loop changes the motion least.
+and keeps the one whose loop changes the motion least
+(:func:`elastic_motion.apps.loop.window.loop_window`).
 
 Conventions
 -----------
 * **A window** is the frame range ``[start, stop)``; the sub-clip's last frame ``stop - 1``
   is the one that must meet the first frame (the loop convention of
-  :mod:`elastic_motion.apps.loop`). Its length is ``(stop - 1 - start) / fps`` seconds
+  :mod:`elastic_motion.motion.looping`). Its length is ``(stop - 1 - start) / fps`` seconds
   (the duration of one cycle when played in a loop).
 * **Pose features** of a frame (what the loop convention closes): the local rotation of
   every closed joint but the root (rotation matrices), the root's tilt (the up axis seen
@@ -40,7 +41,6 @@ Conventions
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -48,7 +48,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 
-__all__ = ["CycleCandidates", "CycleWindow", "cycle_candidates", "estimate_period", "pose_dissimilarity"]
+__all__ = ["CycleCandidates", "cycle_candidates", "estimate_period", "pose_dissimilarity"]
 
 _AXES = "xyz"
 _TAU = 0.1  # seconds: weight of the velocity term
@@ -259,80 +259,3 @@ def _active_windows(speed: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarr
     total = np.concatenate([[0.0], np.cumsum(speed)])
     mean = (total[b + 1] - total[a]) / (b - a + 1)
     return mean >= _QUIET * reference
-
-
-@dataclass(frozen=True, eq=False)
-class CycleWindow:
-    """The window a loop was made of (:func:`elastic_motion.apps.loop.loop_motion`).
-
-    Attributes
-    ----------
-    start, stop : int
-        Frames ``[start, stop)`` of the prepared clip.
-    fps : float
-    deviation_max_m, deviation_mean_m : float
-        How much the loop changed the window: FK positions of the closed joints and their
-        end sites against the window's own frames (m); with root ``"inplace"`` against the
-        window on its own treadmill (the travel taken out is not counted), as for every
-        candidate and the whole clip.
-    change : float or None
-        ``||q - q_orig||_L2`` of the window's closing (SRV units).
-    whole : dict
-        The same numbers for the whole clip closed (``deviation_max_m``,
-        ``deviation_mean_m``, ``change_srv_l2``), or ``{"error": ...}``.
-    candidates : tuple of dict
-        Every window closed exactly, with its numbers (or its error).
-    min_length : float or None
-        Shortest window allowed, seconds (``None`` for a given window).
-    min_length_default : bool
-        Whether ``min_length`` was not given (then 90 % of the period, or half the clip
-        without one: ``summary()["min_length_rule"]``).
-    period : float or None
-        The clip's estimated period, seconds.
-    quiet_excluded : bool
-        Whether windows that barely move were left out of the candidates (module docstring).
-    """
-
-    start: int
-    stop: int
-    fps: float
-    deviation_max_m: float
-    deviation_mean_m: float
-    change: float | None
-    whole: dict
-    candidates: tuple[dict, ...]
-    min_length: float | None
-    min_length_default: bool
-    period: float | None
-    quiet_excluded: bool = False
-
-    @property
-    def length(self) -> float:
-        """Length of the cycle in seconds, ``(stop - 1 - start) / fps``."""
-        return (self.stop - 1 - self.start) / self.fps
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-ready fields (frames, seconds, metres)."""
-        return {
-            "start_frame": self.start,
-            "stop_frame": self.stop,
-            "start_s": self.start / self.fps,
-            "stop_s": (self.stop - 1) / self.fps,
-            "length_s": self.length,
-            "deviation_max_m": self.deviation_max_m,
-            "deviation_mean_m": self.deviation_mean_m,
-            "change_srv_l2": self.change,
-            "whole_clip": dict(self.whole),
-            "candidates": [dict(c) for c in self.candidates],
-            "min_length_s": self.min_length,
-            "min_length_from_period": self.min_length_default and self.period is not None,
-            "min_length_rule": (
-                "given"
-                if not self.min_length_default
-                else "90 % of the period"
-                if self.period is not None
-                else "half the clip (no period found)"
-            ),
-            "period_s": self.period,
-            "quiet_windows_excluded": self.quiet_excluded,
-        }

@@ -1,0 +1,302 @@
+"""Closing one prepared clip into a loop (:class:`ClipCloser`): its curve projected onto the
+closed curves, with kept contacts and kept joint limits when asked.
+
+What closes (the loop convention of :mod:`elastic_motion.motion.looping`):
+
+* **Lie curve** ``R^3 x SO(3)^J`` (:func:`elastic_motion.motion.to_lie_curve`, with its
+  default weights), ``root="travel"``: every closed joint's local rotation (free joints keep
+  their samples); the root orientation *relative to heading*, i.e. up to a rotation about
+  the up axis (the swing residual of :mod:`elastic_motion.closing`); the root height. The
+  floor-plane root trajectory keeps its samples, so the displacement of one cycle is kept.
+  ``root="inplace"``: all of it, floor position and heading too (paper 000's closing).
+* **Euler baseline** (``method="euler-elastic"``): the same motion as continuous Euler angles
+  in ``R^(3+3J)`` (:func:`elastic_motion.motion.to_euler_curve`, with the Lie curve's weights
+  on the coordinates), closed by the Newton projection of paper 001, Thm. 2
+  (:func:`elastic_motion.closing.project_closed_rd`; C1 by
+  :func:`elastic_motion.closing.close_curve`). In ``"travel"`` it closes the root height,
+  every joint's three angles and the root's three angles -- except the root's outermost
+  angle when that is about the up axis (then it *is* the heading and stays free). Euler
+  angles have no heading coordinate otherwise, so a turning clip is turned back.
+
+The first frame never changes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastic_motion.apps.loop.kept_contacts import KeptContacts, close_keeping_contacts
+from elastic_motion.apps.loop.limits import LIMIT_STEP, LoopLimits, lie_rotations, solve_within_limits
+from elastic_motion.apps.loop.options import LoopOptions
+from elastic_motion.apps.progress import Progress
+from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
+from elastic_motion.closing_kkt import ExtraConstraints, project_closed
+from elastic_motion.curves import DiscreteCurve
+from elastic_motion.errors import OptionError
+from elastic_motion.groups import Euclidean
+from elastic_motion.motion import Motion, finger_joints, lie_group_for, to_lie_curve
+from elastic_motion.motion.contacts import ContactPolicy, Contacts, detect_contacts
+from elastic_motion.motion.joint_limits import JointLimits
+from elastic_motion.motion.looping import treadmill
+from elastic_motion.motion.representations import EULER, LIE, Representation, representation
+
+__all__ = ["ClipCloser", "ClosedClip", "ClosedJoints", "Projection", "closed_joints", "closing_mask"]
+
+_AXES = "xyz"
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedJoints:
+    """Which joints of a clip close (:func:`closed_joints`).
+
+    Attributes
+    ----------
+    mask : ndarray of bool, shape (J,)
+        Per joint, skeleton order: closed.
+    closed, free : tuple of str
+        The closed and the free joints' names, skeleton order.
+    """
+
+    mask: np.ndarray
+    closed: tuple[str, ...]
+    free: tuple[str, ...]
+
+
+def closed_joints(motion: Motion, free_joints: str | tuple[str, ...] | None) -> ClosedJoints:
+    """The joints of ``motion`` that close: all but ``free_joints`` (``"fingers"``: the finger
+    and thumb joints, :func:`~elastic_motion.motion.finger_joints`; None: none; or names).
+
+    Raises
+    ------
+    OptionError
+        A name that is not a joint of the skeleton.
+    """
+    names = motion.skeleton.names
+    if free_joints is None:
+        free = set()
+    elif isinstance(free_joints, str):
+        free = set(finger_joints(motion.skeleton))
+    else:
+        unknown = [n for n in free_joints if n not in names]
+        if unknown:
+            raise OptionError(
+                "free_joints",
+                f"expected joint names of the skeleton {list(names)}; got unknown {unknown}",
+            )
+        free = set(free_joints)
+    mask = np.array([n not in free for n in names])
+    closed = tuple(n for n, c in zip(names, mask, strict=True) if c)
+    return ClosedJoints(mask, closed, tuple(n for n, c in zip(names, mask, strict=True) if not c))
+
+
+def closing_mask(motion: Motion, joints: ClosedJoints, root: str, rep: Representation) -> np.ndarray:
+    """Which coordinates of the curve close, ``(3 + 3 J,)`` bool: the root position (in
+    ``"travel"`` its height only), then 3 per joint, root first (module docstring).
+
+    In ``"travel"`` the root's heading stays free: on the Lie curve the rotation about the
+    up axis (the swing residual), on the Euler curve the root's outermost angle when that is
+    about the up axis."""
+    j, up = motion.n_joints, _AXES.index(motion.up_axis)
+    rot_mask = np.repeat(joints.mask, 3).reshape(j, 3)
+    pos_mask = np.ones(3, dtype=bool)
+    if root == "travel":
+        pos_mask[:] = False
+        pos_mask[up] = True
+        heading = _heading_coordinate(motion, rep)
+        if joints.mask[0] and heading is not None:
+            rot_mask[0, heading] = False
+    return np.concatenate([pos_mask, rot_mask.ravel()])
+
+
+def _heading_coordinate(motion: Motion, rep: Representation) -> int | None:
+    """The root rotation's coordinate that is the heading: on the Lie curve the rotation about
+    the up axis (the swing residual), on the Euler curve the outermost angle when it is about
+    the up axis (else none: a turning clip is turned back)."""
+    if rep.is_lie:
+        return _AXES.index(motion.up_axis)
+    return 0 if motion.skeleton.euler_orders[0][0].lower() == motion.up_axis else None
+
+
+@dataclass(frozen=True, eq=False)
+class Projection:
+    """The closed curve nearest a clip's curve (:func:`elastic_motion.closing_kkt.project_closed`)
+    with the loop's mask, seam, tolerance and iterations.
+
+    Attributes
+    ----------
+    mask : ndarray of bool, shape (3 + 3 J,)
+        :func:`closing_mask`.
+    options : LoopOptions
+    rotation_names : tuple of str or None
+        The joints' names, for the cut-locus error (the Lie curve).
+    progress : callable or None
+        ``progress("closing", k, 0)`` after each iteration.
+    """
+
+    mask: np.ndarray
+    options: LoopOptions
+    rotation_names: tuple[str, ...] | None = None
+    progress: Progress | None = None
+
+    def __call__(
+        self,
+        curve: DiscreteCurve,
+        extra: ExtraConstraints | None = None,
+        stall: int | None = None,
+        iterations: int | None = None,
+    ) -> ClosingResult:
+        """Project ``curve`` with the rows ``extra``; stop after ``stall`` iterations without
+        progress, and after ``iterations`` (at most the options' ``max_iter``)."""
+        o = self.options
+        return project_closed(
+            curve,
+            factors=self.mask,
+            c1=o.is_c1,
+            tol=min(o.tol, 1e-9),
+            max_iter=max(min(o.max_iter, iterations or o.max_iter), 1),
+            rotation_names=None if self.rotation_names is None else list(self.rotation_names),
+            extra=extra,
+            stall_iterations=stall,
+            progress=self.progress,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedClip:
+    """One clip closed (:class:`ClipCloser`).
+
+    Attributes
+    ----------
+    motion : Motion
+        The loop (the clip's name, no source).
+    closing : ClosingResult
+    kept : KeptContacts or None
+        What became of the kept contacts (None when none were kept).
+    limits : LoopLimits or None
+        The joint limits kept (None when not kept).
+    """
+
+    motion: Motion
+    closing: ClosingResult
+    kept: KeptContacts | None = None
+    limits: LoopLimits | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ClipCloser:
+    """Closes clips with one loop's options (the close stage; the window stage calls it on
+    each candidate).
+
+    Attributes
+    ----------
+    options : LoopOptions
+        With ``seam`` ``"c0"`` or ``"c1"``.
+    joints : ClosedJoints
+    limits : JointLimits or None
+        Joint limits to keep (needs the Lie curve and the KKT solver).
+    progress : callable or None
+        ``progress("closing", k, 0)`` of the KKT solver.
+    """
+
+    options: LoopOptions
+    joints: ClosedJoints
+    limits: JointLimits | None = None
+    progress: Progress | None = None
+
+    def __call__(self, clip: Motion, contacts: ContactPolicy | None = None) -> ClosedClip:
+        """Close ``clip`` (with ``contacts``, default the options' policy: ``"keep"`` plants the
+        clip's contacts, anything else closes without them)."""
+        rep = representation(self.options.method)
+        mask = closing_mask(clip, self.joints, self.options.root, rep)
+        if rep.is_lie:
+            keep = (contacts or self.options.contact_mode) == "keep"
+            found = detect_contacts(clip, self.options.detection) if keep else None
+            closed = self._close_lie(clip, mask, found)
+        else:
+            closed = self._close_euler(clip, mask)
+        return dataclasses.replace(closed, motion=closed.motion.replace(name=clip.name, source=()))
+
+    def projection(self, mask: np.ndarray, clip: Motion) -> Projection:
+        """The KKT projection of ``clip``'s Lie curve with ``mask`` and these options."""
+        return Projection(mask, self.options, tuple(clip.skeleton.names), self.progress)
+
+    def _lie_curve(self, clip: Motion) -> DiscreteCurve:
+        return to_lie_curve(
+            clip, self.options.joint_weights, translation_weight=self.options.translation_weight
+        )
+
+    def _close_lie(self, clip: Motion, mask: np.ndarray, found: Contacts | None) -> ClosedClip:
+        """The Lie curve closed (with the contacts ``found`` kept when some are planted), then
+        within the kept joint limits."""
+        o, project = self.options, self.projection(mask, clip)
+        kept = extra = out = None
+        if found is not None and found.any:
+            out, res, extra, kept, lie = self._keep_contacts(clip, found, project)
+        elif o.solver == "kkt":
+            lie = self._lie_curve(clip)
+            res = project(lie)
+        else:
+            lie = self._lie_curve(clip)
+            res = close_curve(
+                lie, method=o.solver, tol=o.tol, max_iter=o.max_iter, factors=mask, c1=o.is_c1,
+                rotation_names=list(clip.skeleton.names),
+            )  # fmt: skip
+        if self.limits is None or o.solver != "kkt":
+            return ClosedClip(out if out is not None else LIE.from_curve(res.curve, clip), res, kept)
+        # kept contacts that held are rows of every limits solve too
+        base = extra if kept is not None and kept.dropped is None else None
+        res, lim_info = solve_within_limits(
+            lambda ex: project(lie, ex), clip, self.limits, base=base, first=res,
+            step=max(1, round(LIMIT_STEP * clip.fps)), tol_deg=o.limit_tol,
+        )  # fmt: skip
+        if base is not None:
+            kept = kept.replace(gave_way=tuple(base.gave_way(lie_rotations(res, clip.n_joints), _root(res))))
+        return ClosedClip(LIE.from_curve(res.curve, clip), res, kept, lim_info)
+
+    def _keep_contacts(self, clip: Motion, found: Contacts, project: Projection) -> tuple:
+        """:func:`close_keeping_contacts`; in place on the clip's treadmill.
+
+        Returns the loop (None when the contacts were dropped), the closing, the rows, what
+        became of the contacts and the curve closed (the clip's own when they were dropped).
+        """
+        base, travel = clip, None
+        if self.options.root == "inplace":
+            # planted feet cannot stay put while the clip comes back to its start: the body then
+            # jumped back in the air (1.1 m between two frames of the DeepMimic run). They ride a
+            # treadmill instead: the travel is removed at a constant rate, then the rest closed
+            base, dist, turn = treadmill(clip)
+            unit = clip.metres_per_unit if clip.metres_per_unit is not None else 1.0
+            travel = {"travel_m": dist * unit, "turn_deg": float(np.degrees(turn))}
+        # kept joint limits need the clip's own frames (C1 seam rows its first and last
+        # steps, which the grid keeps)
+        step = 0.0 if self.limits is not None else self.options.contact_step
+        closing = close_keeping_contacts(base, found, project, self.options, step=step)
+        kept = closing.kept.replace(treadmill=travel)
+        if closing.motion is not None:
+            return closing.motion, closing.closing, closing.constraints, kept, self._lie_curve(base)
+        # contacts and closure do not fit together: closed without them, and without the
+        # treadmill they needed
+        lie = self._lie_curve(clip)
+        return None, project(lie), closing.constraints, kept, lie
+
+    def _close_euler(self, clip: Motion, mask: np.ndarray) -> ClosedClip:
+        """The Euler curve, weighted like the Lie curve, closed (module docstring)."""
+        o = self.options
+        euler = EULER.to_curve(clip)
+        weights = lie_group_for(clip.skeleton, o.joint_weights, o.translation_weight).weights
+        curve = DiscreteCurve(euler.values, Euclidean(3 + 3 * clip.n_joints, weight=weights), euler.t)
+        if o.solver == "kkt":
+            res = Projection(mask, o, progress=self.progress)(curve)
+        elif o.is_c1:
+            res = close_curve(curve, method=o.solver, tol=o.tol, max_iter=o.max_iter, factors=mask, c1=True)
+        else:
+            res = project_closed_rd(curve, factors=mask, tol=o.tol, max_iter=o.max_iter)
+        return ClosedClip(EULER.from_curve(res.curve, clip), res)
+
+
+def _root(res: ClosingResult) -> np.ndarray:
+    """The root positions ``(F, 3)`` of a closed Lie curve."""
+    return np.asarray(res.curve.values)[:, :3]
