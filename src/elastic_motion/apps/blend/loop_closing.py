@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from elastic_motion.apps.cleanup import CleanupResult, cleanup_footskate
 from elastic_motion.apps.cycles import CycleMatch
-from elastic_motion.apps.loop import LoopResult, loop_motion
+from elastic_motion.apps.loop import LoopOptions, LoopResult, loop_motion
 from elastic_motion.apps.metrics import contact_skating, seam_metrics
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.motion import Motion
@@ -66,7 +66,9 @@ def close_loop(cycle: Motion) -> LoopResult:
     quickest changes inside the cycle (DeepMimic walk x run 2.3, CMU 07_01 x 09_11 2.8, Bandai
     normal x tired 1.7), C1 0.8-2.1 (what is left is the root's floor velocity, which travel
     keeps), at the same skating and change."""
-    return loop_motion(cycle, prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), c1=True)
+    return loop_motion(
+        cycle, LoopOptions(prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), seam="c1")
+    )
 
 
 def hitch(loop: LoopResult) -> str:
