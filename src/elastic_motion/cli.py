@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import select
 import sys
 from collections.abc import Sequence
 
@@ -25,7 +26,7 @@ from elastic_motion.cli_commands._argparse import (
     CliParser,
     handle_error,
 )
-from elastic_motion.cli_commands._common import check_report_target
+from elastic_motion.cli_commands._paths import check_report_target
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -44,32 +45,31 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CliParser)
+    # local: the command modules read their choices from the API's types (numpy, numba); they
+    # are loaded here, inside main's error handling, so that `import elastic_motion.cli` is light
     from elastic_motion.cli_commands import (
         align,
         blend,
         blender_addon,
+        blendspace,
         database,
         demo,
         distance,
+        index,
         info,
         landmarks,
         loop,
+        pca,
         render,
         view,
     )
 
-    # The README's first command first; then the motion commands; then the database ones.
-    for module in (demo, info, blend, landmarks, loop, align, distance, render, database):
+    # The README's first command first; then the motion commands; then the database ones, the
+    # database index and statistical model (issue 15), blend spaces (issue 16), the viewer and
+    # the Blender add-on.
+    commands = (demo, info, blend, landmarks, loop, align, distance, render, database, index, pca)
+    for module in (*commands, blendspace, view, blender_addon):
         module.register(subparsers)
-    from elastic_motion.cli_commands import index, pca  # database index, statistical model (issue 15)
-
-    for module in (index, pca):
-        module.register(subparsers)
-    from elastic_motion.cli_commands import blendspace  # blend spaces (issue 16)
-
-    blendspace.register(subparsers)
-    view.register(subparsers)
-    blender_addon.register(subparsers)
     return parser
 
 
@@ -92,10 +92,8 @@ def _stdout_is_closed() -> bool:
     except (AttributeError, OSError, ValueError):  # replaced by a non-file (tests): not a pipe
         return False
     try:
-        import select
-
         poller = select.poll()
-    except (ImportError, AttributeError):  # pragma: no cover - no poll (Windows): trust the error
+    except AttributeError:  # pragma: no cover - no poll (Windows): trust the error
         return True
     poller.register(fd, select.POLLOUT)
     return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poller.poll(0))

@@ -91,6 +91,27 @@ def test_runner_reads_options_from_help():
         "i", "o", "r", root="travel", window="whole", contacts=True, help_text=LOOP_HELP
     )
     assert args[args.index("--contacts") + 1] == "keep" and not warn
+    # the blend settings as one object: the same command line as the keywords
+    settings = runner.BlendSettings(weight=0.3, warp="dp", landmarks="auto", cleanup=False)
+    assert runner.blend_args(
+        "a.bvh", "b.bvh", "o.bvh", "r.json", settings, help_text=HELP
+    ) == runner.blend_args(
+        "a.bvh",
+        "b.bvh",
+        "o.bvh",
+        "r.json",
+        weight=0.3,
+        warp="dp",
+        landmarks="auto",
+        cleanup=False,
+        help_text=HELP,
+    )
+    args, _ = runner.blend_args(
+        "a", "b", "o", "r", settings, weight=0.7, help_text=HELP
+    )  # a keyword overrides
+    assert args[args.index("--weight") + 1] == "0.7" and args[args.index("--warp") + 1] == "dp"
+    with pytest.raises(TypeError, match="unknown settings"):
+        runner.blend_args("a", "b", "o", "r", wieght=0.3, help_text=HELP)
 
 
 def test_runner_errors():

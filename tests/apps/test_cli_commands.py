@@ -229,6 +229,71 @@ def test_landmarks_command_and_pairs_file(files, capsys, tmp_path):
     assert code == 2 and "expected landmarks of b.bvh and a.bvh, in that order" in err
 
 
+def test_landmarks_command_equals_detect_landmarks(files, capsys, tmp_path):
+    """The notebook's ``detect_landmarks`` gives the command's events, pairs, weight and reasons."""
+    from elastic_motion.apps.landmark_detection import detect_landmarks
+
+    kinds = ["left_knee_passes", "left_toe_off"]
+    options = ["--method", "euler-elastic", "--max-pairs", "1", "--warp", "dp", "--kinds", ",".join(kinds)]
+    for argv, kw in (
+        ([files["a"]], {}),
+        ([files["a"], files["b"]], {}),
+        (
+            [files["a"], files["b"], *options],
+            dict(method="euler-elastic", max_pairs=1, warp="dp", kinds=kinds),
+        ),
+        (
+            [files["a"], files["b"], "--landmark-kinds", "left_knee_passes"],
+            dict(pair_kinds=["left_knee_passes"]),
+        ),
+    ):
+        code, stdout, err = run(capsys, "landmarks", *argv, "--json")
+        assert code == 0, err
+        cli = json.loads(stdout)
+        inputs = [a for a in argv if a in (files["a"], files["b"])]
+        res = detect_landmarks(*inputs, **kw)
+        api = json.loads(json.dumps(res.summary()))
+        assert api == {k: cli[k] for k in api}  # every field of the report, the same numbers
+        assert set(cli) - set(api) == {"command", "version", "created", "inputs", "outputs", "notes"}
+        assert cli["notes"] == [str(n) for n in res.notes]
+        if len(inputs) == 2:
+            assert [list(p) for p in res.pairs] == cli["pairs_s"] and res.landmark_weight == cli[
+                "landmark_weight"
+            ]
+
+
+def test_render_command_equals_render_motions(files, capsys, tmp_path):
+    """The notebook's ``render_motions`` draws the command's picture, byte for byte."""
+    from elastic_motion.apps.render_files import render_motions
+
+    cases = (
+        (["-o", "feet.png"], {}),
+        (["-o", "seam.png", "--kind", "seam", "--repeat", "2", "--labels", "x"], dict(kind="seam", repeat=2)),
+        (
+            ["-o", "warp.png", "--kind", "warp", "--landmarks", "0.5:0.6"],
+            dict(kind="warp", landmarks="0.5:0.6"),
+        ),
+        (["-o", "anim.gif", "--size", "48x48", "--fps", "5"], dict(panel_size=(48, 48), fps=5.0)),
+    )
+    for argv, kw in cases:
+        inputs = [files["a"]] if "seam.png" in argv else [files["a"], files["b"]]
+        name = argv[1]
+        cli_out, api_out = tmp_path / f"cli_{name}", tmp_path / f"api_{name}"
+        args = [*inputs, *argv[2:], "-o", cli_out, "-q", "--json", tmp_path / f"{name}.json"]
+        code, _, err = run(capsys, "render", *args)
+        assert code == 0, err
+        labels = ["x"] if "--labels" in argv else None
+        res = render_motions(inputs, api_out, labels=labels, **kw)
+        assert api_out.read_bytes() == cli_out.read_bytes(), name
+        report = json.loads((tmp_path / f"{name}.json").read_text())
+        assert report["kind"] == res.kind and report["labels"] == list(res.labels)
+        assert report["notes"] == [str(n) for n in res.notes]
+    with pytest.raises(ValueError, match="expected 2 labels; got 1"):
+        render_motions([files["a"], files["b"]], tmp_path / "x.png", labels=["one"])
+    with pytest.raises(ValueError, match="expected 'tA:tB' pairs"):
+        render_motions([files["a"], files["b"]], tmp_path / "x.png", kind="warp", landmarks="1:2:3")
+
+
 def test_multiway_blend(files, capsys, tmp_path):
     code, stdout, err = run(
         capsys,

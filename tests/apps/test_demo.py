@@ -76,7 +76,7 @@ def test_demo_folder(demo, capsys):
 
 
 def test_demo_page_links_every_bvh_and_has_a_legend(demo):
-    from elastic_motion.apps.render import _LEFT, _RIGHT
+    from elastic_motion.apps.palette import LEFT, RIGHT
 
     page = _page(demo)
     bvh = sorted(p.relative_to(demo).as_posix() for p in demo.rglob("*.bvh"))
@@ -86,7 +86,7 @@ def test_demo_page_links_every_bvh_and_has_a_legend(demo):
     for link in page.links:  # relative links, so that the folder can be moved or served
         assert "://" not in link and not link.startswith("/"), link
     assert page.legends >= 1
-    assert {_LEFT, _RIGHT} <= page.swatch_colours  # the side colours are explained
+    assert {LEFT, RIGHT} <= page.swatch_colours  # the side colours are explained
 
 
 def test_demo_videos_play_in_real_time(demo):

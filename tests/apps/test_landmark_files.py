@@ -79,3 +79,22 @@ def test_landmark_time():
     assert landmark_time("2S", "frames", 60.0) == 2.0
     with pytest.raises(ValueError, match="frame rates"):
         landmark_time("3f", "seconds", None)
+
+
+def test_parse_landmarks_reads_the_command_lines_text(tmp_path):
+    """``parse_landmarks``: the one reading of ``--landmarks`` (auto, none, a file, inline pairs)."""
+    from elastic_motion.apps.landmark_files import TIME_UNITS, LandmarkFile, parse_landmarks
+    from elastic_motion.errors import OptionError
+
+    assert TIME_UNITS == ("seconds", "frames")
+    assert parse_landmarks(None) is None and parse_landmarks("none") is None
+    assert parse_landmarks("auto") == "auto"
+    assert parse_landmarks("0.5:0.7, 1.4:1.9") == [(0.5, 0.7), (1.4, 1.9)]
+    assert parse_landmarks("15:30,2s:60f", units="frames", fps=(30.0, 60.0)) == [(0.5, 0.5), (2.0, 1.0)]
+    f = tmp_path / "pairs.txt"
+    f.write_text("0.5 0.7\n")
+    lf = parse_landmarks(str(f))
+    assert isinstance(lf, LandmarkFile) and lf.pairs == ((0.5, 0.7),)
+    for text, why in (("banana", "no such file"), ("1:2:3", "'tA:tB' pairs"), ("x:1", "expected a time")):
+        with pytest.raises(OptionError, match=f"^landmarks: .*{why}"):
+            parse_landmarks(text)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from blend_testlib import walker
 
+from elastic_motion.apps.landmark_detection import auto_landmarks
 from elastic_motion.apps.landmarks import (
     GAIT_KINDS,
     Event,
-    auto_landmarks,
     contact_events,
     detect_events,
     find_leg_joints,

@@ -264,3 +264,59 @@ def test_render_rejects_unknown_keywords(motions, tmp_path):
     with pytest.raises(TypeError, match="'trace_joints'"):
         render([a], tmp_path / "x.png", kind="seam", trace_joints=["Head"])
     assert not list(tmp_path.iterdir())
+
+
+# ------------------------------------------------------------------------------------------
+# Options objects and the shared palette
+# ------------------------------------------------------------------------------------------
+
+
+def test_picture_options_are_validated_and_keywords_override_them(motions, tmp_path):
+    from elastic_motion.apps.render import AnimationOptions, FeetPlotOptions, SeamPlotOptions, WarpPlotOptions
+    from elastic_motion.errors import OptionError
+
+    a, b = motions
+    with pytest.raises(OptionError, match="repeat: expected at least 2 cycles"):
+        SeamPlotOptions(repeat=1)
+    with pytest.raises(OptionError, match="root: expected 'travel' or 'inplace'"):
+        SeamPlotOptions(root="sideways")
+    with pytest.raises(OptionError, match=r"fps: expected a positive frame rate; got -1\.0"):
+        AnimationOptions(fps=-1)
+    with pytest.raises(OptionError, match="seconds: expected a length >= 0"):
+        AnimationOptions(seconds=-0.5)
+    with pytest.raises(OptionError, match="ghosts"):
+        FeetPlotOptions(ghosts=-1)
+    with pytest.raises(OptionError, match="dpi"):
+        WarpPlotOptions(dpi=0)
+    assert AnimationOptions(fps=0).video_fps([a, b]) == 30.0  # 0: the motions' rate, at most 30
+    # an options object and the same fields as keywords draw the same picture
+    opts = SeamPlotOptions(repeat=2, title="seam", joints=["Head"])
+    plot_seam(a, None, tmp_path / "opts.png", opts)
+    plot_seam(a, None, tmp_path / "kw.png", repeat=2, title="seam", joints=["Head"])
+    assert (tmp_path / "opts.png").read_bytes() == (tmp_path / "kw.png").read_bytes()
+    plot_seam(a, None, tmp_path / "over.png", opts, title="other")  # keywords override the object
+    assert (tmp_path / "over.png").read_bytes() != (tmp_path / "opts.png").read_bytes()
+    with pytest.raises(OptionError, match=r"unknown option \['colour'\] of FeetPlotOptions"):
+        plot_foot_trajectories([a], tmp_path / "x.png", colour="red")
+    with pytest.raises(OptionError, match="SeamPlotOptions"):
+        plot_seam(a, None, tmp_path / "x.png", FeetPlotOptions())
+    fig = plot_foot_trajectories([a, b], None, FeetPlotOptions(ncols=1, ghosts=0))
+    assert len(fig.axes) == 2 and not any(ax.collections for ax in fig.axes)  # one column, no ghosts
+
+
+def test_the_palette_gives_sides_and_bone_colours():
+    from elastic_motion.apps.palette import CENTRE, LEFT, RIGHT, bone_colours, joint_side
+
+    assert [joint_side(n) for n in ("LeftUpLeg", "lfemur", "RHipJoint", "hand_r", "mixamorig:LeftArm")] == [
+        "L",
+        "L",
+        "R",
+        "R",
+        "L",
+    ]
+    assert joint_side("Hips") == joint_side("lowerback") == ""
+    m = walker(duration=0.5)
+    start, end, colours = bone_colours(m)
+    sk = m.skeleton
+    assert len(start) == len(end) == len(colours) == sk.n_joints - 1 + len(sk.end_site_parents)
+    assert {LEFT, RIGHT, CENTRE} == set(colours)

@@ -77,6 +77,38 @@ def test_report_that_does_not_match_is_ignored_with_a_note(loop_files, tmp_path)
     assert any("NoSuchJoint" in n for n in page.notes)
 
 
+def test_viewer_options_and_the_contact_vocabulary(loop_files):
+    """One ViewerOptions or its fields as keywords; contacts speak the contact policy's words
+    ("off"), with the viewer's old "none" accepted."""
+    from elastic_motion.apps.viewer import CONTACT_MARKS, ViewerOptions
+    from elastic_motion.errors import OptionError
+
+    _, loop, _, rep = loop_files
+    assert CONTACT_MARKS == ("report", "detect", "off")
+    assert ViewerOptions(contacts="none").contacts == "off"
+    for bad, option in (
+        (dict(contacts="maybe"), "contacts"),
+        (dict(layout="stacked"), "layout"),
+        (dict(max_frames=1), "max_frames"),
+        (dict(max_fps=0), "max_fps"),
+    ):
+        with pytest.raises(OptionError, match=f"^{option}: expected"):
+            ViewerOptions(**bad)
+    with pytest.raises(OptionError, match="unknown option"):
+        build_viewer([loop], colour="red")
+    opts = ViewerOptions(plotly_src="x.js", title="t", element_id="v1")
+    assert (
+        build_viewer([loop], opts).html
+        == build_viewer([loop], plotly_src="x.js", title="t", element_id="v1").html
+    )
+    marked = build_viewer([loop], opts)
+    assert marked.clips[0].contacts == bool(rep.get("contacts") and rep["contacts"]["joints"])
+    for word in ("off", "none"):
+        page = build_viewer([loop], opts, contacts=word)
+        assert not page.clips[0].contacts and _spec(page)["clips"][0]["contacts"] is None
+        assert page.clips[0].seams == marked.clips[0].seams  # only the contacts are left out
+
+
 def test_blend_warp_timing(tmp_path, mocap_dir):
     """The warp plot's times: the blend's own clock rebuilt from its report (blend step 4)."""
     from elastic_motion.apps.blend import blend_motions
@@ -150,7 +182,7 @@ def _colour_pixels(png: bytes, hex_colour: str, box=None) -> int:
 
 @pytestmark_browser
 def test_page_in_chromium(loop_files, tmp_path):
-    from elastic_motion.apps.render import _LEFT, _RIGHT
+    from elastic_motion.apps.palette import LEFT, RIGHT
 
     _, loop, preview, _ = loop_files
     out = tmp_path / "view.html"
@@ -169,7 +201,7 @@ def test_page_in_chromium(loop_files, tmp_path):
         shot0 = b.screenshot()
         assert shot0 != blank
         # the skeleton: limbs in the side colours inside the 3D scene
-        assert _colour_pixels(shot0, _LEFT, box) > 50 and _colour_pixels(shot0, _RIGHT, box) > 50
+        assert _colour_pixels(shot0, LEFT, box) > 50 and _colour_pixels(shot0, RIGHT, box) > 50
         pose0 = b.evaluate(f"{v}.pose(0)")
         # drag the slider's thumb to the middle, as a user does
         r = b.evaluate(

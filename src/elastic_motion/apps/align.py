@@ -52,6 +52,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from elastic_motion.apps.landmark_files import LandmarkFile
+from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, phase_landmarks
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
@@ -416,8 +417,6 @@ def plan_landmarks(
             )
         if options.method == "none":
             raise OptionError("landmarks", "expected a time warp (warp 'dp' or 'dp+refine'); got warp 'none'")
-        from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, phase_landmarks
-
         prior = solve_warp(srv_a, srv_b, options)
         pairing = phase_landmarks(
             a,

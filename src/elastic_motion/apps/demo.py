@@ -26,12 +26,33 @@ import html
 import io
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from elastic_motion._io import atomic_write_text
+from elastic_motion.apps.align import AlignResult, align_motions
+from elastic_motion.apps.blend import BlendResult, blend_motions
+from elastic_motion.apps.distance import DistanceTable, distance_table
+from elastic_motion.apps.loop import LoopResult, loop_motion
+from elastic_motion.apps.metrics import SeamMetrics, seam_metrics
+from elastic_motion.apps.palette import CENTRE, CURVES, FLOOR, GHOST, LEFT, RIGHT, TRACE, UNIFORM, WARP
+from elastic_motion.apps.plots_database import plot_distance_matrix
 from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.apps.render import (
+    joint_rotation_curve,
+    plot_foot_trajectories,
+    plot_seam,
+    plot_so3_curves,
+    plot_warp,
+    render_animation,
+)
+from elastic_motion.apps.report import jsonable, report_header, write_report
+from elastic_motion.apps.viewer import build_viewer, plotly_js
+from elastic_motion.apps.viewer.page import CSS as VIEWER_CSS
+from elastic_motion.motion import Motion, read_motion, write_bvh
+from elastic_motion.motion.looping import repeat_motion
 
 __all__ = ["DemoDataError", "DemoResult", "demo_data_dir", "run_demo"]
 
@@ -169,245 +190,306 @@ def run_demo(
     -------
     DemoResult
     """
-    from elastic_motion.apps.blend import blend_motions
-    from elastic_motion.apps.distance import distance_table
-    from elastic_motion.apps.loop import loop_motion
-    from elastic_motion.apps.metrics import seam_metrics
-    from elastic_motion.apps.plots_database import plot_distance_matrix
-    from elastic_motion.apps.render import (
-        joint_rotation_curve,
-        plot_foot_trajectories,
-        plot_seam,
-        plot_so3_curves,
-        plot_warp,
-        render_animation,
-    )
-    from elastic_motion.apps.report import report_header, write_report
-    from elastic_motion.motion import read_motion, write_bvh
-    from elastic_motion.motion.looping import repeat_motion
-
     t_start = time.perf_counter()
-    report_cb = progress or null_progress
     data = Path(data_dir) if data_dir is not None else demo_data_dir()
     out = Path(out_dir)
     _prepare_out(out, force)
     mp4 = _mp4_available() if mp4 is None else bool(mp4)
-    files: list[Path] = []
-    bvh_files: list[tuple[Path, str]] = []  # (path, what it holds), for index.html
-    timings: dict[str, float] = {}
-    rel = lambda p: p.relative_to(out).as_posix()  # noqa: E731
+    run = _Run(out, data, progress or null_progress)
+    blends = run.timed("blends_s", lambda: _blends(run))
+    loops = run.timed("loops_s", lambda: _loops(run))
+    table = run.timed("distances_s", lambda: _distances(run))
+    figs, al = run.timed("figures_s", lambda: _figures(run, blends, loops))
+    videos = run.timed("videos_s", lambda: _videos(run, blends, loops, mp4) if video else {})
+    viewers = _viewers(run, blends, loops)
+    rep = _report(run, blends, loops, table, al)
+    run.timings["total_s"] = time.perf_counter() - t_start
+    rep["timings"] = run.timings
+    index = out / "index.html"
+    page = _Page(out, blends, loops, table, figs, videos, run.timings, run.bvh_files, viewers)
+    atomic_write_text(index, _html(page))
+    write_report(out / "report.json", rep)
+    run.files += [index, out / "report.json"]
+    return DemoResult(out, index, tuple(run.files), rep, time.perf_counter() - t_start)
 
-    def read(name: str):
-        p = data / name
+
+@dataclass
+class _Run:
+    """The demo's working state: where it reads and writes, what it wrote, how long it took."""
+
+    out: Path
+    data: Path
+    progress: Progress
+    files: list[Path] = field(default_factory=list)
+    #: (path, what it holds), for index.html
+    bvh_files: list[tuple[Path, str]] = field(default_factory=list)
+    #: seconds per stage
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def rel(self, p: Path) -> str:
+        """``p`` relative to the output folder, with ``/``."""
+        return p.relative_to(self.out).as_posix()
+
+    def read(self, name: str) -> Motion:
+        """A DeepMimic clip of the data folder, named after its file."""
+        p = self.data / name
         if not p.is_file():
-            raise DemoDataError(f"demo clip {name} not found in {data}")
+            raise DemoDataError(f"demo clip {name} not found in {self.data}")
         return read_motion(p).replace(name=Path(name).stem.replace("humanoid3d_", ""))
 
-    # ---- blends -----------------------------------------------------------------------------
-    t0 = time.perf_counter()
+    def write_bvh(self, motion: Motion, path: Path, what: str) -> None:
+        """Write a motion and list it among the page's files."""
+        write_bvh(motion, path)
+        self.files.append(path)
+        self.bvh_files.append((path, what))
+
+    def timed(self, key: str, stage: Callable[[], Any]) -> Any:
+        """Run ``stage`` and record its wall-clock seconds as ``timings[key]``."""
+        t0 = time.perf_counter()
+        result = stage()
+        self.timings[key] = time.perf_counter() - t0
+        return result
+
+
+@dataclass(frozen=True)
+class _Blend:
+    """One 50 % blend of the walk and the run."""
+
+    stem: str
+    label: str
+    result: BlendResult
+    path: Path
+
+
+@dataclass(frozen=True)
+class _Blends:
+    """The blend inputs (the repeated walk and run, as read) and their blends by every method."""
+
+    a: Motion
+    b: Motion
+    runs: tuple[_Blend, ...]
+
+    @property
+    def prepared(self) -> tuple[Motion, ...]:
+        """The two inputs as blended (prepared: metres, placed like the walk)."""
+        return self.runs[0].result.prepared.motions
+
+    @property
+    def lie_warp(self) -> BlendResult:
+        """The Lie group blend with the time warp."""
+        return next(r.result for r in self.runs if r.stem == "lie_warp")
+
+
+@dataclass(frozen=True)
+class _Loop:
+    """One clip made seamless, and its seam before and after."""
+
+    key: str
+    label: str
+    original: Motion
+    result: LoopResult
+    before: SeamMetrics
+    after: SeamMetrics
+
+
+def _blends(run: _Run) -> _Blends:
+    """The walk x run blends by every method (paper 001 Fig. 5, paper 000), and the inputs."""
     inputs = {}
     for key, fname, label, cycles in _BLEND_INPUTS:
-        inputs[key] = repeat_motion(read(fname), cycles).replace(name=label)
+        inputs[key] = repeat_motion(run.read(fname), cycles).replace(name=label)
     a, b = inputs["walk"], inputs["run"]
     blends = []
     for n, (stem, method, warp, lm, label) in enumerate(_METHODS):
-        report_cb("blends", n, len(_METHODS))
+        run.progress("blends", n, len(_METHODS))
         res = blend_motions([a, b], 0.5, method=method, warp=warp, landmarks=lm, metrics=True)
-        path = out / "blends" / f"walk_run_{stem}.bvh"
-        write_bvh(res.motion, path)
-        files.append(path)
-        bvh_files.append((path, f"50 % blend of walk and run: {label}"))
-        blends.append((stem, label, res, path))
-    report_cb("blends", len(_METHODS), len(_METHODS))
-    for key, what in (("walk", "input A: the walk"), ("run", "input B: the run")):
-        path = out / "blends" / f"input_{key}.bvh"
-        write_bvh(blends[0][2].prepared.motions[0 if key == "walk" else 1], path)
-        files.append(path)
-        bvh_files.append((path, f"{what}, as blended (prepared: metres, placed like the walk)"))
-    timings["blends_s"] = time.perf_counter() - t0
+        path = run.out / "blends" / f"walk_run_{stem}.bvh"
+        run.write_bvh(res.motion, path, f"50 % blend of walk and run: {label}")
+        blends.append(_Blend(stem, label, res, path))
+    run.progress("blends", len(_METHODS), len(_METHODS))
+    out = _Blends(a, b, tuple(blends))
+    for k, (key, what) in enumerate((("walk", "input A: the walk"), ("run", "input B: the run"))):
+        path = run.out / "blends" / f"input_{key}.bvh"
+        run.write_bvh(out.prepared[k], path, f"{what}, as blended (prepared: metres, placed like the walk)")
+    return out
 
-    # ---- loops ------------------------------------------------------------------------------
-    t0 = time.perf_counter()
+
+def _loops(run: _Run) -> list[_Loop]:
+    """The cartwheel and the backflip made seamless, with 3-cycle previews."""
     loops = []
     for n, (key, fname, label) in enumerate(_LOOP_INPUTS):
-        report_cb("loops", n, len(_LOOP_INPUTS))
-        m = read(fname)
+        run.progress("loops", n, len(_LOOP_INPUTS))
+        m = run.read(fname)
         res = loop_motion(m)
         before = seam_metrics(m, joints=list(res.closed_joints))
         after = seam_metrics(res.motion, original=m, joints=list(res.closed_joints))
-        p1 = out / "loops" / f"{key}_loop.bvh"
-        p3 = out / "loops" / f"{key}_loop.repeat3.bvh"
-        p0 = out / "loops" / f"{key}_original.repeat3.bvh"
-        write_bvh(res.motion, p1)
-        write_bvh(repeat_motion(res.motion, 3), p3)
-        write_bvh(repeat_motion(m, 3), p0)
-        files += [p1, p3, p0]
-        bvh_files += [
-            (p1, f"{label} made seamless: one cycle, to loop in a player"),
-            (p3, f"{label} made seamless, played 3 times"),
-            (p0, f"the original {label} played 3 times (it jumps at each seam)"),
-        ]
-        loops.append((key, label, m, res, before, after))
-    report_cb("loops", len(_LOOP_INPUTS), len(_LOOP_INPUTS))
-    timings["loops_s"] = time.perf_counter() - t0
+        folder = run.out / "loops"
+        run.write_bvh(
+            res.motion, folder / f"{key}_loop.bvh", f"{label} made seamless: one cycle, to loop in a player"
+        )
+        run.write_bvh(
+            repeat_motion(res.motion, 3),
+            folder / f"{key}_loop.repeat3.bvh",
+            f"{label} made seamless, played 3 times",
+        )
+        run.write_bvh(
+            repeat_motion(m, 3),
+            folder / f"{key}_original.repeat3.bvh",
+            f"the original {label} played 3 times (it jumps at each seam)",
+        )
+        loops.append(_Loop(key, label, m, res, before, after))
+    run.progress("loops", len(_LOOP_INPUTS), len(_LOOP_INPUTS))
+    return loops
 
-    # ---- distances --------------------------------------------------------------------------
-    t0 = time.perf_counter()
-    clips = [read(f).replace(name=k) for k, f in _DISTANCE_INPUTS]
-    table = distance_table(clips, labels=[k for k, _ in _DISTANCE_INPUTS], progress=report_cb)
-    csv_path = out / "distances.csv"
+
+def _distances(run: _Run) -> DistanceTable:
+    """Elastic distances between the clips: distances.csv and distances.png."""
+    clips = [run.read(f).replace(name=k) for k, f in _DISTANCE_INPUTS]
+    table = distance_table(clips, labels=[k for k, _ in _DISTANCE_INPUTS], progress=run.progress)
+    csv_path = run.out / "distances.csv"
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["", *table.labels])
     for lab, row in zip(table.labels, table.matrix, strict=True):
         w.writerow([lab, *(f"{x:.4f}" for x in row)])
-    from elastic_motion._io import atomic_write_text
-
     atomic_write_text(csv_path, buf.getvalue())
     png = plot_distance_matrix(
-        table.matrix, list(table.labels), out / "distances.png", title="Lie elastic distances"
+        table.matrix, list(table.labels), run.out / "distances.png", title="Lie elastic distances"
     )
-    files += [csv_path, Path(png)]
-    timings["distances_s"] = time.perf_counter() - t0
+    run.files += [csv_path, Path(png)]
+    return table
 
-    # ---- figures ----------------------------------------------------------------------------
-    t0 = time.perf_counter()
-    report_cb("figures", 0, 5)
-    pa, pb = blends[0][2].prepared.motions
-    figs = {}
-    figs["feet"] = out / "figures" / "blend_feet.png"
+
+def _figures(run: _Run, blends: _Blends, loops: list[_Loop]) -> tuple[dict[str, Path], AlignResult]:
+    """Foot trajectories, the warp, SO(3) curves on the sphere, the seams; and the alignment
+    of the warp figure."""
+    run.progress("figures", 0, 5)
+    pa, pb = blends.prepared
+    folder = run.out / "figures"
+    figs = {"feet": folder / "blend_feet.png"}
     plot_foot_trajectories(
-        [pa, pb] + [r.motion for _, _, r, _ in blends],
+        [pa, pb] + [r.result.motion for r in blends.runs],
         figs["feet"],
-        labels=["A: walk", "B: run"] + [lab for _, lab, _, _ in blends],
+        labels=["A: walk", "B: run"] + [r.label for r in blends.runs],
         ncols=4,
         title="Feet (left blue, right orange) of the inputs and of the 50 % blends",
     )
-    from elastic_motion.apps.align import align_motions
-
-    al = align_motions(a, b, landmarks="auto")
-    figs["warp"] = out / "figures" / "blend_warp.png"
+    al = align_motions(blends.a, blends.b, landmarks="auto")
+    figs["warp"] = folder / "blend_warp.png"
     plot_warp(al, figs["warp"])
-    lie = next(r for s, _, r, _ in blends if s == "lie_warp")
-    figs["sphere"] = out / "figures" / "blend_sphere.png"
+    figs["sphere"] = folder / "blend_sphere.png"
     joint = "right_hip"
     plot_so3_curves(
-        [joint_rotation_curve(m, joint) for m in (pa, pb, lie.motion)],
+        [joint_rotation_curve(m, joint) for m in (pa, pb, blends.lie_warp.motion)],
         figs["sphere"],
         labels=["walk", "run", "Lie blend + warp"],
         vectors=((0.0, -1.0, 0.0),),
         title="right hip rotation: the thigh direction on the sphere",
     )
-    report_cb("figures", 3, 5)
-    for key, label, m, res, _, _ in loops:
-        figs[f"seam_{key}"] = out / "figures" / f"loop_{key}_seam.png"
+    run.progress("figures", 3, 5)
+    for lp in loops:
+        figs[f"seam_{lp.key}"] = folder / f"loop_{lp.key}_seam.png"
         plot_seam(
-            m, res.motion, figs[f"seam_{key}"], title=f"DeepMimic {label}: 3 cycles before / after closing"
+            lp.original,
+            lp.result.motion,
+            figs[f"seam_{lp.key}"],
+            title=f"DeepMimic {lp.label}: 3 cycles before / after closing",
         )
-    files += list(figs.values())
-    report_cb("figures", 5, 5)
-    timings["figures_s"] = time.perf_counter() - t0
+    run.files += list(figs.values())
+    run.progress("figures", 5, 5)
+    return figs, al
 
-    # ---- videos -----------------------------------------------------------------------------
-    t0 = time.perf_counter()
-    videos: dict[str, list[Path]] = {}
-    if video:
-        jobs = [
+
+def _videos(run: _Run, blends: _Blends, loops: list[_Loop], mp4: bool) -> dict[str, list[Path]]:
+    """The skeleton animations (GIF, and MP4 when asked)."""
+    pa, pb = blends.prepared
+    jobs = [
+        (
+            "blend_inputs",
+            [pa, pb, blends.lie_warp.motion, blends.runs[0].result.motion],
+            ["A: walk", "B: run", "Lie + warp (50 %)", "Euler linear (50 %)"],
+            dict(panel_size=(240, 240)),
+        ),
+        (
+            "blend_methods",
+            [r.result.motion for r in blends.runs],
+            [r.label for r in blends.runs],
+            dict(panel_size=(200, 220)),
+        ),
+    ]
+    for lp in loops:
+        jobs.append(
             (
-                "blend_inputs",
-                [pa, pb, lie.motion, blends[0][2].motion],
-                ["A: walk", "B: run", "Lie + warp (50 %)", "Euler linear (50 %)"],
-                dict(panel_size=(240, 240)),
-            ),
-            (
-                "blend_methods",
-                [r.motion for _, _, r, _ in blends],
-                [lab for _, lab, _, _ in blends],
-                dict(panel_size=(200, 220)),
-            ),
-        ]
-        for key, label, m, res, _, _ in loops:
-            jobs.append(
-                (
-                    f"loop_{key}",
-                    [repeat_motion(m, 3), repeat_motion(res.motion, 3)],
-                    [f"{label} x3, original", f"{label} x3, looped"],
-                    dict(panel_size=(240, 240), fps=20.0),
-                )
+                f"loop_{lp.key}",
+                [repeat_motion(lp.original, 3), repeat_motion(lp.result.motion, 3)],
+                [f"{lp.label} x3, original", f"{lp.label} x3, looped"],
+                dict(panel_size=(240, 240), fps=20.0),
             )
-        for n, (key, motions, labels, kw) in enumerate(jobs):
-            report_cb("videos", n, len(jobs))
-            paths = [out / "videos" / f"{key}.gif"]
-            if mp4:
-                paths.append(out / "videos" / f"{key}.mp4")
-            render_animation(motions, paths[0], also=paths[1:], labels=labels, **kw)
-            files += paths
-            videos[key] = paths
-        report_cb("videos", len(jobs), len(jobs))
-    timings["videos_s"] = time.perf_counter() - t0
+        )
+    videos: dict[str, list[Path]] = {}
+    for n, (key, motions, labels, kw) in enumerate(jobs):
+        run.progress("videos", n, len(jobs))
+        paths = [run.out / "videos" / f"{key}.gif"]
+        if mp4:
+            paths.append(run.out / "videos" / f"{key}.mp4")
+        render_animation(motions, paths[0], also=paths[1:], labels=labels, **kw)
+        run.files += paths
+        videos[key] = paths
+    run.progress("videos", len(jobs), len(jobs))
+    return videos
 
-    # ---- the interactive 3D viewer (plotly.js beside the page; skipped without plotly) ---------
-    viewers: list[str] = []
+
+def _viewers(run: _Run, blends: _Blends, loops: list[_Loop]) -> list[str]:
+    """The interactive 3D viewers (plotly.js beside the page); none without plotly."""
     try:
-        from elastic_motion._io import atomic_write_text as _write_text
-        from elastic_motion.apps.report import jsonable
-        from elastic_motion.apps.viewer import build_viewer, plotly_js
-
-        lib = out / "plotly.min.js"
-        _write_text(lib, plotly_js())
-        files.append(lib)
-        viewers.append(
-            build_viewer(
-                [pa, pb, lie.motion],
-                labels=["walk", "run", "Lie + warp (50 %)"],
-                reports=[False, False, jsonable(lie.summary())],
-                plotly_src=lib.name,
-                title="Walk, run and their Lie blend with the time warp",
-                element_id="viewer-blend",
-            ).fragment
-        )
-        key, label, m, res, _, _ = loops[0]
-        viewers.append(
-            build_viewer(
-                [repeat_motion(m, 2), repeat_motion(res.motion, 2)],
-                labels=[f"{label} x2, original", f"{label} x2, looped"],
-                reports=[False, jsonable(res.summary())],
-                plotly_src=lib.name,
-                title=f"The {label}, played twice: original and looped (seams and contacts marked)",
-                element_id="viewer-loop",
-            ).fragment
-        )
+        lib = run.out / "plotly.min.js"
+        atomic_write_text(lib, plotly_js())
     except ModuleNotFoundError:  # plotly is not installed: the page keeps its pictures only
-        viewers = []
+        return []
+    run.files.append(lib)
+    pa, pb = blends.prepared
+    lie = blends.lie_warp
+    lp = loops[0]
+    return [
+        build_viewer(
+            [pa, pb, lie.motion],
+            labels=["walk", "run", "Lie + warp (50 %)"],
+            reports=[False, False, jsonable(lie.summary())],
+            plotly_src=lib.name,
+            title="Walk, run and their Lie blend with the time warp",
+            element_id="viewer-blend",
+        ).fragment,
+        build_viewer(
+            [repeat_motion(lp.original, 2), repeat_motion(lp.result.motion, 2)],
+            labels=[f"{lp.label} x2, original", f"{lp.label} x2, looped"],
+            reports=[False, jsonable(lp.result.summary())],
+            plotly_src=lib.name,
+            title=f"The {lp.label}, played twice: original and looped (seams and contacts marked)",
+            element_id="viewer-loop",
+        ).fragment,
+    ]
 
-    # ---- report and index -------------------------------------------------------------------
-    rep = report_header("demo", [str(data)], [rel(p) for p in files])
-    rep["data"] = str(data)
-    rep["blends"] = [{"file": rel(p), "label": lab, **r.summary()} for _, lab, r, p in blends]
+
+def _report(
+    run: _Run, blends: _Blends, loops: list[_Loop], table: DistanceTable, al: AlignResult
+) -> dict[str, Any]:
+    """The content of report.json (its timings are added last)."""
+    rep = report_header("demo", [str(run.data)], [run.rel(p) for p in run.files])
+    rep["data"] = str(run.data)
+    rep["blends"] = [{"file": run.rel(r.path), "label": r.label, **r.result.summary()} for r in blends.runs]
     rep["loops"] = [
         {
-            "clip": key,
-            "closed_joints": list(res.closed_joints),
-            "heading_change_rad": res.heading_change,
-            "seam_before": before.summary(),
-            "seam_after": after.summary(),
-            "closing_iterations": res.closing.iterations,
+            "clip": lp.key,
+            "closed_joints": list(lp.result.closed_joints),
+            "heading_change_rad": lp.result.heading_change,
+            "seam_before": lp.before.summary(),
+            "seam_after": lp.after.summary(),
+            "closing_iterations": lp.result.closing.iterations,
         }
-        for key, _, _, res, before, after in loops
+        for lp in loops
     ]
     rep["distances"] = table.summary()
     rep["alignment"] = al.summary()
-    timings["total_s"] = time.perf_counter() - t_start
-    rep["timings"] = timings
-    index = out / "index.html"
-    from elastic_motion._io import atomic_write_text
-
-    atomic_write_text(
-        index, _html(out, blends, loops, table, al, figs, videos, timings, bvh_files, viewers=viewers)
-    )
-    write_report(out / "report.json", rep)
-    files += [index, out / "report.json"]
-    return DemoResult(out, index, tuple(files), rep, time.perf_counter() - t_start)
+    return rep
 
 
 # ------------------------------------------------------------------------------------------
@@ -434,9 +516,7 @@ code { background: #f3f3f3; padding: 0 0.2em; } .note { color: #666; font-size: 
 
 
 def _viewer_head() -> str:
-    from elastic_motion.apps.viewer.page import CSS
-
-    return f"<script src='plotly.min.js'></script><style>{CSS}</style>"
+    return f"<script src='plotly.min.js'></script><style>{VIEWER_CSS}</style>"
 
 
 def _img(out: Path, p: Path, caption: str) -> str:
@@ -475,17 +555,7 @@ def _swatch(colour: str, what: str, *, line: bool = False, dashed: bool = False)
 
 
 def _legend() -> str:
-    """How to read the colours and lines of the pictures (taken from the drawing code)."""
-    from elastic_motion.apps.render import (
-        _CENTRE,
-        _FLOOR,
-        _GHOST,
-        _LEFT,
-        _PALETTE,
-        _RIGHT,
-        _TRACE,
-        _WARP,
-    )
+    """How to read the colours and lines of the pictures (the drawing code's palette)."""
 
     def item(*parts: str) -> str:
         return "<dd>" + "; ".join(parts) + "</dd>"
@@ -495,17 +565,17 @@ def _legend() -> str:
             "<div class='legend' id='legend'><h3>How to read the pictures</h3><dl>",
             "<dt>Skeleton videos</dt>",
             item(
-                _swatch(_LEFT, "left limbs"),
-                _swatch(_RIGHT, "right limbs"),
-                _swatch(_CENTRE, "spine, neck and head"),
+                _swatch(LEFT, "left limbs"),
+                _swatch(RIGHT, "right limbs"),
+                _swatch(CENTRE, "spine, neck and head"),
             ),
             item(
-                _swatch(_LEFT, "left ankle over the last second", line=True),
-                _swatch(_RIGHT, "right ankle over the last second", line=True),
+                _swatch(LEFT, "left ankle over the last second", line=True),
+                _swatch(RIGHT, "right ankle over the last second", line=True),
             ),
             item(
                 _swatch(
-                    _FLOOR,
+                    FLOOR,
                     "the floor, seen from slightly above (its front edge is a grey line; a "
                     "tick every 0.5 m shows the travel)",
                 ),
@@ -518,55 +588,78 @@ def _legend() -> str:
             ),
             "<dt>Foot trajectories</dt>",
             item(
-                _swatch(_LEFT, "left foot", line=True),
-                _swatch(_RIGHT, "right foot", line=True),
-                _swatch(_GHOST, "a few poses of the whole body"),
+                _swatch(LEFT, "left foot", line=True),
+                _swatch(RIGHT, "right foot", line=True),
+                _swatch(GHOST, "a few poses of the whole body"),
                 "axes in metres",
             ),
             "<dt>Time warp</dt>",
             item(
                 _swatch(
-                    _WARP,
+                    WARP,
                     "the optimal warp: time in A (walk) against the matched time in B (run), seconds",
                     line=True,
                 ),
-                _swatch("#999999", "no warp (uniform)", dashed=True),
+                _swatch(UNIFORM, "no warp (uniform)", dashed=True),
                 "black crosses: landmarks",
             ),
             "<dt>Curves on the sphere</dt>",
             item(
-                _swatch(_PALETTE[0], "input A (walk)", line=True),
-                _swatch(_PALETTE[1], "input B (run)", line=True),
-                _swatch(_PALETTE[2], "the Lie blend with warp", line=True),
+                _swatch(CURVES[0], "input A (walk)", line=True),
+                _swatch(CURVES[1], "input B (run)", line=True),
+                _swatch(CURVES[2], "the Lie blend with warp", line=True),
                 "a dot marks each start",
             ),
             "<dt>Loop seams</dt>",
             item(
-                _swatch(_TRACE[0], "the right ankle's path", line=True),
-                _swatch(_TRACE[1], "the left hand's (or elbow's) path", line=True),
+                _swatch(TRACE[0], "the right ankle's path", line=True),
+                _swatch(TRACE[1], "the left hand's (or elbow's) path", line=True),
                 "black circles: where a cycle's last frame puts the joint; red crosses: where the next "
                 "cycle starts (they coincide for a seamless loop)",
             ),
             item(
-                "close-up: " + _swatch(_LEFT, "the last 3 frames of a cycle"),
-                _swatch(_RIGHT, "the first 3 frames of the next one"),
+                "close-up: " + _swatch(LEFT, "the last 3 frames of a cycle"),
+                _swatch(RIGHT, "the first 3 frames of the next one"),
             ),
             "</dl></div>",
         ]
     )
 
 
-def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=(), viewers=()) -> str:
-    e = html.escape
+@dataclass(frozen=True)
+class _Page:
+    """What index.html shows."""
 
-    def link(p: Path) -> str:
-        rel = e(p.relative_to(out).as_posix())
-        return f"<a href='{rel}'>{rel}</a>"
+    out: Path
+    blends: _Blends
+    loops: list[_Loop]
+    table: DistanceTable
+    figs: dict[str, Path]
+    videos: dict[str, list[Path]]
+    timings: dict[str, float]
+    bvh_files: list[tuple[Path, str]]
+    viewers: list[str]
 
+
+def _html(page: _Page) -> str:
+    """index.html: the results side by side, with short explanations (module docstring)."""
     parts = [
+        *_head(page),
+        *_blend_section(page),
+        *_loop_section(page),
+        *_distance_section(page),
+        *_files_section(page),
+        _reproduce(page),
+    ]
+    return "\n".join(parts)
+
+
+def _head(page: _Page) -> list[str]:
+    """The page's head, introduction, legend and the interactive viewers."""
+    return [
         "<!doctype html><html><head><meta charset='utf-8'><title>elastic-motion demo</title>",
         f"<style>{_CSS}</style>",
-        _viewer_head() if viewers else "",
+        _viewer_head() if page.viewers else "",
         "</head><body>",
         "<h1>elastic-motion demo</h1>",
         "<p>Everything on this page was computed on this machine from the DeepMimic motion clips that "
@@ -581,11 +674,19 @@ def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=(), vi
                 "<h2>See it move</h2><p>Interactive 3D players (drag to orbit, scroll to zoom, play or "
                 "scrub with the slider, pick joints to draw their paths). The blend's time warp is "
                 "linked to the player; the loop's seams and the feet's contacts come from its report.</p>",
-                *viewers,
+                *page.viewers,
             ]
-            if viewers
+            if page.viewers
             else []
         ),
+    ]
+
+
+def _blend_section(page: _Page) -> list[str]:
+    """Section 1: the walk x run blends, their videos, feet, table, warp and sphere."""
+    e = html.escape
+    out, videos, figs = page.out, page.videos, page.figs
+    parts = [
         "<h2>1. Blending a walk and a run</h2>",
         "<p>A walk (2 cycles, 2.5 s, 4 steps) and a run (3 cycles, 2.4 s, 6 steps) have different rhythms "
         "and numbers of steps, the hard case of paper 001 Fig. 5. Each blend is 50 % of each, computed by "
@@ -613,19 +714,20 @@ def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=(), vi
         "<table><tr><th>method</th><th>file</th><th>frames</th><th>foot sliding (m/s)</th>"
         "<th>distance to walk</th><th>distance to run</th></tr>"
     )
-    metrics0 = blends[0][2].metrics.summary()
+    metrics0 = page.blends.runs[0].result.metrics.summary()
     slide_in = metrics0["foot_sliding"]["inputs"]
     parts.append(
         f"<tr><td>inputs</td><td></td><td></td><td>walk {_f(slide_in[0]['mean_speed_m_s'])}, run "
         f"{_f(slide_in[1]['mean_speed_m_s'])}</td><td colspan=2>walk to run: "
         f"{_f(metrics0['distances']['between_inputs'][0][1])}</td></tr>"
     )
-    for _, label, r, p in blends:
-        met = r.metrics.summary()
+    for b in page.blends.runs:
+        met = b.result.metrics.summary()
         d = met["distances"]["result_to_inputs"]
+        href = e(b.path.relative_to(out).as_posix())
         parts.append(
-            f"<tr><td>{e(label)}</td><td><a href='{e(p.relative_to(out).as_posix())}'>{e(p.name)}</a></td>"
-            f"<td>{r.motion.n_frames}</td><td>{_f(met['foot_sliding']['result']['mean_speed_m_s'])}</td>"
+            f"<tr><td>{e(b.label)}</td><td><a href='{href}'>{e(b.path.name)}</a></td>"
+            f"<td>{b.result.motion.n_frames}</td><td>{_f(met['foot_sliding']['result']['mean_speed_m_s'])}</td>"
             f"<td>{_f(d[0])}</td><td>{_f(d[1])}</td></tr>"
         )
     parts.append(
@@ -645,65 +747,93 @@ def _html(out, blends, loops, table, al, figs, videos, timings, bvh_files=(), vi
         )
         + "</div>"
     )
-    parts.append(
+    return parts
+
+
+def _loop_section(page: _Page) -> list[str]:
+    """Section 2: the seamless loops, their videos, seams and table."""
+    e = html.escape
+    out = page.out
+    parts = [
         "<h2>2. Seamless loops</h2><p>Played three times in a row, the original cartwheel and backflip "
         "jump at each seam: their last frame is not their first. Closing the curve in R<sup>3</sup> &times; "
         "SO(3)<sup>J</sup> (paper 000, sec. 4, Gauss-Newton) moves the whole clip a little so that it ends "
         "where it starts, keeping the displacement and turn of one cycle (the character travels on).</p>"
-    )
-    for key, label, _, _, _, _ in loops:
-        if f"loop_{key}" in videos:
+    ]
+    for lp in page.loops:
+        if f"loop_{lp.key}" in page.videos:
             parts.append(
                 "<div class='row'>"
-                + _video(out, videos[f"loop_{key}"], f"{label}: original and looped, 3 cycles")
+                + _video(out, page.videos[f"loop_{lp.key}"], f"{lp.label}: original and looped, 3 cycles")
                 + "</div>"
             )
         parts.append(
             "<div class='row'>"
-            + _img(out, figs[f"seam_{key}"], f"{label}: the seam before and after")
+            + _img(out, page.figs[f"seam_{lp.key}"], f"{lp.label}: the seam before and after")
             + "</div>"
         )
     parts.append(
         "<table><tr><th>clip</th><th>largest joint angle at the seam (deg)</th><th>largest position jump (m)"
         "</th><th>largest change of the clip (m)</th><th>iterations</th></tr>"
     )
-    for key, _, _, res, before, after in loops:
+    for lp in page.loops:
+        before, after = lp.before, lp.after
         parts.append(
-            f"<tr><td>{e(key)}</td>"
+            f"<tr><td>{e(lp.key)}</td>"
             f"<td>{_f(before.seam_angle_max_deg)} &rarr; {_f(after.seam_angle_max_deg)}</td>"
             f"<td>{_f(before.seam_position_max_m)} &rarr; {_f(after.seam_position_max_m)}</td>"
-            f"<td>{_f(after.deviation_max_m or 0)}</td><td>{res.closing.iterations}</td></tr>"
+            f"<td>{_f(after.deviation_max_m or 0)}</td><td>{lp.result.closing.iterations}</td></tr>"
         )
     parts.append("</table>")
-    parts.append(
+    return parts
+
+
+def _distance_section(page: _Page) -> list[str]:
+    """Section 3: the distance matrix and table."""
+    e = html.escape
+    out, table = page.out, page.table
+    parts = [
         "<h2>3. Distances between motions</h2><p>Elastic distances of the clips' SRV functions after the "
         "optimal time warp (each clip's duration normalised): similar motions are close (walks, runs), "
         "acrobatics far from everything. This is the basis of search and classification "
-        "(<code>elastic-motion matrix</code> scales it to databases).</p>"
-    )
-    parts.append(
+        "(<code>elastic-motion matrix</code> scales it to databases).</p>",
         "<div class='row'>"
-        + _img(out, figs.get("distances", out / "distances.png"), "distance matrix")
-        + "</div>"
-    )
-    parts.append("<table><tr><th></th>" + "".join(f"<th>{e(x)}</th>" for x in table.labels) + "</tr>")
+        + _img(out, page.figs.get("distances", out / "distances.png"), "distance matrix")
+        + "</div>",
+        "<table><tr><th></th>" + "".join(f"<th>{e(x)}</th>" for x in table.labels) + "</tr>",
+    ]
     for lab, row in zip(table.labels, table.matrix, strict=True):
         parts.append(f"<tr><td>{e(lab)}</td>" + "".join(f"<td>{x:.2f}</td>" for x in row) + "</tr>")
     parts.append("</table>")
-    if bvh_files:
-        parts.append(
-            "<h2 id='files'>Files</h2><p>Every motion written by this run (BVH, open in Blender or "
-            "three.js); <a href='report.json'>report.json</a> holds the numbers, "
-            "<a href='distances.csv'>distances.csv</a> the distance table.</p><ul>"
-        )
-        parts += [f"<li>{link(p)}: {e(what)}</li>" for p, what in bvh_files]
-        parts.append("</ul>")
-    parts.append(
+    return parts
+
+
+def _files_section(page: _Page) -> list[str]:
+    """The list of every motion written."""
+    if not page.bvh_files:
+        return []
+    e = html.escape
+
+    def link(p: Path) -> str:
+        rel = e(p.relative_to(page.out).as_posix())
+        return f"<a href='{rel}'>{rel}</a>"
+
+    return [
+        "<h2 id='files'>Files</h2><p>Every motion written by this run (BVH, open in Blender or "
+        "three.js); <a href='report.json'>report.json</a> holds the numbers, "
+        "<a href='distances.csv'>distances.csv</a> the distance table.</p><ul>",
+        *[f"<li>{link(p)}: {e(what)}</li>" for p, what in page.bvh_files],
+        "</ul>",
+    ]
+
+
+def _reproduce(page: _Page) -> str:
+    """The commands that reproduce the page, and the run's timings."""
+    return (
         "<h2>Reproduce</h2><p><code>elastic-motion blend A.bvh B.bvh -o out.bvh --method lie --warp dp "
         "--json report.json</code>, <code>elastic-motion loop clip.bvh -o loop.bvh --repeat 3</code>, "
         "<code>elastic-motion distance A B C</code>, <code>elastic-motion render A B -o cmp.gif</code>; "
         "see <code>docs/cli.md</code>. Timings of this run: "
-        + ", ".join(f"{k.replace('_s', '')} {v:.1f} s" for k, v in timings.items())
+        + ", ".join(f"{k.replace('_s', '')} {v:.1f} s" for k, v in page.timings.items())
         + ".</p></body></html>\n"
     )
-    return "\n".join(parts)

@@ -11,8 +11,13 @@ Accepted formats
 * JSON ``{"units": "seconds" | "frames", "pairs": [[a, b], ...]}``.
 * Text, one pair per line (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
 
-Times are in ``units`` (``"seconds"`` or ``"frames"``) unless suffixed with ``s`` or ``f``;
-frames count from each clip's first frame kept (after trimming), at that clip's frame rate.
+Times are in ``units`` (:data:`TimeUnit`: ``"seconds"`` or ``"frames"``) unless suffixed with
+``s`` or ``f``; frames count from each clip's first frame kept (after trimming), at that
+clip's frame rate.
+
+The command line's ``--landmarks`` takes ``auto``, ``none``, such a file, or inline pairs
+``"tA:tB,..."``: :func:`parse_landmarks` reads that text, for the commands and for the Python
+functions that take it (:func:`elastic_motion.apps.render_files.render_motions`).
 
 Use::
 
@@ -32,12 +37,19 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from elastic_motion._io import read_text
-from elastic_motion.errors import ParseError
+from elastic_motion._options import choices
+from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["LandmarkFile", "landmark_time", "read_landmark_file"]
+__all__ = ["TIME_UNITS", "LandmarkFile", "TimeUnit", "landmark_time", "parse_landmarks", "read_landmark_file"]
+
+#: The unit of a landmark time without a suffix.
+TimeUnit = Literal["seconds", "frames"]
+#: The values of :data:`TimeUnit`.
+TIME_UNITS: tuple[str, ...] = choices(TimeUnit)
 
 
 @dataclass(frozen=True)
@@ -96,7 +108,7 @@ def landmark_time(value: str, unit: str, fps: float | None) -> float:
 def read_landmark_file(
     path: str | os.PathLike[str],
     *,
-    units: str = "seconds",
+    units: TimeUnit = "seconds",
     fps: tuple[float, float] | None = None,
     inputs: Sequence[str | os.PathLike[str]] | None = None,
 ) -> LandmarkFile:
@@ -123,7 +135,7 @@ def read_landmark_file(
         A malformed file (names the file and line), a file of other inputs, or times in
         frames without ``fps``.
     """
-    if units not in ("seconds", "frames"):
+    if units not in TIME_UNITS:
         raise ValueError(f"units: expected 'seconds' or 'frames'; got {units!r}")
     if fps is not None:
         ok = len(fps) == 2 and all(
@@ -155,6 +167,71 @@ def read_landmark_file(
     return LandmarkFile(str(p), tuple(pairs))
 
 
+def parse_landmarks(
+    value: str | None,
+    *,
+    units: TimeUnit = "seconds",
+    fps: tuple[float, float] | None = None,
+    inputs: Sequence[str | os.PathLike[str]] | None = None,
+) -> str | list[tuple[float, float]] | LandmarkFile | None:
+    """A landmarks argument given as text, as ``--landmarks`` takes it.
+
+    Parameters
+    ----------
+    value : str or None
+        ``"auto"``, ``"none"`` (or None), the path of a landmarks file (module docstring), or
+        inline pairs ``"tA:tB,tA:tB,..."`` (times in ``units``, or suffixed ``s``/``f``).
+    units : {"seconds", "frames"}
+        Unit of times without a suffix (frames count from each clip's first frame kept).
+    fps : (float, float), optional
+        Frame rates of A and B (after preparation), for times in frames.
+    inputs : sequence of path, optional
+        The two clips the pairs are for (:func:`read_landmark_file`).
+
+    Returns
+    -------
+    None, "auto", list of (float, float) or LandmarkFile
+        No landmarks; pair events automatically; inline pairs in seconds; a file's pairs
+        (with the weight it records).
+
+    Raises
+    ------
+    OptionError
+        ``landmarks``: neither ``auto``, ``none``, an existing file nor pairs ``tA:tB``.
+    ParseError
+        A malformed file.
+    """
+    if value is None or value == "none":
+        return None
+    if value == "auto":
+        return "auto"
+    if os.path.exists(value):
+        return read_landmark_file(value, units=units, fps=fps, inputs=inputs)
+    if ":" not in value:
+        raise OptionError(
+            "landmarks",
+            f"expected 'auto', 'none', a file, or pairs like '0.5:0.7,1.4:1.9'; got {value!r} (no such file)",
+        )
+    fa, fb = (None, None) if fps is None else fps
+    pairs = []
+    for item in value.split(","):
+        if not item.strip():
+            continue
+        if item.count(":") != 1:
+            raise OptionError("landmarks", f"expected 'tA:tB' pairs separated by commas; got {item!r}")
+        a, b = item.split(":")
+        pairs.append((_inline_time(a, units, fa), _inline_time(b, units, fb)))
+    return pairs
+
+
+def _inline_time(value: str, units: str, fps: float | None) -> float:
+    """One time of an inline pair (:func:`parse_landmarks`) in seconds."""
+    try:
+        return landmark_time(value, units, fps)
+    except ValueError as exc:
+        raise OptionError("landmarks", str(exc)) from None
+
+
 def _json_file(p: Path, data: dict, fa: float | None, fb: float | None, inputs) -> LandmarkFile:
     """A JSON landmarks file: the report of ``elastic-motion landmarks`` or ``{"pairs": ...}``."""
     if "pairs_s" in data:
@@ -177,7 +254,7 @@ def _json_file(p: Path, data: dict, fa: float | None, fb: float | None, inputs) 
         )
     if "pairs" in data:
         u = str(data.get("units", "seconds"))
-        if u not in ("seconds", "frames"):
+        if u not in TIME_UNITS:
             raise ParseError(p, None, f"'units' must be 'seconds' or 'frames'; got {u!r}")
         try:
             pairs = tuple(

@@ -85,30 +85,29 @@ unit is known.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from elastic_motion.motion import Motion, Skeleton, forward_kinematics
+from elastic_motion.motion.contacts import ContactOptions, close_gaps, detect_contacts, mask_runs
 
 __all__ = [
+    "DEFAULT_PAIR_KINDS",
     "EVENT_KINDS",
     "GAIT_KINDS",
     "Event",
     "LegJoints",
     "PhasePairing",
-    "auto_landmarks",
     "contact_events",
     "detect_events",
     "find_leg_joints",
     "pair_by_phase",
     "pair_events",
     "phase_landmarks",
-    "prior_warp",
 ]
 
 #: Event kinds from the contacts (:func:`contact_events`).
@@ -288,23 +287,6 @@ def _crossings(d: np.ndarray, eps: float, upward: bool) -> list[tuple[float, flo
     return out
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """``[start, stop)`` of the runs of True in a boolean array."""
-    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
-
-
-def _fill_gaps(mask: np.ndarray, n: int) -> np.ndarray:
-    """Close gaps of fewer than ``n`` frames between True runs."""
-    out = mask.copy()
-    runs = _runs(mask)
-    for (_, e0), (s1, _) in itertools.pairwise(runs):
-        if s1 - e0 < n:
-            out[e0:s1] = True
-    return out
-
-
 def detect_events(
     motion: Motion,
     kinds: Sequence[str] = EVENT_KINDS,
@@ -338,6 +320,26 @@ def detect_events(
     ValueError
         Unknown kind; the joints a kind needs are not found (the message lists the names).
     """
+    kinds = _checked_kinds(motion, kinds)
+    legs = find_leg_joints(motion.skeleton) if legs is None else legs
+    up = _AXES.index(motion.up_axis)
+    pos = forward_kinematics(motion) * _scale(motion)
+    events: list[Event] = []
+    if any(k.endswith("knee_passes") for k in kinds):
+        events += _knee_events(motion, pos, legs, kinds, up)
+    gait = [k for k in kinds if k in GAIT_KINDS]
+    if gait:
+        events += [e for e in contact_events(motion, legs=legs) if e.kind in gait]
+    for side in ("left", "right"):
+        if f"{side}_foot_contact" in kinds:
+            touch = _touching(motion, pos, legs, side, up, (contact_height, contact_speed))
+            events += _foot_contact_events(motion, touch, f"{side}_foot_contact")
+    events.sort(key=lambda e: (e.time, e.kind))
+    return events
+
+
+def _checked_kinds(motion: Motion, kinds: Sequence[str]) -> tuple[str, ...]:
+    """``kinds`` as a tuple, after checking the motion and the kinds (:func:`detect_events`)."""
     if not isinstance(motion, Motion):
         raise ValueError(f"motion: expected a Motion; got {type(motion).__name__}")
     kinds = tuple(kinds)
@@ -346,68 +348,77 @@ def detect_events(
         raise ValueError(f"kinds: unknown event kind {bad[0]!r}; expected some of {list(EVENT_KINDS)}")
     if motion.n_frames < 3:
         raise ValueError(f"motion: expected at least 3 frames to detect events; got {motion.n_frames}")
+    return kinds
+
+
+def _event_at(kind: str, frame: float, uncertainty: float, motion: Motion) -> Event:
+    """The event of ``kind`` at the fractional ``frame``, ``uncertainty`` in frames."""
+    f = int(min(max(round(frame), 0), motion.n_frames - 1))
+    return Event(kind, float(frame / motion.fps), f, float(uncertainty) / motion.fps)
+
+
+def _knee_events(
+    motion: Motion, pos: np.ndarray, legs: LegJoints, kinds: tuple[str, ...], up: int
+) -> list[Event]:
+    """The knee crossings of ``kinds`` (module docstring), from the joint positions ``pos``
+    ``(F, J, 3)`` in metres and the index ``up`` of the up axis."""
     sk = motion.skeleton
-    legs = find_leg_joints(sk) if legs is None else legs
-    up = _AXES.index(motion.up_axis)
-    scale = _scale(motion)
-    pos = forward_kinematics(motion) * scale
-    fps = motion.fps
-    events: list[Event] = []
+    _need(legs, ("left_hip", "right_hip", "left_knee", "right_knee"), sk, "knee crossings")
+    lh, rh = sk.index(legs.left_hip), sk.index(legs.right_hip)
+    lk, rk = sk.index(legs.left_knee), sk.index(legs.right_knee)
+    leg = float(np.linalg.norm(pos[0, lk] - pos[0, lh]))
+    ank = legs.left_ankle
+    if ank is not None:
+        leg += float(np.linalg.norm(pos[0, sk.index(ank)] - pos[0, lk]))
+    eps = _KNEE_EPS * max(leg, 1e-9)
+    fwd = _forward(pos, lh, rh, up)
+    d = np.einsum("fi,fi->f", pos[:, lk] - pos[:, rk], fwd)
+    events = []
+    for kind, upward in (("left_knee_passes", True), ("right_knee_passes", False)):
+        if kind in kinds:
+            events += [_event_at(kind, f, err, motion) for f, err in _crossings(d, eps, upward=upward)]
+    return events
 
-    def add(kind: str, frame_f: float, unc_frames: float) -> None:
-        t = frame_f / fps
-        f = int(min(max(round(frame_f), 0), motion.n_frames - 1))
-        events.append(Event(kind, float(t), f, float(unc_frames) / fps))
 
-    if any(k.endswith("knee_passes") for k in kinds):
-        _need(legs, ("left_hip", "right_hip", "left_knee", "right_knee"), sk, "knee crossings")
-        lh, rh = sk.index(legs.left_hip), sk.index(legs.right_hip)
-        lk, rk = sk.index(legs.left_knee), sk.index(legs.right_knee)
-        leg = float(np.linalg.norm(pos[0, lk] - pos[0, lh]))
-        ank = legs.left_ankle
-        if ank is not None:
-            leg += float(np.linalg.norm(pos[0, sk.index(ank)] - pos[0, lk]))
-        eps = _KNEE_EPS * max(leg, 1e-9)
-        fwd = _forward(pos, lh, rh, up)
-        d = np.einsum("fi,fi->f", pos[:, lk] - pos[:, rk], fwd)
-        if "left_knee_passes" in kinds:
-            for f, err in _crossings(d, eps, upward=True):
-                add("left_knee_passes", f, err)
-        if "right_knee_passes" in kinds:
-            for f, err in _crossings(d, eps, upward=False):
-                add("right_knee_passes", f, err)
+def _touching(
+    motion: Motion, pos: np.ndarray, legs: LegJoints, side: str, up: int, thresholds: tuple[float, float]
+) -> np.ndarray:
+    """Frames ``(F,)`` where the ankle or toe of ``side`` is within ``thresholds[0]`` (metres)
+    of its lowest height and slower than ``thresholds[1]`` (metres per second,
+    horizontally), gaps shorter than 0.06 s closed."""
+    sk = motion.skeleton
+    height, speed_max = thresholds
+    parts = legs.side(side)
+    joints = [sk.index(parts[p]) for p in ("ankle", "toe") if parts[p] is not None]
+    if not joints:
+        _need(legs, (f"{side}_ankle",), sk, "foot contacts")
+    p = pos[:, joints]  # (F, k, 3)
+    h = p[..., up]
+    low = h < h.min(axis=0) + height
+    v = np.diff(p, axis=0)
+    v[..., up] = 0.0
+    speed = np.linalg.norm(v, axis=-1) * motion.fps
+    speed = np.concatenate([speed[:1], speed], axis=0)  # (F, k): speed arriving at each frame
+    touch = (low & (speed < speed_max)).any(axis=1)
+    return close_gaps(touch, 0, _min_run_frames(motion))
 
-    gait = [k for k in kinds if k in GAIT_KINDS]
-    if gait:
-        for e in contact_events(motion, legs=legs):
-            if e.kind in gait:
-                events.append(e)
 
-    n_run = max(1, math.ceil(_MIN_RUN * fps))
-    for side in ("left", "right"):
-        kind = f"{side}_foot_contact"
-        if kind not in kinds:
+def _min_run_frames(motion: Motion) -> int:
+    """The shortest contact or gap that counts (0.06 s), in frames."""
+    return max(1, math.ceil(_MIN_RUN * motion.fps))
+
+
+def _foot_contact_events(motion: Motion, touch: np.ndarray, kind: str) -> list[Event]:
+    """The touch-downs of ``kind`` in the contact flags ``touch`` (module docstring): contacts
+    of at least 0.06 s after at least 0.06 s off the floor, not already under way at frame 0."""
+    n_run = _min_run_frames(motion)
+    events = []
+    for start, stop in mask_runs(touch):
+        if start == 0 or stop - start < n_run:
             continue
-        parts = legs.side(side)
-        joints = [sk.index(parts[p]) for p in ("ankle", "toe") if parts[p] is not None]
-        if not joints:
-            _need(legs, (f"{side}_ankle",), sk, "foot contacts")
-        p = pos[:, joints]  # (F, k, 3)
-        h = p[..., up]
-        low = h < h.min(axis=0) + contact_height
-        v = np.diff(p, axis=0)
-        v[..., up] = 0.0
-        speed = np.linalg.norm(v, axis=-1) * fps
-        speed = np.concatenate([speed[:1], speed], axis=0)  # (F, k): speed arriving at each frame
-        touch = (low & (speed < contact_speed)).any(axis=1)
-        touch = _fill_gaps(touch, n_run)
-        for start, stop in _runs(touch):
-            if start == 0 or stop - start < n_run:
-                continue
-            if touch[max(0, start - n_run) : start].any():
-                continue
-            add(kind, float(start), _CONTACT_UNCERTAINTY)
-    events.sort(key=lambda e: (e.time, e.kind))
+        if touch[max(0, start - n_run) : start].any():
+            continue
+        events.append(_event_at(kind, float(start), _CONTACT_UNCERTAINTY, motion))
     return events
 
 
@@ -457,29 +468,9 @@ def pair_events(
     return kept
 
 
-def auto_landmarks(
-    a: Motion,
-    b: Motion,
-    kinds: Sequence[str] = DEFAULT_PAIR_KINDS,
-    *,
-    max_pairs: int | None = None,
-    prior: np.ndarray | None = None,
-) -> list[tuple[float, float]]:
-    """Landmark pairs ``(time in a, time in b)`` in seconds, events paired by phase.
-
-    Detects ``kinds`` on both motions and pairs them by phase (:func:`phase_landmarks`:
-    the warp without landmarks predicts where each event of A falls in B). Events at the
-    very first or last frame are dropped (the warp fixes its ends anyway).
-
-    Returns
-    -------
-    list of (float, float)
-        Possibly empty (e.g. a motion without knee crossings or contacts).
-    """
-    return phase_landmarks(a, b, kinds, prior=prior, max_pairs=max_pairs).times
-
-
-def contact_events(motion: Motion, *, legs: LegJoints | None = None, options=None) -> list[Event]:
+def contact_events(
+    motion: Motion, *, legs: LegJoints | None = None, options: ContactOptions | None = None
+) -> list[Event]:
     """Heel strikes and toe-offs of both feet from the contacts (module docstring).
 
     Parameters
@@ -495,8 +486,6 @@ def contact_events(motion: Motion, *, legs: LegJoints | None = None, options=Non
     list of Event
         Kinds in :data:`GAIT_KINDS`, sorted by time; empty without contacts.
     """
-    from elastic_motion.motion.contacts import detect_contacts
-
     legs = find_leg_joints(motion.skeleton) if legs is None else legs
     contacts = detect_contacts(motion, options)
     runs = contacts.all_intervals()
@@ -638,7 +627,7 @@ def pair_by_phase(
     def predict(t: float) -> float:
         return float(np.interp(t / duration_a, prior[:, 0], prior[:, 1]) * duration_b)
 
-    cands: list[tuple[float, Event, Event, float, float]] = []
+    cands: list[_Candidate] = []
     skipped: list[dict] = []
     tols = {}
     for kind in kinds:
@@ -646,43 +635,65 @@ def pair_by_phase(
         eb = sorted((e for e in events_b if e.kind == kind and 0 < e.time < duration_b), key=lambda e: e.time)
         if not ea and not eb:
             continue
-        ta = np.array([e.time for e in ea])
-        tb = np.array([e.time for e in eb])
-        tol = _kind_tolerance(ta, tb)
-        tols[kind] = tol
-        pred = np.array([predict(t) for t in ta])
-        match = _dp_match(pred, tb, tol) if ea and eb else []
-        if max_pairs is not None:
-            match = match[: max(0, int(max_pairs))]
-        used_a = {i for i, _ in match}
-        used_b = {j for _, j in match}
-        for i, j in match:
-            off = float(tb[j] - pred[i])
-            cands.append((1.0 - (off / tol) ** 2, ea[i], eb[j], float(pred[i]), off))
-        for i, e in enumerate(ea):
-            if i not in used_a:
-                why = (
-                    f"no {kind} of B within {tol:.2f} s of the prior's {pred[i]:.2f} s"
-                    if max_pairs is None
-                    else f"not paired (no B event within {tol:.2f} s of {pred[i]:.2f} s, or beyond max_pairs)"
-                )
-                skipped.append({"motion": "A", "kind": kind, "time_s": e.time, "why": why})
-        for j, e in enumerate(eb):
-            if j not in used_b:
-                skipped.append(
-                    {
-                        "motion": "B",
-                        "kind": kind,
-                        "time_s": e.time,
-                        "why": f"no {kind} of A predicted near it",
-                    }
-                )
-    cands.sort(key=lambda c: -c[0])
-    kept: list[tuple[float, Event, Event, float, float]] = []
+        tols[kind] = _match_kind(kind, ea, eb, predict, max_pairs, cands, skipped)
+    kept = _merge_kinds(cands, skipped)
+    pairs, details = _pin_to_windows(kept, predict, duration_b, skipped)
+    return PhasePairing(tuple(pairs), tuple(details), tuple(skipped), tols)
+
+
+#: A pair found for one kind: (score, event of A, event of B, B time the prior predicts,
+#: offset of the B event from the prediction), seconds.
+_Candidate = tuple[float, Event, Event, float, float]
+
+
+def _match_kind(
+    kind: str,
+    ea: list[Event],
+    eb: list[Event],
+    predict: Callable[[float], float],
+    max_pairs: int | None,
+    cands: list[_Candidate],
+    skipped: list[dict],
+) -> float:
+    """Match the events ``ea`` of A to ``eb`` of B (one kind, sorted by time) by the DP around
+    the prior's predictions; append the pairs to ``cands`` and the events left out to
+    ``skipped``; return the kind's tolerance (seconds)."""
+    ta = np.array([e.time for e in ea])
+    tb = np.array([e.time for e in eb])
+    tol = _kind_tolerance(ta, tb)
+    pred = np.array([predict(t) for t in ta])
+    match = _dp_match(pred, tb, tol) if ea and eb else []
+    if max_pairs is not None:
+        match = match[: max(0, int(max_pairs))]
+    used_a = {i for i, _ in match}
+    used_b = {j for _, j in match}
+    for i, j in match:
+        off = float(tb[j] - pred[i])
+        cands.append((1.0 - (off / tol) ** 2, ea[i], eb[j], float(pred[i]), off))
+    for i, e in enumerate(ea):
+        if i not in used_a:
+            why = (
+                f"no {kind} of B within {tol:.2f} s of the prior's {pred[i]:.2f} s"
+                if max_pairs is None
+                else f"not paired (no B event within {tol:.2f} s of {pred[i]:.2f} s, or beyond max_pairs)"
+            )
+            skipped.append({"motion": "A", "kind": kind, "time_s": e.time, "why": why})
+    for j, e in enumerate(eb):
+        if j not in used_b:
+            skipped.append(
+                {"motion": "B", "kind": kind, "time_s": e.time, "why": f"no {kind} of A predicted near it"}
+            )
+    return tol
+
+
+def _merge_kinds(cands: list[_Candidate], skipped: list[dict]) -> list[_Candidate]:
+    """The pairs of all kinds merged best first, keeping those that stay increasing in both
+    clips (the others go to ``skipped``), sorted by their time in A."""
+    cands = sorted(cands, key=lambda c: -c[0])
+    kept: list[_Candidate] = []
     for c in cands:
-        _, a, b, pred, off = c
-        ok = all((a.time - k[1].time) * (b.time - k[2].time) > 0 for k in kept)
-        if ok:
+        _, a, b, _pred, _off = c
+        if all((a.time - k[1].time) * (b.time - k[2].time) > 0 for k in kept):
             kept.append(c)
         else:
             skipped.append(
@@ -694,6 +705,15 @@ def pair_by_phase(
                 }
             )
     kept.sort(key=lambda c: c[1].time)
+    return kept
+
+
+def _pin_to_windows(
+    kept: list[_Candidate], predict: Callable[[float], float], duration_b: float, skipped: list[dict]
+) -> tuple[list[tuple[Event, Event]], list[dict]]:
+    """Drop the pairs the prior meets within their timing window, pin the others at the
+    window's edge nearest the prior (module docstring, "Timing uncertainty"); the dropped
+    ones go to ``skipped``. Returns the pinned pairs and their details."""
     pairs: list[tuple[Event, Event]] = []
     details: list[dict] = []
     for _, a, b, pred, off in kept:
@@ -740,18 +760,7 @@ def pair_by_phase(
                 f"{target:.3f} s, the edge of that window",
             }
         )
-    return PhasePairing(tuple(pairs), tuple(details), tuple(skipped), tols)
-
-
-def prior_warp(a: Motion, b: Motion) -> np.ndarray:
-    """The warp without landmarks of two prepared motions (Lie curves, the default
-    :class:`~elastic_motion.warp.WarpOptions`, as ``blend`` and ``align`` find it), vertices
-    ``(V, 2)``."""
-    from elastic_motion.apps.align import align_motions
-    from elastic_motion.apps.prepare import PrepareOptions
-
-    res = align_motions(a, b, method="lie", prepare=PrepareOptions(joints="common", drop_tpose=False))
-    return np.asarray(res.vertices)
+    return pairs, details
 
 
 def phase_landmarks(
@@ -759,7 +768,7 @@ def phase_landmarks(
     b: Motion,
     kinds: Sequence[str] = DEFAULT_PAIR_KINDS,
     *,
-    prior: np.ndarray | None = None,
+    prior: np.ndarray,
     max_pairs: int | None = None,
 ) -> PhasePairing:
     """Detect ``kinds`` on both motions and pair them by phase (:func:`pair_by_phase`).
@@ -769,8 +778,10 @@ def phase_landmarks(
     a, b : Motion
         Prepared (metres, Y-up; times from the first frame).
     kinds : sequence of str
-    prior : ndarray, shape (V, 2), optional
-        The warp without landmarks (default: :func:`prior_warp`, one DP solve).
+    prior : ndarray, shape (V, 2)
+        The warp without landmarks (A's curve parameter -> B's): the one ``blend`` and
+        ``align`` find (:func:`elastic_motion.apps.landmark_detection.prior_warp` computes it
+        for two motions).
     max_pairs : int, optional
 
     Returns
@@ -780,8 +791,6 @@ def phase_landmarks(
     kinds = tuple(kinds)
     ev_a = _safe_events(a, kinds)
     ev_b = _safe_events(b, kinds)
-    if prior is None:
-        prior = prior_warp(a, b)
     return pair_by_phase(ev_a, ev_b, prior, a.duration, b.duration, kinds, max_pairs=max_pairs)
 
 

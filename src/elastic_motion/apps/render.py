@@ -13,9 +13,10 @@ Conventions
   axis; the screen's vertical axis is the up axis, tilted by ``elevation`` degrees (points
   farther from the camera appear higher). One view is shared by all panels of a figure so
   that directions compare.
-* **Colours**: left limbs blue, right limbs orange (as in paper 001 Fig. 5-6: blue and
-  orange foot trajectories), the rest grey. The side of a joint comes from its name
-  (``Left``/``L``/``l`` prefix or ``_L`` suffix, and likewise for right).
+* **Colours** (:mod:`elastic_motion.apps.palette`, shared with the viewer and the demo's
+  legend): left limbs blue, right limbs orange (as in paper 001 Fig. 5-6: blue and orange
+  foot trajectories), the rest grey. The side of a joint comes from its name
+  (:func:`~elastic_motion.apps.palette.joint_side`).
 * **Feet**: the ankle joints of :func:`elastic_motion.apps.landmarks.find_leg_joints`
   (the joint located at the ankle: CMU ``LeftFoot``, DeepMimic ``left_ankle``); where
   none is found, the lowest joint of each side.
@@ -31,6 +32,12 @@ Conventions
 * **Video formats**: ``.gif`` through Pillow (a matplotlib dependency), ``.mp4`` (H.264)
   through the optional ``imageio-ffmpeg`` package (``pip install "elastic-motion[video]"``),
   ``.png`` a still (see :func:`render`).
+* **Options**: each picture takes one frozen options object (:class:`AnimationOptions`,
+  :class:`FeetPlotOptions`, :class:`WarpPlotOptions`, :class:`SeamPlotOptions`) or its fields
+  as keywords (``plot_seam(a, b, repeat=2)``: :func:`elastic_motion._options.with_overrides`).
+
+Imports of matplotlib, Pillow and imageio-ffmpeg are inside the functions that draw: they
+are heavy, and the last one optional.
 """
 
 from __future__ import annotations
@@ -42,19 +49,44 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from elastic_motion._io import atomic_path, check_not_input
+from elastic_motion._options import choices, with_overrides
+from elastic_motion.apps.align import align_motions
+from elastic_motion.apps.landmarks import find_leg_joints
+from elastic_motion.apps.palette import (
+    CURVES,
+    FLOOR,
+    GHOST,
+    LEFT,
+    RIGHT,
+    TRACE,
+    UNIFORM,
+    WARP,
+    bone_colours,
+    joint_side,
+)
+from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, forward_kinematics, global_rotations, select_frames
+from elastic_motion.motion.looping import RootMode, check_root, cycle_transform, repeat_motion
 
 __all__ = [
+    "FRAMES",
     "KINDS",
     "RENDER_KEYWORDS",
     "VIDEO_FORMATS",
+    "AnimationOptions",
+    "FeetPlotOptions",
+    "RenderKind",
+    "RotationFrame",
+    "SeamPlotOptions",
     "View",
+    "WarpPlotOptions",
     "gif_frame_delays",
     "joint_rotation_curve",
     "plot_foot_trajectories",
@@ -72,16 +104,17 @@ __all__ = [
 VIDEO_FORMATS = (".gif", ".mp4")
 
 _AXES = "xyz"
-_LEFT = "#1f77b4"  # matplotlib blue
-_RIGHT = "#ff7f0e"  # matplotlib orange
-_CENTRE = "#555555"
-_GHOST = "#b0b0b0"
-_WARP = "#d62728"  # the optimal warp in plot_warp
-_FLOOR = "#eeeeee"  # the floor band of the animations
-#: Colours of the traced joints of plot_seam, in order.
-_TRACE = ("#2ca02c", "#9467bd", "#8c564b", "#e377c2")
-#: Colours of the curves of plot_so3_curves, in order.
-_PALETTE = ("#1f77b4", "#ff7f0e", "#d62728", "#2ca02c", "#9467bd", "#8c564b")
+
+#: What :func:`render` draws: ``"auto"`` (an animation for a video file, the foot
+#: trajectories for a still), or one picture.
+RenderKind = Literal["auto", "animation", "feet", "warp", "seam", "sphere"]
+#: The values of :data:`RenderKind`.
+KINDS: tuple[str, ...] = choices(RenderKind)
+#: The frame of a joint's rotation curve (:func:`joint_rotation_curve`): relative to its
+#: parent, or to the world.
+RotationFrame = Literal["local", "global"]
+#: The values of :data:`RotationFrame`.
+FRAMES: tuple[str, ...] = choices(RotationFrame)
 
 
 # ------------------------------------------------------------------------------------------
@@ -182,49 +215,8 @@ def side_view(motion: Motion, *, azimuth: float = 0.0, elevation: float = 0.0) -
     return View(right, up, depth, math.radians(elevation))
 
 
-_SIDE_RE = (
-    (re.compile(r"^(left|l(?=[A-Z_.]))|(_l|\.l|left)$"), "L"),
-    (re.compile(r"^(right|r(?=[A-Z_.]))|(_r|\.r|right)$"), "R"),
-)
-_ASF_PARTS = ("hipjoint femur tibia foot toes clavicle humerus radius wrist hand fingers thumb").split()
-
-
-def _side(name: str) -> str:
-    """``"L"``, ``"R"`` or ``""`` from a joint name."""
-    raw = name.rsplit(":", 1)[-1]
-    low = raw.lower()
-    if low.startswith("left") or low.endswith(("_l", ".l", "left")) or re.match(r"^L[A-Z_]", raw):
-        return "L"
-    if low.startswith("right") or low.endswith(("_r", ".r", "right")) or re.match(r"^R[A-Z_]", raw):
-        return "R"
-    if low[:1] in ("l", "r") and low[1:] in _ASF_PARTS:
-        return low[0].upper()
-    return ""
-
-
-def _bone_colours(motion: Motion) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Segments as index pairs into the FK point array (joints then end sites) and colours."""
-    sk = motion.skeleton
-    a, b, colours = [], [], []
-    for j in range(1, sk.n_joints):
-        a.append(int(sk.parents[j]))
-        b.append(j)
-        colours.append(_colour(_side(sk.names[j])))
-    for e, p in enumerate(sk.end_site_parents):
-        a.append(int(p))
-        b.append(sk.n_joints + e)
-        colours.append(_colour(_side(sk.names[int(p)])))
-    return np.array(a, dtype=int), np.array(b, dtype=int), colours
-
-
-def _colour(side: str) -> str:
-    return _LEFT if side == "L" else _RIGHT if side == "R" else _CENTRE
-
-
 def _feet(motion: Motion) -> tuple[int | None, int | None]:
     """Indices of the left and right ankle joints (or the lowest joint of each side)."""
-    from elastic_motion.apps.landmarks import find_leg_joints
-
     sk = motion.skeleton
     legs = find_leg_joints(sk)
     out: list[int | None] = []
@@ -232,7 +224,7 @@ def _feet(motion: Motion) -> tuple[int | None, int | None]:
         if name is not None:
             out.append(sk.index(name))
             continue
-        cand = [j for j, n in enumerate(sk.names) if _side(n) == side]
+        cand = [j for j, n in enumerate(sk.names) if joint_side(n) == side]
         if not cand:
             out.append(None)
             continue
@@ -494,18 +486,18 @@ class _AnimationPanel:
 
         ax.set_axis_off()
         ax.set_aspect("equal", adjustable="box")
-        self.band = Polygon(np.zeros((4, 2)), closed=True, fc=_FLOOR, ec="none", zorder=0)
+        self.band = Polygon(np.zeros((4, 2)), closed=True, fc=FLOOR, ec="none", zorder=0)
         ax.add_patch(self.band)
         self.ticks = LineCollection([], colors="#b8b8b8", linewidths=0.8, zorder=0.5)
         ax.add_collection(self.ticks)
         (self.front,) = ax.plot([], [], "-", color="#888888", lw=1.0, zorder=0.6)
-        self.a, self.b, colours = _bone_colours(motion)
+        self.a, self.b, colours = bone_colours(motion)
         self.bones = LineCollection([], colors=colours, linewidths=2.2, capstyle="round", zorder=2)
         ax.add_collection(self.bones)
         self.feet = _feet(motion)
         self.trails = [
             ax.plot([], [], "-", color=c, lw=1.0, alpha=0.8, zorder=1.5)[0] if j is not None else None
-            for j, c in zip(self.feet, (_LEFT, _RIGHT), strict=True)
+            for j, c in zip(self.feet, (LEFT, RIGHT), strict=True)
         ]
         self.title = ax.set_title(label, fontsize=8, pad=2)
         self.clock = clock
@@ -581,20 +573,55 @@ def _animation_figure(
     return fig, panels
 
 
+@dataclass(frozen=True)
+class AnimationOptions:
+    """How :func:`render_animation` draws a video.
+
+    Attributes
+    ----------
+    fps : float or None, default None
+        Video frame rate, frames per second; None (or 0): the highest of the motions', at
+        most 30.
+    panel_size : (int, int), default (320, 320)
+        Pixels per panel (width, height), rounded down to even numbers.
+    seconds : float or None, default None
+        Length of the video in seconds; None: the longest motion.
+    trail : float, default 1.0
+        Seconds of foot trail.
+    azimuth : float, default 25.0
+        Camera angle about the up axis, degrees (:func:`side_view`).
+    elevation : float, default 12.0
+        Camera tilt, degrees (:func:`side_view`).
+    """
+
+    fps: float | None = None
+    panel_size: tuple[int, int] = (320, 320)
+    seconds: float | None = None
+    trail: float = 1.0
+    azimuth: float = 25.0
+    elevation: float = 12.0
+
+    def __post_init__(self) -> None:
+        if self.fps and not float(self.fps) > 0:
+            raise OptionError("fps", f"expected a positive frame rate; got {float(self.fps)!r}")
+        if self.seconds is not None and not float(self.seconds) >= 0:
+            raise OptionError("seconds", f"expected a length >= 0; got {self.seconds!r}")
+
+    def video_fps(self, motions: Sequence[Motion]) -> float:
+        """The frame rate of the video of ``motions`` (frames per second)."""
+        return float(self.fps) if self.fps else min(30.0, max(m.fps for m in motions))
+
+
 def render_animation(
     motions: Sequence[Motion],
     path: str | os.PathLike[str],
+    options: AnimationOptions | None = None,
     *,
     labels: Sequence[str] | None = None,
-    fps: float | None = None,
-    panel_size: tuple[int, int] = (320, 320),
-    seconds: float | None = None,
-    trail: float = 1.0,
-    azimuth: float = 25.0,
-    elevation: float = 12.0,
     also: Sequence[str | os.PathLike[str]] = (),
     protected: Sequence[str] = (),
     progress: Progress | None = None,
+    **overrides: Any,
 ) -> Path:
     """Skeleton animations side by side, written as a GIF or an MP4.
 
@@ -614,18 +641,11 @@ def render_animation(
     motions : sequence of Motion
     path : str or os.PathLike
         ``.gif`` or ``.mp4`` (module docstring).
+    options : AnimationOptions, optional
+        Frame rate, panel size, length, trail, camera; or give its fields as keywords
+        (``fps=10``).
     labels : sequence of str, optional
         Panel titles (default the motions' names).
-    fps : float, optional
-        Video frame rate, frames per second (default: the highest of the motions', at most 30).
-    panel_size : (int, int)
-        Pixels per panel (width, height), rounded down to even numbers.
-    seconds : float, optional
-        Length of the video in seconds (default: the longest motion).
-    trail : float
-        Seconds of foot trail.
-    azimuth, elevation : float
-        Camera angles in degrees (:func:`side_view`).
     also : sequence of paths
         More files (``.gif``/``.mp4``) to write the same frames to, e.g. an MP4 beside the
         GIF (the frames are drawn once).
@@ -639,6 +659,7 @@ def render_animation(
     pathlib.Path
         ``path``.
     """
+    opts = with_overrides(AnimationOptions, options, overrides)
     motions = list(motions)
     if not motions:
         raise ValueError("motions: expected at least one motion to render")
@@ -652,17 +673,13 @@ def render_animation(
     labels = [m.name for m in motions] if labels is None else list(labels)
     if len(labels) != len(motions):
         raise ValueError(f"labels: expected {len(motions)} labels; got {len(labels)}")
-    fps = float(fps) if fps else min(30.0, max(m.fps for m in motions))
-    if not fps > 0:
-        raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
-    duration = max(m.duration for m in motions) if seconds is None else float(seconds)
-    if not duration >= 0:
-        raise ValueError(f"seconds: expected a length >= 0; got {seconds!r}")
+    fps = opts.video_fps(motions)
+    duration = max(m.duration for m in motions) if opts.seconds is None else float(opts.seconds)
     report = progress or null_progress
     n_frames = max(1, math.floor(duration * fps + 1e-6) + 1)
-    view = side_view(motions[0], azimuth=azimuth, elevation=elevation)
+    view = side_view(motions[0], azimuth=opts.azimuth, elevation=opts.elevation)
 
-    fig, panels = _animation_figure(motions, view, labels, panel_size, trail)
+    fig, panels = _animation_figure(motions, view, labels, opts.panel_size, opts.trail)
     sinks: list[_VideoSink] = []
     try:
         for target in [out, *extra]:
@@ -692,19 +709,58 @@ def render_animation(
 # ------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class FeetPlotOptions:
+    """How :func:`plot_foot_trajectories` draws.
+
+    Attributes
+    ----------
+    ncols : int or None, default None
+        Panels per row; None: all in one row up to 4 motions, else two rows.
+    ghosts : int, default 5
+        Number of grey whole-body poses per panel.
+    azimuth : float, default 0.0
+        Camera angle about the up axis, degrees (:func:`side_view`).
+    elevation : float, default 10.0
+        Camera tilt, degrees.
+    title : str or None, default None
+        Title above the panels.
+    panel_size : (float, float), default (3.4, 1.9)
+        Inches per panel: the width, and a height the data's aspect ratio may stretch up to
+        three times.
+    dpi : float, default 100
+        Dots per inch of the written picture.
+    """
+
+    ncols: int | None = None
+    ghosts: int = 5
+    azimuth: float = 0.0
+    elevation: float = 10.0
+    title: str | None = None
+    panel_size: tuple[float, float] = (3.4, 1.9)
+    dpi: float = 100
+
+    def __post_init__(self) -> None:
+        if self.ncols is not None and not (isinstance(self.ncols, int) and self.ncols >= 1):
+            raise OptionError("ncols", f"expected a number of panels per row >= 1; got {self.ncols!r}")
+        if not (isinstance(self.ghosts, int) and self.ghosts >= 0):
+            raise OptionError("ghosts", f"expected a number of poses >= 0; got {self.ghosts!r}")
+        _check_dpi(self.dpi)
+
+
+def _check_dpi(dpi: Any) -> None:
+    if not (isinstance(dpi, int | float) and math.isfinite(dpi) and dpi > 0):
+        raise OptionError("dpi", f"expected dots per inch > 0; got {dpi!r}")
+
+
 def plot_foot_trajectories(
     motions: Sequence[Motion],
     path: str | os.PathLike[str] | None = None,
+    options: FeetPlotOptions | None = None,
     *,
     labels: Sequence[str] | None = None,
-    ncols: int | None = None,
-    ghosts: int = 5,
-    azimuth: float = 0.0,
-    elevation: float = 10.0,
-    title: str | None = None,
-    panel_size: tuple[float, float] = (3.4, 1.9),
-    dpi: float = 100,
     protected: Sequence[str] = (),
+    **overrides: Any,
 ) -> Any:
     """Trajectories of both feet, one panel per motion, as in the papers' figures.
 
@@ -716,54 +772,47 @@ def plot_foot_trajectories(
     motions : sequence of Motion
     path : str or os.PathLike, optional
         Write the figure there (PNG); otherwise only return it.
+    options : FeetPlotOptions, optional
+        Layout, camera, title, size; or give its fields as keywords (``ncols=4``).
     labels : sequence of str, optional
-    ncols : int, optional
-        Panels per row (default: all in one row up to 4, else 2 rows...).
-    ghosts : int
-        Number of grey poses per panel.
-    azimuth, elevation : float
-        Degrees.
-    title : str, optional
-    panel_size : (float, float)
-        Inches per panel: the width, and a height the data's aspect ratio may stretch up
-        to three times.
-    dpi : float
+        Panel titles (default the motions' names).
     protected : sequence of paths
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    opts = with_overrides(FeetPlotOptions, options, overrides)
     motions = list(motions)
     if not motions:
         raise ValueError("motions: expected at least one motion")
     labels = [m.name for m in motions] if labels is None else list(labels)
     k = len(motions)
-    ncols = ncols or (k if k <= 4 else math.ceil(k / 2))
+    ncols = opts.ncols or (k if k <= 4 else math.ceil(k / 2))
     nrows = math.ceil(k / ncols)
-    view = side_view(motions[0], azimuth=azimuth, elevation=elevation)
+    view = side_view(motions[0], azimuth=opts.azimuth, elevation=opts.elevation)
     screens = [view.project(_points(m)) for m in motions]
     lo = np.min([sc.reshape(-1, 2).min(axis=0) for sc in screens], axis=0)
     hi = np.max([sc.reshape(-1, 2).max(axis=0) for sc in screens], axis=0)
     pad = 0.04 * (hi - lo).max()
     lo, hi = lo - pad, hi + pad
     ratio = float((hi[1] - lo[1]) / max(hi[0] - lo[0], 1e-9))
-    width = panel_size[0]
-    height = min(max(width * ratio, 0.6), 3.0 * panel_size[1]) + 0.55
-    fig = _figure(width * ncols, height * nrows + (0.35 if title else 0.0), dpi)
+    width = opts.panel_size[0]
+    height = min(max(width * ratio, 0.6), 3.0 * opts.panel_size[1]) + 0.55
+    fig = _figure(width * ncols, height * nrows + (0.35 if opts.title else 0.0), opts.dpi)
     axes = fig.subplots(nrows, ncols, squeeze=False)
     from matplotlib.collections import LineCollection
 
     for i, m in enumerate(motions):
         ax = axes[i // ncols][i % ncols]
         scr = screens[i]
-        a_idx, b_idx, _ = _bone_colours(m)
-        if ghosts > 0:
-            frames = np.linspace(0, m.n_frames - 1, ghosts).round().astype(int)
+        a_idx, b_idx, _ = bone_colours(m)
+        if opts.ghosts > 0:
+            frames = np.linspace(0, m.n_frames - 1, opts.ghosts).round().astype(int)
             segs = np.concatenate([np.stack([scr[f, a_idx], scr[f, b_idx]], axis=1) for f in frames])
-            ax.add_collection(LineCollection(segs, colors=_GHOST, linewidths=0.8, zorder=1))
+            ax.add_collection(LineCollection(segs, colors=GHOST, linewidths=0.8, zorder=1))
         lf, rf = _feet(m)
-        for j, c, name in ((lf, _LEFT, "left foot"), (rf, _RIGHT, "right foot")):
+        for j, c, name in ((lf, LEFT, "left foot"), (rf, RIGHT, "right foot")):
             if j is not None:
                 ax.plot(scr[:, j, 0], scr[:, j, 1], "-", color=c, lw=1.3, label=name, zorder=2)
         ax.set_title(labels[i], fontsize=8)
@@ -775,14 +824,14 @@ def plot_foot_trajectories(
     for i in range(k, nrows * ncols):
         axes[i // ncols][i % ncols].set_axis_off()
     axes[0][0].legend(fontsize=6, loc="upper left", frameon=False)
-    ylabel = "height (m)" if elevation == 0 else f"height (m), seen {elevation:g} deg from above"
-    xlabel = "along the walk (m)" if azimuth == 0 else f"along the walk, turned {azimuth:g} deg (m)"
+    ylabel = "height (m)" if opts.elevation == 0 else f"height (m), seen {opts.elevation:g} deg from above"
+    xlabel = "along the walk (m)" if opts.azimuth == 0 else f"along the walk, turned {opts.azimuth:g} deg (m)"
     for r in range(nrows):
         axes[r][0].set_ylabel(ylabel, fontsize=7)
     for c in range(min(ncols, k)):
         axes[(k - 1 - c) // ncols][c].set_xlabel(xlabel, fontsize=7)  # the lowest panel drawn
-    if title:
-        fig.suptitle(title, fontsize=9)
+    if opts.title:
+        fig.suptitle(opts.title, fontsize=9)
     fig.tight_layout()
     if path is not None:
         save_figure(fig, path, protected=protected)
@@ -794,17 +843,38 @@ def plot_foot_trajectories(
 # ------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class WarpPlotOptions:
+    """How :func:`plot_warp` draws.
+
+    Attributes
+    ----------
+    labels : (str, str), default ("A", "B")
+        Names of the two motions on the axes (an ``AlignResult`` gives its own).
+    title : str or None, default None
+        Title; None: for an ``AlignResult``, its method, warp and distances.
+    dpi : float, default 100
+        Dots per inch of the written picture.
+    """
+
+    labels: tuple[str, str] = ("A", "B")
+    title: str | None = None
+    dpi: float = 100
+
+    def __post_init__(self) -> None:
+        _check_dpi(self.dpi)
+
+
 def plot_warp(
     result: Any = None,
     path: str | os.PathLike[str] | None = None,
+    options: WarpPlotOptions | None = None,
     *,
     vertices: np.ndarray | None = None,
     durations: tuple[float, float] | None = None,
     landmarks: Sequence[tuple[float, float]] = (),
-    labels: tuple[str, str] = ("A", "B"),
-    title: str | None = None,
-    dpi: float = 100,
     protected: Sequence[str] = (),
+    **overrides: Any,
 ) -> Any:
     """The time warp as a curve: time in A (horizontal) against the matched time in B.
 
@@ -814,19 +884,22 @@ def plot_warp(
         From :func:`elastic_motion.apps.align.align_motions`; or give ``vertices`` and
         ``durations``.
     path : str or os.PathLike, optional
+    options : WarpPlotOptions, optional
+        Labels, title, resolution; or give its fields as keywords (``title="..."``).
     vertices : ndarray, shape (K, 2), optional
         Warp in curve parameters.
     durations : (float, float), optional
         Seconds of A and B.
     landmarks : sequence of (float, float)
         Landmark pairs in seconds; drawn as crosses (where they ask the warp to go).
-    labels : (str, str)
-    title : str, optional
+    protected : sequence of paths
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    opts = with_overrides(WarpPlotOptions, options, overrides)
+    labels, title, dpi = opts.labels, opts.title, opts.dpi
     if result is not None:
         vertices = result.vertices
         durations = (result.duration_a, result.duration_b)
@@ -843,8 +916,8 @@ def plot_warp(
     da, db = durations
     fig = _figure(4.2, 4.0, dpi)
     ax = fig.add_subplot(1, 1, 1)
-    ax.plot([0, da], [0, db], "--", color="#999999", lw=1, label="uniform (no warp)")
-    ax.plot(v[:, 0] * da, v[:, 1] * db, "-", color=_WARP, lw=1.6, label="optimal warp")
+    ax.plot([0, da], [0, db], "--", color=UNIFORM, lw=1, label="uniform (no warp)")
+    ax.plot(v[:, 0] * da, v[:, 1] * db, "-", color=WARP, lw=1.6, label="optimal warp")
     if len(landmarks):
         lm = np.asarray(landmarks, dtype=np.float64)
         ax.plot(lm[:, 0], lm[:, 1], "x", color="k", ms=7, mew=1.5, label="landmarks")
@@ -885,25 +958,56 @@ def _trace_joints(motion: Motion, joints: Sequence[str] | None) -> list[tuple[st
     hands = [
         j
         for j, n in enumerate(sk.names)
-        if _side(n) == "L" and re.search(r"hand|wrist|elbow|radius", n, re.I)
+        if joint_side(n) == "L" and re.search(r"hand|wrist|elbow|radius", n, re.I)
     ]
     if hands:
         out.append((sk.names[hands[0]], hands[0]))
     return out or [(sk.names[0], 0)]
 
 
+@dataclass(frozen=True)
+class SeamPlotOptions:
+    """How :func:`plot_seam` draws.
+
+    Attributes
+    ----------
+    repeat : int, default 3
+        Cycles to play (at least 2).
+    root : {"travel", "inplace"}, default "travel"
+        Loop convention (:func:`elastic_motion.motion.looping.repeat_motion`).
+    joints : str, sequence of str or None, default None
+        Joints whose paths are drawn; None: the right ankle and the left hand or wrist.
+    labels : (str, str), default ("original", "looped")
+        Row titles.
+    title : str or None, default None
+        Title above the rows.
+    dpi : float, default 100
+        Dots per inch of the written picture.
+    """
+
+    repeat: int = 3
+    root: RootMode = "travel"
+    joints: str | Sequence[str] | None = None
+    labels: tuple[str, str] = ("original", "looped")
+    title: str | None = None
+    dpi: float = 100
+
+    def __post_init__(self) -> None:
+        if int(self.repeat) < 2:
+            raise OptionError("repeat", f"expected at least 2 cycles to show a seam; got {self.repeat!r}")
+        object.__setattr__(self, "repeat", int(self.repeat))
+        check_root(self.root)
+        _check_dpi(self.dpi)
+
+
 def plot_seam(
     original: Motion,
     looped: Motion | None = None,
     path: str | os.PathLike[str] | None = None,
+    options: SeamPlotOptions | None = None,
     *,
-    repeat: int = 3,
-    root: str = "travel",
-    joints: Sequence[str] | None = None,
-    labels: tuple[str, str] = ("original", "looped"),
-    title: str | None = None,
-    dpi: float = 100,
     protected: Sequence[str] = (),
+    **overrides: Any,
 ) -> Any:
     """The jump at the loop seam, before and after closing (paper 000 Fig. 5-6).
 
@@ -925,16 +1029,9 @@ def plot_seam(
         The same clip made seamless (:func:`elastic_motion.apps.loop.loop_motion`).
     path : str or os.PathLike, optional
         Write the figure there; otherwise only return it.
-    repeat : int
-        Cycles to play (at least 2).
-    root : {"travel", "inplace"}
-        Loop convention (:func:`elastic_motion.motion.looping.repeat_motion`).
-    joints : sequence of str, optional
-        Joints whose paths are drawn (default: the right ankle and the left hand or wrist).
-    labels : (str, str)
-        Row titles.
-    title : str, optional
-    dpi : float
+    options : SeamPlotOptions, optional
+        Cycles, loop convention, traced joints, labels, title; or give its fields as
+        keywords (``repeat=2``).
     protected : sequence of paths
 
     Returns
@@ -943,17 +1040,16 @@ def plot_seam(
     """
     from matplotlib.collections import LineCollection
 
-    from elastic_motion.motion.looping import cycle_transform, repeat_motion
-
-    if int(repeat) < 2:
-        raise ValueError(f"repeat: expected at least 2 cycles to show a seam; got {repeat!r}")
-    repeat = int(repeat)
+    opts = with_overrides(SeamPlotOptions, options, overrides)
+    repeat, root, joints, labels, title, dpi = (
+        opts.repeat, opts.root, opts.joints, opts.labels, opts.title, opts.dpi
+    )  # fmt: skip
     rows = [(labels[0], original)] + ([(labels[1], looped)] if looped is not None else [])
     view = side_view(repeat_motion(original, repeat, root))
     trace = _trace_joints(original, joints)
     fig = _figure(9.0, 2.3 * len(rows) + (0.3 if title else 0.0), dpi)
     axes = fig.subplots(len(rows), 2, squeeze=False, gridspec_kw={"width_ratios": [3.2, 1.0]})
-    colours = _TRACE
+    colours = TRACE
     for r, (lab, m) in enumerate(rows):
         scale = m.metres_per_unit or 1.0
         rot, shift = cycle_transform(m, root)
@@ -982,9 +1078,9 @@ def plot_seam(
             ax.legend(fontsize=6, loc="upper left", frameon=False)
         # close-up of the seam: the clip's last frames, the next cycle's first frames
         axc = axes[r][1]
-        a_idx, b_idx, _ = _bone_colours(m)
+        a_idx, b_idx, _ = bone_colours(m)
         nxt = one[:3] @ rot.T + shift
-        poses = [(one[fr], _LEFT) for fr in range(max(0, f - 3), f)] + [(p, _RIGHT) for p in nxt]
+        poses = [(one[fr], LEFT) for fr in range(max(0, f - 3), f)] + [(p, RIGHT) for p in nxt]
         for pose, col in poses:
             sp = view.project(pose)
             axc.add_collection(
@@ -1011,7 +1107,7 @@ def plot_seam(
 # ------------------------------------------------------------------------------------------
 
 
-def joint_rotation_curve(motion: Motion, joint: str | int, *, frame: str = "local") -> np.ndarray:
+def joint_rotation_curve(motion: Motion, joint: str | int, *, frame: RotationFrame = "local") -> np.ndarray:
     """Rotations of one joint over the clip, ``(F, 3, 3)``: its local rotation (relative to
     its parent, ``frame="local"``) or its global orientation (``"global"``)."""
     j = motion.skeleton.index(joint) if isinstance(joint, str) else int(joint)
@@ -1058,7 +1154,7 @@ def plot_so3_curves(
     ys = np.outer(np.sin(u), np.sin(w))
     zs = np.outer(np.ones_like(u), np.cos(w))
     ax.plot_wireframe(xs, ys, zs, color="#dddddd", lw=0.4)
-    palette = _PALETTE
+    palette = CURVES
     styles = ["-", "--", ":", "-."]
     labels = [f"curve {k}" for k in range(len(curves))] if labels is None else list(labels)
     if elev is None or azim is None:
@@ -1109,9 +1205,6 @@ def plot_so3_curves(
 # ------------------------------------------------------------------------------------------
 # One entry point for the CLI
 # ------------------------------------------------------------------------------------------
-
-#: What :func:`render` draws.
-KINDS = ("auto", "animation", "feet", "warp", "seam", "sphere")
 
 #: The keywords :func:`render` accepts for each kind (besides ``labels``, ``protected``,
 #: ``progress``).
@@ -1209,37 +1302,55 @@ def render(
         raise ValueError(
             f"output: a {kind!r} picture is a still; write a .png, .svg or .pdf (got {out.name!r})"
         )
-    if kind == "feet":
-        plot_foot_trajectories(motions, out, labels=labels, protected=protected, **kw)
-    elif kind == "warp":
-        if len(motions) != 2:
-            raise ValueError(f"kind 'warp': expected two motions; got {len(motions)}")
-        from elastic_motion.apps.align import align_motions
-
-        title = kw.pop("title", None)
-        joints = kw.pop("joints", None)
-        if joints is not None:
-            from elastic_motion.apps.prepare import PrepareOptions
-
-            prepare = kw.get("prepare") or PrepareOptions()
-            kw["prepare"] = prepare.replace(joints=joints if isinstance(joints, str) else tuple(joints))
-        res = align_motions(motions[0], motions[1], **kw)
-        plot_warp(res, out, title=title, protected=protected)
-    elif kind == "seam":
-        if len(motions) > 2:
-            raise ValueError(
-                f"kind 'seam': expected one motion (or the original and its loop); got {len(motions)}"
-            )
-        looped = motions[1] if len(motions) == 2 else None
-        seam_labels = ("original", "looped")
-        if labels:
-            seam_labels = (labels[0], labels[1] if len(labels) > 1 else "looped")
-        plot_seam(motions[0], looped, out, labels=seam_labels, protected=protected, **kw)
-    else:  # sphere
-        joint = kw.pop("joint", None)
-        frame = kw.pop("frame", "local")
-        curves = [joint_rotation_curve(m, joint if joint is not None else 0, frame=frame) for m in motions]
-        name = joint if joint is not None else motions[0].skeleton.names[0]
-        kw.setdefault("title", f"{name} ({frame} rotation)")
-        plot_so3_curves(curves, out, labels=labels or [m.name for m in motions], protected=protected, **kw)
+    draw = {"feet": _render_feet, "warp": _render_warp, "seam": _render_seam, "sphere": _render_sphere}[kind]
+    draw(motions, out, labels, protected, kw)
     return out
+
+
+def _render_feet(
+    motions: list[Motion], out: Path, labels: Sequence[str] | None, protected: Sequence[str], kw: dict
+) -> None:
+    plot_foot_trajectories(motions, out, labels=labels, protected=protected, **kw)
+
+
+def _render_warp(
+    motions: list[Motion], out: Path, labels: Sequence[str] | None, protected: Sequence[str], kw: dict
+) -> None:
+    """Two motions aligned (``joints`` sets ``prepare.joints``) and their warp drawn (labels:
+    the alignment's own)."""
+    if len(motions) != 2:
+        raise ValueError(f"kind 'warp': expected two motions; got {len(motions)}")
+    title = kw.pop("title", None)
+    joints = kw.pop("joints", None)
+    if joints is not None:
+        prepare = kw.get("prepare") or PrepareOptions()
+        kw["prepare"] = prepare.replace(joints=joints if isinstance(joints, str) else tuple(joints))
+    res = align_motions(motions[0], motions[1], **kw)
+    plot_warp(res, out, title=title, protected=protected)
+
+
+def _render_seam(
+    motions: list[Motion], out: Path, labels: Sequence[str] | None, protected: Sequence[str], kw: dict
+) -> None:
+    """One motion as a loop, or the original and its loop; ``labels`` name the rows."""
+    if len(motions) > 2:
+        raise ValueError(
+            f"kind 'seam': expected one motion (or the original and its loop); got {len(motions)}"
+        )
+    looped = motions[1] if len(motions) == 2 else None
+    seam_labels = ("original", "looped")
+    if labels:
+        seam_labels = (labels[0], labels[1] if len(labels) > 1 else "looped")
+    plot_seam(motions[0], looped, out, labels=seam_labels, protected=protected, **kw)
+
+
+def _render_sphere(
+    motions: list[Motion], out: Path, labels: Sequence[str] | None, protected: Sequence[str], kw: dict
+) -> None:
+    """The rotation curve of one joint (default: the root) per motion on the sphere."""
+    joint = kw.pop("joint", None)
+    frame = kw.pop("frame", "local")
+    curves = [joint_rotation_curve(m, joint if joint is not None else 0, frame=frame) for m in motions]
+    name = joint if joint is not None else motions[0].skeleton.names[0]
+    kw.setdefault("title", f"{name} ({frame} rotation)")
+    plot_so3_curves(curves, out, labels=labels or [m.name for m in motions], protected=protected, **kw)

@@ -25,6 +25,7 @@ import datetime as _dt
 import json
 import math
 import os
+import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -136,8 +137,6 @@ def is_report(path: Path) -> bool:
     """Whether ``path`` holds a report of this package: it starts as :func:`report_json` writes
     one, a JSON object whose first two fields are ``"command"`` and ``"version"`` (read from
     its first bytes only, whatever its size)."""
-    import re
-
     try:
         with open(path, "rb") as fh:
             head = fh.read(_REPORT_HEAD_BYTES).decode("utf-8", errors="replace")

@@ -8,9 +8,12 @@ Edit > Preferences > Add-ons > Install takes (``elastic-motion blender-addon -o 
 
 from __future__ import annotations
 
+import io
 import os
 import zipfile
 from pathlib import Path
+
+from elastic_motion._io import atomic_write_bytes
 
 __all__ = ["ADDON_NAME", "addon_files", "pack_addon"]
 
@@ -38,10 +41,6 @@ def pack_addon(path: str | os.PathLike[str], *, protected=()) -> Path:
     -------
     pathlib.Path
     """
-    import io
-
-    from elastic_motion._io import atomic_write_bytes
-
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for f in addon_files():

@@ -11,6 +11,11 @@
   with :class:`DefaultsHelpFormatter`, which appends ``(default: X)`` to every option's help.
 * :func:`add_alias`: keep an old option spelling working for a release, hidden from
   ``--help``, with a one-line deprecation note on stderr.
+
+The sub-commands' user error (:class:`~._errors.CommandError`) and the outputs' safety net
+(:func:`~._paths.check_paths`) are imported from the modules below this one; the Dask
+cluster's error class is imported when an error is classified (the database app loads
+numba, which this module, imported when the command line is read, must not).
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, NoReturn, TextIO
 
+from elastic_motion.cli_commands._errors import CommandError, option_message
+from elastic_motion.cli_commands._paths import check_option_limits, check_paths
 from elastic_motion.errors import OptionError
 
 __all__ = [
@@ -132,7 +139,7 @@ def print_note(command: str | None, message: str, *, stream: TextIO | None = Non
 
 
 def _cluster_unavailable() -> type[BaseException] | None:
-    try:
+    try:  # local: the database app loads numba (module docstring)
         from elastic_motion.apps.database import ClusterUnavailableError
     except Exception:  # pragma: no cover - an optional import failing must not mask the error
         return None
@@ -197,11 +204,7 @@ def exit_code_for(exc: BaseException) -> int:
 def _is_user_error(exc: BaseException) -> bool:
     if isinstance(exc, ValueError | KeyError | OverflowError):  # overflow: a number too large was given
         return True
-    try:
-        from elastic_motion.cli_commands._common import CommandError  # the sub-commands' user error
-    except Exception:  # pragma: no cover - reporting an error must not raise another
-        return False
-    return isinstance(exc, CommandError)
+    return isinstance(exc, CommandError)  # the sub-commands' user error
 
 
 def describe_error(exc: BaseException) -> str:
@@ -247,21 +250,13 @@ def describe_error(exc: BaseException) -> str:
     if isinstance(exc, RecursionError):
         return "input: expected a nesting depth Python can follow; got one too deep"
     if isinstance(exc, OptionError):  # an API argument name: say the command-line flag instead
-        return _option_message(exc)
+        return option_message(exc)
     if _is_user_error(exc) or getattr(exc, "exit_code", None) is not None:
         return str(exc) or type(exc).__name__
     cluster = _cluster_unavailable()
     if cluster is not None and isinstance(exc, cluster):
         return str(exc)
     return f"internal error: {type(exc).__name__}: {exc}{_where(exc)}; this is a bug, please report it"
-
-
-def _option_message(exc: OptionError) -> str:
-    try:
-        from elastic_motion.cli_commands._common import option_message
-    except ImportError:  # pragma: no cover - the sub-commands' helper moved
-        return f"--{exc.option.replace('_', '-')}: {exc.message}"
-    return option_message(exc)
 
 
 def _where(exc: BaseException) -> str:
@@ -428,13 +423,11 @@ def _rewrite_argparse_message(message: str) -> str:
 
 
 def _guarded(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
-    """``func`` preceded by the outputs-vs-inputs safety net (``_common.check_paths``)."""
+    """``func`` preceded by the outputs-vs-inputs safety net (:func:`~._paths.check_paths`)."""
     if getattr(func, "_paths_checked", False):
         return func
 
     def run(args: argparse.Namespace) -> int:
-        from elastic_motion.cli_commands._common import CommandError, check_option_limits, check_paths
-
         try:
             check_paths(args)  # before anything is read or written
             check_option_limits(args)

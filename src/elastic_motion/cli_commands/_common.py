@@ -2,8 +2,14 @@
 
 The options of the preparation step and of the time warp (one name per concept across all
 commands, mapped onto :class:`elastic_motion.apps.prepare.PrepareOptions` and
-:class:`elastic_motion.warp.WarpOptions`), refusing outputs that are inputs, parsing landmark
-arguments, the ``--json`` option and error reporting. No numerical work.
+:class:`elastic_motion.warp.WarpOptions`; their choices read from the API's types), parsing
+landmark arguments, the ``--json`` option and error reporting. No numerical work. The user
+error :class:`CommandError` (:mod:`._errors`) and the outputs' safety net :func:`check_output`
+(:mod:`._paths`) are re-exported here, for the command modules.
+
+This module imports the API's types (numpy, numba): it is imported with the command modules,
+when :func:`elastic_motion.cli.main` builds the parser (``import elastic_motion.cli`` itself
+stays light).
 """
 
 from __future__ import annotations
@@ -13,34 +19,57 @@ import math
 import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
+from elastic_motion._options import choices
+from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
+from elastic_motion.apps.landmark_files import TIME_UNITS, LandmarkFile, parse_landmarks
+from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, EVENT_KINDS
+from elastic_motion.apps.prepare import PrepareOptions, output_motion, prepare_motions
+from elastic_motion.apps.progress import ProgressBar
+from elastic_motion.apps.report import report_json, write_report
+from elastic_motion.cli_commands._argparse import EXIT_BAD_INPUT, add_alias
+from elastic_motion.cli_commands._errors import CommandError, option_message
+from elastic_motion.cli_commands._paths import check_output, protected_inputs
 from elastic_motion.errors import OptionError, ParseError
+from elastic_motion.motion import write_bvh
+from elastic_motion.motion.contacts import ContactOptions
+from elastic_motion.warp import WarpOptions
+from elastic_motion.warp.options import WarpMethod
 
-#: Exit code for bad input (unreadable file, bad argument value).
-EXIT_BAD_INPUT = 2
-
-
-class CommandError(Exception):
-    """A user error: printed as ``elastic-motion CMD: error: MESSAGE``, exit code 2."""
+__all__ = [  # CommandError and check_output are re-exported: every command module uses them
+    "CommandError",
+    "add_contact_height_option",
+    "add_input_options",
+    "add_joint_options",
+    "add_json_option",
+    "add_landmark_options",
+    "add_landmark_weight_option",
+    "add_quiet_option",
+    "add_warp_options",
+    "check_output",
+    "contact_options",
+    "emit_report",
+    "fail",
+    "fmt_float",
+    "joints_arg",
+    "landmark_kinds",
+    "non_negative_float",
+    "positive_float",
+    "prepare_inputs",
+    "prepare_options",
+    "progress_for",
+    "read_landmarks",
+    "run_guarded",
+    "warp_options",
+    "write_motion",
+]
 
 
 def fail(command: str, message: str) -> int:
     """Print an error for ``command`` on stderr and return the bad-input exit code."""
     print(f"elastic-motion {command}: error: {message}", file=sys.stderr)
     return EXIT_BAD_INPUT
-
-
-#: API argument names that are input files on the command line, not options.
-_POSITIONAL = {"motions", "motion", "labels", "prepare"}
-
-
-def option_message(exc: OptionError) -> str:
-    """An :class:`OptionError` in command-line words: the API argument ``trim`` is ``--trim``."""
-    if exc.option in _POSITIONAL:
-        return exc.message
-    return f"--{exc.option.replace('_', '-')}: {exc.message}"
 
 
 def run_guarded(command: str, fn, args: argparse.Namespace) -> int:
@@ -57,31 +86,6 @@ def run_guarded(command: str, fn, args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------------
 # Options
 # ------------------------------------------------------------------------------------------
-
-
-def check_report_target(args: argparse.Namespace) -> None:
-    """Refuse a ``--json PATH`` that names a motion file or an existing file that is not an
-    earlier report, before any work (``--json`` before the inputs takes the first of them as
-    its PATH; the report written at the end replaced that motion). Raises :class:`CommandError`."""
-    from elastic_motion.apps.database.files import MOTION_EXTENSIONS
-    from elastic_motion.apps.report import is_report
-
-    value = getattr(args, "json", None)
-    if not isinstance(value, str) or value == "-":
-        return
-    hint = "(--json takes the next word as its PATH: put it after the inputs)"
-    suffix = Path(value).suffix.lower()
-    # a motion file's name is never a report path (.json is a report's too: checked below)
-    if suffix != ".json" and suffix in (*MOTION_EXTENSIONS, ".asf"):
-        raise CommandError(
-            f"--json: expected a report path (e.g. report.json), or nothing to print the report; got "
-            f"{value!r}, a motion file's name {hint}"
-        )
-    if Path(value).is_file() and not is_report(Path(value)):
-        raise CommandError(
-            f"--json: expected a new file or an earlier elastic-motion report; got {value!r}, another "
-            f"existing file (refusing to overwrite it) {hint}"
-        )
 
 
 def add_json_option(p: argparse.ArgumentParser) -> None:
@@ -148,8 +152,6 @@ def add_input_options(p: argparse.ArgumentParser, *, several: bool = True, write
 
 def add_joint_options(p: argparse.ArgumentParser) -> None:
     """``--joints`` and ``--no-align`` (preparation step)."""
-    from elastic_motion.cli_commands._argparse import add_alias
-
     p.add_argument(
         "--joints",
         default="all",
@@ -178,13 +180,11 @@ def add_warp_options(
     ``sampling`` adds ``--sample-fps`` (motions resampled by frame rate), ``coarse_to_fine``
     the banded DP flag (the database commands).
     """
-    from elastic_motion.cli_commands._argparse import add_alias
-    from elastic_motion.warp import WARP_METHODS, WarpOptions
 
     defaults = WarpOptions() if defaults is None else defaults  # the API's: both doors agree
     p.add_argument(
         "--warp",
-        choices=WARP_METHODS,
+        choices=choices(WarpMethod),
         default=defaults.method,
         help="time warp: dynamic programming, DP then gradient refinement off the grid, or none "
         f"(distance of the parametrised curves) (default: {defaults.method})",
@@ -225,7 +225,6 @@ def add_warp_options(
 
 def prepare_options(args: argparse.Namespace, n_inputs: int) -> Any:
     """The :class:`~elastic_motion.apps.prepare.PrepareOptions` of the parsed options."""
-    from elastic_motion.apps.prepare import PrepareOptions
 
     trims: tuple = ()
     raw = getattr(args, "trim", None)
@@ -253,7 +252,6 @@ def warp_options(args: argparse.Namespace, landmark_weight: float | None = None)
     The relative landmark weight is ``--landmark-weight`` when given, else ``landmark_weight``
     (the one a landmarks file records: :func:`read_landmarks`), else ``WarpOptions``' default.
     """
-    from elastic_motion.warp import WarpOptions
 
     lw = getattr(args, "landmark_weight", None)
     lw = landmark_weight if lw is None else lw
@@ -268,15 +266,12 @@ def warp_options(args: argparse.Namespace, landmark_weight: float | None = None)
 
 def prepare_inputs(args: argparse.Namespace, paths: Sequence[str]) -> Any:
     """Read and prepare the input files: the same step the Python API runs."""
-    from elastic_motion.apps.prepare import prepare_motions
 
     return prepare_motions(list(paths), prepare_options(args, len(paths)))
 
 
 def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], inputs: Sequence[str]) -> None:
     """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`)."""
-    from elastic_motion.apps.prepare import output_motion
-    from elastic_motion.motion import write_bvh
 
     write_bvh(output_motion(motion, prepared.units_out), path, protected=list(inputs))
 
@@ -312,180 +307,6 @@ def _parse_range(text: str) -> tuple[float | None, float | None] | None:
 # ------------------------------------------------------------------------------------------
 
 
-def protected_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
-    """Every file a command reads for ``inputs``: the inputs and the ``.asf`` found beside an ``.amc``."""
-    out: list[str] = []
-    for p in inputs:
-        out.append(os.fspath(p))
-        if Path(p).suffix.lower() == ".amc":
-            try:
-                from elastic_motion.motion import find_asf
-
-                out.append(os.fspath(find_asf(p)))
-            except (ValueError, OSError):  # no skeleton found: reading the AMC will say so
-                pass
-    return out
-
-
-def _inside(path: Path, folder: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` is ``folder`` or lies below it (symbolic links resolved)."""
-    try:
-        f = Path(folder).resolve()
-        p = path.resolve()
-    except (OSError, RuntimeError):
-        return False
-    return p == f or f in p.parents
-
-
-def check_output(
-    path: str,
-    inputs: Sequence[str],
-    *,
-    suffixes: Sequence[str] | None = None,
-    what: str = "-o",
-    outputs: Sequence[str] = (),
-) -> Path:
-    """The safety net for one output path: refuse anything that would overwrite what is read.
-
-    Refused: an output that is one of the ``inputs`` or a file read for them (the ``.asf``
-    beside an ``.amc``) -- by name, through ``../``, a symbolic or a hard link --, an output
-    inside an input folder (a ``matrix`` folder's own files), one of the other ``outputs``
-    of the command, an existing folder, a missing parent folder, a wrong extension.
-
-    Parameters
-    ----------
-    path : str
-        The output path.
-    inputs : sequence of str
-        Files and folders the command reads (``.amc`` files are expanded with their ``.asf``).
-    suffixes : sequence of str, optional
-        Accepted extensions (lower case, with the dot).
-    what : str, default "-o"
-        The option named in the error.
-    outputs : sequence of str, optional
-        The command's other outputs.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    CommandError
-    """
-    from elastic_motion._io import same_file
-
-    out = Path(path)
-    for p in protected_inputs(inputs):
-        if same_file(out, p):
-            raise CommandError(f"{what}: {path!r} is the input file {p!r}; refusing to overwrite an input")
-        if os.path.isdir(p) and _inside(out, p):
-            raise CommandError(
-                f"{what}: expected a path outside the input folder {p!r}; got {path!r}, which would "
-                "write into it"
-            )
-    for o in outputs:
-        if same_file(out, o):
-            raise CommandError(f"{what}: {path!r} is also another output of this command ({o!r})")
-    if out.is_dir():
-        raise CommandError(f"{what}: expected a file path; got the folder {path!r}")
-    if suffixes is not None and out.suffix.lower() not in suffixes:
-        raise CommandError(f"{what}: expected a {' or '.join(suffixes)} file; got {path!r}")
-    if out.parent and not out.parent.exists():
-        raise CommandError(f"{what}: the folder {str(out.parent)!r} does not exist")
-    return out
-
-
-#: Namespace attributes that are files or folders a command reads, and those it writes.
-_INPUT_ATTRS = (
-    "inputs",
-    "input",
-    "file",
-    "files",
-    "a",
-    "b",
-    "query",
-    "database",
-    "matrix_dir",
-    "asf",
-    "labels",
-    "landmarks",
-)
-_OUTPUT_ATTRS = {"output": "-o", "json": "--json", "preview": "--preview", "plot": "--plot"}
-#: Commands whose ``-o`` is a folder that must neither hold nor lie inside an input (a rerun
-#: reads the folder again), and other commands whose ``-o`` is a folder they manage themselves.
-_FOLDER_OUTPUTS = {"matrix"}
-_OWN_FOLDER_OUTPUTS = {"demo", "index", "pca"}
-
-
-def check_paths(args: argparse.Namespace) -> None:
-    """The shared safety net, run on every parsed command line before the command starts.
-
-    Every path the command writes (``-o``, ``--json PATH``, ``--preview``, ``--plot``) is
-    checked against every path it reads (with the ``.asf`` beside an ``.amc``) and against
-    the other outputs (:func:`check_output`); a folder output (``matrix -o``) must neither
-    hold nor lie inside an input. Refusals are :class:`CommandError` (exit code 2).
-    """
-    command = getattr(args, "command", None)
-    inputs: list[str] = []
-    for attr in _INPUT_ATTRS:
-        v = getattr(args, attr, None)
-        for item in v if isinstance(v, list | tuple) else [v]:
-            if isinstance(item, str) and item not in ("", "-") and os.path.lexists(item):
-                inputs.append(item)
-    outputs: list[tuple[str, str]] = []
-    for attr, flag in _OUTPUT_ATTRS.items():
-        v = getattr(args, attr, None)
-        if isinstance(v, str) and v not in ("", "-"):
-            outputs.append((flag, v))
-    if command in _OWN_FOLDER_OUTPUTS:  # the command checks its folder; its files are checked here
-        outputs = [(f, o) for f, o in outputs if f != "-o"]
-    for k, (flag, path) in enumerate(outputs):
-        others = [o for i, (_, o) in enumerate(outputs) if i != k]
-        if command in _FOLDER_OUTPUTS and flag == "-o":
-            folder = Path(path)
-            for p in protected_inputs(inputs):
-                if same_path(folder, p) or _inside(folder, p) or _inside(Path(p), folder):
-                    raise CommandError(
-                        f"{flag}: expected an output folder that neither holds nor lies inside an input; "
-                        f"got {path!r} and the input {p!r}"
-                    )
-            if folder.exists() and not folder.is_dir():
-                raise CommandError(f"{flag}: expected a folder; got the file {path!r}")
-            continue
-        folder_outputs = [o for f, o in outputs if f == "-o" and command in _FOLDER_OUTPUTS]
-        for fo in folder_outputs:
-            if _inside(Path(path), fo):
-                raise CommandError(
-                    f"{flag}: expected a path outside the output folder {fo!r} (it holds the run's own "
-                    f"files); got {path!r}"
-                )
-        check_output(path, inputs, what=flag, outputs=[o for o in others if o not in folder_outputs])
-
-
-def check_option_limits(args: argparse.Namespace) -> None:
-    """Options bounded by :mod:`elastic_motion.limits`, checked before a command reads anything.
-
-    ``--repeat`` (loop previews, seam renders) against ``max_repeat``; other commands check
-    their own sizes where they know them (render sizes, frame counts in the readers).
-    """
-    from elastic_motion import limits
-
-    repeat = getattr(args, "repeat", None)
-    if isinstance(repeat, int) and not isinstance(repeat, bool):
-        try:
-            limits.check_option("repeat", "a repeat count of", repeat, "max_repeat")
-        except OptionError as exc:
-            raise CommandError(option_message(exc)) from None
-
-
-def same_path(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
-    """Whether ``a`` and ``b`` name the same file or folder."""
-    from elastic_motion._io import same_file
-
-    return same_file(a, b)
-
-
 def emit_report(
     args: argparse.Namespace, report: dict[str, Any], inputs: Sequence[str], summary: str
 ) -> None:
@@ -494,7 +315,6 @@ def emit_report(
     ``PATH`` goes through the safety net (:func:`check_output`) against ``inputs`` -- pass
     the command's inputs *and* the outputs it wrote -- and the ``.asf`` files beside them.
     """
-    from elastic_motion.apps.report import report_json, write_report
 
     target = getattr(args, "json", None)
     if target == "-":
@@ -508,33 +328,14 @@ def emit_report(
         print(f"report: {target}")
 
 
-def progress_for(command: str, args: argparse.Namespace):
-    from elastic_motion.apps.progress import ProgressBar
-
+def progress_for(command: str, args: argparse.Namespace) -> ProgressBar:
+    """The progress bar of ``command`` on stderr (none with ``--quiet``)."""
     return ProgressBar(command, enabled=False if getattr(args, "quiet", False) else None)
 
 
 # ------------------------------------------------------------------------------------------
 # Landmarks
 # ------------------------------------------------------------------------------------------
-
-
-def _time(value: str, unit: str, fps: float) -> float:
-    """One time of an inline ``--landmarks`` pair in seconds (:func:`landmark_time`)."""
-    from elastic_motion.apps.landmark_files import landmark_time
-
-    try:
-        return landmark_time(value, unit, fps)
-    except ValueError as exc:
-        raise CommandError(f"--landmarks: {exc}") from None
-
-
-def parse_landmarks(
-    value: str | None, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None = None
-) -> Any:
-    """``--landmarks`` -> ``None``, ``"auto"`` or a list of ``(tA, tB)`` in seconds
-    (:func:`read_landmarks` without the weight)."""
-    return read_landmarks(value, unit, fps_a, fps_b, inputs)[0]
 
 
 def read_landmarks(
@@ -545,7 +346,8 @@ def read_landmarks(
 
     Accepted: ``auto``, ``none``, a file, or inline pairs ``"a0:b0,a1:b1"``. Times are in
     ``unit`` (``seconds`` or ``frames``) unless suffixed with ``s`` or ``f``; frames count
-    from the first frame kept (after ``--trim``), at each file's own frame rate.
+    from the first frame kept (after ``--trim``), at each file's own frame rate
+    (:func:`elastic_motion.apps.landmark_files.parse_landmarks`, the one reading of this text).
 
     Files: JSON ``{"units": "seconds"|"frames", "pairs": [[a, b], ...]}`` or the report of
     ``elastic-motion landmarks A B --json`` (its ``pairs_s``, and its ``landmark_weight``: the
@@ -553,45 +355,22 @@ def read_landmarks(
     refused when ``inputs`` are given and its own inputs are other files or the same ones
     swapped); or text, one pair per line (``a b``, ``a,b`` or ``a:b``; ``#`` starts a comment).
     """
-    if value is not None and value not in ("none", "auto") and os.path.exists(value):
-        return _landmarks_file(value, unit, fps_a, fps_b, inputs)
-    return _landmarks_value(value, unit, fps_a, fps_b), None
 
-
-def _landmarks_file(
-    path: str, unit: str, fps_a: float, fps_b: float, inputs: Sequence[str] | None
-) -> tuple[list[tuple[float, float]], float | None]:
-    """A landmarks file (:func:`read_landmarks`): its pairs in seconds and recorded weight
-    (:func:`elastic_motion.apps.landmark_files.read_landmark_file`, as ``em.read_landmarks``)."""
-    from elastic_motion.apps.landmark_files import read_landmark_file
-
-    lf = read_landmark_file(path, units=unit, fps=(fps_a, fps_b), inputs=inputs)
-    return list(lf.pairs), lf.landmark_weight
-
-
-def _landmarks_value(value: str | None, unit: str, fps_a: float, fps_b: float) -> Any:
-    """``--landmarks`` other than a file (:func:`read_landmarks`)."""
-    if value is None or value == "none":
-        return None
-    if value == "auto":
-        return "auto"
-    if ":" not in value:
-        raise CommandError(
-            f"--landmarks: expected 'auto', 'none', a file, or pairs like '0.5:0.7,1.4:1.9'; got {value!r} "
-            "(no such file)"
-        )
-    pairs = []
-    for item in value.split(","):
-        if not item.strip():
-            continue
-        if item.count(":") != 1:
-            raise CommandError(f"--landmarks: expected 'tA:tB' pairs separated by commas; got {item!r}")
-        a, b = item.split(":")
-        pairs.append((_time(a, unit, fps_a), _time(b, unit, fps_b)))
-    return pairs
+    try:
+        got = parse_landmarks(value, units=unit, fps=(fps_a, fps_b), inputs=inputs)
+    except OptionError as exc:
+        raise CommandError(option_message(exc)) from None
+    if isinstance(got, LandmarkFile):
+        return list(got.pairs), got.landmark_weight
+    return got, None
 
 
 def add_landmark_options(p: argparse.ArgumentParser) -> None:
+    """``--landmarks``, ``--landmark-units``, ``--landmark-kinds``, ``--max-pairs`` and
+    ``--landmark-weight`` (the landmarks of a warp between two motions)."""
+    from elastic_motion.apps.landmarks import EVENT_KINDS
+
+    kinds = [*DEFAULT_PAIR_KINDS, *(k for k in EVENT_KINDS if k not in DEFAULT_PAIR_KINDS)]
     p.add_argument(
         "--landmarks",
         default=None,
@@ -601,7 +380,7 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--landmark-units",
-        choices=("seconds", "frames"),
+        choices=TIME_UNITS,
         default="seconds",
         help="unit of landmark times without suffix (default seconds; frames count from the first "
         "frame kept, at each file's frame rate)",
@@ -609,9 +388,8 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--landmark-kinds",
         default=None,
-        help="events paired by phase by --landmarks auto, comma-separated: left_knee_passes, "
-        "right_knee_passes, left_heel_strike, right_heel_strike, left_toe_off, right_toe_off, "
-        "left_foot_contact, right_foot_contact (default: the knee crossings, heel strikes and toe-offs)",
+        help=f"events paired by phase by --landmarks auto, comma-separated: {', '.join(kinds)} "
+        "(default: the knee crossings, heel strikes and toe-offs)",
     )
     p.add_argument(
         "--max-pairs", type=int, default=None, help="--landmarks auto: at most this many pairs per kind"
@@ -621,8 +399,6 @@ def add_landmark_options(p: argparse.ArgumentParser) -> None:
 
 def add_landmark_weight_option(p: argparse.ArgumentParser) -> None:
     """``--landmark-weight`` (alias ``--lambda``): the relative weight of the landmark term."""
-    from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
-    from elastic_motion.cli_commands._argparse import add_alias
     from elastic_motion.warp import WarpOptions
 
     p.add_argument(
@@ -640,7 +416,6 @@ def add_landmark_weight_option(p: argparse.ArgumentParser) -> None:
 
 def add_contact_height_option(p: argparse.ArgumentParser) -> None:
     """``--contact-height``: the height within which a joint counts as planted."""
-    from elastic_motion.motion.contacts import ContactOptions
 
     default = ContactOptions()
     p.add_argument(
@@ -657,7 +432,6 @@ def add_contact_height_option(p: argparse.ArgumentParser) -> None:
 
 def contact_options(args: argparse.Namespace) -> Any:
     """``--contact-height`` -> ContactOptions (None when not given)."""
-    from elastic_motion.motion.contacts import ContactOptions
 
     h = getattr(args, "contact_height", None)
     if h is None:
@@ -673,7 +447,6 @@ def contact_options(args: argparse.Namespace) -> Any:
 def landmark_kinds(value: str | None, flag: str = "--landmark-kinds") -> list[str] | None:
     """``--landmark-kinds`` (or the option ``flag``) -> event kinds (None: the library's default
     kinds)."""
-    from elastic_motion.apps.landmarks import EVENT_KINDS
 
     if value is None:
         return None

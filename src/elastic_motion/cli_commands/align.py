@@ -1,4 +1,8 @@
-"""``elastic-motion align A B``: the time warp, the distance and a plot (:mod:`elastic_motion.apps.align`)."""
+"""``elastic-motion align A B``: the time warp, the distance and a plot (:mod:`elastic_motion.apps.align`).
+
+``--method`` lists :data:`elastic_motion.motion.representations.METHODS`. ``run`` imports the
+apps when the command runs (CLI start-up: the other commands never load the plots).
+"""
 
 from __future__ import annotations
 
@@ -6,6 +10,7 @@ import argparse
 
 import numpy as np
 
+from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._common import (
     add_input_options,
     add_joint_options,
@@ -21,6 +26,7 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
     warp_options,
 )
+from elastic_motion.motion.representations import METHODS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -35,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("a", metavar="A", help="reference motion")
     p.add_argument("b", metavar="B", help="motion warped onto A")
-    p.add_argument("--method", choices=("lie", "euler-elastic"), default="lie", help="curve representation")
+    p.add_argument("--method", choices=METHODS, default="lie", help="curve representation")
     add_warp_options(p)
     add_landmark_options(p)
     add_joint_options(p)
@@ -53,7 +59,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from elastic_motion.apps.align import align_motions
     from elastic_motion.apps.render import plot_warp
-    from elastic_motion.apps.report import report_header
 
     inputs = [args.a, args.b]
     plot = (

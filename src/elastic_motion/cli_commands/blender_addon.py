@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import shutil
 
+from elastic_motion.blender import addon_files, pack_addon
 from elastic_motion.cli_commands._common import check_output, run_guarded
 
 
@@ -31,8 +32,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.blender import addon_files, pack_addon
-
     out = check_output(args.output, [], suffixes=(".zip",))
     pack_addon(out)
     exe = shutil.which("elastic-motion") or "elastic-motion"

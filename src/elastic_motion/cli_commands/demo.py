@@ -1,4 +1,8 @@
-"""``elastic-motion demo``: the demo pipeline (:mod:`elastic_motion.apps.demo`)."""
+"""``elastic-motion demo``: the demo pipeline (:mod:`elastic_motion.apps.demo`).
+
+``run`` imports the demo app when the command runs (CLI start-up: it loads blend, loop and
+the pictures, which the other commands do not need).
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,7 @@
-"""``elastic-motion info FILE [--json]``: joints, frames, fps, duration, units, channels."""
+"""``elastic-motion info FILE [--json]``: joints, frames, fps, duration, units, channels.
+
+``run`` imports the readers when the command runs (CLI start-up, as every command's app).
+"""
 
 from __future__ import annotations
 

@@ -1,9 +1,16 @@
-"""``elastic-motion landmarks FILE [FILE2]``: automatic events; with two files, their pairs."""
+"""``elastic-motion landmarks FILE [FILE2]``: automatic events; with two files, their pairs
+(:func:`elastic_motion.apps.landmark_detection.detect_landmarks`).
+
+``--method`` lists :data:`elastic_motion.motion.representations.METHODS`. ``run`` imports the
+app when the command runs (CLI start-up: the other commands never load it).
+"""
 
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
+from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
     CommandError,
@@ -17,6 +24,10 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
     warp_options,
 )
+from elastic_motion.motion.representations import METHODS
+
+if TYPE_CHECKING:
+    from elastic_motion.apps.landmark_detection import LandmarkReport
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -54,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--method",
-        choices=("lie", "euler-elastic"),
+        choices=METHODS,
         default="lie",
         help="two files: the curves of the warp without landmarks the pairing starts from, as the "
         "blend's or alignment's --method (default: lie)",
@@ -67,59 +78,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.align import align_motions
-    from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, detect_events
-    from elastic_motion.apps.prepare import prepare_motions
-    from elastic_motion.apps.report import report_header
+    from elastic_motion.apps.landmark_detection import detect_landmarks  # CLI start-up
 
     inputs = list(args.inputs)
     if len(inputs) not in (1, 2):
         raise CommandError(f"FILE: expected one or two motion files; got {len(inputs)}")
-    # the motions as blend and align see them: the same preparation (common joints for two)
-    opts = prepare_options(args, len(inputs))
-    prep = prepare_motions(inputs, opts.replace(joints="common") if len(inputs) == 2 else opts)
-    motions = prep.motions
-    notes = list(prep.notes)
-    kinds = landmark_kinds(args.kinds, "--kinds") or list(DEFAULT_PAIR_KINDS)
-    events = [detect_events(m, kinds) for m in motions]
-    report = report_header("landmarks", inputs, [], notes)
-    report["events"] = [
-        {"file": f, "duration_s": m.duration, "fps": m.fps, "events": [e.__dict__ for e in ev]}
-        for f, m, ev in zip(inputs, motions, events, strict=True)
-    ]
+    res = detect_landmarks(
+        *inputs,
+        kinds=landmark_kinds(args.kinds, "--kinds"),
+        pair_kinds=landmark_kinds(args.landmark_kinds) if len(inputs) == 2 else None,
+        max_pairs=args.max_pairs,
+        method=args.method,
+        warp=warp_options(args),
+        prepare=prepare_options(args, len(inputs)),
+    )
+    report = report_header("landmarks", inputs, [], res.notes)
+    report.update(res.summary())
     lines = []
-    for f, m, ev in zip(inputs, motions, events, strict=True):
+    for f, m, ev in zip(inputs, res.motions, res.events, strict=True):
         lines.append(f"{f}: {len(ev)} events in {m.duration:.2f} s")
         lines += [f"  {e.time:7.3f} s  frame {e.frame:5d}  {e.kind}" for e in ev]
-    if len(inputs) == 2:
-        pk = landmark_kinds(args.landmark_kinds) or list(DEFAULT_PAIR_KINDS)
-        # the pairs blend/align --landmarks auto would meet: the same planning step, same curves
-        res = align_motions(
-            prep, method=args.method, warp=warp_options(args), landmarks="auto", landmark_kinds=pk,
-            max_pairs=args.max_pairs,
-        )  # fmt: skip
-        notes = list(res.prepared.notes)
-        pairing = res.landmark_pairing
-        report["pairs_s"] = [list(p) for p in res.landmarks]
-        report["landmark_weight"] = res.landmark_weight
-        report["pairs"] = [dict(d) for d in pairing.details]
-        report["skipped"] = [dict(d) for d in pairing.skipped]
-        report["pairing"] = pairing.summary()["rule"]
-        report["units"] = "seconds"
-        report["method"] = args.method
-        lines.append(
-            f"pairs by phase ({', '.join(pk)}), seconds A:B: "
-            + (", ".join(f"{a:.3f}:{b:.3f}" for a, b in res.landmarks) or "none")
-            + ("" if res.landmark_weight is None else f" (met with relative weight {res.landmark_weight:g})")
-        )
-        lines += [
-            f"  {d['kind']}: {d['time_a_s']:.3f}:{d['time_b_s']:.3f} ({d['offset_s']:+.3f} s from the prior)"
-            for d in pairing.details
-        ]
-        lines += [
-            f"  skipped {s['motion']} {s['kind']} {s['time_s']:.3f} s: {s['why']}" for s in pairing.skipped
-        ]
-    report["notes"] = notes
-    lines += [f"note: {n}" for n in notes]
+    if res.pairing is not None:
+        lines += _pair_lines(res)
+    lines += [f"note: {n}" for n in res.notes]
     emit_report(args, report, inputs, "\n".join(lines))
     return 0
+
+
+def _pair_lines(res: LandmarkReport) -> list[str]:
+    """The summary lines of the pairs of two motions."""
+    pairing = res.pairing
+    lines = [
+        f"pairs by phase ({', '.join(res.pair_kinds)}), seconds A:B: "
+        + (", ".join(f"{a:.3f}:{b:.3f}" for a, b in res.pairs) or "none")
+        + ("" if res.landmark_weight is None else f" (met with relative weight {res.landmark_weight:g})")
+    ]
+    lines += [
+        f"  {d['kind']}: {d['time_a_s']:.3f}:{d['time_b_s']:.3f} ({d['offset_s']:+.3f} s from the prior)"
+        for d in pairing.details
+    ]
+    lines += [f"  skipped {s['motion']} {s['kind']} {s['time_s']:.3f} s: {s['why']}" for s in pairing.skipped]
+    return lines

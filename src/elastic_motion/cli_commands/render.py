@@ -1,10 +1,20 @@
-"""``elastic-motion render FILE... -o OUT``: videos and pictures (:mod:`elastic_motion.apps.render`)."""
+"""``elastic-motion render FILE... -o OUT``: videos and pictures
+(:func:`elastic_motion.apps.render_files.render_motions`).
+
+The choices of ``--kind``, ``--frame``, ``--root`` and ``--method`` are the API's types
+(:data:`elastic_motion.apps.render.RenderKind`, ...). ``run`` imports the drawing app when the
+command runs (CLI start-up: the other commands never load it).
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+from typing import Any
 
 from elastic_motion import limits
+from elastic_motion.apps.render import FRAMES, KINDS, render_kind
+from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
@@ -16,6 +26,8 @@ from elastic_motion.cli_commands._common import (
     prepare_options,
     progress_for,
 )
+from elastic_motion.motion.looping import ROOT_MODES
+from elastic_motion.motion.representations import METHODS
 
 #: The options that only some kinds use: option -> (``args`` attribute, kinds).
 _KIND_OPTIONS = {
@@ -35,7 +47,34 @@ _KIND_OPTIONS = {
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``render`` sub-command."""
-    p = subparsers.add_parser(
+    p = _parser(subparsers)
+    p.add_argument("inputs", nargs="+", metavar="FILE", help="motion files")
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="output file: .gif or .mp4 (a video), .png, .svg or .pdf (required; no default)",
+    )
+    p.add_argument(
+        "--kind",
+        choices=KINDS,
+        default="auto",
+        help="what to draw; auto: an animation for .gif/.mp4, the foot trajectories for a still "
+        "(default: auto)",
+    )
+    p.add_argument(
+        "--labels", default=None, help="comma-separated panel titles, one per file (default: the file names)"
+    )
+    _add_animation_options(p)
+    _add_picture_options(p)
+    add_input_options(p, writes_bvh=False)
+    add_json_option(p)
+    add_quiet_option(p)
+    p.set_defaults(func=run)
+
+
+def _parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    return subparsers.add_parser(
         "render",
         help="skeleton animation side by side (.gif/.mp4), foot trajectories, warp, seam, SO(3) plots",
         description=(
@@ -47,23 +86,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "metres. Options marked '--kind K' apply to that kind only."
         ),
     )
-    p.add_argument("inputs", nargs="+", metavar="FILE", help="motion files")
-    p.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        help="output file: .gif or .mp4 (a video), .png, .svg or .pdf (required; no default)",
-    )
-    p.add_argument(
-        "--kind",
-        choices=("auto", "animation", "feet", "warp", "seam", "sphere"),
-        default="auto",
-        help="what to draw; auto: an animation for .gif/.mp4, the foot trajectories for a still "
-        "(default: auto)",
-    )
-    p.add_argument(
-        "--labels", default=None, help="comma-separated panel titles, one per file (default: the file names)"
-    )
+
+
+def _add_animation_options(p: argparse.ArgumentParser) -> None:
+    """``--fps``, ``--size``, ``--seconds``, ``--trail``: the animation's options
+    (:class:`~elastic_motion.apps.render.AnimationOptions`)."""
     p.add_argument(
         "--fps",
         type=float,
@@ -90,12 +117,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="SECONDS",
         help="length of the feet's trails in a video, seconds (default: 1.0 seconds)",
     )
+
+
+def _add_picture_options(p: argparse.ArgumentParser) -> None:
+    """The options of the sphere, seam and warp pictures."""
     p.add_argument(
         "--joint", default=None, help="--kind sphere: the joint whose rotation is drawn (default: the root)"
     )
     p.add_argument(
         "--frame",
-        choices=("local", "global"),
+        choices=FRAMES,
         default=None,
         help="--kind sphere: the joint's rotation relative to its parent (local) or to the world "
         "(global) (default: local)",
@@ -105,7 +136,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--root",
-        choices=("travel", "inplace"),
+        choices=ROOT_MODES,
         default=None,
         help="--kind seam: loop convention; travel: each cycle starts where the last one ended, "
         "inplace: every cycle starts at the same place (default: travel)",
@@ -121,7 +152,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--method",
-        choices=("lie", "euler-elastic"),
+        choices=METHODS,
         default=None,
         help="--kind warp: representation of the motions (default: lie)",
     )
@@ -130,10 +161,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="--kind warp: 'auto' or pairs 'tA:tB,...' of times in seconds (default: none)",
     )
-    add_input_options(p, writes_bvh=False)
-    add_json_option(p)
-    add_quiet_option(p)
-    p.set_defaults(func=run)
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -149,8 +176,6 @@ def _size(text: str) -> tuple[int, int]:
 
 def _check_limits(args: argparse.Namespace) -> None:
     """The render options against :mod:`elastic_motion.limits`, before any motion is read."""
-    import math
-
     if args.fps is not None:
         if not math.isfinite(args.fps):
             raise CommandError(f"--fps: expected a finite frame rate; got {args.fps!r}")
@@ -172,9 +197,7 @@ def _check_limits(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.render import render, render_kind
-    from elastic_motion.apps.report import report_header
-    from elastic_motion.cli_commands._common import read_landmarks
+    from elastic_motion.apps.render_files import render_motions  # CLI start-up: loaded to run only
 
     inputs = list(args.inputs)
     _check_limits(args)
@@ -186,60 +209,52 @@ def run(args: argparse.Namespace) -> int:
                 f"{option}: only used with --kind {' or '.join(kinds)}; this draws {kind!r} "
                 f"(--kind {args.kind}, output {out.name})"
             )
-    from elastic_motion.apps.prepare import load_motion
-
-    options = prepare_options(args, len(inputs))
-    motions, notes = [], []
-    for k, path in enumerate(inputs):
-        m, prep = load_motion(path, options, trim=options.trim_for(k, len(inputs)))
-        motions.append(m)
-        notes += prep.notes
-    labels = [x.strip() for x in args.labels.split(",")] if args.labels else [m.name for m in motions]
-    if len(labels) != len(motions):
-        raise CommandError(f"--labels: expected {len(motions)} labels; got {len(labels)}")
-    kw: dict = {}
-    if kind == "animation":
-        for attr in ("fps", "seconds", "trail"):
-            if getattr(args, attr) is not None:
-                kw[attr] = getattr(args, attr)
-        if args.size is not None:
-            kw["panel_size"] = _size(args.size)
-    elif kind == "sphere":
-        if args.joint is not None:
-            kw["joint"] = args.joint
-        if args.frame is not None:
-            kw["frame"] = args.frame
-    elif kind == "seam":
-        if args.repeat is not None:
-            kw["repeat"] = args.repeat
-        if args.root is not None:
-            kw["root"] = args.root
-        if args.render_joints is not None:
-            names = [x.strip() for x in args.render_joints.split(",") if x.strip()]
-            if not names:
-                raise CommandError(
-                    f"--joints: expected comma-separated joint names; got {args.render_joints!r}"
-                )
-            kw["joints"] = names
-    elif kind == "warp":
-        if args.method is not None:
-            kw["method"] = args.method
-        if args.render_joints is not None:
-            kw["joints"] = joints_arg(args.render_joints)
-        if args.landmarks:
-            kw["landmarks"], weight = read_landmarks(
-                args.landmarks, "seconds", motions[0].fps, motions[-1].fps
-            )
-            if weight is not None:  # a file of `elastic-motion landmarks`: the warp blend would meet
-                from elastic_motion.warp import WarpOptions
-
-                kw["warp"] = WarpOptions(landmark_weight=weight)
+    labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
+    if labels is not None and len(labels) != len(inputs):
+        raise CommandError(f"--labels: expected {len(inputs)} labels; got {len(labels)}")
     bar = progress_for("render", args)
     try:
-        render(motions, out, kind=kind, labels=labels, protected=inputs, progress=bar, **kw)
+        res = render_motions(
+            inputs,
+            out,
+            kind=kind,
+            labels=labels,
+            prepare=prepare_options(args, len(inputs)),
+            protected=inputs,
+            progress=bar,
+            **_picture_keywords(args, kind),
+        )
     finally:
         bar.close()
-    report = report_header("render", inputs, [str(out)], notes)
-    report.update({"kind": kind, "labels": labels})
-    emit_report(args, report, inputs, f"wrote {out}" + "".join(f"\nnote: {n}" for n in notes))
+    report = report_header("render", inputs, [str(out)], res.notes)
+    report.update(res.summary())
+    emit_report(args, report, inputs, f"wrote {out}" + "".join(f"\nnote: {n}" for n in res.notes))
     return 0
+
+
+#: The options of each kind: option attribute -> the picture's keyword.
+_KIND_KEYWORDS = {
+    "animation": {"fps": "fps", "seconds": "seconds", "trail": "trail"},
+    "sphere": {"joint": "joint", "frame": "frame"},
+    "seam": {"repeat": "repeat", "root": "root"},
+    "warp": {"method": "method"},
+}
+
+
+def _picture_keywords(args: argparse.Namespace, kind: str) -> dict[str, Any]:
+    """The keywords of the picture ``kind`` from the options given (``render``'s ``**kw``)."""
+    kw = {key: getattr(args, attr) for attr, key in _KIND_KEYWORDS.get(kind, {}).items()}
+    kw = {k: v for k, v in kw.items() if v is not None}
+    if kind == "animation" and args.size is not None:
+        kw["panel_size"] = _size(args.size)
+    if kind == "seam" and args.render_joints is not None:
+        names = [x.strip() for x in args.render_joints.split(",") if x.strip()]
+        if not names:
+            raise CommandError(f"--joints: expected comma-separated joint names; got {args.render_joints!r}")
+        kw["joints"] = names
+    if kind == "warp":
+        if args.render_joints is not None:
+            kw["joints"] = joints_arg(args.render_joints)
+        if args.landmarks:  # text: read by the app with the clips' frame rates
+            kw["landmarks"] = args.landmarks
+    return kw

@@ -1,11 +1,22 @@
 """``elastic-motion view A [B ...] -o view.html``: an interactive 3D player in one HTML page
-(:mod:`elastic_motion.apps.viewer`)."""
+(:mod:`elastic_motion.apps.viewer`).
+
+``--layout`` and ``--contacts`` list the viewer's vocabularies
+(:data:`elastic_motion.apps.viewer.options.Layout`, :data:`~elastic_motion.apps.viewer.options.ContactMarks`;
+``--contacts none`` is read as ``off``).
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Literal
 
+from elastic_motion._io import atomic_write_text
+from elastic_motion._options import choices
+from elastic_motion.apps.report import report_header
+from elastic_motion.apps.viewer import build_viewer, plotly_js, write_viewer
+from elastic_motion.apps.viewer.options import CONTACT_MARKS, LAYOUTS, ViewerOptions, contact_marks
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_json_option,
@@ -13,6 +24,12 @@ from elastic_motion.cli_commands._common import (
     emit_report,
     run_guarded,
 )
+from elastic_motion.errors import OptionError
+
+#: Where the command writes plotly.js: into the page, or as ``plotly.min.js`` beside it
+#: (a command-line choice only: in Python, :func:`~elastic_motion.apps.viewer.plotly_js`
+#: gives the text and ``plotly_src`` the URL the page loads it from).
+PlotlyPlacement = Literal["inline", "beside"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,41 +61,52 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--layout",
-        choices=("side", "overlay"),
-        default="side",
+        choices=LAYOUTS,
+        default=ViewerOptions().layout,
         help="clips side by side or overlaid on one floor, at first (the page has a switch)",
     )
     p.add_argument(
         "--contacts",
-        choices=("report", "detect", "none"),
-        default="report",
-        help="contacts to mark: from the reports; from the reports, else detected on the motion; none",
+        type=_contacts,
+        choices=CONTACT_MARKS,
+        default=ViewerOptions().contacts,
+        help="contacts to mark: report: from the reports; detect: from the reports, else detected on "
+        "the motion; off: none (also 'none')",
     )
     p.add_argument(
         "--max-frames",
         type=int,
-        default=2000,
+        default=ViewerOptions().max_frames,
         help="at most this many frames of a clip are shown (every n-th frame; said on the page)",
     )
     p.add_argument(
-        "--max-fps", type=float, default=30.0, help="at most this many frames per second are shown (frames/s)"
+        "--max-fps",
+        type=float,
+        default=ViewerOptions().max_fps,
+        help="at most this many frames per second are shown (frames/s)",
     )
     p.add_argument(
         "--plotlyjs",
-        choices=("inline", "beside"),
+        choices=choices(PlotlyPlacement),
         default="inline",
         help="write plotly.js into the page (one file, about 4.8 MB) or as plotly.min.js beside it",
     )
-    p.add_argument("--title", default="elastic-motion viewer", help="title of the page")
+    p.add_argument("--title", default=ViewerOptions().title, help="title of the page")
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("view", run, a))
 
 
+def _contacts(value: str) -> str:
+    """``--contacts``: the viewer's word for ``value`` (``none`` is ``off``); an unknown word is
+    left for ``choices`` to refuse."""
+    try:
+        return contact_marks(value)
+    except OptionError:
+        return value
+
+
 def run(args: argparse.Namespace) -> int:
     """Build the page and write it; exit code 0, or 2 for bad input (no page written then)."""
-    from elastic_motion.apps.report import report_header
-    from elastic_motion.apps.viewer import build_viewer, plotly_js, write_viewer
-
     inputs = list(args.inputs)
     out = check_output(args.output, inputs, suffixes=(".html", ".htm"))
     if args.labels is not None and len(args.labels) != len(inputs):
@@ -108,8 +136,6 @@ def run(args: argparse.Namespace) -> int:
     )
     outputs = [str(out)]
     if beside is not None:
-        from elastic_motion._io import atomic_write_text
-
         check_output(str(beside), inputs, what="--plotlyjs beside")
         atomic_write_text(beside, plotly_js(), protected=inputs)
         outputs.append(str(beside))

@@ -3,7 +3,10 @@
 
 :func:`viewer_fragment` turns the data of :func:`elastic_motion.apps.viewer.build_viewer`
 into a ``<div>`` with controls, a ``<script type="application/json">`` holding the data and
-a script that draws it; :func:`page_html` wraps fragments into a page with plotly.js.
+a script that draws it; :func:`page_html` wraps fragments into a page with plotly.js
+(:func:`plotly_js`: the bundle of the installed ``plotly`` package, imported when a page
+is written, as it is an optional dependency). Colours are those of
+:mod:`elastic_motion.apps.palette`.
 
 The script keeps one viewer object per fragment in ``window.emViewers[id]`` (used by the
 tests and by anyone scripting the page): ``setFrame(i)``, ``frame()``, ``count``,
@@ -17,11 +20,11 @@ import html
 import json
 from typing import Any
 
-__all__ = ["page_html", "viewer_fragment"]
+from elastic_motion.apps.palette import LEFT, PLANTED, RIGHT
 
-_LEFT = "#1f77b4"
-_RIGHT = "#ff7f0e"
+__all__ = ["CSS", "page_html", "plotly_js", "viewer_fragment"]
 
+#: The viewer's style sheet (a page holding viewers includes it once).
 CSS = """
 .emv{font-family:system-ui,sans-serif;font-size:14px;margin:1em 0;border:1px solid #ddd;padding:.5em}
 .emv-title{font-weight:600;margin-bottom:.3em}
@@ -38,7 +41,7 @@ _JS = r"""
 (function () {
   "use strict";
   var ID = __ID__;
-  var LEFT = "__LEFT__", RIGHT = "__RIGHT__", PLANTED = "#d62728";
+  var LEFT = "__LEFT__", RIGHT = "__RIGHT__", PLANTED = "__PLANTED__";
   var root = document.getElementById(ID);
   var spec = JSON.parse(document.getElementById(ID + "-data").textContent);
   function q(sel) { return root.querySelector(sel); }
@@ -360,8 +363,8 @@ def viewer_fragment(spec: dict[str, Any]) -> str:
         "</div>",
         "<div class='emv-scene'></div>",
         "<div class='emv-key'>"
-        f"<span style='background:{_LEFT}'></span>left limbs<span style='background:{_RIGHT}'></span>right "
-        "limbs<span style='background:#d62728'></span>planted (contacts from the report) and where each contact "
+        f"<span style='background:{LEFT}'></span>left limbs<span style='background:{RIGHT}'></span>right "
+        f"limbs<span style='background:{PLANTED}'></span>planted (contacts from the report) and where each contact "
         "starts. Drag to orbit, scroll to zoom; click the timeline"
         + (" or the warp plot" if has_warp else "")
         + " to jump there.</div>",
@@ -371,7 +374,10 @@ def viewer_fragment(spec: dict[str, Any]) -> str:
         "</div>",
         f"<script type='application/json' id='{e(vid)}-data'>{_json_for_script(spec)}</script>",
         "<script>"
-        + _JS.replace("__ID__", json.dumps(vid)).replace("__LEFT__", _LEFT).replace("__RIGHT__", _RIGHT)
+        + _JS.replace("__ID__", json.dumps(vid))
+        .replace("__LEFT__", LEFT)
+        .replace("__RIGHT__", RIGHT)
+        .replace("__PLANTED__", PLANTED)
         + "</script>",
     ]
     return "\n".join(p for p in parts if p)
@@ -380,8 +386,6 @@ def viewer_fragment(spec: dict[str, Any]) -> str:
 def page_html(title: str, fragments: str, *, plotly_src: str | None = None) -> str:
     """A whole page: plotly.js (inline, or from ``plotly_src``), the viewer's style, ``fragments``."""
     if plotly_src is None:
-        from elastic_motion.apps.viewer import plotly_js
-
         lib = "<script>" + plotly_js().replace("</script", "<\\/script") + "</script>"
     else:
         lib = f"<script src='{html.escape(plotly_src)}'></script>"
@@ -390,3 +394,21 @@ def page_html(title: str, fragments: str, *, plotly_src: str | None = None) -> s
         f"<title>{html.escape(title)}</title>\n{lib}\n<style>{CSS}</style></head>\n<body>\n"
         f"{fragments}\n</body></html>\n"
     )
+
+
+def plotly_js() -> str:
+    """The plotly.js bundle of the installed ``plotly`` package (about 4.6 MB of text).
+
+    Raises
+    ------
+    ModuleNotFoundError
+        ``plotly`` is not installed (``pip install "elastic-motion[viewer]"``).
+    """
+    try:
+        from plotly.offline import get_plotlyjs
+    except ImportError as exc:
+        raise ModuleNotFoundError(
+            'the viewer needs plotly: pip install "elastic-motion[viewer]" (or pip install plotly)',
+            name="plotly",
+        ) from exc
+    return get_plotlyjs()

@@ -22,6 +22,10 @@ bl_info = {
 }
 
 
+# The operators import bpy, which exists only inside Blender: they are loaded when Blender
+# registers the add-on (the command lines of runner.py are tested without Blender).
+
+
 def register():
     from . import ops
 

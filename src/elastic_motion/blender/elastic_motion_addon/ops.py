@@ -315,17 +315,11 @@ class EM_OT_blend(bpy.types.Operator, _Run):
             _export(context, arms[0], a)
             _export(context, arms[1], b)
             out, rep = os.path.join(work, "blend.bvh"), os.path.join(work, "blend.json")
+            settings = runner.BlendSettings(
+                weight=s.weight, warp=s.warp, landmarks=s.landmarks, cleanup=s.cleanup
+            )
             args, warnings = runner.blend_args(
-                a,
-                b,
-                out,
-                rep,
-                weight=s.weight,
-                warp=s.warp,
-                landmarks=s.landmarks,
-                cleanup=s.cleanup,
-                help_text=help_text,
-                extra=s.extra.split(),
+                a, b, out, rep, settings, help_text=help_text, extra=s.extra.split()
             )
             return args, warnings, out, rep
 

@@ -10,6 +10,7 @@ releases that lack a newer option: the setting is then skipped with a warning).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -108,24 +109,55 @@ def option_choices(help_text: str, flag: str):
     return m.group(1).split(",") if m.group(1) else []
 
 
-def blend_args(a, b, out, report, *, weight, warp, landmarks, cleanup, help_text, extra=()):
-    """Command line of ``elastic-motion blend`` and the warnings about skipped settings."""
-    args = ["blend", a, b, "-o", out, "--json", report, "-q", "--weight", repr(float(weight))]
-    args += ["--warp", warp]
+@dataclass(frozen=True)
+class BlendSettings:
+    """The panel's blend settings, as :func:`blend_args` turns them into options.
+
+    Attributes
+    ----------
+    weight : float, default 0.5
+        ``--weight``: the share of B in the blend.
+    warp : str, default "dp"
+        ``--warp``: the time warp.
+    landmarks : str, default ""
+        ``--landmarks`` (empty: none).
+    cleanup : bool, default True
+        The footskate clean-up (``--contacts auto``, or ``off``).
+    """
+
+    weight: float = 0.5
+    warp: str = "dp"
+    landmarks: str = ""
+    cleanup: bool = True
+
+
+def blend_args(a, b, out, report, settings=None, *, help_text, extra=(), **overrides):
+    """Command line of ``elastic-motion blend`` and the warnings about skipped settings.
+
+    ``settings`` (a :class:`BlendSettings`, default ``BlendSettings()``) or its fields as
+    keywords (``weight=0.3``); an unknown keyword is a ``TypeError`` naming it.
+    """
+    fields = {f.name for f in dataclasses.fields(BlendSettings)}
+    unknown = sorted(set(overrides) - fields)
+    if unknown:
+        raise TypeError(f"blend_args: unknown settings {unknown}; expected some of {sorted(fields)}")
+    s = dataclasses.replace(settings or BlendSettings(), **overrides)
+    args = ["blend", a, b, "-o", out, "--json", report, "-q", "--weight", repr(float(s.weight))]
+    args += ["--warp", s.warp]
     warnings = []
-    if landmarks.strip():
-        args += ["--landmarks", landmarks.strip()]
+    if s.landmarks.strip():
+        args += ["--landmarks", s.landmarks.strip()]
     if option_choices(help_text, "--skeleton") is not None:
         args += ["--skeleton", "first"]  # the armature's own bones: the action fits its rest pose
     # the footskate clean-up is `blend --contacts auto|off` (on by default when contacts are found)
     choices = option_choices(help_text, "--contacts")
     pick = None
     if choices:
-        want = ("auto", "on") if cleanup else ("off", "none")
+        want = ("auto", "on") if s.cleanup else ("off", "none")
         pick = next((c for c in want if c in choices), None)
     if pick is not None:
         args += ["--contacts", pick]
-    elif not cleanup:
+    elif not s.cleanup:
         warnings.append("this elastic-motion has no --contacts option: the clean-up setting is ignored")
     args += list(extra)
     return args, warnings
