@@ -17,10 +17,12 @@ import pytest
 
 from elastic_motion._options import choices
 from elastic_motion.apps.align import METHODS as CURVE_METHODS
+from elastic_motion.apps.blend_options import SKELETON_MODES
 from elastic_motion.apps.database.engines import ENGINES
 from elastic_motion.apps.landmark_files import TIME_UNITS
-from elastic_motion.apps.loop import CLOSING_SOLVERS, LOOP_CONTACTS, LOOP_JOINT_LIMITS
+from elastic_motion.apps.loop.options import LIMIT_POLICIES, SEAMS, SOLVERS, WINDOW_MODES
 from elastic_motion.apps.render import FRAMES, KINDS
+from elastic_motion.apps.statistics import LINKAGES
 from elastic_motion.apps.viewer.options import CONTACT_MARKS, LAYOUTS
 from elastic_motion.cli import build_parser, subcommand_parsers
 from elastic_motion.cli_commands.view import PlotlyPlacement
@@ -47,9 +49,9 @@ API: dict[tuple[str, str], tuple[str, ...]] = {
     ("align", "--method"): METHODS,
     ("distance", "--method"): METHODS,
     ("render", "--method"): METHODS,
-    ("blend", "--method"): CURVE_METHODS,  # PENDING-REVIEW (blend helper): BlendOptions.method
-    ("loop", "--method"): METHODS,  # PENDING-REVIEW (loop helper): LoopOptions.method
-    ("blendspace", "--method"): METHODS,  # PENDING-REVIEW (blendspace): its options' method
+    ("blend", "--method"): CURVE_METHODS,  # BlendOptions.method (euler-linear too)
+    ("loop", "--method"): METHODS,  # LoopOptions.method
+    ("blendspace", "--method"): METHODS,
     # render (apps.render, motion.looping)
     ("render", "--kind"): KINDS,
     ("render", "--frame"): FRAMES,
@@ -61,27 +63,24 @@ API: dict[tuple[str, str], tuple[str, ...]] = {
     # distance, database
     ("distance", "--interpolation"): INTERPOLATIONS,
     ("matrix", "--engine"): ENGINES,
-    # loop: PENDING-REVIEW (loop helper): today's API values of apps/loop.py on branch ui;
-    # read them from LoopOptions' Literals at merge
+    # loop (apps.loop.options.LoopOptions)
     ("loop", "--root"): ROOT_MODES,
-    ("loop", "--solver"): CLOSING_SOLVERS,
-    ("loop", "--contacts"): LOOP_CONTACTS,  # = motion.contacts.CONTACT_POLICIES
-    ("loop", "--joint-limits"): LOOP_JOINT_LIMITS,
+    ("loop", "--seam"): SEAMS,
+    ("loop", "--window"): WINDOW_MODES,
+    ("loop", "--solver"): SOLVERS,
+    ("loop", "--contacts"): CONTACT_POLICIES,
+    ("loop", "--joint-limits"): LIMIT_POLICIES,
+    # blend and blend spaces (apps.blend_options.BlendOptions): one contacts vocabulary
+    ("blend", "--skeleton"): SKELETON_MODES,
+    ("blend", "--contacts"): CONTACT_POLICIES,
+    ("blendspace", "--contacts"): CONTACT_POLICIES,
+    # cluster (apps.statistics)
+    ("cluster", "--linkage"): LINKAGES,
 }
 
 #: Choices whose API type does not exist yet on branch ui: today's values, written here once.
 #: PENDING (lead, at merge): replace each by the API type its owner adds, then move it to API.
 PENDING: dict[tuple[str, str], tuple[str, ...]] = {
-    # loop helper: LoopOptions.seam (today c1: bool | "auto") and LoopOptions.window
-    ("loop", "--seam"): ("auto", "c0", "c1"),
-    ("loop", "--window"): ("whole", "auto"),
-    # blend helper: BlendOptions.skeleton and BlendOptions.contacts (one contacts vocabulary)
-    ("blend", "--skeleton"): ("blend", "first"),
-    ("blend", "--contacts"): ("auto", "off"),
-    # blendspace: its contacts (one contacts vocabulary with blend)
-    ("blendspace", "--contacts"): ("auto", "off"),
-    # database helper: statistics' linkage methods (apps/statistics.py re-types them)
-    ("cluster", "--linkage"): ("average", "complete", "single", "weighted"),
     # lead: PrepareOptions.up (apps/prepare.py) has no Literal; every command with --up
     **{
         (cmd, "--up"): ("y", "z")
