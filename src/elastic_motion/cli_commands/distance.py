@@ -21,6 +21,7 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
     warp_options,
 )
+from elastic_motion.motion.edit import INTERPOLATIONS
 from elastic_motion.motion.representations import Method
 
 
@@ -40,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_warp_options(p)
     p.add_argument(
         "--interpolation",
-        choices=("geodesic", "cubic"),
+        choices=INTERPOLATIONS,
         default="geodesic",
         help="how the curves are sampled at --sample-fps: geodesic (default; at most the clips' own "
         "rate) or cubic (cubic splines at exactly --sample-fps, above the clips' rate too: e.g. "
