@@ -75,8 +75,7 @@ from elastic_motion.apps.prepare import (
     prepare_motions,
 )
 from elastic_motion.apps.progress import Progress
-from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
-from elastic_motion.closing_kkt import project_closed
+from elastic_motion.closing import ClosingResult, close_curve, project_closed, project_closed_rd
 from elastic_motion.curves import DiscreteCurve, srv_distance, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3, Euclidean

@@ -70,7 +70,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.closing_kkt import ExtraConstraints
+from elastic_motion.closing import ExtraConstraints
 from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import Contacts, mask_runs

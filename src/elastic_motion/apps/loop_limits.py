@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.closing_kkt import ExtraConstraints
+from elastic_motion.closing import ExtraConstraints
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 from elastic_motion.motion.joint_limits import (
