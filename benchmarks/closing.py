@@ -37,8 +37,7 @@ from _common import timed_best, write_json
 from elastic_motion.apps.loop import loop_motion
 from elastic_motion.apps.metrics import seam_metrics
 from elastic_motion.apps.prepare import PrepareOptions
-from elastic_motion.closing import close_curve, closing_gap, project_closed_rd
-from elastic_motion.closing_kkt import kkt_residual, project_closed
+from elastic_motion.closing import close_curve, closing_gap, kkt_residual, project_closed, project_closed_rd
 from elastic_motion.curves import DiscreteCurve
 from elastic_motion.groups import Euclidean
 from elastic_motion.motion import (

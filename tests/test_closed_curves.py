@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from elastic_motion.closed_curves import (
+    ClosedMatchOptions,
     _normal_coeffs,
     _normal_field,
     _normal_gram,
@@ -19,7 +20,8 @@ from elastic_motion.closed_curves import (
     swap_closed_match,
     tangent_part,
 )
-from elastic_motion.warp import shift_seed, warp_energy
+from elastic_motion.errors import OptionError
+from elastic_motion.warp import WarpOptions, shift_seed, warp_energy
 
 
 def polar_outline(n: int, bumps: int = 5, amp: float = 0.35, phase: float = 0.0, rot: float = 0.0):
@@ -210,3 +212,43 @@ def test_closed_descent_lowers_the_energy_of_the_open_match():
     b = srv_of(polar_outline(80, bumps=5, amp=0.45, phase=0.25, rot=0.21))
     m = match_closed(a, b, closed_iter=3)
     assert m.closed_steps >= 1 and m.energy < m.energy_open_step
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("n_steps", 0), ("closed_iter", 1.5), ("warp", "dp"), ("lam", -1.0), ("penalty", "cubic")],
+)
+def test_match_options_validation_names_the_option(field, value):
+    with pytest.raises(OptionError) as exc:
+        ClosedMatchOptions(**{field: value})
+    assert exc.value.option == field
+    with pytest.raises(OptionError) as exc:
+        ClosedMatchOptions(warp=WarpOptions(method="none"))
+    assert exc.value.option == "warp"
+
+
+def test_match_overrides_equal_the_options_object():
+    a = srv_of(polar_outline(40))
+    b = srv_of(polar_outline(40, bumps=5, amp=0.45, phase=0.25, rot=0.21))
+    lm = [[0.2, 0.3]]
+
+    def same(x, y):
+        assert x.energy == y.energy and x.seed_shift == y.seed_shift and x.seed_from == y.seed_from
+        np.testing.assert_array_equal(x.vertices, y.vertices)
+
+    kw = dict(lam=0.5, symmetric=True, closed_iter=1, n_steps=4)
+    same(
+        match_closed(a, b, landmarks=lm, **kw),
+        match_closed(a, b, options=ClosedMatchOptions(**kw), landmarks=lm),
+    )
+    warp = WarpOptions(method="dp", neighbourhood=6)
+    base = ClosedMatchOptions(warp=warp, closed_iter=0, n_steps=4)
+    same(match_closed(a, b, options=warp, closed_iter=0, n_steps=4), match_closed(a, b, options=base))
+    same(
+        match_closed(a, b, options=base, closed_iter=1),
+        match_closed(a, b, options=ClosedMatchOptions(warp=warp, n_steps=4, closed_iter=1)),
+    )
+    assert match_closed(a, b, options=base).closed_steps == 0
+    with pytest.raises(OptionError, match="unknown option") as exc:
+        match_closed(a, b, closed_steps=2)
+    assert exc.value.option == "closed_steps"

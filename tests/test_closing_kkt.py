@@ -1,4 +1,4 @@
-"""Tests of the constrained projection (closing_kkt): the result is a KKT point of
+"""Tests of the constrained projection (closing.kkt): the result is a KKT point of
 min ||q - q_orig||^2 subject to closure, no nearby closed curve is nearer the original, it is
 at least as near as the Gauss-Newton and R^d Newton projections, and ClosingResult.srv is the
 solver's SRV function."""
@@ -8,15 +8,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from elastic_motion.closing import close_curve, closing_gap, project_closed_rd
-from elastic_motion.closing_kkt import (
-    _SO3,
+from elastic_motion.closing import (
+    ClosingOptions,
     ExtraConstraints,
-    _eu_samples,
-    _ExtraLinear,
+    close_curve,
+    closing_gap,
     kkt_residual,
     project_closed,
+    project_closed_rd,
 )
+from elastic_motion.closing.kkt import _eu_samples, _ExtraLinear
+from elastic_motion.closing.problem import ClosingProblem
 from elastic_motion.curves import SRVFunction, inverse_srv_transform, srv_transform
 from elastic_motion.groups import SO3, Euclidean, PowerGroup, ProductGroup
 
@@ -215,7 +217,7 @@ class DenseLinear:
             fr = np.maximum(frames, 0)
             d_back = np.einsum("rsbj,rsbjk->rsbk", d_rot, s.rot[fr])  # (dg/domega_f) R_f
             tail = np.einsum("rsi,rsbk->ribk", before, d_back)  # (R, n, m, 3): sum over f > i
-            dmat = _SO3.dexp_matrix(s.u_so3)  # (n, m, 3, 3)
+            dmat = SO3().dexp_matrix(s.u_so3)  # (n, m, 3, 3)
             a = np.einsum("fbji,fbjk->fbik", s.rot[1:], dmat)  # R_{i+1}^T dexp_{u_i}
             ju = np.einsum("ribj,ibjk->ribk", tail, a)
             je[:, :, ne:] = (ju / lay.s_so3[:, None]).reshape(r, n, 3 * m)
@@ -247,15 +249,13 @@ class DenseLinear:
 
 
 def test_extra_constraint_jacobian_matches_central_differences():
-    from elastic_motion.closing import _problem
-
     g = lie_group()
     curve = smooth_curve(g, 12, seed=9, scale=1.0)
     mask = np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 0, 0, 0], dtype=bool)  # x, z free: kept as original
     extra = PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5)
     for c1 in (False, True):
-        srv, prob = _problem(curve, mask, c1, 1.0, 1e-9, None)
-        q = prob.to_internal(srv.q)
+        prob = ClosingProblem.from_curve(curve, ClosingOptions(factors=mask, c1=c1, cut_locus_tol=1e-9))
+        q = prob.to_internal(prob.srv.q)
         s = prob.evaluate(q)
         eu0 = _eu_samples(prob, s)
         lin = DenseLinear(prob, s, extra, eu0)
@@ -363,8 +363,6 @@ class Stacked(ExtraConstraints):
 def test_structured_extra_rows_equal_the_dense_jacobian(c1, one_slot):
     """J d, J^* lambda and J J^* of the prefix-sum implementation against the dense Jacobian
     (rows on two samples and unused slots; and rows on one sample each, the short path)."""
-    from elastic_motion.closing import _problem
-
     g = lie_group()
     curve = smooth_curve(g, 30, seed=4, scale=1.5)
     mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
@@ -373,8 +371,8 @@ def test_structured_extra_rows_equal_the_dense_jacobian(c1, one_slot):
         *(() if one_slot else (RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),)),
         PinConstraints(30, 0, [1.0, 0.0, 0.0], [0.4, 0.0], 17, 2, 0.1),
     )
-    srv, prob = _problem(curve, mask, c1, 1.0, 1e-9, None)
-    q = prob.to_internal(srv.q)
+    prob = ClosingProblem.from_curve(curve, ClosingOptions(factors=mask, c1=c1, cut_locus_tol=1e-9))
+    q = prob.to_internal(prob.srv.q)
     s = prob.evaluate(q)
     eu0 = _eu_samples(prob, s) + 0.3
     dense = DenseLinear(prob, s, extra, eu0)

@@ -299,7 +299,7 @@ def test_bad_input_errors_name_the_argument():
 def test_merged_grid_has_no_rounding_cells_and_blend_srv_is_exact():
     """Issue 13: warps' vertices and pre-images agree only up to rounding; merged grids must
     not keep cells of width 1e-16 (the old 3-curve blend's SRV was off by 0.3 on one)."""
-    from elastic_motion.curves import MERGE_TOL, _common_refinement
+    from elastic_motion.curves import MERGE_TOL, common_refinement
     from elastic_motion.warp import optimal_warp
 
     g = Euclidean(2)
@@ -313,7 +313,7 @@ def test_merged_grid_has_no_rounding_cells_and_blend_srv_is_exact():
     warps = [None] + [optimal_warp(qs[0].q, q.q, method="dp").vertices for q in qs[1:]]
     srvs = [q if w is None else reparametrize_srv(q, w) for q, w in zip(qs, warps, strict=True)]
     assert all(np.diff(s.t).min() > MERGE_TOL for s in srvs)
-    grid, vals = _common_refinement([(s.q, s.t) for s in srvs])
+    grid, vals = common_refinement([(s.q, s.t) for s in srvs])
     assert np.diff(grid).min() > MERGE_TOL
     w = np.array([0.3, 0.3, 0.4])
     out = weighted_blend(cs, w, warps)

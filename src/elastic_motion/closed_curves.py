@@ -73,19 +73,23 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
+from elastic_motion._options import with_overrides
 from elastic_motion._validation import as_float_array, check_finite
 from elastic_motion.curves import (
     DiscreteCurve,
     SRVFunction,
-    _common_refinement,
+    common_refinement,
     inverse_srv_transform,
     reparametrize_srv,
     srv_transform,
 )
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import Euclidean
 from elastic_motion.warp import (
     Landmarks,
+    WarpResult,
     landmark_cost,
     optimal_warp,
     shift_seed,
@@ -93,13 +97,14 @@ from elastic_motion.warp import (
     warp_energy,
 )
 from elastic_motion.warp.energy import check_srv
-from elastic_motion.warp.landmarks import as_landmarks
-from elastic_motion.warp.options import WarpOptions
+from elastic_motion.warp.landmarks import Penalty, as_landmarks
+from elastic_motion.warp.options import WarpOptions, WarpSolverOptions
 
 __all__ = [
     "CLOSED_TOL",
     "ClosedGeodesic",
     "ClosedMatch",
+    "ClosedMatchOptions",
     "closed_curve_srv",
     "closed_distance",
     "closed_geodesic",
@@ -109,6 +114,9 @@ __all__ = [
     "project_closed",
     "swap_closed_match",
 ]
+
+#: An SRV array or a grid (checked by the caller).
+Array = np.ndarray
 
 #: Inputs count as closed when ``|F(q)| <= CLOSED_TOL * length`` (``length = ||q||^2``).
 CLOSED_TOL = 1e-8
@@ -457,7 +465,7 @@ def closed_distance(
     """
     q0a, t0a = check_srv(q0, t0, "q0")
     q1a, t1a = check_srv(q1, t1, "q1")
-    grid, (a, b) = _common_refinement([(q0a, t0a), (q1a, t1a)])
+    grid, (a, b) = common_refinement([(q0a, t0a), (q1a, t1a)])
     return closed_geodesic(a, b, grid, n_steps=n_steps, close=close).distance
 
 
@@ -508,6 +516,72 @@ class ClosedMatch:
     time: float = field(repr=False, default=0.0)
 
 
+@dataclass(frozen=True, eq=False)
+class ClosedMatchOptions:
+    """How :func:`match_closed` matches two closed curves (compared by identity: ``windows``
+    may be an array, ``penalty`` a callable).
+
+    Attributes
+    ----------
+    warp : WarpOptions, default WarpOptions()
+        Solver of the warps (``method``, ``neighbourhood``, ``coarse_to_fine``; default DP then
+        refinement).
+    lam, penalty, windows, symmetric
+        The feature term, as in :class:`~elastic_motion.warp.WarpSolverOptions` (``theta1`` in
+        q1's own parameter: it moves with the seed); defaults 1, ``"squared"``, None, False.
+    closed_iter : int, default 4
+        Maximal number of closed-descent steps (step 2); 0 keeps the open-energy match.
+    n_steps : int, default 8
+        Segments of the discrete closed geodesics evaluated during the match (>= 1).
+    seed_refine : bool, default False
+        Move the seed off the break points: minimise the open energy over seeds within one
+        cell of q1 either side of the best break point (bounded Brent search, each
+        evaluation a warp solve on the shifted q1).
+    close : bool, default False
+        Project curves that do not close onto closed curves first (default: refuse).
+    """
+
+    warp: WarpOptions = field(default_factory=WarpOptions)
+    lam: float = 1.0
+    penalty: Penalty = "squared"
+    windows: Any = None
+    symmetric: bool = False
+    closed_iter: int = 4
+    n_steps: int = 8
+    seed_refine: bool = False
+    close: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.warp, WarpOptions):
+            raise OptionError("warp", f"expected a WarpOptions; got {type(self.warp).__name__}")
+        if isinstance(self.n_steps, bool) or int(self.n_steps) != self.n_steps or self.n_steps < 1:
+            raise OptionError("n_steps", f"expected an integer >= 1; got {self.n_steps!r}")
+        if isinstance(self.closed_iter, bool) or int(self.closed_iter) != self.closed_iter:
+            raise OptionError(
+                "closed_iter", f"expected an integer (0: no closed descent); got {self.closed_iter!r}"
+            )
+        self.solver()  # the warp options, the landmark weight and penalty checked there
+
+    def solver(self) -> WarpSolverOptions:
+        """The options of the warps of the match (:func:`~elastic_motion.warp.optimal_warp`)."""
+        return self.warp.solver_options().replace(
+            lam=self.lam, penalty=self.penalty, windows=self.windows, symmetric=self.symmetric
+        )
+
+    def landmark_cost(self, vertices: np.ndarray, landmarks: Landmarks | None) -> float:
+        """The feature term of a warp (0 without landmarks)."""
+        if not landmarks:
+            return 0.0
+        return landmark_cost(
+            vertices,
+            landmarks,
+            lam=self.lam,
+            penalty=self.penalty,
+            windows=self.windows,
+            symmetric=self.symmetric,
+        )
+
+
 def _shift_landmarks(lm: Landmarks | None, tau: float) -> Landmarks | bool | None:
     if lm is None or len(lm) == 0 or tau == 0.0:
         return lm
@@ -517,93 +591,15 @@ def _shift_landmarks(lm: Landmarks | None, tau: float) -> Landmarks | bool | Non
         return False  # crossing pairs: this seed cannot meet them
 
 
-def _refine_seed(q0, t0, q1, t1, tau, verts, e_open, lm, lmkw, kw):
-    """Bounded scalar search of the seed within the cells of q1 next to ``tau``."""
-    from scipy.optimize import minimize_scalar
-
-    k = int(np.clip(np.searchsorted(t1, tau, side="right") - 1, 0, len(t1) - 2))
-    left = t1[k] - t1[k - 1] if k > 0 else t1[-1] - t1[-2]
-    right = t1[k + 1] - t1[k]
-    cache: dict[float, tuple] = {}
-
-    def f(x: float) -> float:
-        seed = float(x) % 1.0
-        lms = _shift_landmarks(lm, seed)
-        if lms is False:
-            cache[x] = (np.inf, None, None)
-            return np.inf
-        q1s, t1s = shift_seed(q1, t1, seed)
-        try:
-            r = optimal_warp(q0, q1s, t0=t0, t1=t1s, landmarks=lms, **lmkw, **kw)
-        except ValueError:
-            cache[x] = (np.inf, None, None)
-            return np.inf
-        cache[x] = (r.energy, r.vertices, lms)
-        return r.energy
-
-    opt = minimize_scalar(f, bounds=(tau - left, tau + right), method="bounded", options={"xatol": 1e-5})
-    best = min(cache, key=lambda x: cache[x][0])
-    if cache[best][0] < e_open:
-        e, v, lms = cache[best]
-        return float(best) % 1.0, v, e, lms
-    del opt
-    return tau, verts, e_open, _shift_landmarks(lm, tau)
-
-
-def _closed_descent(q0, t0, q1, t1, tau, verts, lms, lmkw, kw, closed_iter, n_steps):
-    """Step (2) of :func:`match_closed` for q1 warped onto q0 with the seed ``tau`` fixed.
-
-    Returns ``(tau, vertices, E_cl, geodesic, landmark cost, open distance, accepted steps)``.
-    """
-    q1s, t1s = shift_seed(q1, t1, tau)
-    args = (lmkw["lam"], lmkw["penalty"], lmkw["windows"], lmkw["symmetric"], n_steps)
-    e_cl, geo, lc, d_open = _closed_energy(q0, t0, q1s, t1s, verts, lms, *args)
-    steps = 0
-    for _ in range(max(0, int(closed_iter))):
-        target = geo.path[-1] - geo.velocity_end  # q0_eff on the merged grid geo.t
-        try:
-            res = optimal_warp(target, q1s, t0=geo.t, t1=t1s, landmarks=lms, **lmkw, **kw)
-        except ValueError:
-            break
-        e_new, geo_new, lc_new, d_new = _closed_energy(q0, t0, q1s, t1s, res.vertices, lms, *args)
-        if not e_new < e_cl * (1.0 - 1e-9):
-            break
-        verts, e_cl, geo, lc, d_open = res.vertices, e_new, geo_new, lc_new, d_new
-        steps += 1
-    return tau, verts, e_cl, geo, lc, d_open, steps
-
-
-def _closed_energy(q0, t0, q1s, t1s, verts, lm, lam, penalty, windows, symmetric, n_steps):
-    """``(E_cl, ClosedGeodesic, landmark cost, open distance)`` of one (shifted q1, warp)."""
-    srv1 = SRVFunction(q1s, t1s, np.zeros(q1s.shape[1]), Euclidean(q1s.shape[1]))
-    moved = reparametrize_srv(srv1, verts)
-    grid, (a, b) = _common_refinement([(q0, t0), (moved.q, moved.t)])
-    b, _ = project_closed(b, np.diff(grid))  # rounding of the action only
-    geo = closed_geodesic(a, b, grid, n_steps=n_steps, closed_tol=1e-6)
-    lc = (
-        landmark_cost(verts, lm, lam=lam, penalty=penalty, windows=windows, symmetric=symmetric)
-        if lm
-        else 0.0
-    )
-    return geo.distance**2 + lc, geo, lc, geo.open_distance
-
-
 def match_closed(
     q0: Any,
     q1: Any,
     t0: Any = None,
     t1: Any = None,
+    options: ClosedMatchOptions | WarpOptions | None = None,
     *,
     landmarks: Landmarks | Any | None = None,
-    lam: float = 1.0,
-    penalty: str = "squared",
-    windows: Any = None,
-    symmetric: bool = False,
-    options: WarpOptions | None = None,
-    closed_iter: int = 4,
-    n_steps: int = 8,
-    seed_refine: bool = False,
-    close: bool = False,
+    **overrides: Any,
 ) -> ClosedMatch:
     """Seed and warp minimising the closed-curve energy (paper 001, eq. 22, Remark 12).
 
@@ -613,21 +609,13 @@ def match_closed(
         SRV arrays of closed curves in ``R^D`` on ``t0``, ``t1``.
     t0, t1 : array_like, optional
         Break points (uniform when omitted).
-    landmarks, lam, penalty, windows, symmetric
-        Feature term, as in :func:`elastic_motion.warp.optimal_warp` (``theta1`` in q1's own
-        parameter: it moves with the seed).
-    options : WarpOptions, optional
-        Solver of the warps (default ``WarpOptions()``: DP then refinement).
-    closed_iter : int
-        Maximal number of closed-descent steps (step 2); 0 keeps the open-energy match.
-    n_steps : int
-        Segments of the discrete closed geodesics evaluated during the match.
-    seed_refine : bool
-        Move the seed off the break points: minimise the open energy over seeds within one
-        cell of q1 either side of the best break point (bounded Brent search, each
-        evaluation a warp solve on the shifted q1).
-    close : bool
-        Project curves that do not close onto closed curves first (default: refuse).
+    options : ClosedMatchOptions or WarpOptions, optional
+        :class:`ClosedMatchOptions` (the feature term, the closed descent, the seed, the
+        solver of the warps); a :class:`~elastic_motion.warp.WarpOptions` is its ``warp``.
+    landmarks : Landmarks or array_like of shape (M, 2), optional
+        Feature pairs (``theta1`` in q1's own parameter: it moves with the seed).
+    **overrides
+        Fields of :class:`ClosedMatchOptions` (``match_closed(q0, q1, lam=2.0, closed_iter=1)``).
 
     Returns
     -------
@@ -641,17 +629,17 @@ def match_closed(
     the time of one.
     """
     t_begin = time.perf_counter()
+    base = ClosedMatchOptions(warp=options) if isinstance(options, WarpOptions) else options
+    opts = with_overrides(ClosedMatchOptions, base, overrides)
     q0a, t0a = check_srv(q0, t0, "q0")
     q1a, t1a = check_srv(q1, t1, "q1")
     if q0a.shape[1] != q1a.shape[1]:
         raise ValueError(f"q1: expected {q0a.shape[1]} dimensions like q0; got {q1a.shape[1]}")
-    q0a = _check_closed_srv(q0a, t0a, "q0", close, CLOSED_TOL)
-    q1a = _check_closed_srv(q1a, t1a, "q1", close, CLOSED_TOL)
-    opts = WarpOptions() if options is None else options
-    kw = opts.solver_kwargs()
+    q0a = _check_closed_srv(q0a, t0a, "q0", opts.close, CLOSED_TOL)
+    q1a = _check_closed_srv(q1a, t1a, "q1", opts.close, CLOSED_TOL)
     lm = as_landmarks(landmarks)
-    lmkw = {"lam": lam, "penalty": penalty, "windows": windows, "symmetric": symmetric}
-    best = _match_checked(q0a, t0a, q1a, t1a, lm, lmkw, kw, closed_iter, n_steps, seed_refine)
+    matcher = _Matcher(opts)
+    best = matcher.match(q0a, t0a, q1a, t1a, lm)
     if lm is None:
         # without landmarks the energy is symmetric, but the closed descent is a local search
         # whose path turns on rounding (from starts 1e-16 apart it found 0.863 and 0.873 on
@@ -659,7 +647,7 @@ def match_closed(
         # kept (a tie goes to the canonical order), so that d(a, b) = d(b, a); this replaces
         # the descent from the swapped side within each order (same distances on paper 001's
         # Table 1 hands, 1.5-1.7x the time of one order instead of 2.0-2.1x)
-        other = _swap_back(q0a, t0a, q1a, t1a, lmkw, kw, closed_iter, n_steps, seed_refine)
+        other = matcher.swap_back(q0a, t0a, q1a, t1a)
         if other is not None:
             tie = abs(other.energy - best.energy) <= 1e-12 * max(best.energy, 1e-300)
             canonical = (q0a.shape, q0a.tobytes(), t0a.tobytes()) <= (q1a.shape, q1a.tobytes(), t1a.tobytes())
@@ -668,106 +656,198 @@ def match_closed(
     return dataclasses.replace(best, time=time.perf_counter() - t_begin)
 
 
-def _swap_back(q0, t0, q1, t1, lmkw, kw, closed_iter, n_steps, seed_refine) -> ClosedMatch | None:
-    """The match of q1 onto q0 (no landmarks) solved as q0 onto q1 and swapped back
-    (:func:`swap_closed_match`), its energy measured again this way round; None when it cannot
-    be swapped (a flat piece of the warp)."""
-    m = _match_checked(q1, t1, q0, t0, None, lmkw, kw, closed_iter, n_steps, seed_refine)
-    try:
-        tau, phi = swap_closed_match(m.vertices, m.seed_shift)
-    except ValueError:
-        return None
-    q1s, t1s = shift_seed(q1, t1, tau)
-    args = (lmkw["lam"], lmkw["penalty"], lmkw["windows"], lmkw["symmetric"], n_steps)
-    e_cl, geo, lc, d_open = _closed_energy(q0, t0, q1s, t1s, phi, None, *args)
-    return ClosedMatch(
-        seed_shift=float(tau),
-        vertices=phi,
-        distance=geo.distance,
-        open_distance=d_open,
-        landmark_cost=float(lc),
-        energy=float(e_cl),
-        energy_open_step=m.energy_open_step,
-        geodesic=geo,
-        seed_from=f"{m.seed_from}, solved the other way round",
-        closed_steps=m.closed_steps,
-    )
+class _Matcher:
+    """Steps (1) and (2) of :func:`match_closed` with one :class:`ClosedMatchOptions`."""
 
+    def __init__(self, opts: ClosedMatchOptions) -> None:
+        self.opts = opts
+        self.solver = opts.solver()
 
-def _match_checked(q0a, t0a, q1a, t1a, lm, lmkw, kw, closed_iter, n_steps, seed_refine) -> ClosedMatch:
-    """Steps (1) and (2) of :func:`match_closed` on checked arrays."""
-    lam, penalty, windows, symmetric = (lmkw[k] for k in ("lam", "penalty", "windows", "symmetric"))
+    def warp(self, q0: Array, t0: Array, q1: Array, t1: Array, landmarks: Landmarks | None) -> WarpResult:
+        """:func:`optimal_warp` of ``q1`` onto ``q0`` with the match's solver."""
+        return optimal_warp(q0, q1, self.solver, t0=t0, t1=t1, landmarks=landmarks)
 
-    def open_score(tau: float, verts: np.ndarray) -> tuple[float, Landmarks | None]:
-        lms = _shift_landmarks(lm, tau)
-        if lms is False:
-            return np.inf, None
+    def closed_energy(
+        self, q0: Array, t0: Array, q1s: Array, t1s: Array, verts: Array, lm: Landmarks | None
+    ) -> tuple[float, ClosedGeodesic, float, float]:
+        """``(E_cl, ClosedGeodesic, landmark cost, open distance)`` of one (shifted q1, warp)."""
+        srv1 = SRVFunction(q1s, t1s, np.zeros(q1s.shape[1]), Euclidean(q1s.shape[1]))
+        moved = reparametrize_srv(srv1, verts)
+        grid, (a, b) = common_refinement([(q0, t0), (moved.q, moved.t)])
+        b, _ = project_closed(b, np.diff(grid))  # rounding of the action only
+        geo = closed_geodesic(a, b, grid, n_steps=self.opts.n_steps, closed_tol=1e-6)
+        lc = self.opts.landmark_cost(verts, lm)
+        return geo.distance**2 + lc, geo, lc, geo.open_distance
+
+    def refine_seed(
+        self, q0: Array, t0: Array, q1: Array, t1: Array, start: tuple, lm: Landmarks | None
+    ) -> tuple:
+        """Bounded scalar search of the seed within the cells of q1 next to ``start = (tau,
+        vertices, open energy)``."""
+        tau, verts, e_open = start
+        k = int(np.clip(np.searchsorted(t1, tau, side="right") - 1, 0, len(t1) - 2))
+        left = t1[k] - t1[k - 1] if k > 0 else t1[-1] - t1[-2]
+        right = t1[k + 1] - t1[k]
+        cache: dict[float, tuple] = {}
+
+        def f(x: float) -> float:
+            seed = float(x) % 1.0
+            lms = _shift_landmarks(lm, seed)
+            if lms is False:
+                cache[x] = (np.inf, None, None)
+                return np.inf
+            q1s, t1s = shift_seed(q1, t1, seed)
+            try:
+                r = self.warp(q0, t0, q1s, t1s, lms)
+            except ValueError:
+                cache[x] = (np.inf, None, None)
+                return np.inf
+            cache[x] = (r.energy, r.vertices, lms)
+            return r.energy
+
+        minimize_scalar(f, bounds=(tau - left, tau + right), method="bounded", options={"xatol": 1e-5})
+        best = min(cache, key=lambda x: cache[x][0])
+        if cache[best][0] < e_open:
+            e, v, lms = cache[best]
+            return float(best) % 1.0, v, e, lms
+        return tau, verts, e_open, _shift_landmarks(lm, tau)
+
+    def descent(
+        self, q0: Array, t0: Array, q1: Array, t1: Array, start: tuple, lms: Landmarks | None
+    ) -> tuple:
+        """Step (2) for q1 warped onto q0 from ``start = (tau, vertices)``, the seed fixed.
+
+        Returns ``(tau, vertices, E_cl, geodesic, landmark cost, open distance, accepted steps)``.
+        """
+        tau, verts = start
+        q1s, t1s = shift_seed(q1, t1, tau)
+        e_cl, geo, lc, d_open = self.closed_energy(q0, t0, q1s, t1s, verts, lms)
+        steps = 0
+        for _ in range(max(0, int(self.opts.closed_iter))):
+            target = geo.path[-1] - geo.velocity_end  # q0_eff on the merged grid geo.t
+            try:
+                res = self.warp(target, geo.t, q1s, t1s, lms)
+            except ValueError:
+                break
+            e_new, geo_new, lc_new, d_new = self.closed_energy(q0, t0, q1s, t1s, res.vertices, lms)
+            if not e_new < e_cl * (1.0 - 1e-9):
+                break
+            verts, e_cl, geo, lc, d_open = res.vertices, e_new, geo_new, lc_new, d_new
+            steps += 1
+        return tau, verts, e_cl, geo, lc, d_open, steps
+
+    def open_step(self, q0a: Array, t0a: Array, q1a: Array, t1a: Array, lm: Landmarks | None) -> tuple:
+        """Step (1): seed and warp by the DP, seeds on the breaks of both curves, the better by
+        the open objective. Returns ``((E_open, shifted landmarks), source, tau, vertices)``."""
+
+        def open_score(tau: float, verts: np.ndarray) -> tuple[float, Landmarks | None]:
+            lms = _shift_landmarks(lm, tau)
+            if lms is False:
+                return np.inf, None
+            q1s, t1s = shift_seed(q1a, t1a, tau)
+            e = warp_energy(q0a, q1s, verts, t0a, t1s)
+            if lms:
+                e += self.opts.landmark_cost(verts, lms)  # type: ignore[arg-type]
+            return e, lms  # type: ignore[return-value]
+
+        closed = self.solver.replace(closed=True, seeds="q1")
+        cands = []
+        a = optimal_warp(q0a, q1a, closed, t0=t0a, t1=t1a, landmarks=lm)
+        cands.append(("q1", a.seed_shift, a.vertices))
+        lm_sw = None if lm is None else lm.swapped()
+        try:
+            b = optimal_warp(q1a, q0a, closed, t0=t1a, t1=t0a, landmarks=lm_sw)
+            tau_b, phi_b = swap_closed_match(b.vertices, b.seed_shift)
+            cands.append(("q0", tau_b, phi_b))
+        except ValueError:
+            pass  # no swapped candidate (flat warp or landmarks that no seed of q0 meets)
+        scored = [(open_score(tau, v), src, tau, v) for src, tau, v in cands]
+        return min(scored, key=lambda s: s[0][0])
+
+    def match(self, q0a: Array, t0a: Array, q1a: Array, t1a: Array, lm: Landmarks | None) -> ClosedMatch:
+        """Steps (1) and (2) of :func:`match_closed` on checked arrays."""
+        (e_open, lms), src, tau, verts = self.open_step(q0a, t0a, q1a, t1a, lm)
+        if not np.isfinite(e_open):
+            raise ValueError(
+                "landmarks: no seed and warp meet the landmarks (hard windows or crossing pairs)"
+            )
+        if self.opts.seed_refine:
+            tau, verts, e_open, lms = self.refine_seed(q0a, t0a, q1a, t1a, (tau, verts, e_open), lm)
         q1s, t1s = shift_seed(q1a, t1a, tau)
-        e = warp_energy(q0a, q1s, verts, t0a, t1s)
-        if lms:
-            e += landmark_cost(verts, lms, **lmkw)
-        return e, lms  # type: ignore[return-value]
+        e_start = self.closed_energy(q0a, t0a, q1s, t1s, verts, lms)[0]
+        # (2) descent on E_cl with the exact first variation of d_M^2 (effective target); with
+        # landmarks and the symmetric term the objective is symmetric in the two curves, so the
+        # descent runs from both sides (warping q1, and warping q0 with the swapped match) and
+        # the lower result is kept (without landmarks match_closed solves both orders whole)
+        best = self.descent(q0a, t0a, q1a, t1a, (tau, verts), lms)
+        if lm is not None and self.opts.symmetric and self.opts.closed_iter > 0:
+            swapped = self.swapped_descent(q0a, t0a, q1a, t1a, (tau, verts, best), lm)
+            if swapped is not None:
+                best, src = swapped, f"{src}, swapped descent"
+        tau, verts, e_cl, geo, lc, d_open, steps = best
+        return ClosedMatch(
+            seed_shift=float(tau),
+            vertices=np.asarray(verts),
+            distance=geo.distance,
+            open_distance=d_open,
+            landmark_cost=float(lc),
+            energy=float(e_cl),
+            energy_open_step=float(e_start),
+            geodesic=geo,
+            seed_from=src,
+            closed_steps=steps,
+        )
 
-    # (1) seed and warp by the DP, seeds on the breaks of both curves
-    cands = []
-    a = optimal_warp(q0a, q1a, t0=t0a, t1=t1a, closed=True, seeds="q1", landmarks=lm, **lmkw, **kw)
-    cands.append(("q1", a.seed_shift, a.vertices))
-    lm_sw = None if lm is None else lm.swapped()
-    try:
-        b = optimal_warp(q1a, q0a, t0=t1a, t1=t0a, closed=True, seeds="q1", landmarks=lm_sw, **lmkw, **kw)
-        tau_b, phi_b = swap_closed_match(b.vertices, b.seed_shift)
-        cands.append(("q0", tau_b, phi_b))
-    except ValueError:
-        pass  # no swapped candidate (flat warp or landmarks that no seed of q0 meets)
-    scored = [(open_score(tau, v), src, tau, v) for src, tau, v in cands]
-    (e_open, lms), src, tau, verts = min(scored, key=lambda s: s[0][0])
-    if not np.isfinite(e_open):
-        raise ValueError("landmarks: no seed and warp meet the landmarks (hard windows or crossing pairs)")
-    if seed_refine:
-        tau, verts, e_open, lms = _refine_seed(q0a, t0a, q1a, t1a, tau, verts, e_open, lm, lmkw, kw)
-    q1s, t1s = shift_seed(q1a, t1a, tau)
-    e_start = _closed_energy(q0a, t0a, q1s, t1s, verts, lms, lam, penalty, windows, symmetric, n_steps)[0]
-    # (2) descent on E_cl with the exact first variation of d_M^2 (effective target); with
-    # landmarks and the symmetric term the objective is symmetric in the two curves, so the
-    # descent runs from both sides (warping q1, and warping q0 with the swapped match) and
-    # the lower result is kept (without landmarks match_closed solves both orders whole)
-    best = _closed_descent(q0a, t0a, q1a, t1a, tau, verts, lms, lmkw, kw, closed_iter, n_steps)
-    if lm is not None and symmetric and closed_iter > 0:
+    def swapped_descent(
+        self, q0a: Array, t0a: Array, q1a: Array, t1a: Array, start: tuple, lm: Landmarks
+    ) -> tuple | None:
+        """The descent run from the swapped side (q0 warped onto q1 with the swapped match of
+        ``start = (tau, vertices, best)``), swapped back; None unless it beats ``best``."""
+        tau, verts, best = start
         try:
             sigma, psi = swap_closed_match(verts, tau)
         except ValueError:
-            sigma = None
-        if sigma is not None:
-            lms_sw = None if lm is None else _shift_landmarks(lm.swapped(), sigma)
-            other = _closed_descent(q1a, t1a, q0a, t0a, sigma, psi, lms_sw, lmkw, kw, closed_iter, n_steps)
-            if other[2] < best[2] * (1.0 - 1e-9) and other[-1] > 0:
-                try:
-                    tau2, phi2 = swap_closed_match(other[1], other[0])
-                except ValueError:
-                    tau2 = None
-                if tau2 is not None:
-                    lms2 = _shift_landmarks(lm, tau2)
-                    if lms2 is not False:
-                        q1s2, t1s2 = shift_seed(q1a, t1a, tau2)
-                        e2, geo2, lc2, d2 = _closed_energy(
-                            q0a, t0a, q1s2, t1s2, phi2, lms2, lam, penalty, windows, symmetric, n_steps
-                        )
-                        if e2 < best[2]:
-                            best = (tau2, phi2, e2, geo2, lc2, d2, other[-1])
-                            src = f"{src}, swapped descent"
-    tau, verts, e_cl, geo, lc, d_open, steps = best
-    return ClosedMatch(
-        seed_shift=float(tau),
-        vertices=np.asarray(verts),
-        distance=geo.distance,
-        open_distance=d_open,
-        landmark_cost=float(lc),
-        energy=float(e_cl),
-        energy_open_step=float(e_start),
-        geodesic=geo,
-        seed_from=src,
-        closed_steps=steps,
-    )
+            return None
+        lms_sw = _shift_landmarks(lm.swapped(), sigma)
+        other = self.descent(q1a, t1a, q0a, t0a, (sigma, psi), lms_sw)
+        if not (other[2] < best[2] * (1.0 - 1e-9) and other[-1] > 0):
+            return None
+        try:
+            tau2, phi2 = swap_closed_match(other[1], other[0])
+        except ValueError:
+            return None
+        lms2 = _shift_landmarks(lm, tau2)
+        if lms2 is False:
+            return None
+        q1s2, t1s2 = shift_seed(q1a, t1a, tau2)
+        e2, geo2, lc2, d2 = self.closed_energy(q0a, t0a, q1s2, t1s2, phi2, lms2)
+        if not e2 < best[2]:
+            return None
+        return tau2, phi2, e2, geo2, lc2, d2, other[-1]
+
+    def swap_back(self, q0: Array, t0: Array, q1: Array, t1: Array) -> ClosedMatch | None:
+        """The match of q1 onto q0 (no landmarks) solved as q0 onto q1 and swapped back
+        (:func:`swap_closed_match`), its energy measured again this way round; None when it
+        cannot be swapped (a flat piece of the warp)."""
+        m = self.match(q1, t1, q0, t0, None)
+        try:
+            tau, phi = swap_closed_match(m.vertices, m.seed_shift)
+        except ValueError:
+            return None
+        q1s, t1s = shift_seed(q1, t1, tau)
+        e_cl, geo, lc, d_open = self.closed_energy(q0, t0, q1s, t1s, phi, None)
+        return ClosedMatch(
+            seed_shift=float(tau),
+            vertices=phi,
+            distance=geo.distance,
+            open_distance=d_open,
+            landmark_cost=float(lc),
+            energy=float(e_cl),
+            energy_open_step=m.energy_open_step,
+            geodesic=geo,
+            seed_from=f"{m.seed_from}, solved the other way round",
+            closed_steps=m.closed_steps,
+        )
 
 
 # ----------------------------------------------------------------------------- curves

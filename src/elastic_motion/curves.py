@@ -41,6 +41,7 @@ __all__ = [
     "SRVFunction",
     "as_warp_vertices",
     "blend",
+    "common_refinement",
     "curve_distance",
     "inverse_srv_transform",
     "reparametrize_curve",
@@ -270,7 +271,7 @@ def _values_on(q: np.ndarray, t: np.ndarray, grid: np.ndarray) -> np.ndarray:
     return q[cell]
 
 
-def _common_refinement(
+def common_refinement(
     functions: Sequence[tuple[np.ndarray, np.ndarray]],
 ) -> tuple[np.ndarray, list[np.ndarray]]:
     """Merge the break points of piecewise constant functions ``(q_k, t_k)``.
@@ -296,7 +297,7 @@ def _check_same_group(a: LieGroup, b: LieGroup, name_a: str, name_b: str) -> Non
 def srv_distance(srv0: SRVFunction, srv1: SRVFunction) -> float:
     """L2 distance ``||q0 - q1||`` of two SRV functions, exact on their merged grid."""
     _check_same_group(srv0.group, srv1.group, "srv0", "srv1")
-    grid, (a, b) = _common_refinement([(srv0.q, srv0.t), (srv1.q, srv1.t)])
+    grid, (a, b) = common_refinement([(srv0.q, srv0.t), (srv1.q, srv1.t)])
     d = a - b
     return float(np.sqrt(np.dot(np.einsum("ij,ij->i", d, d), np.diff(grid))))
 
@@ -467,7 +468,7 @@ def weighted_blend(
     for c, phi in zip(curves, warps, strict=True):
         srv = srv_transform(c)
         srvs.append(srv if phi is None else reparametrize_srv(srv, phi))
-    grid, vals = _common_refinement([(s.q, s.t) for s in srvs])
+    grid, vals = common_refinement([(s.q, s.t) for s in srvs])
     q = np.einsum("k,kij->ij", w, np.stack(vals))
     starts = np.stack([c.values[0] for c in curves])
     if (w >= 0).all():

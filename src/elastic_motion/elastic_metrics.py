@@ -43,8 +43,9 @@ from typing import Any
 import numpy as np
 
 from elastic_motion._validation import as_float_array, check_finite, check_parameters
-from elastic_motion.warp import WarpOptions, optimal_warp
-from elastic_motion.warp.solver import WarpResult
+from elastic_motion.curves import SRVFunction, common_refinement, reparametrize_srv
+from elastic_motion.groups import Euclidean
+from elastic_motion.warp import WarpOptions, WarpResult, WarpSolverOptions, optimal_warp
 
 __all__ = ["ElasticABResult", "ab_inverse", "ab_transform", "elastic_ab_distance", "elastic_ab_geodesic"]
 
@@ -200,7 +201,7 @@ def elastic_ab_distance(
     *,
     t0: Any = None,
     t1: Any = None,
-    options: WarpOptions | None = None,
+    options: WarpSolverOptions | WarpOptions | None = None,
     **warp_kw: Any,
 ) -> ElasticABResult:
     """Elastic distance of open plane curves for the metric ``G^{a,b}`` (paper 001, eq. 4).
@@ -226,13 +227,10 @@ def elastic_ab_geodesic(result: ElasticABResult, s: float, t_out: Any = None) ->
     ndarray, shape (m+1, 2)
         On the merged break points (or sampled at ``t_out``).
     """
-    from elastic_motion.curves import SRVFunction, _common_refinement, reparametrize_srv
-    from elastic_motion.groups import Euclidean
-
     moved = reparametrize_srv(
         SRVFunction(result.q1, result.t1, np.zeros(2), Euclidean(2)), result.warp.vertices
     )
-    grid, (qa, qb) = _common_refinement([(result.q0, result.t0), (moved.q, moved.t)])
+    grid, (qa, qb) = common_refinement([(result.q0, result.t0), (moved.q, moved.t)])
     qs = (1.0 - s) * qa + s * qb
     # the lift of the first angle moves continuously along the segment (which avoids 0)
     moving = np.flatnonzero(np.hypot(qa[:, 0], qa[:, 1]) > 0)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from elastic_motion.warp import WarpOptions, optimal_warp, warp_energy
-from elastic_motion.warp.solver import DEFAULT_METHOD
+from elastic_motion.warp.options import DEFAULT_METHOD
 
 #: Elastic distance of paper 001's open pair (sec. 4.1, Fig. 3: three vs two extrema), as built
 #: in ``examples/warp_2d.py``; dp+refine at N = 800 gives 0.62926, N = 1600 0.62925.

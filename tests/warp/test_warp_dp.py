@@ -8,9 +8,8 @@ from warp_testlib import all_paths
 
 from elastic_motion.curves import SRVFunction, reparametrize_srv
 from elastic_motion.groups import Euclidean
-from elastic_motion.warp import _dp as warp_dp
-from elastic_motion.warp import coprime_steps, optimal_warp, warp_energy
-from elastic_motion.warp import solver as warp_solver
+from elastic_motion.warp import coprime_steps, dp_kernels, optimal_warp, warp_energy
+from elastic_motion.warp import dp as warp_dp
 
 
 def random_grid(n: int, rng: np.random.Generator) -> np.ndarray:
@@ -79,22 +78,22 @@ def test_pruning_and_row_kernel_do_not_change_the_result():
     q1 /= np.sqrt(np.linalg.norm(q1, axis=1))[:, None]
     q0 = np.roll(q1, 3, axis=0) + 0.1 * rng.normal(size=q1.shape)
     steps = coprime_steps(10)
-    lmd = warp_solver._LandmarkData(None, None, False)
-    full = warp_solver._solve_dp(q0, t, q1, t, None, steps, lmd, False, 20, prune=False)
-    pruned = warp_solver._solve_dp(q0, t, q1, t, None, steps, lmd, False, 20, prune=True)
+    lmd = warp_dp.LandmarkTables(None, None, False)
+    full = warp_dp.solve_dp(q0, t, q1, t, lmd, warp_dp.DPPlan(steps, band=20, prune=False))
+    pruned = warp_dp.solve_dp(q0, t, q1, t, lmd, warp_dp.DPPlan(steps, band=20, prune=True))
     assert pruned.value == pytest.approx(full.value, rel=1e-12)
     np.testing.assert_array_equal(pruned.vertices, full.vertices)
     assert pruned.nodes < full.nodes
     # the row-vectorised kernel (uniform grids) and the scalar kernel fill the same table
-    pb = warp_solver._Problem(q0, t, q1, t, t, t)
+    pb = warp_dp.DPProblem(q0, t, q1, t, t, t)
     lo = np.zeros(n + 1, dtype=np.int64)
     hi = np.full(n + 1, n, dtype=np.int64)
-    taps = warp_solver._taps(pb, steps)
+    taps = warp_dp._taps(pb, steps)
     lm_args = lmd.kernel_args(pb.u, pb.v)
-    h_scalar, _ = warp_dp.dp_solve(
+    h_scalar, _ = dp_kernels.dp_solve(
         pb.u, pb.v, pb.t0, pb.t1, pb.c0, pb.c1, pb.G, pb.P0, pb.P1, steps, taps, lo, hi, lm_args
     )
-    h_rows, _ = warp_dp.dp_solve_rows(pb.u, pb.v, pb.P0, pb.P1, pb.G, steps, taps, lo, hi, lm_args)
+    h_rows, _ = dp_kernels.dp_solve_rows(pb.u, pb.v, pb.P0, pb.P1, pb.G, steps, taps, lo, hi, lm_args)
     np.testing.assert_allclose(h_rows, h_scalar, rtol=1e-12, atol=1e-13)
     c2f = optimal_warp(q0, q1, coarse_to_fine=True)
     assert c2f.energy >= full.value * (1 - 1e-12)

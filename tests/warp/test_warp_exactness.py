@@ -16,8 +16,8 @@ import pytest
 from warp_testlib import all_paths
 
 from elastic_motion.warp import Landmarks, landmark_cost, optimal_warp, warp_at, warp_energy
+from elastic_motion.warp.dp import DPPlan, LandmarkTables, as_steps, solve_dp
 from elastic_motion.warp.landmarks import make_penalty
-from elastic_motion.warp.solver import _as_steps, _LandmarkData, _solve_dp
 
 
 def test_zero_window_is_met_not_refused():
@@ -62,7 +62,7 @@ def test_dp_table_value_is_the_exact_objective_of_its_warp():
     t0, t1 = np.linspace(0, 1, 41), np.linspace(0, 1, 51)
     for lam, sym in [(3.0, False), (3.0, True), (40.0, False)]:
         spec = make_penalty("squared", lam, None, len(LM))
-        out = _solve_dp(q0, t0, q1, t1, None, _as_steps(10), _LandmarkData(LM, spec, sym), False, 20)
+        out = solve_dp(q0, t0, q1, t1, LandmarkTables(LM, spec, sym), DPPlan(as_steps(10), band=20))
         exact = warp_energy(q0, q1, out.vertices) + landmark_cost(out.vertices, LM, lam=lam, symmetric=sym)
         assert out.value == pytest.approx(exact, rel=1e-10, abs=1e-12), (lam, sym)
 
@@ -73,7 +73,7 @@ def all_paths_scored():
     q0, q1 = _open_pair(n0, n1)
     t0, t1 = np.linspace(0, 1, n0 + 1), np.linspace(0, 1, n1 + 1)
     verts = []
-    for path in all_paths(n0, n1, _as_steps(3)):  # 1434 paths
+    for path in all_paths(n0, n1, as_steps(3)):  # 1434 paths
         p = np.array(path)
         verts.append(np.column_stack([t0[p[:, 0]], t1[p[:, 1]]]))
     return q0, q1, verts, [warp_energy(q0, q1, v) for v in verts]

@@ -15,7 +15,12 @@ Conventions (fixed project-wide; this layer sees only arrays):
   + lam * sum_m FM(phi(theta0_m), theta1_m)``; the elastic distance is ``sqrt(min E)``
   without landmarks.  :func:`warp_energy` evaluates the integral exactly.
 
-Entry point: :func:`optimal_warp`.  The action ``q1 * phi`` itself (a new SRV function on
+Entry point: :func:`optimal_warp` (its options: :class:`WarpSolverOptions`; the app-level
+:class:`WarpOptions` fills them). Modules: ``solver`` (:func:`optimal_warp`, the batched
+:func:`~elastic_motion.warp.solver.dp_energies`), ``dp`` (the DP on a grid), ``dp_kernels``
+(its numba loops), ``refine`` (the gradient refinement), ``seeds`` (closed curves' seed
+search), ``landmarks``, ``energy`` (the exact objective, the algebra of warps), ``partial``
+(a short curve inside a long one), ``options``.  The action ``q1 * phi`` itself (a new SRV function on
 the merged grid) is :func:`elastic_motion.curves.reparametrize_srv`.  Method and numbers: ``docs/warp.md``.
 """
 
@@ -32,8 +37,10 @@ from elastic_motion.warp.options import (
     DEFAULT_LANDMARK_WEIGHT,
     DEFAULT_MAX_STEP,
     DEFAULT_SAMPLE_FPS,
+    SOLVER_METHODS,
     WARP_METHODS,
     WarpOptions,
+    WarpSolverOptions,
 )
 from elastic_motion.warp.solver import (
     WarpDiagnostics,
@@ -47,11 +54,13 @@ __all__ = [
     "DEFAULT_LANDMARK_WEIGHT",
     "DEFAULT_MAX_STEP",
     "DEFAULT_SAMPLE_FPS",
+    "SOLVER_METHODS",
     "WARP_METHODS",
     "Landmarks",
     "WarpDiagnostics",
     "WarpOptions",
     "WarpResult",
+    "WarpSolverOptions",
     "compose_warps",
     "coprime_steps",
     "identity_energy",

@@ -25,7 +25,7 @@ import numpy as np
 
 from elastic_motion._validation import as_float_array, check_finite, check_parameters
 from elastic_motion.curves import as_warp_vertices
-from elastic_motion.warp import _dp
+from elastic_motion.warp import dp_kernels
 
 # break points closer than this (in parameter units) are merged by the exact action
 _MERGE_TOL = 1e-13
@@ -127,7 +127,7 @@ def warp_energy(q0: Any, q1: Any, phi_vertices: Any, t0: Any = None, t1: Any = N
     """
     q0a, t0a, q1a, t1a = check_pair(q0, q1, t0, t1)
     v = check_vertices(phi_vertices, "phi_vertices")
-    return float(_dp.energy_direct(q0a, t0a, q1a, t1a, kernel_array(v[:, 0]), kernel_array(v[:, 1])))
+    return float(dp_kernels.energy_direct(q0a, t0a, q1a, t1a, kernel_array(v[:, 0]), kernel_array(v[:, 1])))
 
 
 def warp_at(vertices: Any, t: Any) -> np.ndarray:

@@ -42,10 +42,15 @@ TABLE_SIZE = 4096
 
 Penalty = str | Callable[[np.ndarray, np.ndarray], np.ndarray]
 
-# rounding slack when re-checking a window on a warp the DP built edge by edge
-_WINDOW_SLACK = 1e-12
+#: Rounding slack (parameter units) when a window is checked on a warp the DP built edge by
+#: edge: a window ``d_m = 0`` (an exact hard constraint) is met by an edge through the
+#: landmark node up to the rounding of ``phi`` on the linear piece (``1e-12``, far above
+#: the 1e-16 of one rounding, far below any window a user means).
+WINDOW_SLACK = 1e-12
 
 _KINDS = {"squared": 0, "abs": 1, "window": 2}
+#: The named penalties (a callable is the other kind).
+PENALTIES = tuple(_KINDS)
 
 
 @dataclass(frozen=True)
@@ -187,6 +192,24 @@ class PenaltySpec:
         xs = np.linspace(0.0, 1.0, TABLE_SIZE + 1)
         return np.ascontiguousarray(self.values(xs[None, :], target[:, None]))
 
+    def cost(self, vertices: np.ndarray, landmarks: Landmarks, symmetric: bool) -> float:
+        """Exact landmark term ``lam * sum_m FM(phi(theta0_m), theta1_m)`` of the warp with
+        vertices ``(K, 2)`` (``+inf`` when a window is violated by more than
+        :data:`WINDOW_SLACK`); with ``symmetric`` also ``FM(phi^{-1}(theta1_m), theta0_m)``."""
+        x, y = vertices[:, 0], vertices[:, 1]
+        fx = np.interp(landmarks.theta0, x, y)
+        r = fx - landmarks.theta1
+        if (np.abs(r) > self.windows + WINDOW_SLACK).any():
+            return float("inf")
+        total = float(self.values(fx, landmarks.theta1).sum())
+        if symmetric:
+            gx = np.interp(landmarks.theta1, y, x)
+            r = gx - landmarks.theta0
+            if (np.abs(r) > self.windows + WINDOW_SLACK).any():
+                return float("inf")
+            total += float(self.values(gx, landmarks.theta0).sum())
+        return self.lam * total
+
 
 def make_penalty(penalty: Penalty, lam: float, windows: Any, n_landmarks: int) -> PenaltySpec:
     """Validate ``penalty``, ``lam`` and ``windows`` for ``n_landmarks`` pairs."""
@@ -253,20 +276,4 @@ def landmark_cost(
     if lm is None or len(lm) == 0:
         return 0.0
     spec = make_penalty(penalty, lam, windows, len(lm))
-    return _landmark_cost(np.asarray(vertices, dtype=np.float64), lm, spec, symmetric)
-
-
-def _landmark_cost(v: np.ndarray, lm: Landmarks, spec: PenaltySpec, symmetric: bool) -> float:
-    x, y = v[:, 0], v[:, 1]
-    fx = np.interp(lm.theta0, x, y)
-    r = fx - lm.theta1
-    if (np.abs(r) > spec.windows + _WINDOW_SLACK).any():
-        return float("inf")
-    total = float(spec.values(fx, lm.theta1).sum())
-    if symmetric:
-        gx = np.interp(lm.theta1, y, x)
-        r = gx - lm.theta0
-        if (np.abs(r) > spec.windows + _WINDOW_SLACK).any():
-            return float("inf")
-        total += float(spec.values(gx, lm.theta0).sum())
-    return spec.lam * total
+    return spec.cost(np.asarray(vertices, dtype=np.float64), lm, symmetric)

@@ -14,7 +14,7 @@ long curve (a segment reparametrised onto ``[0, 1]`` by an affine map has the SR
 
 The DP runs on the nodes ``(i, j)``, ``i`` in ``0..n0``, ``j`` in ``0..n1``, with the edges
 of :func:`~elastic_motion.warp.coprime_steps` and the exact edge cost of
-:mod:`elastic_motion.warp._dp` (piecewise constant q's); ``H[0, j] = 0`` for every ``j``
+:mod:`elastic_motion.warp.dp_kernels` (piecewise constant q's); ``H[0, j] = 0`` for every ``j``
 (free start) and the result is ``min_j H[n0, j]`` (free end). Segment lengths are
 ``n0 / m .. m n0`` cells for the largest step ``m``. Cost ``O(n0 n1 K)`` edges.
 """
@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from elastic_motion.warp._dp import _cross_walk
+from elastic_motion.warp.dp import coprime_steps
+from elastic_motion.warp.dp_kernels import cross_walk
 
 __all__ = ["PartialWarp", "partial_warp"]
 
@@ -57,7 +58,7 @@ def _partial_dp(u, v, c0, c1, G, P0, P1, steps):  # pragma: no cover - numba
                 d = np.sqrt(A) - np.sqrt(B)
                 if hkl + d * d >= best:  # Cauchy-Schwarz: the edge costs at least d^2
                     continue
-                cross = _cross_walk(u, v, u, v, c0, c1, G, k, l, i, j)
+                cross = cross_walk(u, v, u, v, c0, c1, G, k, l, i, j)
                 rs = np.sqrt((v[j] - v[l]) / (u[i] - u[k]))
                 e = A + B - 2.0 * rs * cross
                 if e < 0.0:
@@ -121,8 +122,6 @@ def partial_warp(q0: np.ndarray, q1: np.ndarray, *, neighbourhood: int = 4) -> P
     ValueError
         Bad shapes or dimensions, NaN, or ``q1`` too short for any path (``n1 < n0 / m``).
     """
-    from elastic_motion.warp.solver import coprime_steps
-
     q0 = np.ascontiguousarray(q0, dtype=np.float64)
     q1 = np.ascontiguousarray(q1, dtype=np.float64)
     if q0.ndim != 2 or q1.ndim != 2 or q0.shape[1] != q1.shape[1] or len(q0) < 1 or len(q1) < 1:

@@ -12,7 +12,8 @@ which is non-decreasing and runs from 0 to 1 for every ``z != 0``: the optimisat
 unconstrained and scale invariant (``z`` lives on the unit sphere, as ``psi`` does on the
 Hilbert sphere of Lemma 14).
 
-Energy: the exact discrete objective (Gram form of :func:`._dp.energy_and_grad`) plus the
+Energy: the exact discrete objective (Gram form of
+:func:`elastic_motion.warp.dp_kernels.energy_and_grad`) plus the
 landmark term; gradient: the exact derivative of the discrete energy in the vertex values
 (the discrete counterpart of eq. 24 / 26) chained through ``z``.  Optimiser: L-BFGS
 directions with a backtracking (Armijo) line search on the sphere; a step is accepted
@@ -27,12 +28,54 @@ point): the method is a local descent, meant to polish a DP warp, not to replace
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from elastic_motion.warp import _dp
+from elastic_motion._options import with_overrides
+from elastic_motion.errors import OptionError
+from elastic_motion.warp import dp_kernels
+from elastic_motion.warp.dp import DPProblem, LandmarkTables
 from elastic_motion.warp.energy import kernel_array
-from elastic_motion.warp.landmarks import Landmarks, PenaltySpec
+
+__all__ = ["RefineOptions", "RefineResult", "refine_warp"]
+
+
+@dataclass(frozen=True)
+class RefineOptions:
+    """How :func:`refine_warp` descends.
+
+    Attributes
+    ----------
+    tol : float, default 1e-7
+        Stop when the last ``window`` iterations decreased the energy by less than
+        ``window * tol`` times its value (relative tolerance per iteration). Non-negative.
+    max_iter : int, default 500
+        Maximal number of iterations.
+    memory : int, default 10
+        Number of L-BFGS pairs kept (>= 1).
+    window : int, default 5
+        Iterations over which the relative decrease is measured (>= 1).
+    jitter : float, default 1e-3
+        Relative perturbation of ``psi`` at the start (moves the vertices off the kinks of
+        the energy, where the gradient is one-sided). Non-negative.
+    """
+
+    tol: float = 1e-7
+    max_iter: int = 500
+    memory: int = 10
+    window: int = 5
+    jitter: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for name in ("tol", "jitter"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise OptionError(name, f"expected a finite number >= 0; got {v!r}")
+        for name, least in (("max_iter", 0), ("memory", 1), ("window", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or int(v) != v or v < least:
+                raise OptionError(name, f"expected an integer >= {least}; got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -48,28 +91,20 @@ class RefineResult:
 
 
 class _Objective:
-    """Energy and gradient in ``z`` for fixed domain nodes ``u``."""
+    """Energy and gradient in ``z`` for fixed domain nodes ``u`` (the pair in Gram form:
+    ``t0``, ``t1``, ``G``, ``A_tot``, ``B_tot`` of ``pb``)."""
 
-    def __init__(
-        self,
-        t0: np.ndarray,
-        t1: np.ndarray,
-        G: np.ndarray,
-        A_tot: float,
-        B_tot: float,
-        u: np.ndarray,
-        lm: Landmarks | None,
-        spec: PenaltySpec | None,
-        symmetric: bool,
-    ) -> None:
-        self.t0, self.t1, self.G = kernel_array(t0), kernel_array(t1), kernel_array(G)
+    def __init__(self, pb: DPProblem, u: np.ndarray, lmd: LandmarkTables) -> None:
+        G = pb.G
+        self.t0, self.t1, self.G = kernel_array(pb.t0), kernel_array(pb.t1), kernel_array(G)
         dG = np.zeros_like(G)
         dG[:, 1:] = G[:, 1:] - G[:, :-1]  # <q0[a], q1[b] - q1[b-1]>: jumps of q1
         self.dG = dG
-        self.A, self.B = A_tot, B_tot
+        self.A, self.B = pb.A_tot, pb.B_tot
         self.u = kernel_array(u)
         self.du = np.diff(u)
-        self.lm, self.spec, self.sym = lm, spec, symmetric
+        lm = lmd.lm
+        self.lm, self.spec, self.sym = lm, lmd.spec, lmd.symmetric
         self.n_eval = 0
         if lm is not None and len(lm) > 0:
             self.lm_piece = np.clip(np.searchsorted(u, lm.theta0, side="right") - 1, 0, len(u) - 2)
@@ -119,7 +154,7 @@ class _Objective:
     def __call__(self, z: np.ndarray) -> tuple[float, np.ndarray]:
         self.n_eval += 1
         y = self.phi(z)
-        e, gy = _dp.energy_and_grad(self.t0, self.t1, self.G, self.dG, self.A, self.B, self.u, y)
+        e, gy = dp_kernels.energy_and_grad(self.t0, self.t1, self.G, self.dG, self.A, self.B, self.u, y)
         le, lg = self.landmark(y)
         if not np.isfinite(le):
             return np.inf, np.zeros_like(z)
@@ -135,52 +170,46 @@ class _Objective:
 
 
 def refine_warp(
-    t0: np.ndarray,
-    t1: np.ndarray,
-    G: np.ndarray,
-    A_tot: float,
-    B_tot: float,
+    pb: DPProblem,
     start: np.ndarray,
-    *,
-    landmarks: Landmarks | None = None,
-    spec: PenaltySpec | None = None,
-    symmetric: bool = False,
-    tol: float = 1e-7,
-    max_iter: int = 500,
-    memory: int = 10,
-    window: int = 5,
-    jitter: float = 1e-3,
+    lmd: LandmarkTables | None = None,
+    options: RefineOptions | None = None,
+    **overrides: Any,
 ) -> RefineResult:
     """Refine a warp by L-BFGS on ``psi = sqrt(phi')`` with a backtracking line search.
 
     Parameters
     ----------
-    t0, t1 : ndarray, shapes (n0+1,), (n1+1,)
-        Break points of q0, q1.
-    G : ndarray, shape (n0, n1)
-        Gram matrix ``q0 @ q1.T``.
-    A_tot, B_tot : float
-        ``||q0||^2`` and ``||q1||^2``.
+    pb : DPProblem
+        The pair in Gram form: break points ``t0`` ``(n0+1,)``, ``t1`` ``(n1+1,)``, the Gram
+        matrix ``G = q0 @ q1.T`` ``(n0, n1)``, ``A_tot = ||q0||^2``, ``B_tot = ||q1||^2``.
     start : ndarray, shape (K, 2)
         Starting warp (e.g. the DP warp, or the identity ``[[0, 0], [1, 1]]``).
-    landmarks, spec, symmetric
-        Landmark term (see :mod:`elastic_motion.warp.landmarks`).
-    tol : float
-        Stop when the last ``window`` iterations decreased the energy by less than
-        ``window * tol`` times its value (relative tolerance per iteration).
-    max_iter : int
-        Maximal number of iterations.
-    memory : int
-        Number of L-BFGS pairs kept.
-    window : int
-        Iterations over which the relative decrease is measured.
-    jitter : float
-        Relative perturbation of ``psi`` at the start (moves the vertices off the kinks).
+    lmd : LandmarkTables, optional
+        Landmark term (see :mod:`elastic_motion.warp.landmarks`); default none.
+    options : RefineOptions, optional
+    **overrides
+        Fields of ``options`` (``refine_warp(pb, start, tol=1e-9)``).
 
     Returns
     -------
     RefineResult
     """
+    opts = with_overrides(RefineOptions, options, overrides)
+    u, z = _start(pb.t0, start, opts.jitter)
+    obj = _Objective(pb, u, LandmarkTables(None, None, False) if lmd is None else lmd)
+    e, g = obj(z)
+    if not np.isfinite(e):
+        return RefineResult(start, e, e, 0, obj.n_eval, "infeasible start")
+    e_start = e
+    z, e, it, stop = _lbfgs(obj, z, (e, g), opts)
+    vertices = np.column_stack([u, obj.phi(z)])
+    return RefineResult(vertices, e, e_start, it, obj.n_eval, stop)
+
+
+def _start(t0: np.ndarray, start: np.ndarray, jitter: float) -> tuple[np.ndarray, np.ndarray]:
+    """The domain nodes ``u`` (q0's break points and the start's vertices) and the start's
+    ``z`` on the unit sphere, lifted off flat pieces and jittered off the kinks."""
     u = np.union1d(t0, start[:, 0])
     keep = np.ones(u.shape[0], dtype=bool)
     keep[1:] = np.diff(u) > 1e-13
@@ -197,60 +226,38 @@ def refine_warp(
     # the kinks by a tiny relative perturbation (fixed seed: results are reproducible)
     z = z * (1.0 + jitter * np.random.default_rng(0).standard_normal(z.shape[0]))
     z /= np.linalg.norm(z)
+    return u, z
 
-    obj = _Objective(t0, t1, G, A_tot, B_tot, u, landmarks, spec, symmetric)
-    e, g = obj(z)
-    e_start = e
-    if not np.isfinite(e):
-        return RefineResult(start, e, e, 0, obj.n_eval, "infeasible start")
+
+def _lbfgs(
+    obj: _Objective, z: np.ndarray, eg: tuple[float, np.ndarray], opts: RefineOptions
+) -> tuple[np.ndarray, float, int, str]:
+    """L-BFGS on the sphere from ``z`` (energy and gradient ``eg``); returns the last ``z``, its
+    energy, the iterations and why it stopped."""
+    e, g = eg
     s_hist: list[np.ndarray] = []
     y_hist: list[np.ndarray] = []
     stop = "max_iter"
     it = 0
     history = [e]
-    for it in range(1, max_iter + 1):  # noqa: B007
-        # L-BFGS two-loop recursion (tangent vectors at z)
-        d = -g
-        alphas = []
-        for s_k, y_k in zip(reversed(s_hist), reversed(y_hist), strict=True):
-            rho = 1.0 / float(y_k @ s_k)
-            a = rho * float(s_k @ d)
-            alphas.append((rho, a))
-            d = d - a * y_k
-        if s_hist:
-            d = d * float(s_hist[-1] @ y_hist[-1]) / float(y_hist[-1] @ y_hist[-1])
-        for (rho, a), s_k, y_k in zip(reversed(alphas), s_hist, y_hist, strict=True):
-            b = rho * float(y_k @ d)
-            d = d + (a - b) * s_k
-        d = d - float(d @ z) * z  # keep the direction tangent to the sphere
-        slope = float(g @ d)
-        if slope >= 0.0:  # not a descent direction: restart from steepest descent
-            s_hist.clear()
-            y_hist.clear()
-            d = -g
-            slope = float(g @ d)
+    window = opts.window
+    for it in range(1, opts.max_iter + 1):  # noqa: B007
+        d, slope = _direction(g, z, s_hist, y_hist)
         if slope >= 0.0 or not np.isfinite(slope):
             stop = "stationary"
             break
         # first step: move at most 0.1 on the unit sphere; then the quasi-Newton step
         step = 1.0 if s_hist else min(1.0, 0.1 / (np.linalg.norm(d) + 1e-300))
-        accepted = False
-        for _ in range(40):
-            zn = z + step * d
-            zn /= np.linalg.norm(zn)
-            en, gn = obj(zn)
-            if en <= e + 1e-4 * step * slope and en < e:
-                accepted = True
-                break
-            step *= 0.5
-        if not accepted:
+        found = _line_search(obj, z, d, (e, slope, step))
+        if found is None:
             stop = "line search"
             break
+        zn, en, gn = found
         s_k, y_k = zn - z, gn - g
         if float(s_k @ y_k) > 1e-12 * float(s_k @ s_k):
             s_hist.append(s_k)
             y_hist.append(y_k)
-            if len(s_hist) > memory:
+            if len(s_hist) > opts.memory:
                 s_hist.pop(0)
                 y_hist.pop(0)
         z, e, g = zn, en, gn
@@ -259,8 +266,50 @@ def refine_warp(
         # piecewise smooth energy are erratic: one short step must not stop the descent)
         if len(history) > window:
             rel = (history[-1 - window] - e) / max(abs(e), 1e-300)
-            if rel < window * tol:
+            if rel < window * opts.tol:
                 stop = "tol"
                 break
-    vertices = np.column_stack([u, obj.phi(z)])
-    return RefineResult(vertices, e, e_start, it, obj.n_eval, stop)
+    return z, e, it, stop
+
+
+def _direction(
+    g: np.ndarray, z: np.ndarray, s_hist: list[np.ndarray], y_hist: list[np.ndarray]
+) -> tuple[np.ndarray, float]:
+    """The L-BFGS direction (two-loop recursion, tangent to the sphere at ``z``) and its slope
+    ``<g, d>``; steepest descent, the memory cleared, when it does not descend."""
+    d = -g
+    alphas = []
+    for s_k, y_k in zip(reversed(s_hist), reversed(y_hist), strict=True):
+        rho = 1.0 / float(y_k @ s_k)
+        a = rho * float(s_k @ d)
+        alphas.append((rho, a))
+        d = d - a * y_k
+    if s_hist:
+        d = d * float(s_hist[-1] @ y_hist[-1]) / float(y_hist[-1] @ y_hist[-1])
+    for (rho, a), s_k, y_k in zip(reversed(alphas), s_hist, y_hist, strict=True):
+        b = rho * float(y_k @ d)
+        d = d + (a - b) * s_k
+    d = d - float(d @ z) * z  # keep the direction tangent to the sphere
+    slope = float(g @ d)
+    if slope >= 0.0:  # not a descent direction: restart from steepest descent
+        s_hist.clear()
+        y_hist.clear()
+        d = -g
+        slope = float(g @ d)
+    return d, slope
+
+
+def _line_search(
+    obj: _Objective, z: np.ndarray, d: np.ndarray, start: tuple[float, float, float]
+) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """Backtracking on the sphere from ``z`` along ``d``; ``start = (energy, slope, first
+    step)``. The accepted point (Armijo and a strict decrease), or None after 40 halvings."""
+    e, slope, step = start
+    for _ in range(40):
+        zn = z + step * d
+        zn /= np.linalg.norm(zn)
+        en, gn = obj(zn)
+        if en <= e + 1e-4 * step * slope and en < e:
+            return zn, en, gn
+        step *= 0.5
+    return None

@@ -32,8 +32,13 @@ from elastic_motion.apps.loop.kept_contacts import KeptContacts, close_keeping_c
 from elastic_motion.apps.loop.limits import LIMIT_STEP, LoopLimits, lie_rotations, solve_within_limits
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.apps.progress import Progress
-from elastic_motion.closing import ClosingResult, close_curve, project_closed_rd
-from elastic_motion.closing_kkt import ExtraConstraints, project_closed
+from elastic_motion.closing import (
+    ClosingResult,
+    ExtraConstraints,
+    close_curve,
+    project_closed,
+    project_closed_rd,
+)
 from elastic_motion.curves import DiscreteCurve
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import Euclidean
@@ -122,7 +127,7 @@ def _heading_coordinate(motion: Motion, rep: Representation) -> int | None:
 
 @dataclass(frozen=True, eq=False)
 class Projection:
-    """The closed curve nearest a clip's curve (:func:`elastic_motion.closing_kkt.project_closed`)
+    """The closed curve nearest a clip's curve (:func:`elastic_motion.closing.project_closed`)
     with the loop's mask, seam, tolerance and iterations.
 
     Attributes

@@ -2,7 +2,7 @@
 
 :func:`elastic_motion.apps.loop.loop_motion` with ``contacts="keep"``
 (:mod:`elastic_motion.apps.loop.kept_contacts`) solves, in one
-projection (:func:`elastic_motion.closing_kkt.project_closed`), ``min ||q - q_orig||^2``
+projection (:func:`elastic_motion.closing.project_closed`), ``min ||q - q_orig||^2``
 subject to closure *and* the input's contacts
 (:func:`elastic_motion.motion.contacts.detect_contacts` on the prepared clip):
 
@@ -64,7 +64,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.closing_kkt import ExtraConstraints
+from elastic_motion.closing import ExtraConstraints
 from elastic_motion.motion import Motion, Skeleton
 from elastic_motion.motion.contacts import Contacts, mask_runs
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
@@ -288,7 +288,7 @@ def _fk(
 
 
 class ContactConstraints(ExtraConstraints):
-    """The contact rows of a prepared clip for :func:`~elastic_motion.closing_kkt.project_closed`.
+    """The contact rows of a prepared clip for :func:`~elastic_motion.closing.project_closed`.
 
     The curve must be the clip's Lie curve (:func:`elastic_motion.motion.to_lie_curve`: root
     translation, then one ``SO(3)`` copy per joint in skeleton order), in metres.

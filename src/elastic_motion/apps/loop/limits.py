@@ -3,7 +3,7 @@
 :func:`elastic_motion.apps.loop.loop_motion` with ``joint_limits="keep"`` (the default; it
 applies when the clip was read from an ASF file with ``limits``, or a
 :class:`~elastic_motion.motion.joint_limits.JointLimits` is given) closes the clip with
-:func:`elastic_motion.closing_kkt.project_closed`, then, at most ``rounds`` times:
+:func:`elastic_motion.closing.project_closed`, then, at most ``rounds`` times:
 
 1. evaluates every limited DOF angle of the loop per frame
    (:func:`elastic_motion.motion.joint_limits.check_joint_limits`);
@@ -36,8 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion.apps.loop.options import LoopOptions
-from elastic_motion.closing import ClosingResult
-from elastic_motion.closing_kkt import ExtraConstraints
+from elastic_motion.closing import ClosingResult, ExtraConstraints
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 from elastic_motion.motion.asfamc import read_joint_limits
@@ -77,7 +76,7 @@ LIMITS_MESSAGE_NOTE = "loop.limits_message"
 
 
 class LimitConstraints(ExtraConstraints):
-    """DOF angles pinned at given values (rows of :func:`~elastic_motion.closing_kkt.project_closed`).
+    """DOF angles pinned at given values (rows of :func:`~elastic_motion.closing.project_closed`).
 
     The curve must be a clip's Lie curve (root translation, then one ``SO(3)`` copy per
     joint in skeleton order).
@@ -148,7 +147,7 @@ class LimitConstraints(ExtraConstraints):
 
 
 class StackedConstraints(ExtraConstraints):
-    """Several :class:`~elastic_motion.closing_kkt.ExtraConstraints` as one (rows concatenated)."""
+    """Several :class:`~elastic_motion.closing.ExtraConstraints` as one (rows concatenated)."""
 
     def __init__(self, *parts: ExtraConstraints) -> None:
         self.parts = [p for p in parts if p is not None and len(p) > 0]
@@ -345,7 +344,7 @@ def solve_within_limits(
     Parameters
     ----------
     solve : callable
-        ``solve(extra) -> result``: :func:`~elastic_motion.closing_kkt.project_closed` of the
+        ``solve(extra) -> result``: :func:`~elastic_motion.closing.project_closed` of the
         clip's Lie curve with the rows ``extra``.
     clip : Motion
         The input (its local rotations and joint names).

@@ -43,7 +43,7 @@ __all__ = [
 Seam = Literal["auto", "c0", "c1"]
 SEAMS: tuple[str, ...] = get_args(Seam)
 #: Closing solvers: ``"kkt"`` the closed curve nearest the input
-#: (:func:`elastic_motion.closing_kkt.project_closed`), ``"gauss-newton"`` / ``"gradient"``
+#: (:func:`elastic_motion.closing.project_closed`), ``"gauss-newton"`` / ``"gradient"``
 #: the flows of :func:`elastic_motion.closing.close_curve` (closed, nearest to first order).
 Solver = Literal["kkt", "gauss-newton", "gradient"]
 SOLVERS: tuple[str, ...] = get_args(Solver)
@@ -68,7 +68,7 @@ class LoopOptions:
         displacement and heading change of one cycle, or close them too.
     seam : {"auto", "c0", "c1"}, default "auto"
         ``"c1"``: also match the velocities at the seam (C1; module
-        :mod:`elastic_motion.closing_kkt`, the C1 rows). ``"c0"``: the poses only (paper
+        :mod:`elastic_motion.closing.kkt`, the C1 rows). ``"c0"``: the poses only (paper
         000's closing). ``"auto"``: C0, unless its seam has a hitch (the velocity jump more
         than :data:`~elastic_motion.apps.loop.notes.HITCH_RATIO` times the clip's own quick
         changes); then the same window is closed C1 too and the C1 loop is taken when it is
@@ -81,7 +81,7 @@ class LoopOptions:
         (:func:`elastic_motion.motion.representations.representation`).
     solver : {"kkt", "gauss-newton", "gradient"}, default "kkt"
         ``"kkt"``: the closed curve nearest the input in SRV L2
-        (:func:`elastic_motion.closing_kkt.project_closed`, to a KKT point; ``tol`` is
+        (:func:`elastic_motion.closing.project_closed`, to a KKT point; ``tol`` is
         capped at 1e-9). ``"gauss-newton"`` / ``"gradient"``: the closing flows of
         :func:`~elastic_motion.closing.close_curve` (the Euler C0 baseline then uses the
         Newton projection of paper 001, Thm. 2).

@@ -38,7 +38,7 @@ from numba import njit, prange
 
 
 @njit(cache=True, inline="always")
-def _cross_walk(u, v, t0, t1, c0, c1, G, k, l, i, j):  # pragma: no cover - numba
+def cross_walk(u, v, t0, t1, c0, c1, G, k, l, i, j):  # pragma: no cover - numba
     """``int_{u_k}^{u_i} <q0(x), q1(phi(x))> dx`` for the linear piece (k,l)->(i,j).
 
     Walks the merged break points: the q0 breaks ``t0`` inside the domain and the
@@ -193,7 +193,7 @@ def _dp_node(
                 cross += tap_w[m] * G[k + tap_dp[m], l + tap_dr[m]]
             rs = sqrt_s[nb]
         else:
-            cross = _cross_walk(u, v, t0, t1, c0, c1, G, k, l, i, j)
+            cross = cross_walk(u, v, t0, t1, c0, c1, G, k, l, i, j)
             rs = np.sqrt((v[j] - v[l]) / (u[i] - u[k]))
         e = A + B - 2.0 * rs * cross
         if e < 0.0:  # rounding only: the exact edge cost is an integral of a square
@@ -234,6 +234,83 @@ def _dp_alloc(lo, hi):  # pragma: no cover - numba
 
 
 @njit(cache=True)
+def _slope_cross(G, k, j0, b, width, tap_ptr, tap_dr, tap_dp, tap_w, nb, ac):  # pragma: no cover - numba
+    """``ac[jj] = sum_taps w * G[k + dp, j0 + jj - b + dr]``: the cross terms of the edges of
+    slope ``nb`` from row ``k`` into the nodes ``j0 .. j0 + width - 1`` (row kernel)."""
+    # slices indexed from 0: no negative-index checks, so the loops vectorise
+    for jj in range(width):
+        ac[jj] = 0.0
+    for m in range(tap_ptr[nb], tap_ptr[nb + 1]):
+        w = tap_w[m]
+        c0 = j0 - b + tap_dr[m]
+        g = G[k + tap_dp[m], c0 : c0 + width]
+        for jj in range(width):
+            ac[jj] += w * g[jj]
+
+
+@njit(cache=True)
+def _slope_candidates(
+    u, v, i, k, b, j0, width, edge, ac, hk, bj, aj, nb, lmk, with_lm
+):  # pragma: no cover - numba
+    """Relax the nodes ``(i, j0 + jj)`` by the edges of slope ``nb`` from row ``k``:
+    ``edge = (P0[i] - P0[k], 2 sqrt(s), P1 at the nodes, P1 at the predecessors)``; with the
+    landmark term per edge when ``with_lm``. Strict ``<``: the first slope of a tie wins."""
+    Ak, rs2, p1j, p1l = edge
+    if with_lm:
+        for jj in range(width):
+            # max(., 0): rounding only, the exact edge cost is an integral of a square
+            c = hk[jj] + max(Ak + (p1j[jj] - p1l[jj]) - rs2 * ac[jj], 0.0)
+            c += _landmark_edge(u, v, k, j0 + jj - b, i, j0 + jj, lmk)
+            if c < bj[jj]:
+                bj[jj] = c
+                aj[jj] = nb
+    else:
+        for jj in range(width):
+            c = hk[jj] + max(Ak + (p1j[jj] - p1l[jj]) - rs2 * ac[jj], 0.0)
+            if c < bj[jj]:
+                bj[jj] = c
+                aj[jj] = nb
+
+
+@njit(cache=True)
+def _rows_row(
+    i, u, v, P0, P1, G, steps, taps, lo, hi, lmk, has_lm, H, arg, acc, best, barg
+):  # pragma: no cover - numba
+    """Row ``i`` of :func:`dp_solve_rows`: every slope's predecessors on row ``i - a``."""
+    tap_ptr, tap_dp, tap_dr, tap_w, sqrt_s = taps
+    cnt0, symmetric = lmk[5], lmk[12]
+    jl = max(lo[i], 1)
+    jh = hi[i]
+    if jh < jl:
+        return
+    for j in range(jl, jh + 1):
+        best[j] = np.inf
+        barg[j] = -1
+    for nb in range(steps.shape[0]):
+        a = steps[nb, 0]
+        b = steps[nb, 1]
+        k = i - a
+        if k < 0:
+            continue
+        j0 = max(jl, lo[k] + b)
+        j1 = min(jh, hi[k] + b)
+        if j1 < j0:
+            continue
+        width = j1 - j0 + 1
+        ac = acc[:width]
+        _slope_cross(G, k, j0, b, width, tap_ptr, tap_dr, tap_dp, tap_w, nb, ac)
+        edge = (P0[i] - P0[k], 2.0 * sqrt_s[nb], P1[j0 : j1 + 1], P1[j0 - b : j1 + 1 - b])
+        with_lm = has_lm and (cnt0[i] > cnt0[k] or symmetric)
+        hk = H[k, j0 - b : j1 + 1 - b]
+        _slope_candidates(
+            u, v, i, k, b, j0, width, edge, ac, hk, best[j0 : j1 + 1], barg[j0 : j1 + 1], nb, lmk, with_lm
+        )
+    for j in range(jl, jh + 1):
+        H[i, j] = best[j]
+        arg[i, j] = barg[j]
+
+
+@njit(cache=True)
 def dp_solve_rows(u, v, P0, P1, G, steps, taps, lo, hi, lmk):  # pragma: no cover - numba
     """Row-vectorised DP for uniform grids (the DP grid is the break points of q0 and q1).
 
@@ -247,8 +324,7 @@ def dp_solve_rows(u, v, P0, P1, G, steps, taps, lo, hi, lmk):  # pragma: no cove
 
     Returns dense tables ``H``, ``arg`` of shape ``(nu+1, nv+1)`` (``+inf`` / -1 off the band).
     """
-    tap_ptr, tap_dp, tap_dr, tap_w, sqrt_s = taps
-    fx, sx, cnt0, symmetric = lmk[2], lmk[7], lmk[5], lmk[12]
+    fx, sx, symmetric = lmk[2], lmk[7], lmk[12]
     nu = lo.shape[0] - 1
     nv = P1.shape[0] - 1
     H = np.full((nu + 1, nv + 1), np.inf)
@@ -259,58 +335,7 @@ def dp_solve_rows(u, v, P0, P1, G, steps, taps, lo, hi, lmk):  # pragma: no cove
     barg = np.empty(nv + 1, dtype=np.int16)
     has_lm = fx.shape[0] > 0 or (symmetric and sx.shape[0] > 0)
     for i in range(1, nu + 1):
-        jl = max(lo[i], 1)
-        jh = hi[i]
-        if jh < jl:
-            continue
-        for j in range(jl, jh + 1):
-            best[j] = np.inf
-            barg[j] = -1
-        for nb in range(steps.shape[0]):
-            a = steps[nb, 0]
-            b = steps[nb, 1]
-            k = i - a
-            if k < 0:
-                continue
-            j0 = max(jl, lo[k] + b)
-            j1 = min(jh, hi[k] + b)
-            if j1 < j0:
-                continue
-            width = j1 - j0 + 1
-            # slices indexed from 0: no negative-index checks, so the loops vectorise
-            ac = acc[:width]
-            for jj in range(width):
-                ac[jj] = 0.0
-            for m in range(tap_ptr[nb], tap_ptr[nb + 1]):
-                w = tap_w[m]
-                c0 = j0 - b + tap_dr[m]
-                g = G[k + tap_dp[m], c0 : c0 + width]
-                for jj in range(width):
-                    ac[jj] += w * g[jj]
-            Ak = P0[i] - P0[k]
-            rs2 = 2.0 * sqrt_s[nb]
-            hk = H[k, j0 - b : j1 + 1 - b]
-            p1j = P1[j0 : j1 + 1]
-            p1l = P1[j0 - b : j1 + 1 - b]
-            bj = best[j0 : j1 + 1]
-            aj = barg[j0 : j1 + 1]
-            if has_lm and (cnt0[i] > cnt0[k] or symmetric):
-                for jj in range(width):
-                    # max(., 0): rounding only, the exact edge cost is an integral of a square
-                    c = hk[jj] + max(Ak + (p1j[jj] - p1l[jj]) - rs2 * ac[jj], 0.0)
-                    c += _landmark_edge(u, v, k, j0 + jj - b, i, j0 + jj, lmk)
-                    if c < bj[jj]:
-                        bj[jj] = c
-                        aj[jj] = nb
-            else:
-                for jj in range(width):
-                    c = hk[jj] + max(Ak + (p1j[jj] - p1l[jj]) - rs2 * ac[jj], 0.0)
-                    if c < bj[jj]:
-                        bj[jj] = c
-                        aj[jj] = nb
-        for j in range(jl, jh + 1):
-            H[i, j] = best[j]
-            arg[i, j] = barg[j]
+        _rows_row(i, u, v, P0, P1, G, steps, taps, lo, hi, lmk, has_lm, H, arg, acc, best, barg)
     return H, arg
 
 
@@ -466,6 +491,69 @@ def _cross_block(Gp, C, lo, L, tap_ptr, tap_off, tap_w):  # pragma: no cover - n
 
 
 @njit(cache=True)
+def _prefix_norms(q, out):  # pragma: no cover - numba
+    """``out[x + 1] = out[x] + |q[x]|^2 / n``: prefix integrals of ``|q|^2`` at the nodes of the
+    uniform grid of ``n`` cells (``out[0] = 0``)."""
+    n, D = q.shape
+    out[0] = 0.0
+    for x in range(n):
+        s = 0.0
+        for d in range(D):
+            s += q[x, d] * q[x, d]
+        out[x + 1] = out[x] + s / n
+
+
+@njit(cache=True)
+def _uniform_row(i, co, hb, P0, Hp, arg, C, Bp, steps, sqrt_s, S, n1):  # pragma: no cover - numba
+    """Relax the nodes of row ``i`` (padded layout, ``hb`` its first node) by every slope; ``co``
+    the row's offset in the block of cross terms ``C``."""
+    best = Hp[hb : hb + n1 + 1]
+    ab = arg[hb : hb + n1 + 1]
+    for nb in range(steps.shape[0]):
+        a = steps[nb, 0]
+        b = steps[nb, 1]
+        if a > i:
+            continue
+        # edge cost (paper 001 eq. 28): A + B - 2 sqrt(s) cross, clamped at 0 (rounding)
+        A = P0[i] - P0[i - a]
+        rs2 = 2.0 * sqrt_s[nb]
+        hk = Hp[hb - a * S - b : hb - a * S - b + n1 + 1]
+        bb = Bp[b, : n1 + 1]
+        cc = C[nb, co : co + n1 + 1]
+        for j in range(1, n1 + 1):
+            e = A + bb[j] - rs2 * cc[j]
+            if e < 0.0:
+                e = 0.0
+            v = hk[j] + e
+            if v < best[j]:
+                best[j] = v
+                ab[j] = nb
+
+
+@njit(cache=True)
+def _uniform_path(arg, steps, P, S, t0, t1):  # pragma: no cover - numba
+    """Backtrack (eq. 30) from ``(n0, n1)`` in the padded layout: the vertices ``(x, y)`` of
+    the DP warp, from ``(0, 0)``."""
+    n0 = t0.shape[0] - 1
+    n1 = t1.shape[0] - 1
+    x = np.empty(n0 + n1 + 1)
+    y = np.empty(n0 + n1 + 1)
+    i = n0
+    j = n1
+    cnt = 0
+    while True:
+        x[cnt] = t0[i]
+        y[cnt] = t1[j]
+        cnt += 1
+        if i == 0 and j == 0:
+            break
+        nb = arg[(i + P) * S + j + P]
+        i -= steps[nb, 0]
+        j -= steps[nb, 1]
+    return x[:cnt][::-1].copy(), y[:cnt][::-1].copy()
+
+
+@njit(cache=True)
 def _dp_uniform_pair(q0, q1, steps, taps, layout, t0, t1, scratch):  # pragma: no cover - numba
     """DP of one pair in the padded layout; returns ``(exact energy of the DP path, H value)``.
 
@@ -487,17 +575,9 @@ def _dp_uniform_pair(q0, q1, steps, taps, layout, t0, t1, scratch):  # pragma: n
     _gram_padded(q0, q1t, Gp, PT, SG)
     # prefix integrals of |q|^2 at the nodes (uniform cells: h = 1 / n)
     P0 = np.zeros(n0 + 1)
-    for x in range(n0):
-        s = 0.0
-        for d in range(D):
-            s += q0[x, d] * q0[x, d]
-        P0[x + 1] = P0[x] + s / n0
+    _prefix_norms(q0, P0)
     P1 = np.zeros(n1 + 1)
-    for y in range(n1):
-        s = 0.0
-        for d in range(D):
-            s += q1[y, d] * q1[y, d]
-        P1[y + 1] = P1[y] + s / n1
+    _prefix_norms(q1, P1)
     # Bp[b, j] = int_{v_(j-b)}^{v_j} |q1|^2 (0 where j < b: H is +inf there anyway)
     for b in range(1, Bp.shape[0]):
         for j in range(n1 + 1):
@@ -509,48 +589,13 @@ def _dp_uniform_pair(q0, q1, steps, taps, layout, t0, t1, scratch):  # pragma: n
         i1 = min(i0 + R, n0 + 1)
         _cross_block(Gp, C, (i0 + PT) * SG, (i1 - i0) * SG, tap_ptr, tap_off, tap_w)
         for i in range(i0, i1):
-            co = (i - i0) * SG
-            hb = (i + P) * S + P
-            best = Hp[hb : hb + n1 + 1]
-            ab = arg[hb : hb + n1 + 1]
-            for nb in range(steps.shape[0]):
-                a = steps[nb, 0]
-                b = steps[nb, 1]
-                if a > i:
-                    continue
-                # edge cost (paper 001 eq. 28): A + B - 2 sqrt(s) cross, clamped at 0 (rounding)
-                A = P0[i] - P0[i - a]
-                rs2 = 2.0 * sqrt_s[nb]
-                hk = Hp[hb - a * S - b : hb - a * S - b + n1 + 1]
-                bb = Bp[b, : n1 + 1]
-                cc = C[nb, co : co + n1 + 1]
-                for j in range(1, n1 + 1):
-                    e = A + bb[j] - rs2 * cc[j]
-                    if e < 0.0:
-                        e = 0.0
-                    v = hk[j] + e
-                    if v < best[j]:
-                        best[j] = v
-                        ab[j] = nb
+            _uniform_row(i, (i - i0) * SG, (i + P) * S + P, P0, Hp, arg, C, Bp, steps, sqrt_s, S, n1)
     value = Hp[(n0 + P) * S + n1 + P]
     if not np.isfinite(value):
         return np.inf, np.inf
-    # backtrack (eq. 30) into the vertices of phi, then the exact energy of that warp
-    x = np.empty(n0 + n1 + 1)
-    y = np.empty(n0 + n1 + 1)
-    i = n0
-    j = n1
-    cnt = 0
-    while True:
-        x[cnt] = t0[i]
-        y[cnt] = t1[j]
-        cnt += 1
-        if i == 0 and j == 0:
-            break
-        nb = arg[(i + P) * S + j + P]
-        i -= steps[nb, 0]
-        j -= steps[nb, 1]
-    return energy_direct(q0, t0, q1, t1, x[:cnt][::-1].copy(), y[:cnt][::-1].copy()), value
+    # backtrack into the vertices of phi, then the exact energy of that warp
+    x, y = _uniform_path(arg, steps, P, S, t0, t1)
+    return energy_direct(q0, t0, q1, t1, x, y), value
 
 
 @njit(cache=True)

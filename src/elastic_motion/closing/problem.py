@@ -1,12 +1,12 @@
-"""Closing curves: seamless loops (paper 000, sec. 4; paper 001, Thm. 2).
+"""The closing problem: a curve's integration, its seam residuals, their Jacobian, the state.
 
 A curve ``c`` on the grid ``t`` (``n+1`` samples, ``n`` cells of width ``h_i``) is *closed*
 when its last sample equals its first. The closing problem moves the curve's SRV function
 ``q`` (cell-valued, orthonormal coordinates, see :mod:`elastic_motion.curves`) so that the
 discrete inverse SRVT started at the *original* first sample ``c_0`` ends at ``c_0``.
 
-Conventions (stated once, used by every function here)
-------------------------------------------------------
+Conventions (stated once, used by every solver of the package)
+--------------------------------------------------------------
 * **Discrete inverse SRVT** (paper 000, sec. 5.1): ``c_{i+1} = E_i c_i``, ``E_i = exp(u_i)``,
   ``u_i = from_orthonormal(h_i |q_i| q_i)``. The **seam gap** is
   ``r = c_n c_0^{-1} = E_{n-1} ... E_0`` and the objective is paper 000 eq. (11) on the
@@ -53,139 +53,46 @@ formula evaluates it at one end (``gradient="paper"``: ``P_i`` without ``dexp_{u
 ``(dexp^{-1}_l)^† l = l`` (Cor. 4.8; it also holds for the swing residual);
 ``log_term="bi-invariant"`` uses it, ``"general"`` applies ``dexp_inv_dual``.
 
-Methods
--------
-* ``method="gradient"``: the gradient flow of paper 000 sec. 4.2 discretised by steepest
-  descent with the exact gradient, the step of the linearised model (Cauchy step) and an
-  Armijo backtracking line search: every accepted step decreases ``Phi``.
-* ``method="gauss-newton"`` (default): the minimal-L2-norm change of ``q`` that solves the
-  linearised closing conditions ``J dq = -F`` (``J`` is ``k x (n dim)`` with ``k`` closing
-  conditions; ``J J^*`` is ``k x k`` and is assembled from the same adjoint), with the same
-  line search. Each step is the least change *of that step* that solves the linearised
-  conditions, so the result is closed but only closest to the original to first order (it
-  is not the minimiser of ``||q - q_orig||``); it converges quadratically. The closed curve
-  nearest the original in SRV L2 is :func:`elastic_motion.closing_kkt.project_closed`. In
-  ``R^d`` Gauss-Newton is exactly the Newton projection with the basis of paper 001,
-  Thm. 2 (:func:`project_closed_rd`).
-
 Cut locus: ``log`` is two-valued at angle ``pi``. A closed ``SO(3)`` block whose seam
 rotation (or swing) is within ``cut_locus_tol`` of ``pi`` raises ``ValueError`` naming the
 copy; the line search never accepts a step that takes a block there. A single step
 ``|u_i|`` of a closed copy may grow past ``pi`` (data glitches such as a foot flipping by
 179 degrees in one frame get pushed over): ``exp`` and the objective stay smooth up to
 ``2 pi`` (where ``dexp`` is singular; the line search stops short of it), the returned
-samples are exact, and :attr:`ClosingResult.srv` is the solver's own SRV function (not the
-SRVT of the returned curve, which would read such a step the short way round). Free copies
-may hold any steps (e.g. the 180-degree finger flips of the CMU data): they are integrated
-as they are and, with ``keep_free``, restored.
+samples are exact, and :attr:`~elastic_motion.closing.ClosingResult.srv` is the solver's
+own SRV function (not the SRVT of the returned curve, which would read such a step the short
+way round). Free copies may hold any steps (e.g. the 180-degree finger flips of the CMU
+data): they are integrated as they are and, with ``keep_free``, restored.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
+from elastic_motion.closing.options import ClosingOptions
 from elastic_motion.curves import DiscreteCurve, SRVFunction, inverse_srv_transform, srv_transform
 from elastic_motion.groups import SO3, Euclidean, LieGroup, PowerGroup, ProductGroup, hat
 
 __all__ = [
-    "ClosingGradient",
-    "ClosingResult",
+    "ClosingProblem",
+    "ClosingState",
+    "CutLocus",
+    "GroupLayout",
     "SeamGap",
-    "close_curve",
+    "as_srv",
     "closing_gap",
-    "closing_gradient",
     "closing_mask",
-    "project_closed_rd",
+    "group_layout",
+    "l2_norm",
 ]
 
 _SO3 = SO3()
 _EYE3 = np.eye(3)
-_METHODS = ("gauss-newton", "gradient")
-_GRADIENTS = ("exact", "paper")
-_LOG_TERMS = ("general", "bi-invariant")
-
-
-# --------------------------------------------------------------------------------------------
-# Results
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class ClosingResult:
-    """Outcome of :func:`close_curve` / :func:`project_closed_rd`.
-
-    Attributes
-    ----------
-    curve : DiscreteCurve
-        The closed curve, same grid and first sample as the input.
-    srv : SRVFunction
-        The SRV function the solver computed (``q`` of shape ``(n, dim)``, orthonormal
-        coordinates): every number measured through it equals the solver's. It is not
-        re-read from ``curve``: a step of a closed copy that ends past ``pi`` stays as the
-        solver took it, and with ``keep_free`` the free coordinates of ``curve`` are the
-        original samples while ``srv`` holds the solver's values for them.
-    gap, gap_initial : float
-        Weighted norm of the closing residual after / before (``sqrt(2 Phi_0)``).
-    velocity_gap, velocity_gap_initial : float
-        Norm of the seam velocity mismatch ``(xi_{n-1} - Ad_r xi_0) / n`` on the closed
-        blocks (computed whether or not ``c1`` was asked for).
-    history : ndarray, shape (iterations+1,)
-        ``gap`` after each iteration (non-increasing when ``c1=False``).
-    velocity_history : ndarray, shape (iterations+1,)
-    objective_history : ndarray, shape (iterations+1,)
-        The minimised ``Phi`` (strictly decreasing: every accepted step decreases it).
-    steps : ndarray, shape (iterations,)
-        Accepted line-search step sizes.
-    iterations : int
-    converged : bool
-        Whether the tolerance was reached.
-    message : str
-    time : float
-        Wall-clock seconds spent in the solver.
-    method, gradient : str
-        The options used.
-    rotation_gaps : ndarray, shape (m,)
-        Final residual angle (radians, unweighted) of each ``SO(3)`` copy in algebra order
-        (0 for free copies; the swing angle for copies closed up to an axis).
-    translation_gaps : ndarray, shape (e,)
-        Final absolute residual of each Euclidean coordinate (0 for free ones).
-    change : float or None
-        ``||q - q_orig||_L2`` (``sqrt(sum_i h_i |q_i - q_orig_i|^2)``, orthonormal
-        coordinates) between ``srv`` and the input's SRV function.
-    kkt_residual : float or None
-        For the constrained projection (:func:`elastic_motion.closing_kkt.project_closed`):
-        the relative first-order optimality residual at the result, else ``None``.
-    multipliers : ndarray or None
-        Lagrange multipliers of the closing conditions (constrained projection only).
-    """
-
-    curve: DiscreteCurve
-    srv: SRVFunction
-    gap: float
-    gap_initial: float
-    velocity_gap: float
-    velocity_gap_initial: float
-    history: np.ndarray
-    velocity_history: np.ndarray
-    objective_history: np.ndarray
-    steps: np.ndarray
-    iterations: int
-    converged: bool
-    message: str
-    time: float
-    method: str
-    gradient: str
-    rotation_gaps: np.ndarray
-    translation_gaps: np.ndarray
-    change: float | None = None
-    kkt_residual: float | None = None
-    multipliers: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,32 +120,19 @@ class SeamGap:
     translation_gaps: np.ndarray
 
 
-@dataclass(frozen=True, eq=False)
-class ClosingGradient:
-    """Value and L2 gradient of the closing objective (:func:`closing_gradient`).
-
-    Attributes
-    ----------
-    phi : float
-        ``Phi = 1/2 |F_0|^2 (+ c1_weight/2 |F_1|^2 with c1)``.
-    gradient : ndarray, shape (n, dim)
-        L2 gradient in orthonormal coordinates (group coordinate order): for a change
-        ``dq``, ``dPhi = sum_i dt_i gradient[i] . dq[i]``. The partial derivatives
-        ``dPhi / dq[i, k]`` are ``gradient * dt[:, None]``.
-    """
-
-    phi: float
-    gradient: np.ndarray
-
-
 # --------------------------------------------------------------------------------------------
 # Layout: a group of the product family as Euclidean coordinates + SO(3) copies
 # --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
-class _Layout:
-    """Where the leaves of a group sit in its algebra vectors and raveled points."""
+class GroupLayout:
+    """Where the leaves of a group of the product family sit in its algebra vectors and
+    raveled points (:func:`group_layout`).
+
+    The solvers work in an *internal order*: the Euclidean coordinates first, then the
+    ``SO(3)`` copies, each in algebra order; ``perm`` maps it to the group's order.
+    """
 
     dim: int
     eu_alg: np.ndarray  # (e,) algebra indices of Euclidean coordinates
@@ -251,7 +145,9 @@ class _Layout:
     perm: np.ndarray  # (dim,) internal order (Euclidean coords, then SO(3) copies) -> group order
 
 
-def _layout(group: LieGroup) -> _Layout:
+def group_layout(group: LieGroup) -> GroupLayout:
+    """The :class:`GroupLayout` of a group built from ``Euclidean`` and ``SO3`` (``PowerGroup``,
+    ``ProductGroup``); ``ValueError`` naming the factor for any other group."""
     factors = group.factors if isinstance(group, ProductGroup) else [group]
     eu_alg: list[int] = []
     eu_pt: list[int] = []
@@ -285,7 +181,7 @@ def _layout(group: LieGroup) -> _Layout:
     w = np.asarray(group.weights, dtype=np.float64)
     eu_alg_a = np.asarray(eu_alg, dtype=np.int64)
     so3_alg_a = np.asarray(so3_alg, dtype=np.int64).reshape(-1, 3)
-    return _Layout(
+    return GroupLayout(
         dim=int(group.dim),
         eu_alg=eu_alg_a,
         eu_pt=np.asarray(eu_pt, dtype=np.int64),
@@ -366,7 +262,7 @@ class _Spec:
     rows1: np.ndarray  # (dim,) bool, internal order: velocity conditions (C1)
 
 
-def _spec(layout: _Layout, mask: np.ndarray) -> _Spec:
+def _spec(layout: GroupLayout, mask: np.ndarray) -> _Spec:
     eu_closed = mask[layout.eu_alg]
     so3m = mask[layout.so3_alg] if layout.so3_alg.size else np.zeros((0, 3), dtype=bool)
     count = so3m.sum(axis=1)
@@ -499,12 +395,22 @@ def _gram_blocks_kernel(bs, wq, q, ks, ys):  # pragma: no cover - numba
 # --------------------------------------------------------------------------------------------
 
 
-class _CutLocus(Exception):
-    """A closed block reached log's cut locus (angle pi), or a step reached angle 2 pi."""
+class CutLocus(Exception):
+    """A closed block reached log's cut locus (angle pi), or a step reached angle 2 pi.
+
+    Raised by :meth:`ClosingProblem.evaluate`; the line searches take it as a step too long,
+    :meth:`ClosingProblem.evaluate_checked` turns it into a ``ValueError`` naming the copy.
+    """
 
 
 @dataclass(eq=False)
-class _State:
+class ClosingState:
+    """The curve of one SRV function ``q`` and its closing residuals (:meth:`ClosingProblem.evaluate`).
+
+    Arrays in the internal order (:class:`GroupLayout`); ``n`` cells, ``m`` ``SO(3)`` copies,
+    ``e`` Euclidean coordinates, ``dim = e + 3 m``.
+    """
+
     q: np.ndarray  # (n, dim) internal order, orthonormal
     qn: np.ndarray  # (n,)
     x: np.ndarray  # (n, dim) |q| q
@@ -529,8 +435,28 @@ class _State:
         return self._dexp
 
 
-class _Problem:
-    """The closing objective of one curve; every array in internal coordinate order."""
+class ClosingProblem:
+    """The closing objective of one curve; every array in internal coordinate order.
+
+    Built by :meth:`from_curve`. :meth:`evaluate` integrates the curve of a ``q`` and its
+    residuals (a :class:`ClosingState`); :meth:`residual`, :meth:`blocks`, :meth:`forward`,
+    :meth:`adjoint` and :meth:`gram` give the residual ``F``, the Jacobian ``J`` (per-cell
+    blocks ``J_i = B_i M_i``), ``J d``, ``J^* z`` and ``J J^*`` that every solver of
+    :mod:`elastic_motion.closing` uses (module docstring).
+
+    Attributes
+    ----------
+    srv : SRVFunction
+        The curve's SRV function (group order).
+    layout : GroupLayout
+    h : ndarray, shape (n,)
+        Cell widths.
+    n, m, ne : int
+        Cells, ``SO(3)`` copies, Euclidean coordinates.
+    sel : ndarray of bool
+        The closing conditions (rows of ``F``) that are closed; with ``c1`` also the
+        velocity rows.
+    """
 
     def __init__(
         self,
@@ -542,7 +468,8 @@ class _Problem:
         cut_locus_tol: float,
         rotation_names: Sequence[str] | None,
     ) -> None:
-        self.layout = lay = _layout(srv.group)
+        self.srv = srv
+        self.layout = lay = group_layout(srv.group)
         self.spec = _spec(lay, mask)
         if rotation_names is not None:
             names = list(rotation_names)
@@ -566,18 +493,41 @@ class _Problem:
         sp = self.spec
         self.sel = np.concatenate([sp.rows0, sp.rows1]) if self.c1 else sp.rows0.copy()
 
+    @classmethod
+    def from_curve(cls, curve: DiscreteCurve | SRVFunction, options: ClosingOptions) -> ClosingProblem:
+        """The problem of closing ``curve`` (at least 3 samples) as ``options`` says (its
+        ``factors``, ``c1``, ``c1_weight``, ``cut_locus_tol`` and ``rotation_names``)."""
+        srv = as_srv(curve)
+        n_points = srv.q.shape[0] + 1
+        if n_points < 3:
+            raise ValueError(
+                f"curve: expected at least 3 samples to close (a closed curve with fewer has no "
+                f"shape left); got {n_points}"
+            )
+        mask = closing_mask(srv.group, options.factors)
+        return cls(
+            srv,
+            mask,
+            c1=options.c1,
+            c1_weight=options.c1_weight,
+            cut_locus_tol=options.cut_locus_tol,
+            rotation_names=options.rotation_names,
+        )
+
     # -- conversions ------------------------------------------------------------------------
     def to_internal(self, q: np.ndarray) -> np.ndarray:
+        """``q`` (n, dim) in the group's coordinate order -> internal order."""
         return np.ascontiguousarray(q[:, self.layout.perm])
 
     def to_group(self, qi: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`to_internal`."""
         out = np.empty_like(qi)
         out[:, self.layout.perm] = qi
         return out
 
     # -- evaluation ---------------------------------------------------------------------------
-    def evaluate(self, q: np.ndarray) -> _State:
-        """Integrate the curve of ``q`` and its residuals; ``_CutLocus`` at log's cut locus."""
+    def evaluate(self, q: np.ndarray) -> ClosingState:
+        """Integrate the curve of ``q`` and its residuals; ``CutLocus`` at log's cut locus."""
         lay, sp, ne, m = self.layout, self.spec, self.ne, self.m
         qn = np.sqrt(np.einsum("ij,ij->i", q, q))
         x = qn[:, None] * q
@@ -588,7 +538,7 @@ class _Problem:
         step2 = np.where(sp.mode > 0, np.einsum("nbk,nbk->nb", u_so3, u_so3), 0.0)  # closed copies
         if m and step2.max(initial=0.0) >= (2.0 * math.pi - self.cut) ** 2:
             idx = np.unravel_index(int(np.argmax(step2)), (self.n, m))
-            raise _CutLocus(
+            raise CutLocus(
                 f"cell {idx[0]} of {lay.labels[idx[1]]} rotates by 2 pi in one step (dexp is singular)"
             )
         r = np.matmul(rot[-1], np.swapaxes(rot[0], -1, -2))
@@ -602,7 +552,7 @@ class _Problem:
             near = full & (angles > math.pi - self.cut)
             if near.any():
                 b = int(np.flatnonzero(near)[0])
-                raise _CutLocus(
+                raise CutLocus(
                     f"{lay.labels[b]}: the seam rotation is {angles[b]:.9f} rad, at the cut locus of "
                     f"log (pi): closing it by either direction is equally short"
                 )
@@ -614,7 +564,7 @@ class _Problem:
             s_ell, s_theta, s_js = _swing(r[sw], sp.axis[sw])
             if (s_theta > math.pi - self.cut).any():
                 b = int(np.flatnonzero(sw)[int(np.argmax(s_theta))])
-                raise _CutLocus(
+                raise CutLocus(
                     f"{lay.labels[b]}: the seam rotation tilts axis {int(sp.axis[b])} by "
                     f"{s_theta.max():.9f} rad, at the cut locus (pi): the swing back is ambiguous"
                 )
@@ -631,21 +581,29 @@ class _Problem:
         f1[:ne] = np.where(sp.eu_closed, self.c * (x[-1, :ne] - x[0, :ne]), 0.0)
         f1[ne:] = (np.where((sp.mode > 0)[:, None], self.c * (x[-1, ne:].reshape(m, 3) - y), 0.0)).ravel()
         eu_gaps = np.where(sp.eu_closed, np.abs(eu_res) / lay.s_eu, 0.0)
-        return _State(q, qn, x, u_so3, rot, r, ell, lres, f0, f1, y, gaps, angles, eu_gaps)
+        return ClosingState(q, qn, x, u_so3, rot, r, ell, lres, f0, f1, y, gaps, angles, eu_gaps)
 
-    def objective(self, s: _State) -> float:
+    def evaluate_checked(self, q: np.ndarray) -> ClosingState:
+        """:meth:`evaluate`, a seam at the cut locus a ``ValueError`` naming the copy."""
+        try:
+            return self.evaluate(q)
+        except CutLocus as exc:
+            raise ValueError(f"curve: cannot close: {exc}") from None
+
+    def objective(self, s: ClosingState) -> float:
+        """``Phi = 1/2 |F_0|^2`` (``+ c1_weight/2 |F_1|^2`` with ``c1``)."""
         phi = 0.5 * float(s.f0 @ s.f0)
         if self.c1:
             phi += 0.5 * self.sqrt_c1w**2 * float(s.f1 @ s.f1)
         return phi
 
-    def residual(self, s: _State) -> np.ndarray:
+    def residual(self, s: ClosingState) -> np.ndarray:
         """Stacked residual on the full row space (zeros on free rows)."""
         return np.concatenate([s.f0, self.sqrt_c1w * s.f1]) if self.c1 else s.f0
 
     # -- Jacobian blocks ----------------------------------------------------------------------
     def blocks(
-        self, s: _State, *, exact_dexp: bool = True, log_term: str = "general"
+        self, s: ClosingState, *, exact_dexp: bool = True, log_term: str = "general"
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-cell block matrices ``B_i`` of the Jacobian ``J_i = B_i M_i``.
 
@@ -698,29 +656,29 @@ class _Problem:
         )
 
     @staticmethod
-    def _apply_m(s: _State, w: np.ndarray) -> np.ndarray:
+    def apply_m(s: ClosingState, w: np.ndarray) -> np.ndarray:
         """``M_i w_i = |q_i| w_i + (q_i . w_i / |q_i|) q_i`` (eq. 13); 0 where ``q_i = 0``."""
         qn = s.qn
         safe = np.where(qn > 0, qn, 1.0)
         coef = np.where(qn > 0, np.einsum("ij,ij->i", s.q, w) / safe, 0.0)
         return qn[:, None] * w + coef[:, None] * s.q
 
-    def adjoint(self, s: _State, bs: np.ndarray, be: np.ndarray, z: np.ndarray) -> np.ndarray:
+    def adjoint(self, s: ClosingState, bs: np.ndarray, be: np.ndarray, z: np.ndarray) -> np.ndarray:
         """L2 adjoint ``(J^* z)_i = M_i B_i^T z / h_i``, shape (n, dim)."""
         zs, ze = self._split_rows(z)
         w = np.empty((self.n, self.layout.dim))
         w[:, : self.ne] = np.einsum("ner,er->ne", be, ze)
         w[:, self.ne :] = np.einsum("nbrk,br->nbk", bs, zs).reshape(self.n, 3 * self.m)
-        return self._apply_m(s, w) / self.h[:, None]
+        return self.apply_m(s, w) / self.h[:, None]
 
-    def forward(self, s: _State, bs: np.ndarray, be: np.ndarray, d: np.ndarray) -> np.ndarray:
+    def forward(self, s: ClosingState, bs: np.ndarray, be: np.ndarray, d: np.ndarray) -> np.ndarray:
         """``J d = sum_i B_i M_i d_i`` on the full row space."""
-        md = self._apply_m(s, d)
+        md = self.apply_m(s, d)
         zs = np.einsum("nbrk,nbk->br", bs, md[:, self.ne :].reshape(self.n, self.m, 3))
         ze = np.einsum("ner,ne->er", be, md[:, : self.ne])
         return self._join_rows(zs, ze)
 
-    def gram(self, s: _State, bs: np.ndarray, be: np.ndarray) -> np.ndarray:
+    def gram(self, s: ClosingState, bs: np.ndarray, be: np.ndarray) -> np.ndarray:
         """``J J^* = sum_i B_i M_i^2 B_i^T / h_i`` with ``M_i^2 = |q_i|^2 I + 3 q_i q_i^T``."""
         n, m, ne, dim = self.n, self.m, self.ne, self.layout.dim
         k = be.shape[-1]
@@ -751,13 +709,37 @@ class _Problem:
                         gmat[base1 + i, base2 + j] += ks[:, 3 * g1 + i, 3 * g2 + j]
         return gmat
 
+    # -- the result ---------------------------------------------------------------------------
+    def closed_output(
+        self, curve: DiscreteCurve | SRVFunction, q_final: np.ndarray, *, moved: bool, keep_free: bool
+    ) -> tuple[DiscreteCurve, SRVFunction]:
+        """The closed curve and the solver's own SRV function (module docstring, "Free
+        coordinates") for the final ``q_final`` (group order; ``curve`` the input): with
+        ``keep_free`` the free Euclidean coordinates and free SO(3) copies of the curve get their
+        original samples back; the SRV function is not re-read from the curve."""
+        srv = self.srv
+        if not moved:
+            return (curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)), srv
+        closed = SRVFunction(q_final, srv.t, srv.start, srv.group)
+        out_curve = inverse_srv_transform(closed)
+        lay = self.layout
+        free = np.concatenate([lay.eu_pt[~self.spec.eu_closed], lay.so3_pt[self.spec.mode == 0].ravel()])
+        if keep_free and free.size:
+            original = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
+            vals = np.array(out_curve.values).reshape(out_curve.n_points, -1)
+            vals[:, free] = np.asarray(original.values).reshape(original.n_points, -1)[:, free]
+            out_curve = DiscreteCurve(vals.reshape(out_curve.values.shape), srv.group, srv.t)
+        return out_curve, closed
 
-def _l2(dq: np.ndarray, h: np.ndarray) -> float:
+
+def l2_norm(dq: np.ndarray, h: np.ndarray) -> float:
     """``sqrt(sum_i h_i |dq_i|^2)``: the L2 norm of a cell-valued function."""
     return float(np.sqrt(np.einsum("i,ij,ij->", h, dq, dq)))
 
 
-def _as_srv(curve: object, name: str = "curve") -> SRVFunction:
+def as_srv(curve: object, name: str = "curve") -> SRVFunction:
+    """The SRV function of a ``DiscreteCurve`` (an ``SRVFunction`` as it is); ``ValueError``
+    naming ``name`` for anything else."""
     if isinstance(curve, SRVFunction):
         return curve
     if isinstance(curve, DiscreteCurve):
@@ -765,76 +747,8 @@ def _as_srv(curve: object, name: str = "curve") -> SRVFunction:
     raise ValueError(f"{name}: expected a DiscreteCurve or an SRVFunction; got {type(curve).__name__}")
 
 
-def _check_choice(value: str, choices: tuple[str, ...], name: str) -> str:
-    if value not in choices:
-        raise ValueError(f"{name}: expected one of {', '.join(map(repr, choices))}; got {value!r}")
-    return value
-
-
-def _check_positive(value: float, name: str, *, allow_zero: bool = False) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise ValueError(
-            f"{name}: expected a {'non-negative' if allow_zero else 'positive'} number; got {value!r}"
-        )
-    return v
-
-
-def _problem(curve, factors, c1, c1_weight, cut_locus_tol, rotation_names, min_points=3):
-    srv = _as_srv(curve)
-    n_points = srv.q.shape[0] + 1
-    if n_points < min_points:
-        raise ValueError(
-            f"curve: expected at least {min_points} samples to close (a closed curve with fewer has no "
-            f"shape left); got {n_points}"
-        )
-    mask = closing_mask(srv.group, factors)
-    prob = _Problem(
-        srv,
-        mask,
-        c1=c1,
-        c1_weight=_check_positive(c1_weight, "c1_weight"),
-        cut_locus_tol=_check_positive(cut_locus_tol, "cut_locus_tol", allow_zero=True),
-        rotation_names=rotation_names,
-    )
-    return srv, prob
-
-
-def _closed_output(
-    prob: _Problem,
-    curve: DiscreteCurve | SRVFunction,
-    srv: SRVFunction,
-    q_final: np.ndarray,
-    *,
-    moved: bool,
-    keep_free: bool,
-) -> tuple[DiscreteCurve, SRVFunction]:
-    """The closed curve and the solver's own SRV function (module docstring, "Free
-    coordinates"): with ``keep_free`` the free Euclidean coordinates and free SO(3) copies of
-    the curve get their original samples back; ``srv`` is not re-read from the curve."""
-    if not moved:
-        return (curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)), srv
-    closed = SRVFunction(q_final, srv.t, srv.start, srv.group)
-    out_curve = inverse_srv_transform(closed)
-    lay = prob.layout
-    free = np.concatenate([lay.eu_pt[~prob.spec.eu_closed], lay.so3_pt[prob.spec.mode == 0].ravel()])
-    if keep_free and free.size:
-        original = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-        vals = np.array(out_curve.values).reshape(out_curve.n_points, -1)
-        vals[:, free] = np.asarray(original.values).reshape(original.n_points, -1)[:, free]
-        out_curve = DiscreteCurve(vals.reshape(out_curve.values.shape), srv.group, srv.t)
-    return out_curve, closed
-
-
-def _evaluate_or_raise(prob: _Problem, q: np.ndarray) -> _State:
-    try:
-        return prob.evaluate(q)
-    except _CutLocus as exc:
-        raise ValueError(f"curve: cannot close: {exc}") from None
-
-
 # --------------------------------------------------------------------------------------------
-# Public functions
+# Measuring the seam
 # --------------------------------------------------------------------------------------------
 
 
@@ -844,7 +758,7 @@ def closing_gap(
     factors: object = None,
     rotation_names: Sequence[str] | None = None,
 ) -> SeamGap:
-    """Measure the seam of a curve: the residuals :func:`close_curve` drives to zero.
+    """Measure the seam of a curve: the residuals :func:`~elastic_motion.closing.close_curve` drives to zero.
 
     Parameters
     ----------
@@ -864,376 +778,13 @@ def closing_gap(
     ValueError
         When a closed ``SO(3)`` copy's seam rotation is at log's cut locus (angle pi).
     """
-    _, prob = _problem(curve, factors, False, 1.0, 1e-9, rotation_names)
-    s = _evaluate_or_raise(prob, prob.to_internal(_as_srv(curve).q))
+    options = ClosingOptions(factors=factors, cut_locus_tol=1e-9, rotation_names=rotation_names)
+    prob = ClosingProblem.from_curve(curve, options)
+    s = prob.evaluate_checked(prob.to_internal(prob.srv.q))
     return SeamGap(
         gap=float(np.linalg.norm(s.f0)),
         velocity_gap=float(np.linalg.norm(s.f1)),
         rotation_gaps=s.rot_gaps,
         rotation_angles=s.rot_angles,
         translation_gaps=s.eu_gaps,
-    )
-
-
-def closing_gradient(
-    curve: DiscreteCurve | SRVFunction,
-    *,
-    factors: object = None,
-    c1: bool = False,
-    c1_weight: float = 1.0,
-    gradient: str = "exact",
-    log_term: str = "general",
-) -> ClosingGradient:
-    """Value and L2 gradient of the discrete closing objective ``Phi`` at ``q``.
-
-    Parameters
-    ----------
-    curve : DiscreteCurve or SRVFunction
-        ``q`` of shape ``(n, dim)``; at least 3 samples.
-    factors : optional
-        Coordinates to close (:func:`closing_mask`).
-    c1 : bool
-        Add the seam velocity mismatch ``c1_weight/2 |F_1|^2`` to ``Phi``.
-    gradient : {"exact", "paper"}
-        ``"exact"``: the gradient of the discrete objective (adjoint through every
-        ``exp`` step, with ``dexp_{u_i}^†``). ``"paper"``: paper 000 eq. (17)/(18) evaluated
-        on the discrete curve (``Ad_{P_i}^†`` without ``dexp_{u_i}^†``), ``O(h)`` off.
-    log_term : {"general", "bi-invariant"}
-        ``(dexp^{-1}_{log r})^† log r`` by the group's ``dexp_inv_dual`` (Thm. 4.5) or
-        replaced by ``log r`` (Cor. 4.8).
-
-    Returns
-    -------
-    ClosingGradient
-    """
-    _check_choice(gradient, _GRADIENTS, "gradient")
-    _check_choice(log_term, _LOG_TERMS, "log_term")
-    srv, prob = _problem(curve, factors, c1, c1_weight, 1e-9, None)
-    s = _evaluate_or_raise(prob, prob.to_internal(srv.q))
-    bs, be = prob.blocks(s, exact_dexp=gradient == "exact", log_term=log_term)
-    g = prob.adjoint(s, bs, be, prob.residual(s))
-    return ClosingGradient(phi=prob.objective(s), gradient=prob.to_group(g))
-
-
-def close_curve(
-    curve: DiscreteCurve | SRVFunction,
-    *,
-    method: str = "gauss-newton",
-    tol: float = 1e-6,
-    max_iter: int = 100,
-    factors: object = None,
-    c1: bool = False,
-    c1_weight: float = 1.0,
-    gradient: str = "exact",
-    log_term: str = "general",
-    step: float | None = None,
-    armijo: float = 1e-4,
-    max_backtracks: int = 40,
-    keep_free: bool = True,
-    cut_locus_tol: float = 1e-6,
-    rotation_names: Sequence[str] | None = None,
-) -> ClosingResult:
-    """Close a curve (make its last sample equal its first) by changing its SRV function.
-
-    Minimises the discrete ``Phi(q) = 1/2 |F_0(q)|^2`` (paper 000, eq. 11; plus
-    ``c1_weight/2 |F_1|^2`` with ``c1``) over ``q`` from the curve's own SRV function, the
-    first sample fixed. See the module docstring for the residuals, the gradient and the
-    two methods.
-
-    Parameters
-    ----------
-    curve : DiscreteCurve or SRVFunction
-        ``n+1 >= 3`` samples in a group built from ``Euclidean`` and ``SO3``.
-    method : {"gauss-newton", "gradient"}
-        Minimal-norm Gauss-Newton projection (default), or the gradient flow of paper 000
-        sec. 4.2 (steepest descent, Cauchy step, Armijo line search).
-    tol : float
-        Stop when ``gap <= tol`` (and ``velocity_gap <= tol`` with ``c1``). ``gap`` is the
-        weighted norm of the residual: with unit weights, radians for rotations.
-    max_iter : int
-        Iteration limit (each iteration is one accepted step).
-    factors : optional
-        What to close (:func:`closing_mask`): default everything.
-    c1 : bool
-        Also match the seam velocities ``xi_{n-1} = Ad_r xi_0`` (beyond the paper).
-    c1_weight : float
-        Weight of the velocity residual in ``Phi``.
-    gradient : {"exact", "paper"}
-        Gradient used by ``method="gradient"`` (Gauss-Newton always uses the exact Jacobian).
-    log_term : {"general", "bi-invariant"}
-        Thm. 4.5's ``(dexp^{-1})^†`` or Cor. 4.8's simplification, for ``method="gradient"``.
-    step : float, optional
-        First trial step of each line search for ``method="gradient"`` (default: the
-        minimiser of the linearised objective along the gradient). Gauss-Newton tries 1.
-    armijo : float
-        Sufficient-decrease constant ``c`` in ``Phi(q + a d) <= Phi(q) + c a <grad, d>``.
-    max_backtracks : int
-        Halvings of the step before the line search gives up (the result then says so).
-    keep_free : bool
-        Put the original samples back on free Euclidean coordinates and free ``SO(3)``
-        copies (they do not affect the gap).
-    cut_locus_tol : float
-        Distance (radians) to ``pi`` at which a seam rotation counts as on the cut locus.
-    rotation_names : sequence of str, optional
-        One name per ``SO(3)`` copy (e.g. joint names) for error messages.
-
-    Returns
-    -------
-    ClosingResult
-
-    Raises
-    ------
-    ValueError
-        Fewer than 3 samples; a group outside the family; a seam rotation at angle pi on a
-        closed copy (``rotation_names`` name it); bad option values.
-
-    Notes
-    -----
-    Cost per iteration: ``O(n m)`` 3x3 products for ``m`` rotations and, for Gauss-Newton,
-    a ``k x k`` solve with ``k`` closing conditions and ``O(n k^2)`` to assemble ``J J^*``.
-    A curve that is already closed (within ``tol``) is returned unchanged (0 iterations).
-    """
-    t_begin = time.perf_counter()
-    _check_choice(method, _METHODS, "method")
-    _check_choice(gradient, _GRADIENTS, "gradient")
-    _check_choice(log_term, _LOG_TERMS, "log_term")
-    tol = _check_positive(tol, "tol", allow_zero=True)
-    if int(max_iter) != max_iter or max_iter < 0:
-        raise ValueError(f"max_iter: expected a non-negative integer; got {max_iter!r}")
-    if step is not None:
-        step = _check_positive(step, "step")
-    if not 0 < armijo < 1:
-        raise ValueError(f"armijo: expected a constant in (0, 1); got {armijo!r}")
-    srv, prob = _problem(curve, factors, c1, c1_weight, cut_locus_tol, rotation_names)
-    state = _evaluate_or_raise(prob, prob.to_internal(srv.q))
-    phi = prob.objective(state)
-    gaps = [float(np.linalg.norm(state.f0))]
-    vgaps = [float(np.linalg.norm(state.f1))]
-    phis = [phi]
-    steps: list[float] = []
-    sel = prob.sel
-
-    def done(s: _State) -> bool:
-        return bool(np.linalg.norm(s.f0) <= tol and (not c1 or np.linalg.norm(s.f1) <= tol))
-
-    converged = done(state)
-    message = "already closed" if converged else f"reached max_iter = {max_iter}"
-    it = 0
-    while not converged and it < max_iter:
-        f = prob.residual(state)
-        bs, be = prob.blocks(state)
-        g_exact = prob.adjoint(state, bs, be, f)
-        if method == "gauss-newton":
-            gmat = prob.gram(state, bs, be)[np.ix_(sel, sel)]
-            mu = 1e-13 * max(float(np.trace(gmat)) / max(gmat.shape[0], 1), 1e-300)
-            rhs = -f[sel]
-            try:
-                zsel = np.linalg.solve(gmat + mu * np.eye(gmat.shape[0]), rhs)
-            except np.linalg.LinAlgError:
-                zsel = np.linalg.lstsq(gmat, rhs, rcond=None)[0]
-            z = np.zeros_like(f)
-            z[sel] = zsel
-            d = prob.adjoint(state, bs, be, z)
-            alpha = 1.0
-        else:
-            if gradient == "exact" and log_term == "general":
-                gd = g_exact
-            else:
-                bsd, bed = prob.blocks(state, exact_dexp=gradient == "exact", log_term=log_term)
-                gd = prob.adjoint(state, bsd, bed, f)
-            d = -gd
-            if step is None:
-                jd = prob.forward(state, bs, be, d)[sel]
-                denom = float(jd @ jd)
-                alpha = -float(f[sel] @ jd) / denom if denom > 0 else 1.0
-                if not alpha > 0:
-                    alpha = 1.0
-            else:
-                alpha = step
-        slope = float(np.einsum("i,ij,ij->", prob.h, g_exact, d))
-        if not slope < 0:
-            message = "the search direction does not decrease the gap (stationary point?)"
-            break
-        accepted = None
-        for _ in range(max_backtracks + 1):
-            try:
-                trial = prob.evaluate(state.q + alpha * d)
-            except _CutLocus:
-                alpha *= 0.5
-                continue
-            phi_t = prob.objective(trial)
-            if np.isfinite(phi_t) and phi_t <= phi + armijo * alpha * slope:
-                accepted = trial
-                break
-            alpha *= 0.5
-        if accepted is None:
-            message = f"line search failed after {max_backtracks} halvings (gap {gaps[-1]:.3g})"
-            break
-        state, phi = accepted, prob.objective(accepted)
-        it += 1
-        steps.append(alpha)
-        phis.append(phi)
-        gaps.append(float(np.linalg.norm(state.f0)))
-        vgaps.append(float(np.linalg.norm(state.f1)))
-        if done(state):
-            converged = True
-            message = f"converged in {it} iterations"
-
-    out_curve, closed = _closed_output(
-        prob, curve, srv, prob.to_group(state.q), moved=it > 0, keep_free=keep_free
-    )
-    return ClosingResult(
-        curve=out_curve,
-        srv=closed,
-        gap=gaps[-1],
-        gap_initial=gaps[0],
-        velocity_gap=vgaps[-1],
-        velocity_gap_initial=vgaps[0],
-        history=np.asarray(gaps),
-        velocity_history=np.asarray(vgaps),
-        objective_history=np.asarray(phis),
-        steps=np.asarray(steps),
-        iterations=it,
-        converged=converged,
-        message=message,
-        time=time.perf_counter() - t_begin,
-        method=method,
-        gradient=gradient,
-        rotation_gaps=state.rot_gaps,
-        translation_gaps=state.eu_gaps,
-        change=_l2(closed.q - srv.q, srv.dt),
-    )
-
-
-def project_closed_rd(
-    curve: DiscreteCurve | SRVFunction,
-    *,
-    factors: object = None,
-    tol: float = 1e-10,
-    max_iter: int = 50,
-    keep_free: bool = True,
-) -> ClosingResult:
-    """Project a curve in ``R^d`` onto closed curves (paper 001, Thm. 2; Newton).
-
-    The closed curves are ``{q : integral |q| q dt = 0}`` (discretely
-    ``sum_i h_i |q_i| q_i = 0`` on the closed coordinates). Paper 001, Thm. 2 gives the
-    normal basis ``U_k(q) = (q_k q + |q|^2 e_k) / |q|``; Newton's method solves
-    ``sum_l <U_k, U_l>_L2 beta_l = -F_k`` (Gram matrix
-    ``delta_kl int |q|^2 + 3 int q_k q_l``) and moves ``q <- q + sum_k beta_k U_k``,
-    backtracking when the residual would grow.
-
-    Parameters
-    ----------
-    curve : DiscreteCurve or SRVFunction
-        At least 3 samples in a group made only of Euclidean factors (weights allowed:
-        everything is done in orthonormal coordinates).
-    factors : optional
-        Coordinates to close (:func:`closing_mask`).
-    tol : float
-        Stop when the weighted norm of ``c_n - c_0`` (closed coordinates) is ``<= tol``.
-    max_iter : int
-    keep_free : bool
-        Put back the original samples of the coordinates that are not closed.
-
-    Returns
-    -------
-    ClosingResult
-        With ``method = "newton"``.
-    """
-    t_begin = time.perf_counter()
-    srv = _as_srv(curve)
-    lay = _layout(srv.group)
-    if lay.so3_alg.size:
-        raise ValueError(f"curve: expected a curve in R^d (Euclidean factors only); got group {srv.group!r}")
-    if srv.q.shape[0] + 1 < 3:
-        raise ValueError(f"curve: expected at least 3 samples to close; got {srv.q.shape[0] + 1}")
-    tol = _check_positive(tol, "tol", allow_zero=True)
-    mask = closing_mask(srv.group, factors)
-    h = srv.dt
-    q = np.array(srv.q)
-    idx = np.flatnonzero(mask)
-
-    def resid(qq: np.ndarray) -> np.ndarray:
-        qn = np.sqrt(np.einsum("ij,ij->i", qq, qq))
-        return (h * qn) @ qq[:, idx]  # sum_i h_i |q_i| q_i, closed coordinates
-
-    def velocity_gap(qq: np.ndarray) -> float:
-        qn = np.sqrt(np.einsum("ij,ij->i", qq, qq))
-        x = qn[:, None] * qq
-        return float(np.linalg.norm((x[-1, idx] - x[0, idx]) / qq.shape[0]))
-
-    f = resid(q)
-    gaps = [float(np.linalg.norm(f))]
-    vg = [velocity_gap(q)]
-    steps: list[float] = []
-    it = 0
-    converged = gaps[0] <= tol
-    message = "already closed" if converged else f"reached max_iter = {max_iter}"
-    while not converged and it < max_iter:
-        qn = np.sqrt(np.einsum("ij,ij->i", q, q))
-        safe = np.where(qn > 0, qn, 1.0)
-        # U_k(q_i) = (q_ik q_i + |q_i|^2 e_k) / |q_i|   (paper 001, eq. 11);
-        # <U_k, U_l>_L2 = sum_i h_i (|q_i|^2 delta_kl + 3 q_ik q_il)
-        qs = q[:, idx]
-        gram = 3.0 * (qs.T * h) @ qs
-        gram[np.diag_indices_from(gram)] += float(h @ qn**2)
-        try:
-            beta = np.linalg.solve(gram, -f)
-        except np.linalg.LinAlgError:
-            beta = np.linalg.lstsq(gram, -f, rcond=None)[0]
-        b = np.zeros(q.shape[1])
-        b[idx] = beta
-        # sum_k beta_k U_k(q_i) = ((q_i . b) q_i + |q_i|^2 b) / |q_i|
-        d = ((q @ b)[:, None] * q + np.outer(qn**2, b)) / safe[:, None]
-        alpha = 1.0
-        for _ in range(40):
-            f_new = resid(q + alpha * d)
-            if np.linalg.norm(f_new) < np.linalg.norm(f):
-                break
-            alpha *= 0.5
-        else:
-            message = "Newton step does not reduce the gap"
-            break
-        q = q + alpha * d
-        f = f_new
-        it += 1
-        steps.append(alpha)
-        gaps.append(float(np.linalg.norm(f)))
-        vg.append(velocity_gap(q))
-        if gaps[-1] <= tol:
-            converged = True
-            message = f"converged in {it} iterations"
-    if it == 0:
-        out = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-    else:
-        out = inverse_srv_transform(SRVFunction(q, srv.t, srv.start, srv.group))
-    free = lay.eu_pt[~mask[lay.eu_alg]]
-    if keep_free and free.size and it > 0:
-        original = curve if isinstance(curve, DiscreteCurve) else inverse_srv_transform(srv)
-        vals = np.array(out.values).reshape(out.n_points, -1)
-        vals[:, free] = np.asarray(original.values).reshape(original.n_points, -1)[:, free]
-        out = DiscreteCurve(vals.reshape(out.values.shape), srv.group, srv.t)
-    eu_gaps = np.zeros(lay.dim)
-    eu_gaps[idx] = np.abs(f) / lay.s_eu[idx]  # pure R^d: Euclidean order is algebra order
-    phis = 0.5 * np.asarray(gaps) ** 2
-    return ClosingResult(
-        curve=out,
-        srv=srv if it == 0 else SRVFunction(q, srv.t, srv.start, srv.group),
-        gap=gaps[-1],
-        gap_initial=gaps[0],
-        velocity_gap=vg[-1],
-        velocity_gap_initial=vg[0],
-        history=np.asarray(gaps),
-        velocity_history=np.asarray(vg),
-        objective_history=phis,
-        steps=np.asarray(steps),
-        iterations=it,
-        converged=converged,
-        message=message,
-        time=time.perf_counter() - t_begin,
-        method="newton",
-        gradient="exact",
-        rotation_gaps=np.zeros(0),
-        translation_gaps=eu_gaps,
-        change=_l2(q - srv.q, srv.dt),
     )

@@ -9,7 +9,7 @@ original only to first order. This module solves the projection itself,
 
 ``q`` the SRV function (cell values, orthonormal coordinates, see
 :mod:`elastic_motion.curves`), ``F`` the closing conditions of
-:mod:`elastic_motion.closing` (the selected rows of ``log r``, of the swing of the root
+:mod:`elastic_motion.closing.problem` (the selected rows of ``log r``, of the swing of the root
 about the up axis, of the closed Euclidean coordinates of ``c_n - c_0``; with ``c1`` also
 the seam velocity rows), the first sample fixed. It holds for every group of the product
 family, ``R^d`` included (there ``F(q) = sum_i h_i |q_i| q_i`` on the closed coordinates,
@@ -21,7 +21,7 @@ Hessian). At ``q`` with ``e = q - q_orig`` the quadratic subproblem
 ``min 1/2 ||e + d||^2  s.t.  F + J d = 0`` has the solution
 ``d = -e + J^* lambda``, ``(J J^*) lambda = -F + J e``, i.e. the next iterate is
 ``q_orig + J(q)^* lambda``; ``J`` is the exact discrete Jacobian of
-:mod:`elastic_motion.closing` (``J_i = B_i M_i``, ``J J^*`` assembled from the same blocks).
+:mod:`elastic_motion.closing.problem` (``J_i = B_i M_i``, ``J J^*`` assembled from the same blocks).
 A fixed point satisfies the first-order (KKT) conditions exactly: ``F(q) = 0`` and
 ``q - q_orig = J^* lambda``. Steps are globalised by a backtracking line search on the
 exact penalty ``1/2 ||e||^2 + rho |F|`` (``rho`` above ``|lambda|``), so the iteration
@@ -38,31 +38,22 @@ rounding floor, about ``1e-9`` relative on 600-frame clips) the solver stops and
 
 from __future__ import annotations
 
-import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse
 
-from elastic_motion.closing import (
-    ClosingResult,
-    _closed_output,
-    _CutLocus,
-    _evaluate_or_raise,
-    _l2,
-    _Problem,
-    _problem,
-    _State,
-)
+from elastic_motion.closing.options import ClosingOptions, solver_options
+from elastic_motion.closing.problem import ClosingProblem, ClosingState, CutLocus, l2_norm
+from elastic_motion.closing.result import ClosingResult, SolverLog
 from elastic_motion.curves import DiscreteCurve, SRVFunction
-from elastic_motion.groups import SO3
 
 __all__ = ["ExtraConstraints", "kkt_residual", "project_closed"]
-
-_SO3 = SO3()
 
 
 class ExtraConstraints:
@@ -107,7 +98,7 @@ class ExtraConstraints:
         return self.evaluate(rot, eu)[0]
 
 
-def _eu_samples(prob: _Problem, s: _State) -> np.ndarray:
+def _eu_samples(prob: ClosingProblem, s: ClosingState) -> np.ndarray:
     """The Euclidean samples ``(n+1, e)`` (natural units) of a state's curve."""
     ne = prob.ne
     steps = s.x[:, :ne] * (prob.h[:, None] / prob.layout.s_eu)
@@ -142,7 +133,7 @@ def _solve(lin: _Linear | _ExtraLinear, rhs: np.ndarray) -> np.ndarray:
 class _Linear:
     """The constraint linearisation at one point: ``J``, ``J^*`` and ``J J^*`` on the selected rows."""
 
-    def __init__(self, prob: _Problem, s: _State) -> None:
+    def __init__(self, prob: ClosingProblem, s: ClosingState) -> None:
         self.prob, self.s = prob, s
         self.bs, self.be = prob.blocks(s)
         self.sel = prob.sel
@@ -186,7 +177,9 @@ class _ExtraLinear:
     The dense Jacobian this replaces is kept in the tests as the reference implementation.
     """
 
-    def __init__(self, prob: _Problem, s: _State, extra: ExtraConstraints, eu_orig: np.ndarray) -> None:
+    def __init__(
+        self, prob: ClosingProblem, s: ClosingState, extra: ExtraConstraints, eu_orig: np.ndarray
+    ) -> None:
         self.prob, self.s = prob, s
         n, m, ne = prob.n, prob.m, prob.ne
         lay, sp, h = prob.layout, prob.spec, prob.h
@@ -258,7 +251,7 @@ class _ExtraLinear:
     # -- the interface of _Linear ---------------------------------------------------------------
     def forward(self, d: np.ndarray) -> np.ndarray:
         prob = self.prob
-        md = prob._apply_m(self.s, d)
+        md = prob.apply_m(self.s, d)
         closing = prob.forward(self.s, self.bs, self.be, d)[self.sel]
         return np.concatenate([closing, self._extra_forward(md)])
 
@@ -269,7 +262,7 @@ class _ExtraLinear:
         z[self.sel] = lam[:k]
         out = prob.adjoint(self.s, self.bs, self.be, z)
         if self.n_extra:
-            out += prob._apply_m(self.s, self._extra_adjoint_w(lam[k:])) / prob.h[:, None]
+            out += prob.apply_m(self.s, self._extra_adjoint_w(lam[k:])) / prob.h[:, None]
         return out
 
     @property
@@ -360,7 +353,12 @@ def _dot(h: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _newton_step(
-    prob: _Problem, lin: _Linear | _ExtraLinear, e: np.ndarray, lam: np.ndarray, linearise, max_cg: int = 20
+    prob: ClosingProblem,
+    lin: _Linear | _ExtraLinear,
+    e: np.ndarray,
+    lam: np.ndarray,
+    linearise,
+    max_cg: int = 20,
 ) -> np.ndarray:
     """SQP step with the Hessian of the Lagrangian ``W = I - sum_k lam_k Hess F_k``.
 
@@ -370,13 +368,13 @@ def _newton_step(
     curvature).
     """
     h, q = prob.h, lin.s.q
-    scale = max(_l2(q, h), 1.0)
+    scale = max(l2_norm(q, h), 1.0)
 
     def jt_lam(qq: np.ndarray) -> np.ndarray:
         return linearise(prob.evaluate(qq)).adjoint(lam)
 
     def wv(v: np.ndarray) -> np.ndarray:
-        nv = _l2(v, h)
+        nv = l2_norm(v, h)
         if nv == 0.0:
             return np.zeros_like(v)
         eps = 1e-5 * scale / nv
@@ -414,14 +412,14 @@ def _newton_step(
 def _kkt(lin: _Linear, e: np.ndarray, h: np.ndarray) -> tuple[float, np.ndarray]:
     """Relative KKT residual and least-squares multipliers at ``q = q_orig + e``."""
     lam = _solve(lin, lin.forward(e))
-    ne = _l2(e, h)
+    ne = l2_norm(e, h)
     if ne == 0.0:
         return 0.0, lam
     res = e - lin.adjoint(lam)
     for _ in range(2):  # iterative refinement of the normal equations (J J^* is ill-conditioned)
         lam = lam + _solve(lin, lin.forward(res))
         res = e - lin.adjoint(lam)
-    return _l2(res, h) / ne, lam
+    return l2_norm(res, h) / ne, lam
 
 
 def kkt_residual(
@@ -440,7 +438,7 @@ def kkt_residual(
         Same group and grid; the SRV functions ``q`` and ``q_orig`` are compared (pass
         :attr:`ClosingResult.srv`: the curve's own SRVT reads steps past ``pi`` the short way).
     factors, c1, c1_weight
-        The closing conditions (:func:`elastic_motion.closing.close_curve`).
+        The closing conditions (:class:`~elastic_motion.closing.ClosingOptions`).
 
     Returns
     -------
@@ -450,11 +448,12 @@ def kkt_residual(
     gap : float
         ``|F(q)|``, the closing residual (0 on the constraint set).
     """
-    srv, prob = _problem(curve, factors, c1, c1_weight, 0.0, None)
-    srv0, _ = _problem(original, factors, c1, c1_weight, 0.0, None)
+    options = ClosingOptions(factors=factors, c1=c1, c1_weight=c1_weight, cut_locus_tol=0.0)
+    prob = ClosingProblem.from_curve(curve, options)
+    srv, srv0 = prob.srv, ClosingProblem.from_curve(original, options).srv
     if srv0.q.shape != srv.q.shape or not np.allclose(srv0.t, srv.t):
         raise ValueError(f"original: expected the grid of curve ({srv.q.shape}); got {srv0.q.shape}")
-    s = _evaluate_or_raise(prob, prob.to_internal(srv.q))
+    s = prob.evaluate_checked(prob.to_internal(srv.q))
     lin = _Linear(prob, s)
     e = prob.to_internal(srv.q) - prob.to_internal(srv0.q)
     k, _ = _kkt(lin, e, prob.h)
@@ -463,19 +462,11 @@ def kkt_residual(
 
 def project_closed(
     curve: DiscreteCurve | SRVFunction,
+    options: ClosingOptions | None = None,
     *,
-    factors: object = None,
-    c1: bool = False,
-    c1_weight: float = 1.0,
-    tol: float = 1e-9,
-    kkt_tol: float = 1e-8,
-    max_iter: int = 200,
-    keep_free: bool = True,
-    cut_locus_tol: float = 1e-6,
-    rotation_names: Sequence[str] | None = None,
     extra: ExtraConstraints | None = None,
-    stall_iterations: int | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    **overrides: Any,
 ) -> ClosingResult:
     """The closed curve nearest ``curve`` in SRV L2 (a KKT point of the projection).
 
@@ -487,36 +478,27 @@ def project_closed(
     ----------
     curve : DiscreteCurve or SRVFunction
         ``n+1 >= 3`` samples.
-    factors : optional
-        What to close (:func:`elastic_motion.closing.closing_mask`): default everything.
-    c1 : bool
-        Also match the seam velocities (the C1 rows of :func:`~elastic_motion.closing.close_curve`).
-    c1_weight : float
-        Scale of the velocity rows (constraints: the solution does not depend on it, only
-        the conditioning does).
-    tol : float
-        Feasibility: stop when the closing residual's norm is ``<= tol``.
-    kkt_tol : float
-        Optimality: and the relative KKT residual is ``<= kkt_tol``.
-    max_iter : int
-    keep_free : bool
-        Put back the original samples of free coordinates in the returned ``curve`` (they
-        do not affect the gap); ``srv`` keeps the solver's values.
-    cut_locus_tol : float
-        Distance to ``pi`` at which a closed seam rotation is on log's cut locus.
-    rotation_names : sequence of str, optional
-        One name per ``SO(3)`` copy, for error messages.
+    options : ClosingOptions, optional
+        Default ``ClosingOptions()`` (``method="kkt"``): feasibility ``tol`` 1e-9 (the closing
+        residual's norm), optimality ``kkt_tol`` 1e-8 (the relative KKT residual), at most
+        200 iterations. Read here: ``factors``, ``c1`` (also match the seam velocities, the
+        C1 rows of :func:`~elastic_motion.closing.close_curve`), ``c1_weight`` (the scale of
+        the velocity rows: the solution does not depend on it, only the conditioning does),
+        ``tol``, ``kkt_tol``, ``max_iter``, ``keep_free`` (the returned ``curve`` gets the
+        original samples of free coordinates back; ``srv`` keeps the solver's values),
+        ``cut_locus_tol``, ``rotation_names`` and ``stall_iterations`` (give up,
+        ``converged=False`` and a message saying the constraints look inconsistent, when
+        the gap has not dropped by 20 % over this many iterations after the first few: a
+        caller that can relax its constraints learns early that it must).
     extra : ExtraConstraints, optional
         More equality constraints on the integrated curve (e.g. contacts of a motion), solved
         in the same projection; their rows follow the closing rows in ``multipliers``. Their
         Jacobian is applied by prefix sums over the cells and ``J J^*`` assembled from
         per-frame blocks (``_ExtraLinear``): ``O(n dim + R^2 dim)`` per linearisation.
-    stall_iterations : int, optional
-        Give up (``converged=False``, the message says the constraints look inconsistent)
-        when the gap has not dropped by 20 % over this many iterations (after the first
-        few): a caller that can relax its constraints learns early that it must.
     progress : callable, optional
         ``progress("closing", iterations, 0)`` after each iteration (total unknown: 0).
+    **overrides
+        Fields of ``options`` (``project_closed(curve, factors=mask, c1=True)``).
 
     Returns
     -------
@@ -532,137 +514,180 @@ def project_closed(
         cut locus, bad options).
     """
     t_begin = time.perf_counter()
-    if int(max_iter) != max_iter or max_iter < 0:
-        raise ValueError(f"max_iter: expected a non-negative integer; got {max_iter!r}")
-    for name, v in (("tol", tol), ("kkt_tol", kkt_tol)):
-        if not (math.isfinite(v) and v >= 0):
-            raise ValueError(f"{name}: expected a non-negative number; got {v!r}")
-    srv, prob = _problem(curve, factors, c1, c1_weight, cut_locus_tol, rotation_names)
-    h = prob.h
-    q0 = prob.to_internal(srv.q)
-    q = q0.copy()
-    state = _evaluate_or_raise(prob, q)
-    eu_orig = _eu_samples(prob, state)
-
-    def linearise(st: _State) -> _Linear | _ExtraLinear:
-        return _ExtraLinear(prob, st, extra, eu_orig) if extra is not None else _Linear(prob, st)
-
-    def feasibility(st: _State) -> float:
-        f = prob.residual(st)[prob.sel]
-        if extra is not None:
-            eu = np.where(prob.spec.eu_closed, _eu_samples(prob, st), eu_orig)
-            f = np.concatenate([f, extra.residual(st.rot, eu)])
-        return float(np.linalg.norm(f))
-
-    lin = linearise(state)
-    e = q - q0
-    kkt, lam = _kkt(lin, e, h)
-    feas = float(np.linalg.norm(lin.fsel))
-    gaps = [float(np.linalg.norm(state.f0))]
-    vgaps = [float(np.linalg.norm(state.f1))]
-    objs = [0.0]
-    steps: list[float] = []
-    kkts = [kkt]
-    feas_hist = [feas]
-    rho = 0.0
-    it = 0
-    converged = feas <= tol and kkt <= kkt_tol
-    message = "already closed" if converged else f"reached max_iter = {max_iter}"
-    newton = False
-    while not converged and it < max_iter:
-        lam_step = _solve(lin, -lin.fsel + lin.forward(e))
-        rho = max(rho, 2.0 * float(np.linalg.norm(lam_step)) + 1e-12)
-        merit = 0.5 * _l2(e, h) ** 2 + rho * feas
-        accepted = None
-        directions = []
-        if newton:
-            try:  # fewer CG steps with extra rows (each Hessian product rebuilds their Jacobian)
-                directions.append(
-                    _newton_step(prob, lin, e, lam, linearise, max_cg=12 if extra is None else 6)
-                )
-            except _CutLocus:
-                pass
-        directions.append(-e + lin.adjoint(lam_step))  # identity Hessian model (fallback)
-        for d in directions:
-            slope = _dot(h, e, d) - rho * feas
-            alpha = 1.0
-            # near the solution the merit function cannot resolve the step (its decrease is
-            # below rounding): take the full step while it keeps the curve closed
-            tiny = _l2(d, h) <= 1e-6 * max(_l2(e, h), 1e-300)
-            for _ in range(24):  # down to alpha = 6e-8: a shorter step is no step
-                try:
-                    trial = prob.evaluate(q + alpha * d)
-                except _CutLocus:
-                    alpha *= 0.5
-                    continue
-                et = trial.q - q0
-                ft = feasibility(trial)
-                mt = 0.5 * _l2(et, h) ** 2 + rho * ft
-                if np.isfinite(mt) and (
-                    mt <= merit + 1e-4 * alpha * min(slope, 0.0) or (tiny and ft <= max(feas, tol))
-                ):
-                    accepted = trial
-                    break
-                alpha *= 0.5
-            if accepted is not None:
-                break
-        if accepted is None:
-            message = f"line search failed (gap {feas:.3g}, KKT residual {kkt:.3g})"
-            break
-        state, q = accepted, accepted.q
-        e = q - q0
-        lin = linearise(state)
-        kkt, lam = _kkt(lin, e, h)
-        feas = float(np.linalg.norm(lin.fsel))
-        it += 1
-        if progress is not None:
-            progress("closing", it, 0)
-        steps.append(alpha)
-        gaps.append(float(np.linalg.norm(state.f0)))
-        vgaps.append(float(np.linalg.norm(state.f1)))
-        objs.append(0.5 * _l2(e, h) ** 2)
-        kkts.append(kkt)
-        if feas <= tol and kkt <= kkt_tol:
-            converged = True
-            message = f"converged in {it} iterations (KKT residual {kkt:.2g})"
-        elif newton and feas <= tol and kkt < 1e-6 and len(kkts) > 4 and kkt > 0.5 * min(kkts[-4:-1]):
-            message = f"stalled at KKT residual {kkt:.2g} after {it} iterations (rounding floor)"
-            break
-        elif (
-            stall_iterations
-            and feas > tol
-            and len(feas_hist) > stall_iterations + 4
-            and (feas > 0.8 * feas_hist[-stall_iterations])
-        ):
-            # the constraints do not fit together: the gap stops decreasing
-            message = f"the constraints look inconsistent: gap {feas:.3g} after {it} iterations"
-            break
-        elif not newton and kkt > 0.2 * kkts[-2]:
-            newton = True  # the identity model converges slowly here: use the Lagrangian's Hessian
-        feas_hist.append(feas)
-
-    q_final = prob.to_group(q)
-    out_curve, closed = _closed_output(prob, curve, srv, q_final, moved=it > 0, keep_free=keep_free)
+    opts = solver_options("kkt", "kkt", options, overrides)
+    prob = ClosingProblem.from_curve(curve, opts)
+    state = prob.evaluate_checked(prob.to_internal(prob.srv.q).copy())
+    run = _Projection(prob, opts, extra, state)
+    point = run.point(state)
+    log = SolverLog(
+        gaps=[float(np.linalg.norm(state.f0))],
+        velocity_gaps=[float(np.linalg.norm(state.f1))],
+        objective=[0.0],
+        started=t_begin,
+    )
+    point = run.iterate(point, log, progress)
+    q_final = prob.to_group(point.state.q)
+    out_curve, closed = prob.closed_output(curve, q_final, moved=log.iterations > 0, keep_free=opts.keep_free)
     return ClosingResult(
         curve=out_curve,
         srv=closed,
-        gap=gaps[-1],
-        gap_initial=gaps[0],
-        velocity_gap=vgaps[-1],
-        velocity_gap_initial=vgaps[0],
-        history=np.asarray(gaps),
-        velocity_history=np.asarray(vgaps),
-        objective_history=np.asarray(objs),
-        steps=np.asarray(steps),
-        iterations=it,
-        converged=converged,
-        message=message,
-        time=time.perf_counter() - t_begin,
         method="kkt",
         gradient="exact",
-        rotation_gaps=state.rot_gaps,
-        translation_gaps=state.eu_gaps,
-        change=_l2(q_final - srv.q, h),
-        kkt_residual=kkt,
-        multipliers=lam,
+        rotation_gaps=point.state.rot_gaps,
+        translation_gaps=point.state.eu_gaps,
+        change=l2_norm(q_final - prob.srv.q, prob.h),
+        kkt_residual=point.kkt,
+        multipliers=point.lam,
+        **log.summary(),
     )
+
+
+@dataclass(eq=False)
+class _Point:
+    """An iterate of the projection and its linearisation: ``e = q - q_orig``, the KKT residual
+    and least-squares multipliers there, and the feasibility ``|F|`` (closing and extra rows)."""
+
+    state: ClosingState
+    e: np.ndarray
+    lin: _Linear | _ExtraLinear
+    kkt: float
+    lam: np.ndarray
+    feas: float
+
+
+class _Projection:
+    """One run of the SQP projection (module docstring): the fixed data of the problem and the
+    memory of the iteration (penalty ``rho``, Newton mode, KKT and feasibility histories)."""
+
+    def __init__(
+        self, prob: ClosingProblem, opts: ClosingOptions, extra: ExtraConstraints | None, start: ClosingState
+    ) -> None:
+        self.prob, self.opts, self.extra, self.h = prob, opts, extra, prob.h
+        self.q0 = start.q.copy()
+        self.eu_orig = _eu_samples(prob, start)
+        self.rho = 0.0
+        self.newton = False
+        self.kkts: list[float] = []
+        self.feas_hist: list[float] = []
+
+    def linearise(self, st: ClosingState) -> _Linear | _ExtraLinear:
+        """The constraint linearisation at ``st`` (with the extra rows when there are any)."""
+        if self.extra is not None:
+            return _ExtraLinear(self.prob, st, self.extra, self.eu_orig)
+        return _Linear(self.prob, st)
+
+    def feasibility(self, st: ClosingState) -> float:
+        """``|F|`` of the closed rows (and the extra rows) at ``st``."""
+        prob = self.prob
+        f = prob.residual(st)[prob.sel]
+        if self.extra is not None:
+            eu = np.where(prob.spec.eu_closed, _eu_samples(prob, st), self.eu_orig)
+            f = np.concatenate([f, self.extra.residual(st.rot, eu)])
+        return float(np.linalg.norm(f))
+
+    def point(self, st: ClosingState) -> _Point:
+        """The iterate at ``st``, linearised."""
+        lin = self.linearise(st)
+        e = st.q - self.q0
+        kkt, lam = _kkt(lin, e, self.h)
+        return _Point(st, e, lin, kkt, lam, float(np.linalg.norm(lin.fsel)))
+
+    def iterate(self, p: _Point, log: SolverLog, progress: Callable[[str, int, int], None] | None) -> _Point:
+        """Steps from ``p`` until converged, stopped or ``max_iter``; returns the last iterate."""
+        tol, max_iter = self.opts.tolerance, self.opts.iterations
+        self.kkts.append(p.kkt)
+        self.feas_hist.append(p.feas)
+        log.converged = p.feas <= tol and p.kkt <= self.opts.kkt_tol
+        log.message = "already closed" if log.converged else f"reached max_iter = {max_iter}"
+        while not log.converged and log.iterations < max_iter:
+            accepted, alpha = self.step(p)
+            if accepted is None:
+                log.message = f"line search failed (gap {p.feas:.3g}, KKT residual {p.kkt:.3g})"
+                break
+            p = self.point(accepted)
+            log.record(
+                step=alpha,
+                gap=float(np.linalg.norm(p.state.f0)),
+                velocity_gap=float(np.linalg.norm(p.state.f1)),
+                objective=0.5 * l2_norm(p.e, self.h) ** 2,
+            )
+            if progress is not None:
+                progress("closing", log.iterations, 0)
+            if self.stop(p, log):
+                break
+        return p
+
+    def step(self, p: _Point) -> tuple[ClosingState | None, float]:
+        """One accepted step from ``p``: the Newton step of the Lagrangian's Hessian (once the
+        identity model is slow) and the identity model's step, each with its line search on the
+        exact penalty; ``(None, 0)`` when neither is accepted."""
+        lin, e = p.lin, p.e
+        lam_step = _solve(lin, -lin.fsel + lin.forward(e))
+        self.rho = max(self.rho, 2.0 * float(np.linalg.norm(lam_step)) + 1e-12)
+        merit = 0.5 * l2_norm(e, self.h) ** 2 + self.rho * p.feas
+        directions = []
+        if self.newton:
+            try:  # fewer CG steps with extra rows (each Hessian product rebuilds their Jacobian)
+                max_cg = 12 if self.extra is None else 6
+                directions.append(_newton_step(self.prob, lin, e, p.lam, self.linearise, max_cg=max_cg))
+            except CutLocus:
+                pass
+        directions.append(-e + lin.adjoint(lam_step))  # identity Hessian model (fallback)
+        for d in directions:
+            trial, alpha = self.search(p, d, merit)
+            if trial is not None:
+                return trial, alpha
+        return None, 0.0
+
+    def search(self, p: _Point, d: np.ndarray, merit: float) -> tuple[ClosingState | None, float]:
+        """Backtracking along ``d`` on the merit ``1/2 ||e||^2 + rho |F|``."""
+        h, e, feas = self.h, p.e, p.feas
+        slope = _dot(h, e, d) - self.rho * feas
+        alpha = 1.0
+        # near the solution the merit function cannot resolve the step (its decrease is
+        # below rounding): take the full step while it keeps the curve closed
+        tiny = l2_norm(d, h) <= 1e-6 * max(l2_norm(e, h), 1e-300)
+        for _ in range(24):  # down to alpha = 6e-8: a shorter step is no step
+            try:
+                trial = self.prob.evaluate(p.state.q + alpha * d)
+            except CutLocus:
+                alpha *= 0.5
+                continue
+            ft = self.feasibility(trial)
+            mt = 0.5 * l2_norm(trial.q - self.q0, h) ** 2 + self.rho * ft
+            if np.isfinite(mt) and (
+                mt <= merit + 1e-4 * alpha * min(slope, 0.0)
+                or (tiny and ft <= max(feas, self.opts.tolerance))
+            ):
+                return trial, alpha
+            alpha *= 0.5
+        return None, alpha
+
+    def stop(self, p: _Point, log: SolverLog) -> bool:
+        """After an accepted step: converged, stalled at the rounding floor, or the constraints
+        inconsistent (``log`` says which); else switch to Newton steps when the identity model
+        converges slowly."""
+        opts, feas, kkt = self.opts, p.feas, p.kkt
+        tol, stall = opts.tolerance, opts.stall_iterations
+        self.kkts.append(kkt)
+        if feas <= tol and kkt <= opts.kkt_tol:
+            log.converged = True
+            log.message = f"converged in {log.iterations} iterations (KKT residual {kkt:.2g})"
+            return True
+        kkts = self.kkts
+        if self.newton and feas <= tol and kkt < 1e-6 and len(kkts) > 4 and kkt > 0.5 * min(kkts[-4:-1]):
+            log.message = (
+                f"stalled at KKT residual {kkt:.2g} after {log.iterations} iterations (rounding floor)"
+            )
+            return True
+        hist = self.feas_hist
+        if stall and feas > tol and len(hist) > stall + 4 and feas > 0.8 * hist[-stall]:
+            # the constraints do not fit together: the gap stops decreasing
+            log.message = (
+                f"the constraints look inconsistent: gap {feas:.3g} after {log.iterations} iterations"
+            )
+            return True
+        if not self.newton and kkt > 0.2 * kkts[-2]:
+            self.newton = True  # the identity model converges slowly here: use the Lagrangian's Hessian
+        hist.append(feas)
+        return False
