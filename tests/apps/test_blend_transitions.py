@@ -56,7 +56,7 @@ def test_transition_starts_like_a_ends_like_b_and_runs_on_the_blended_clock(pair
     # the root moves forward all the way (velocities blended, no jump)
     z = forward_kinematics(m)[:, 0, 2]
     assert (np.diff(z) > 0).all() and np.abs(np.diff(z, 2)).max() < 0.02
-    assert "weight curve" in " ".join(res.notes)
+    assert "weight curve" in " ".join(map(str, res.notes))
 
 
 @pytest.mark.parametrize(
