@@ -11,7 +11,9 @@ Two entry points, both reporting what they did as named results:
 
 Conventions
 -----------
-* **Order of the per-input steps** (each recorded in ``MotionPreparation.notes``):
+* **Order of the per-input steps** (each that changes something writes a note: its text in
+  ``MotionPreparation.notes``, the :class:`~elastic_motion.notes.Note` with its kind, such as
+  :data:`TPOSE_DROPPED`, in ``PreparedMotions.notes``):
 
   1. read (paths; a ``Motion`` is taken as it is); ``units`` forces the length unit of a
      BVH file (default: guessed from the skeleton's size), ``up`` forces the up axis of any
@@ -477,34 +479,28 @@ def _load(
     source: Source, opts: PrepareOptions, label: str | None, trim: TimeRange | None
 ) -> tuple[Motion, MotionPreparation, list[Note]]:
     """:func:`load_motion`, with the notes of its steps."""
-    m, path, estimate = _read(source, opts)
+    m, path, estimate = _read(source, opts)  # 1. read
     name = _label_of(source, label)
     notes: list[Note] = []
     if opts.check_up_axis:
         _check_up_axis(m, name, estimate, notes)
     frames_read, mpu_in, up_in = m.n_frames, m.metres_per_unit, m.up_axis
-    dropped = bool(opts.drop_tpose and has_tpose_first_frame(m))
+    dropped = bool(opts.drop_tpose and has_tpose_first_frame(m))  # 2. T-pose
     if dropped:
-        m = select_frames(m, slice(1, None))
-        notes.append(LegacyNote(TPOSE_DROPPED, f"{name}: dropped frame 0 (a T-pose)", {"input": name}))
-    rng = _check_range(tuple(trim)) if trim is not None else None
+        m = _drop_tpose(m, name, notes)
+    rng = _check_range(tuple(trim)) if trim is not None else None  # 3. trim
     if rng is not None and rng != (None, None):
         m = _trim_step(m, rng, name, notes)
     if m.n_frames < 3:
         raise OptionError(
             "motions", f"{name}: expected at least 3 frames after preparation; got {m.n_frames}"
         )
-    folded = m.skeleton.names[0] if opts.fold_static_root and has_reference_root(m) else None
-    if folded is not None:
-        m = merge_root(m)
-        notes.append(
-            LegacyNote(
-                STATIC_ROOT_FOLDED,
-                f"{name}: folded the static root {folded!r} into its child {m.skeleton.names[0]!r}",
-                {"input": name, "root": folded, "child": m.skeleton.names[0]},
-            )
-        )
-    m = _to_metres_y_up(m, name, notes).replace(name=name)
+    folded = None  # 4. static root
+    if opts.fold_static_root and has_reference_root(m):
+        folded = m.skeleton.names[0]
+        m = _fold_static_root(m, name, notes)
+    m = _to_metres(m, name, notes)  # 5. units
+    m = _to_y_up(m, name, notes).replace(name=name)  # 6. up axis
     report = MotionPreparation(
         label=name,
         source=path,
@@ -532,6 +528,12 @@ def _check_up_axis(m: Motion, name: str, estimate: UpAxisEstimate | None, notes:
         notes.append(LegacyNote(UP_AXIS_WARNING, f"warning: {warning}", {"input": name, "warning": warning}))
 
 
+def _drop_tpose(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 2: ``m`` without its frame 0 (a T-pose), with its note."""
+    notes.append(LegacyNote(TPOSE_DROPPED, f"{name}: dropped frame 0 (a T-pose)", {"input": name}))
+    return select_frames(m, slice(1, None))
+
+
 def _trim_step(m: Motion, rng: TimeRange, name: str, notes: list[Note]) -> Motion:
     """Step 3: ``m`` trimmed to ``rng`` (seconds), with its note."""
     end = m.duration  # the clip's own end, for an open range (the trimmed clip is shorter)
@@ -548,8 +550,22 @@ def _trim_step(m: Motion, rng: TimeRange, name: str, notes: list[Note]) -> Motio
     return m
 
 
-def _to_metres_y_up(m: Motion, name: str, notes: list[Note]) -> Motion:
-    """Steps 5 and 6: lengths in metres when the unit is known, Y-up; with their notes."""
+def _fold_static_root(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 4: ``m``'s static reference root folded into its child, with its note."""
+    folded = m.skeleton.names[0]
+    m = merge_root(m)
+    notes.append(
+        LegacyNote(
+            STATIC_ROOT_FOLDED,
+            f"{name}: folded the static root {folded!r} into its child {m.skeleton.names[0]!r}",
+            {"input": name, "root": folded, "child": m.skeleton.names[0]},
+        )
+    )
+    return m
+
+
+def _to_metres(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 5: lengths in metres when the unit is known (a note either way but for metres)."""
     if m.metres_per_unit is not None:
         if m.metres_per_unit != 1.0:
             unit = unit_name(m.metres_per_unit)
@@ -567,6 +583,11 @@ def _to_metres_y_up(m: Motion, name: str, notes: list[Note]) -> Motion:
                 UNITS_UNKNOWN, f"{name}: length unit unknown; lengths kept as in the file", {"input": name}
             )
         )
+    return m
+
+
+def _to_y_up(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 6: ``m`` rotated to Y-up, with its note."""
     if m.up_axis != "y":
         notes.append(
             LegacyNote(
