@@ -10,10 +10,17 @@ import pytest
 from blend_testlib import walker
 
 import elastic_motion as em
-from elastic_motion.apps.prepare import PrepareOptions, load_motion, output_motion, prepare_motions
+from elastic_motion.apps.prepare import (
+    UP_AXIS_WARNING,
+    PrepareOptions,
+    load_motion,
+    output_motion,
+    prepare_motions,
+)
 from elastic_motion.cli import main
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import forward_kinematics, read_bvh, read_motion, set_up_axis, write_bvh
+from elastic_motion.notes import of_kind
 
 
 def run(capsys, *argv):
@@ -271,7 +278,8 @@ def test_a_z_up_file_lands_upright(mocap_dir, tmp_path, capsys):
     assert em.distance(src, zfile, warp="none") < 1e-6
     # forcing the wrong axis is warned about, in the report and on the command line
     forced = prepare_motions([zfile], PrepareOptions(up="y"))
-    assert any(n.startswith("warning:") and "+z-up" in n for n in forced.notes)
+    (warning,) = of_kind(forced.notes, UP_AXIS_WARNING)
+    assert str(warning).startswith("warning:") and "+z-up" in warning.data["warning"]
     code, out, _ = run(capsys, "loop", zfile, "-o", tmp_path / "l.bvh", "--up", "y", "-q")
     assert code == 0 and "warning:" in out
 

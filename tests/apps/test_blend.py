@@ -116,21 +116,21 @@ def test_a_walk_backwards_is_named(pair):
     """A clip that faces away from its way of travel unlike the other (a walk backwards) gets
     a note: its blend would face between the two (a crab walk); a walk turned another way
     (the pair's B) is no such case, nor a clip that stands."""
-    from elastic_motion.apps.prepare import prepare_motions
+    from elastic_motion.apps.prepare import FACING_DIFFERS, prepare_motions
+    from elastic_motion.notes import of_kind
 
     a, b = pair
     back = walker(duration=2.0, freq=1.0, amp=0.5, speed=-1.0, name="back")
-    notes = prepare_motions([a, back]).notes
-    assert any(n.startswith("back: faces 180 deg away from its way of travel compared with A") for n in notes)
-    assert not any("way of travel" in n for n in prepare_motions([a, b]).notes)
+    (note,) = of_kind(prepare_motions([a, back]).notes, FACING_DIFFERS)
+    assert str(note).startswith("back: faces 180 deg away from its way of travel compared with A")
+    assert note.data["input"] == "back" and note.data["apart_deg"] == pytest.approx(180, abs=0.5)
+    assert not of_kind(prepare_motions([a, b]).notes, FACING_DIFFERS)
     still = walker(duration=2.0, freq=1.0, amp=0.5, speed=0.0, name="still")
-    assert not any("way of travel" in n for n in prepare_motions([a, still]).notes)
+    assert not of_kind(prepare_motions([a, still]).notes, FACING_DIFFERS)
     # a walk turned 2 rad, not placed like A: it still faces its way (a sign or axis slip in
     # the facing would see it 131 degrees off)
     turned = walker(duration=2.0, freq=1.0, amp=0.5, speed=1.0, yaw=2.0, name="turned")
-    assert not any(
-        "way of travel" in n for n in prepare_motions([a, turned], PrepareOptions(align=False)).notes
-    )
+    assert not of_kind(prepare_motions([a, turned], PrepareOptions(align=False)).notes, FACING_DIFFERS)
 
 
 def test_an_extrapolated_clock_keeps_its_shape_where_it_runs_forwards():

@@ -77,7 +77,8 @@ def test_two_conversions_of_cmu_are_brought_to_one_rest_pose(mocap_dir):
     degrees apart): re-expressed, 07_01's bones point as 107_02's (within 1e-5 degrees) and it
     moves exactly as before; 07_01 and 08_02 (one conversion) are left as they are."""
     from elastic_motion.apps.blend import blend_motions
-    from elastic_motion.apps.prepare import prepare_motions
+    from elastic_motion.apps.prepare import REST_POSE_CHANGED, prepare_motions
+    from elastic_motion.notes import of_kind
 
     bvh = mocap_dir / "cmu" / "bvh"
     a, b = read_motion(bvh / "107_02_30hz.bvh"), read_motion(bvh / "07_01.bvh")
@@ -87,9 +88,13 @@ def test_two_conversions_of_cmu_are_brought_to_one_rest_pose(mocap_dir):
     assert rest_pose_difference(a.skeleton, moved.skeleton, min_length=0.05 / b.metres_per_unit)[0] < 1e-5
     np.testing.assert_allclose(forward_kinematics(moved), forward_kinematics(b), atol=1e-9)
     prep = prepare_motions([bvh / "107_02_30hz.bvh", bvh / "07_01.bvh"])
-    assert any("07_01: rest pose unlike 107_02_30hz's (bone" in n for n in prep.notes)
+    (note,) = of_kind(prep.notes, REST_POSE_CHANGED)
+    assert str(note).startswith("07_01: rest pose unlike 107_02_30hz's (bone")
+    assert note.data["input"] == "07_01" and note.data["like"] == "107_02_30hz"
+    assert note.data["bone"] == bone and note.data["angle_deg"] == pytest.approx(angle)
+    assert note.data["after_deg"] < 1
     same = prepare_motions([bvh / "07_01.bvh", bvh / "08_02.bvh"])
-    assert not any("rest pose" in n for n in same.notes)
+    assert not of_kind(same.notes, REST_POSE_CHANGED)
     # the blend stands: the hips at the inputs' height (a blend in the two rest poses sat
     # 0.17 m above the floor, the clean-up settling it by 0.7 m)
     res = blend_motions(prep, 0.5, warp="dp")

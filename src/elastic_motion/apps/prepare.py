@@ -11,7 +11,9 @@ Two entry points, both reporting what they did as named results:
 
 Conventions
 -----------
-* **Order of the per-input steps** (each recorded in ``MotionPreparation.notes``):
+* **Order of the per-input steps** (each that changes something writes a note: its text in
+  ``MotionPreparation.notes``, the :class:`~elastic_motion.notes.Note` with its kind, such as
+  :data:`TPOSE_DROPPED`, in ``PreparedMotions.notes``):
 
   1. read (paths; a ``Motion`` is taken as it is); ``units`` forces the length unit of a
      BVH file (default: guessed from the skeleton's size), ``up`` forces the up axis of any
@@ -43,6 +45,7 @@ Conventions
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Sequence
@@ -53,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.errors import OptionError
+from elastic_motion.legacy_notes import LegacyNote
 from elastic_motion.motion import (
     UNITS,
     Motion,
@@ -75,8 +79,23 @@ from elastic_motion.motion import (
     up_axis_warning,
 )
 from elastic_motion.motion.rest_pose import change_rest_frames, rest_frames_towards, rest_pose_difference
+from elastic_motion.notes import Note, note_texts
 
 __all__ = [
+    "FACING_DIFFERS",
+    "FINGERS_NOT_CURVES",
+    "JOINTS_DROPPED",
+    "JOINTS_REORDERED",
+    "PLACED",
+    "RESAMPLED",
+    "REST_POSE_CHANGED",
+    "STATIC_ROOT_FOLDED",
+    "TPOSE_DROPPED",
+    "TRIMMED",
+    "UNITS_TO_METRES",
+    "UNITS_UNKNOWN",
+    "UP_AXIS_ROTATED",
+    "UP_AXIS_WARNING",
     "MotionPreparation",
     "PrepareOptions",
     "PreparedMotions",
@@ -93,6 +112,40 @@ Source = str | os.PathLike[str] | Motion
 
 #: ``joints="common"`` must keep at least this fraction of each input's body joints.
 MIN_COMMON_FRACTION = 0.5
+
+# Kinds of the preparation's notes (:mod:`elastic_motion.notes`). Every note's data holds
+# ``input`` (the label of the input it is about; the first input's too as ``like`` for a
+# set step that makes an input like the first) and the numbers of its text.
+#: Per input: the up axis as read or forced looks wrong (data ``warning``).
+UP_AXIS_WARNING = "prepare.up_axis_warning"
+#: Per input: frame 0 was a T-pose and was dropped.
+TPOSE_DROPPED = "prepare.tpose"
+#: Per input: trimmed (data ``start_s``, ``stop_s``, ``frames`` kept).
+TRIMMED = "prepare.trim"
+#: Per input: a static reference root folded into its child (data ``root``, ``child``).
+STATIC_ROOT_FOLDED = "prepare.static_root"
+#: Per input: lengths from the file's unit to metres (data ``unit``, ``metres_per_unit``).
+UNITS_TO_METRES = "prepare.units"
+#: Per input: the length unit is unknown; lengths kept as they are.
+UNITS_UNKNOWN = "prepare.units_unknown"
+#: Per input: rotated to Y-up (data ``from``, the up axis before).
+UP_AXIS_ROTATED = "prepare.up_axis"
+#: Set: joints not shared by all inputs dropped from one (data ``joints``).
+JOINTS_DROPPED = "prepare.joints"
+#: Set: an input's joints put in the first input's order.
+JOINTS_REORDERED = "prepare.joint_order"
+#: Set: an input re-expressed in the first's rest frames (data ``bone``, ``angle_deg``,
+#: ``after_deg``: the largest angle between their bones before and after).
+REST_POSE_CHANGED = "prepare.rest_pose"
+#: Set: an input resampled to the first's frame rate (data ``from_fps``, ``to_fps``).
+RESAMPLED = "prepare.resample"
+#: Set: an input placed like the first (data ``how``).
+PLACED = "prepare.placement"
+#: Set: an input faces otherwise than the first relative to its way of travel (data
+#: ``apart_deg``).
+FACING_DIFFERS = "prepare.facing"
+#: Set: finger joints left out of the curves (data ``joints``).
+FINGERS_NOT_CURVES = "prepare.finger_joints"
 
 
 # ------------------------------------------------------------------------------------------
@@ -241,7 +294,8 @@ class MotionPreparation:
     static_root_folded : str or None
         Name of the folded root joint.
     notes : tuple of str
-        One sentence per step that changed something.
+        One sentence per step that changed something: the texts of this input's notes (their
+        kinds in :attr:`PreparedMotions.notes`, which lists them first).
     """
 
     label: str
@@ -256,6 +310,12 @@ class MotionPreparation:
     up_axis_in: str
     static_root_folded: str | None
     notes: tuple[str, ...] = ()
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: every field, the notes as their texts (what reports list)."""
+        out = dataclasses.asdict(self)
+        out["notes"] = note_texts(self.notes)
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,8 +335,13 @@ class PreparedMotions:
         Lie inner-product weights of the curve joints, shared by all motions.
     translation_weight : float
         Lie inner-product weight of the root translation (1 / m^2 when units are known).
-    notes : tuple of str
-        What was done, in words (per-input steps first).
+    notes : tuple of Note
+        What was done (per-input steps first), kinds :data:`UP_AXIS_WARNING`,
+        :data:`TPOSE_DROPPED`, :data:`TRIMMED`, :data:`STATIC_ROOT_FOLDED`,
+        :data:`UNITS_TO_METRES`, :data:`UNITS_UNKNOWN`, :data:`UP_AXIS_ROTATED`, then
+        :data:`JOINTS_DROPPED`, :data:`JOINTS_REORDERED`, :data:`REST_POSE_CHANGED`,
+        :data:`RESAMPLED`, :data:`PLACED`, :data:`FACING_DIFFERS`, :data:`FINGERS_NOT_CURVES`;
+        ``str(note)`` is the sentence.
     inputs : tuple of MotionPreparation
         The per-input reports.
     units_out : float or None
@@ -288,7 +353,7 @@ class PreparedMotions:
     curve_joints: tuple[str, ...]
     joint_weights: np.ndarray
     translation_weight: float
-    notes: tuple[str, ...] = field(default=())
+    notes: tuple[Note, ...] = field(default=())
     inputs: tuple[MotionPreparation, ...] = field(default=())
     units_out: float | None = None
 
@@ -310,8 +375,9 @@ class PreparedMotions:
             return m
         return select_joints(m, self.curve_joints)
 
-    def with_notes(self, *notes: str) -> PreparedMotions:
-        """A copy with more notes."""
+    def with_notes(self, *notes: Note | str) -> PreparedMotions:
+        """A copy with more notes (texts of apps whose notes are not yet typed are kept as they
+        are, for one release)."""
         return replace(self, notes=(*self.notes, *notes))
 
 
@@ -405,50 +471,36 @@ def load_motion(
     ParseError
         A malformed file (from the reader).
     """
-    opts = options or PrepareOptions()
-    m, path, estimate = _read(source, opts)
+    m, report, _ = _load(source, options or PrepareOptions(), label, trim)
+    return m, report
+
+
+def _load(
+    source: Source, opts: PrepareOptions, label: str | None, trim: TimeRange | None
+) -> tuple[Motion, MotionPreparation, list[Note]]:
+    """:func:`load_motion`, with the notes of its steps."""
+    m, path, estimate = _read(source, opts)  # 1. read
     name = _label_of(source, label)
-    notes: list[str] = []
+    notes: list[Note] = []
     if opts.check_up_axis:
-        # BVH files are labelled by detection when read; a label given by the user (--up, a
-        # Motion built in code) or a format without detection is checked here
-        warning = up_axis_warning(m.replace(name=name), estimate=estimate)
-        if warning:
-            notes.append(f"warning: {warning}")
-    frames_read = m.n_frames
-    mpu_in, up_in = m.metres_per_unit, m.up_axis
-    dropped = False
-    if opts.drop_tpose and has_tpose_first_frame(m):
-        m = select_frames(m, slice(1, None))
-        dropped = True
-        notes.append(f"{name}: dropped frame 0 (a T-pose)")
-    rng = _check_range(tuple(trim)) if trim is not None else None
+        _check_up_axis(m, name, estimate, notes)
+    frames_read, mpu_in, up_in = m.n_frames, m.metres_per_unit, m.up_axis
+    dropped = bool(opts.drop_tpose and has_tpose_first_frame(m))  # 2. T-pose
+    if dropped:
+        m = _drop_tpose(m, name, notes)
+    rng = _check_range(tuple(trim)) if trim is not None else None  # 3. trim
     if rng is not None and rng != (None, None):
-        end = m.duration  # the clip's own end, for an open range (the trimmed clip is shorter)
-        m = _trim(m, rng, name)
-        notes.append(
-            f"{name}: kept {rng[0] if rng[0] is not None else 0:g}-"
-            f"{rng[1] if rng[1] is not None else end:g} s ({m.n_frames} frames)"
-        )
+        m = _trim_step(m, rng, name, notes)
     if m.n_frames < 3:
         raise OptionError(
             "motions", f"{name}: expected at least 3 frames after preparation; got {m.n_frames}"
         )
-    folded = None
+    folded = None  # 4. static root
     if opts.fold_static_root and has_reference_root(m):
         folded = m.skeleton.names[0]
-        m = merge_root(m)
-        notes.append(f"{name}: folded the static root {folded!r} into its child {m.skeleton.names[0]!r}")
-    if m.metres_per_unit is not None:
-        if m.metres_per_unit != 1.0:
-            notes.append(f"{name}: lengths from {unit_name(m.metres_per_unit)} to metres")
-        m = to_metres(m)
-    else:
-        notes.append(f"{name}: length unit unknown; lengths kept as in the file")
-    if m.up_axis != "y":
-        notes.append(f"{name}: rotated from {m.up_axis}-up to y-up")
-        m = set_up_axis(m, "y")
-    m = m.replace(name=name)
+        m = _fold_static_root(m, name, notes)
+    m = _to_metres(m, name, notes)  # 5. units
+    m = _to_y_up(m, name, notes).replace(name=name)  # 6. up axis
     report = MotionPreparation(
         label=name,
         source=path,
@@ -461,9 +513,91 @@ def load_motion(
         metres_per_unit_in=mpu_in,
         up_axis_in=up_in,
         static_root_folded=folded,
-        notes=tuple(notes),
+        # texts while apps serialise reports with dataclasses.asdict; summary() lists texts
+        notes=tuple(note_texts(notes)),
     )
-    return m, report
+    return m, report, notes
+
+
+def _check_up_axis(m: Motion, name: str, estimate: UpAxisEstimate | None, notes: list[Note]) -> None:
+    """Step 1's check: a note when the up axis as read or forced looks wrong."""
+    # BVH files are labelled by detection when read; a label given by the user (--up, a
+    # Motion built in code) or a format without detection is checked here
+    warning = up_axis_warning(m.replace(name=name), estimate=estimate)
+    if warning:
+        notes.append(LegacyNote(UP_AXIS_WARNING, f"warning: {warning}", {"input": name, "warning": warning}))
+
+
+def _drop_tpose(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 2: ``m`` without its frame 0 (a T-pose), with its note."""
+    notes.append(LegacyNote(TPOSE_DROPPED, f"{name}: dropped frame 0 (a T-pose)", {"input": name}))
+    return select_frames(m, slice(1, None))
+
+
+def _trim_step(m: Motion, rng: TimeRange, name: str, notes: list[Note]) -> Motion:
+    """Step 3: ``m`` trimmed to ``rng`` (seconds), with its note."""
+    end = m.duration  # the clip's own end, for an open range (the trimmed clip is shorter)
+    m = _trim(m, rng, name)
+    start_s = rng[0] if rng[0] is not None else 0
+    stop_s = rng[1] if rng[1] is not None else end
+    notes.append(
+        LegacyNote(
+            TRIMMED,
+            f"{name}: kept {start_s:g}-{stop_s:g} s ({m.n_frames} frames)",
+            {"input": name, "start_s": start_s, "stop_s": stop_s, "frames": m.n_frames},
+        )
+    )
+    return m
+
+
+def _fold_static_root(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 4: ``m``'s static reference root folded into its child, with its note."""
+    folded = m.skeleton.names[0]
+    m = merge_root(m)
+    notes.append(
+        LegacyNote(
+            STATIC_ROOT_FOLDED,
+            f"{name}: folded the static root {folded!r} into its child {m.skeleton.names[0]!r}",
+            {"input": name, "root": folded, "child": m.skeleton.names[0]},
+        )
+    )
+    return m
+
+
+def _to_metres(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 5: lengths in metres when the unit is known (a note either way but for metres)."""
+    if m.metres_per_unit is not None:
+        if m.metres_per_unit != 1.0:
+            unit = unit_name(m.metres_per_unit)
+            notes.append(
+                LegacyNote(
+                    UNITS_TO_METRES,
+                    f"{name}: lengths from {unit} to metres",
+                    {"input": name, "unit": unit, "metres_per_unit": m.metres_per_unit},
+                )
+            )
+        m = to_metres(m)
+    else:
+        notes.append(
+            LegacyNote(
+                UNITS_UNKNOWN, f"{name}: length unit unknown; lengths kept as in the file", {"input": name}
+            )
+        )
+    return m
+
+
+def _to_y_up(m: Motion, name: str, notes: list[Note]) -> Motion:
+    """Step 6: ``m`` rotated to Y-up, with its note."""
+    if m.up_axis != "y":
+        notes.append(
+            LegacyNote(
+                UP_AXIS_ROTATED,
+                f"{name}: rotated from {m.up_axis}-up to y-up",
+                {"input": name, "from": m.up_axis},
+            )
+        )
+        m = set_up_axis(m, "y")
+    return m
 
 
 def _trim(m: Motion, rng: TimeRange, name: str) -> Motion:
@@ -549,26 +683,13 @@ def _describe_difference(a: Motion, b: Motion, la: str, lb: str) -> str:
     return "; ".join(parts)
 
 
-def _select_joints(ms: list[Motion], labels: list[str], joints: str | tuple[str, ...]) -> tuple[list, list]:
-    notes: list[str] = []
+def _select_joints(
+    ms: list[Motion], labels: list[str], joints: str | tuple[str, ...]
+) -> tuple[list[Motion], list[Note]]:
+    """Set step: the same joint set in every input (``joints`` of :class:`PrepareOptions`)."""
     if joints == "all":
-        names0, pa = set(ms[0].skeleton.names), _parent_names(ms[0])
-        for k in range(1, len(ms)):
-            if set(ms[k].skeleton.names) != names0 or _parent_names(ms[k]) != pa:
-                shared = closed_joint_set(ms[0].skeleton, names0 & set(ms[k].skeleton.names))
-                hint = (
-                    "joints='common' (CLI: --joints common) keeps the shared joints"
-                    if len(shared) >= MIN_COMMON_FRACTION * min(len(names0), ms[k].n_joints)
-                    else f"they share {len(shared)} joints from the root on: the skeletons name their "
-                    "joints differently (a CMU ASF file and a BVH conversion of it do); rename the joints "
-                    "of one to the other's names"
-                )
-                raise OptionError(
-                    "joints",
-                    f"expected the same skeleton in every input; {labels[0]} and {labels[k]} differ "
-                    f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])}); {hint}",
-                )
-        return ms, notes
+        _check_same_skeleton(ms, labels)
+        return ms, []
     if joints == "common":
         wanted = set(ms[0].skeleton.names)
         for m in ms[1:]:
@@ -588,10 +709,17 @@ def _select_joints(ms: list[Motion], labels: list[str], joints: str | tuple[str,
         )
     if joints == "common":
         _check_enough_joints(ms, labels, keep, wanted)
+    notes: list[Note] = []
     for k, m in enumerate(ms):
         dropped = [n for n in m.skeleton.names if n not in keep]
         if dropped:
-            notes.append(f"{labels[k]}: dropped {len(dropped)} joints not shared by all inputs: {dropped}")
+            notes.append(
+                LegacyNote(
+                    JOINTS_DROPPED,
+                    f"{labels[k]}: dropped {len(dropped)} joints not shared by all inputs: {dropped}",
+                    {"input": labels[k], "joints": dropped},
+                )
+            )
             ms[k] = select_joints(m, [n for n in m.skeleton.names if n in keep])
     pa = _parent_names(ms[0])
     for k in range(1, len(ms)):
@@ -602,6 +730,26 @@ def _select_joints(ms: list[Motion], labels: list[str], joints: str | tuple[str,
                 f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])})",
             )
     return ms, notes
+
+
+def _check_same_skeleton(ms: list[Motion], labels: list[str]) -> None:
+    """``joints="all"``: every input has the first's joints with the same parents."""
+    names0, pa = set(ms[0].skeleton.names), _parent_names(ms[0])
+    for k in range(1, len(ms)):
+        if set(ms[k].skeleton.names) != names0 or _parent_names(ms[k]) != pa:
+            shared = closed_joint_set(ms[0].skeleton, names0 & set(ms[k].skeleton.names))
+            hint = (
+                "joints='common' (CLI: --joints common) keeps the shared joints"
+                if len(shared) >= MIN_COMMON_FRACTION * min(len(names0), ms[k].n_joints)
+                else f"they share {len(shared)} joints from the root on: the skeletons name their "
+                "joints differently (a CMU ASF file and a BVH conversion of it do); rename the joints "
+                "of one to the other's names"
+            )
+            raise OptionError(
+                "joints",
+                f"expected the same skeleton in every input; {labels[0]} and {labels[k]} differ "
+                f"({_describe_difference(ms[0], ms[k], labels[0], labels[k])}); {hint}",
+            )
 
 
 def _check_enough_joints(ms: list[Motion], labels: list[str], keep: list[str], shared: set[str]) -> None:
@@ -666,73 +814,22 @@ def prepare_motions(
         return sources
     opts = options or PrepareOptions()
     sources = list(sources)
-    if not sources:
-        raise OptionError("motions", "expected at least one motion; got none")
-    if labels is not None and len(labels) != len(sources):
-        raise OptionError("labels", f"expected {len(sources)} labels; got {len(labels)}")
-    names = [_label_of(s, None if labels is None else labels[k], k) for k, s in enumerate(sources)]
-    ms: list[Motion] = []
-    reports: list[MotionPreparation] = []
-    for k, src in enumerate(sources):
-        m, rep = load_motion(src, opts, label=names[k], trim=opts.trim_for(k, len(sources)))
-        _check_finite(m, names[k])
-        ms.append(m)
-        reports.append(rep)
-    notes = [n for r in reports for n in r.notes]
-    known = [r.metres_per_unit_in is not None for r in reports]
-    if any(known) and not all(known):
-        unknown = [lab for lab, kn in zip(names, known, strict=True) if not kn]
-        raise OptionError(
-            "units", f"expected the length unit of every input; unknown for {unknown} (give units=...)"
-        )
-
-    ms, jnotes = _select_joints(ms, names, opts.joints)
-    notes += jnotes
-    order = ms[0].skeleton.names
-    for k in range(1, len(ms)):
-        if ms[k].skeleton.names != order:
-            ms[k] = _reorder(ms[k], order)
-            notes.append(f"{names[k]}: joints reordered like {names[0]}")
-
-    for k in range(1, len(ms)):
-        ms[k], rnote = rest_pose_like(ms[0].skeleton, ms[k], names[0], names[k])
-        notes += rnote
-
-    fps = ms[0].fps
-    for k in range(1, len(ms)):
-        if not math.isclose(ms[k].fps, fps, rel_tol=1e-9):
-            notes.append(f"{names[k]}: resampled from {ms[k].fps:g} to {fps:g} fps (the rate of {names[0]})")
-            ms[k] = resample(ms[k], fps)
-            if ms[k].n_frames < 3:
-                raise OptionError("motions", f"{names[k]}: expected at least 3 frames at {fps:g} fps")
-
+    names = _input_labels(sources, labels)
+    # per input: read, T-pose, trim, static root, units, up axis (load_motion's steps)
+    ms, reports, notes = _load_each(sources, names, opts)
+    _check_units_known(reports, names)
+    # together: joints, rest pose, frame rate, placement, the curves' joints and weights
+    ms, more = _select_joints(ms, names, opts.joints)
+    notes += more
+    for step in (_same_joint_order, _same_rest_pose, _same_frame_rate):
+        ms, more = step(ms, names)
+        notes += more
     if opts.align:
-        for k in range(1, len(ms)):
-            ms[k], how = place_like(ms[0], ms[k])
-            notes.append(f"{names[k]}: placed like {names[0]} ({how})")
-    facing = [_facing_from_travel(m) for m in ms]
-    for k in range(1, len(ms)):
-        if facing[0] is not None and facing[k] is not None:
-            apart = abs(math.degrees(math.remainder(facing[k] - facing[0], 2 * math.pi)))
-            if apart > _FACING_APART:
-                notes.append(
-                    f"{names[k]}: faces {apart:.0f} deg away from its way of travel compared with {names[0]} "
-                    "(one walks backwards or sideways?): a blend or a distance of the two mixes the facings"
-                )
-
-    fingers = set(finger_joints(ms[0].skeleton))
-    curve_joints = tuple(n for n in order if n not in fingers)
-    body = [select_joints(m, curve_joints) if fingers else m for m in ms]
-    jw, tw = group_weights(body)
-    if fingers:
-        notes.append(
-            "finger joints not part of the curves (a blend interpolates them frame by frame): "
-            f"{sorted(fingers)}"
-        )
-    if opts.units_out is not None:
-        units_out: float | None = UNITS[opts.units_out]
-    else:
-        units_out = reports[0].metres_per_unit_in
+        ms, more = _placed_like_first(ms, names)
+        notes += more
+    notes += _facing_notes(ms, names)
+    curve_joints, jw, tw, more = _curve_weights(ms)
+    notes += more
     return PreparedMotions(
         motions=tuple(ms),
         labels=tuple(names),
@@ -741,8 +838,145 @@ def prepare_motions(
         translation_weight=float(tw),
         notes=tuple(notes),
         inputs=tuple(reports),
-        units_out=units_out,
+        units_out=UNITS[opts.units_out] if opts.units_out is not None else reports[0].metres_per_unit_in,
     )
+
+
+def _input_labels(sources: list[Source], labels: Sequence[str] | None) -> list[str]:
+    """The inputs' names (``labels``, or file stems and ``Motion.name``)."""
+    if not sources:
+        raise OptionError("motions", "expected at least one motion; got none")
+    if labels is not None and len(labels) != len(sources):
+        raise OptionError("labels", f"expected {len(sources)} labels; got {len(labels)}")
+    return [_label_of(s, None if labels is None else labels[k], k) for k, s in enumerate(sources)]
+
+
+def _load_each(
+    sources: list[Source], names: list[str], opts: PrepareOptions
+) -> tuple[list[Motion], list[MotionPreparation], list[Note]]:
+    """Per-input steps (:func:`load_motion`) of every input: motions, reports, notes."""
+    ms: list[Motion] = []
+    reports: list[MotionPreparation] = []
+    notes: list[Note] = []
+    for k, src in enumerate(sources):
+        m, rep, more = _load(src, opts, names[k], opts.trim_for(k, len(sources)))
+        _check_finite(m, names[k])
+        ms.append(m)
+        reports.append(rep)
+        notes += more
+    return ms, reports, notes
+
+
+def _check_units_known(reports: list[MotionPreparation], names: list[str]) -> None:
+    """All or none of the inputs' length units must be known."""
+    known = [r.metres_per_unit_in is not None for r in reports]
+    if any(known) and not all(known):
+        unknown = [lab for lab, kn in zip(names, known, strict=True) if not kn]
+        raise OptionError(
+            "units", f"expected the length unit of every input; unknown for {unknown} (give units=...)"
+        )
+
+
+def _same_joint_order(ms: list[Motion], names: list[str]) -> tuple[list[Motion], list[Note]]:
+    """Set step: every input's joints in the first's order."""
+    notes: list[Note] = []
+    order = ms[0].skeleton.names
+    for k in range(1, len(ms)):
+        if ms[k].skeleton.names != order:
+            ms[k] = _reorder(ms[k], order)
+            notes.append(
+                LegacyNote(
+                    JOINTS_REORDERED,
+                    f"{names[k]}: joints reordered like {names[0]}",
+                    {"input": names[k], "like": names[0]},
+                )
+            )
+    return ms, notes
+
+
+def _same_rest_pose(ms: list[Motion], names: list[str]) -> tuple[list[Motion], list[Note]]:
+    """Set step: every input in the first's rest frames when their rest poses differ
+    (:func:`rest_pose_like`)."""
+    notes: list[Note] = []
+    for k in range(1, len(ms)):
+        ms[k], note = _rest_pose_note(ms[0].skeleton, ms[k], names[0], names[k])
+        if note is not None:
+            notes.append(note)
+    return ms, notes
+
+
+def _same_frame_rate(ms: list[Motion], names: list[str]) -> tuple[list[Motion], list[Note]]:
+    """Set step: every input resampled to the first's frame rate."""
+    notes: list[Note] = []
+    fps = ms[0].fps
+    for k in range(1, len(ms)):
+        if not math.isclose(ms[k].fps, fps, rel_tol=1e-9):
+            notes.append(
+                LegacyNote(
+                    RESAMPLED,
+                    f"{names[k]}: resampled from {ms[k].fps:g} to {fps:g} fps (the rate of {names[0]})",
+                    {"input": names[k], "like": names[0], "from_fps": ms[k].fps, "to_fps": fps},
+                )
+            )
+            ms[k] = resample(ms[k], fps)
+            if ms[k].n_frames < 3:
+                raise OptionError("motions", f"{names[k]}: expected at least 3 frames at {fps:g} fps")
+    return ms, notes
+
+
+def _placed_like_first(ms: list[Motion], names: list[str]) -> tuple[list[Motion], list[Note]]:
+    """Set step: every later input placed like the first (:func:`elastic_motion.motion.place_like`)."""
+    notes: list[Note] = []
+    for k in range(1, len(ms)):
+        ms[k], how = place_like(ms[0], ms[k])
+        notes.append(
+            LegacyNote(
+                PLACED,
+                f"{names[k]}: placed like {names[0]} ({how})",
+                {"input": names[k], "like": names[0], "how": how},
+            )
+        )
+    return ms, notes
+
+
+def _facing_notes(ms: list[Motion], names: list[str]) -> list[Note]:
+    """Notes on inputs that face otherwise than the first relative to their way of travel."""
+    notes: list[Note] = []
+    facing = [_facing_from_travel(m) for m in ms]
+    for k in range(1, len(ms)):
+        if facing[0] is not None and facing[k] is not None:
+            apart = abs(math.degrees(math.remainder(facing[k] - facing[0], 2 * math.pi)))
+            if apart > _FACING_APART:
+                notes.append(
+                    LegacyNote(
+                        FACING_DIFFERS,
+                        f"{names[k]}: faces {apart:.0f} deg away from its way of travel compared with "
+                        f"{names[0]} (one walks backwards or sideways?): a blend or a distance of the two "
+                        "mixes the facings",
+                        {"input": names[k], "like": names[0], "apart_deg": apart},
+                    )
+                )
+    return notes
+
+
+def _curve_weights(ms: list[Motion]) -> tuple[tuple[str, ...], np.ndarray, float, list[Note]]:
+    """The curve joints (all but fingers), their shared Lie weights and the root translation's
+    (:func:`elastic_motion.motion.group_weights`), and a note naming the finger joints."""
+    fingers = set(finger_joints(ms[0].skeleton))
+    curve_joints = tuple(n for n in ms[0].skeleton.names if n not in fingers)
+    body = [select_joints(m, curve_joints) if fingers else m for m in ms]
+    jw, tw = group_weights(body)
+    notes: list[Note] = []
+    if fingers:
+        notes.append(
+            LegacyNote(
+                FINGERS_NOT_CURVES,
+                "finger joints not part of the curves (a blend interpolates them frame by frame): "
+                f"{sorted(fingers)}",
+                {"joints": sorted(fingers)},
+            )
+        )
+    return curve_joints, jw, tw, notes
 
 
 #: Two inputs whose rest poses differ by more than this (degrees, on a bone of at least
@@ -761,22 +995,31 @@ def rest_pose_like(reference: Skeleton, m: Motion, label0: str, label: str) -> t
     than :data:`_REST_POSE_TOLERANCE` (:mod:`elastic_motion.motion.rest_pose`: the same motion
     in the world), with a note naming both (``label0``: the reference's owner); ``m`` itself
     and no note otherwise. Both skeletons hold the same joints (prepared together, or of one
-    skeleton group of a database)."""
+    skeleton group of a database). The note is its text (the database stores texts); its
+    kind is :data:`REST_POSE_CHANGED`."""
+    out, note = _rest_pose_note(reference, m, label0, label)
+    return out, [] if note is None else [str(note)]
+
+
+def _rest_pose_note(reference: Skeleton, m: Motion, label0: str, label: str) -> tuple[Motion, Note | None]:
+    """:func:`rest_pose_like` with its note (kind :data:`REST_POSE_CHANGED`) or None."""
     if m.metres_per_unit is not None:
         shortest = _REST_BONE / m.metres_per_unit
     else:
         shortest = 0.015 * float(np.linalg.norm(m.skeleton.offsets, axis=1).sum())
     angle, bone = rest_pose_difference(reference, m.skeleton, min_length=shortest)
     if angle <= _REST_POSE_TOLERANCE:
-        return m, []
+        return m, None
     # the joints are the first's (selected and ordered before): every one has a frame there
     out = change_rest_frames(m, rest_frames_towards(m.skeleton, reference, min_length=shortest))
     after, _ = rest_pose_difference(reference, out.skeleton, min_length=shortest)
-    return out, [
+    return out, LegacyNote(
+        REST_POSE_CHANGED,
         f"{label}: rest pose unlike {label0}'s (bone {bone} {angle:.0f} deg apart, another conversion): its "
         f"rotations re-expressed in {label0}'s rest frames, the same motion in the world (bones now within "
-        f"{after:.0f} deg)"
-    ]
+        f"{after:.0f} deg)",
+        {"input": label, "like": label0, "bone": bone, "angle_deg": float(angle), "after_deg": float(after)},
+    )
 
 
 #: Two inputs that face more than this (degrees) differently relative to their own way of

@@ -37,6 +37,7 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -157,53 +158,42 @@ def _parse_limits(path: str, items: list[tuple[int, str]], n: int, bone: str) ->
     return out
 
 
-def read_asf(path: str | os.PathLike[str]) -> AsfSkeleton:
-    """Read an ASF skeleton file.
+def _read_lines(path: str | os.PathLike[str]) -> list[str]:
+    """The file's lines, whatever its line ends (CRLF, CR or LF)."""
+    return read_text(path).replace("\r\n", "\n").replace("\r", "\n").split("\n")
 
-    Parameters
-    ----------
-    path : str or os.PathLike
 
-    Returns
-    -------
-    AsfSkeleton
+# ------------------------------------------------------------------------------------------
+# ASF: the sections, one step each
+# ------------------------------------------------------------------------------------------
+_Items = list[tuple[int, list[str]]]
 
-    Raises
-    ------
-    ParseError
-        Missing sections, a bone without name/direction/length, unknown bones or cycles
-        in ``:hierarchy``, non-numeric values.
-    """
-    p = os.fspath(path)
-    text = read_text(path).replace("\r\n", "\n").replace("\r", "\n")
-    lines = text.split("\n")
-    sections = _split_sections(p, lines)
-    for key in ("root", "bonedata", "hierarchy"):
-        if key not in sections:
-            raise ParseError(p, len(lines), f"expected a ':{key}' section, found none")
 
-    # -- units ---------------------------------------------------------------------------------
+def _asf_units(p: str, items: _Items) -> tuple[str, float | None]:
+    """``:units``: the angle unit (``"deg"``, ``"rad"``) and metres per length unit."""
     angle_unit = "deg"
     metres_per_unit: float | None = 0.0254 / 0.45  # CMU default when :units is absent
-    if "units" in sections:
-        for ln, toks in sections["units"][1]:
-            if len(toks) < 2:
-                raise ParseError(p, ln, f"expected 'name value' in :units, found {' '.join(toks)!r}")
-            key = toks[0].lower()
-            if key == "angle":
-                unit = toks[1].lower()
-                if unit not in ("deg", "rad"):
-                    raise ParseError(p, ln, f"expected 'angle deg' or 'angle rad', found {toks[1]!r}")
-                angle_unit = unit
-            elif key == "length":
-                length = _num(p, ln, toks[1], "the length unit")
-                if length <= 0:
-                    raise ParseError(p, ln, f"expected a positive length unit, found {toks[1]!r}")
-                metres_per_unit = 0.0254 / length
-    to_rad = math.pi / 180.0 if angle_unit == "deg" else 1.0
+    for ln, toks in items:
+        if len(toks) < 2:
+            raise ParseError(p, ln, f"expected 'name value' in :units, found {' '.join(toks)!r}")
+        key = toks[0].lower()
+        if key == "angle":
+            unit = toks[1].lower()
+            if unit not in ("deg", "rad"):
+                raise ParseError(p, ln, f"expected 'angle deg' or 'angle rad', found {toks[1]!r}")
+            angle_unit = unit
+        elif key == "length":
+            length = _num(p, ln, toks[1], "the length unit")
+            if length <= 0:
+                raise ParseError(p, ln, f"expected a positive length unit, found {toks[1]!r}")
+            metres_per_unit = 0.0254 / length
+    return angle_unit, metres_per_unit
 
-    # -- root -------------------------------------------------------------------------------------
-    root_line, root_items = sections["root"]
+
+def _asf_root(p: str, section: tuple[int, _Items], to_rad: float) -> tuple[tuple[str, ...], np.ndarray]:
+    """``:root``: the AMC value names of the root (its ``order``) and its rest frame ``(3, 3)``
+    (``orientation`` about the fixed axes of ``axis``)."""
+    root_line, root_items = section
     root = {toks[0].lower(): (ln, toks[1:]) for ln, toks in root_items}
     if "order" not in root:
         raise ParseError(p, root_line, "expected an 'order' line in :root (e.g. 'order TX TY TZ RX RY RZ')")
@@ -230,94 +220,150 @@ def read_asf(path: str | os.PathLike[str]) -> AsfSkeleton:
             raise ParseError(p, ln, f"expected 3 position values, found {len(toks)}")
         for t in toks:
             _num(p, ln, t, "a position value")
+    return tuple(order), _extrinsic(root_orient, root_axis_order)
 
-    # -- bones -----------------------------------------------------------------------------------
-    bones: dict[str, dict] = {}
-    bone_order: list[str] = []
-    current: dict | None = None
-    limits_items: list[tuple[int, str]] = []
 
-    def finish(bone: dict, end_line: int) -> None:
-        for key in ("name", "direction", "length"):
-            if key not in bone:
-                raise ParseError(p, end_line, f"bone starting on line {bone['line']} has no '{key}'")
-        if limits_items:
-            bone["limits"] = _parse_limits(p, limits_items, len(bone.get("dof", ())), bone["name"])
-        if bone["name"] in bones or bone["name"] == "root":
-            raise ParseError(p, bone["line"], f"bone name {bone['name']!r} is used twice")
-        bones[bone["name"]] = bone
-        bone_order.append(bone["name"])
+def _bone_name(p: str, ln: int, args: list[str], to_rad: float) -> str:
+    if len(args) != 1:
+        raise ParseError(p, ln, f"expected one bone name, found {args}")
+    return args[0]
 
-    for ln, toks in sections["bonedata"][1]:
+
+def _bone_direction(p: str, ln: int, args: list[str], to_rad: float) -> np.ndarray:
+    """The unit direction ``(3,)`` (files round it to six digits)."""
+    if len(args) != 3:
+        raise ParseError(p, ln, f"expected 3 direction values, found {len(args)}")
+    d = np.array([_num(p, ln, t, "a direction value") for t in args])
+    big = float(np.abs(d).max())
+    if big > 0:  # scaled first: the norm of a direction of 1e200 would overflow
+        d = d / big
+        d = d / float(np.linalg.norm(d))
+    return d
+
+
+def _bone_length(p: str, ln: int, args: list[str], to_rad: float) -> float:
+    if len(args) != 1:
+        raise ParseError(p, ln, f"expected one length value, found {len(args)}")
+    return _num(p, ln, args[0], "the bone length")
+
+
+def _bone_axis(p: str, ln: int, args: list[str], to_rad: float) -> np.ndarray:
+    """The bone's rest frame ``C_b`` ``(3, 3)`` from ``axis a1 a2 a3 ORDER``."""
+    if len(args) != 4 or sorted(args[3].upper()) != ["X", "Y", "Z"]:
+        raise ParseError(
+            p, ln, f"expected 'axis a1 a2 a3 ORDER' (e.g. '0 0 20 XYZ'), found {' '.join(args)!r}"
+        )
+    angles = np.array([_num(p, ln, t, "an axis angle") for t in args[:3]]) * to_rad
+    return _extrinsic(angles, args[3].upper())
+
+
+def _bone_dof(p: str, ln: int, args: list[str], to_rad: float) -> tuple[str, ...]:
+    dof = tuple(t.lower() for t in args)
+    for t in dof:
+        if t not in _ROT_DOF:
+            raise ParseError(
+                p,
+                ln,
+                f"expected rotation dofs (rx, ry, rz), found {t!r} "
+                "(translation and length dofs are not supported)",
+            )
+    if len(set(dof)) != len(dof):
+        raise ParseError(p, ln, f"repeated dof in {list(dof)}")
+    return dof
+
+
+def _bone_id(p: str, ln: int, args: list[str], to_rad: float) -> None:
+    if len(args) != 1:
+        raise ParseError(p, ln, f"expected one id, found {args}")
+
+
+#: The ``:bonedata`` keys read (each checked; ``id`` is checked and dropped). ``limits`` has
+#: its own block; ``bodymass``, ``cofmass`` and other keys carry nothing we use: skipped.
+_BONE_FIELDS = {
+    "name": _bone_name,
+    "direction": _bone_direction,
+    "length": _bone_length,
+    "axis": _bone_axis,
+    "dof": _bone_dof,
+    "id": _bone_id,
+}
+
+
+class _BoneData:
+    """``:bonedata``, one line at a time: ``begin``, a bone's fields and ``limits``, ``end``.
+
+    ``bones`` maps each name to its fields (``line``, ``name``, ``direction``, ``length`` and,
+    when given, ``axis``, ``dof``, ``limits``), in file order.
+    """
+
+    def __init__(self, path: str, to_rad: float) -> None:
+        self.path = path
+        self.to_rad = to_rad
+        self.bones: dict[str, dict[str, Any]] = {}
+        self.current: dict[str, Any] | None = None
+        self.limit_items: list[tuple[int, str]] = []
+
+    def read(self, items: _Items, last_line: int) -> dict[str, dict[str, Any]]:
+        for ln, toks in items:
+            self.line(ln, toks)
+        if self.current is not None:
+            raise ParseError(
+                self.path, last_line, f"bone starting on line {self.current['line']} has no 'end'"
+            )
+        return self.bones
+
+    def line(self, ln: int, toks: list[str]) -> None:
         key = toks[0].lower()
         if key == "begin":
-            if current is not None:
-                raise ParseError(p, ln, "expected 'end' before the next 'begin'")
-            current = {"line": ln}
-            limits_items = []
-            continue
-        if current is None:
-            raise ParseError(p, ln, f"expected 'begin' to open a bone, found {toks[0]!r}")
+            if self.current is not None:
+                raise ParseError(self.path, ln, "expected 'end' before the next 'begin'")
+            self.current = {"line": ln}
+            self.limit_items = []
+            return
+        if self.current is None:
+            raise ParseError(self.path, ln, f"expected 'begin' to open a bone, found {toks[0]!r}")
         if key == "end":
-            finish(current, ln)
-            current = None
-            continue
-        if toks[0].startswith("(") and limits_items:  # continuation of a limits block
-            limits_items.append((ln, " ".join(toks)))
-            continue
-        args = toks[1:]
-        if key == "name":
-            if len(args) != 1:
-                raise ParseError(p, ln, f"expected one bone name, found {args}")
-            current["name"] = args[0]
-        elif key == "direction":
-            if len(args) != 3:
-                raise ParseError(p, ln, f"expected 3 direction values, found {len(args)}")
-            d = np.array([_num(p, ln, t, "a direction value") for t in args])
-            big = float(np.abs(d).max())
-            if big > 0:  # scaled first: the norm of a direction of 1e200 would overflow
-                d = d / big
-                d = d / float(np.linalg.norm(d))
-            current["direction"] = d
-        elif key == "length":
-            if len(args) != 1:
-                raise ParseError(p, ln, f"expected one length value, found {len(args)}")
-            current["length"] = _num(p, ln, args[0], "the bone length")
-        elif key == "axis":
-            if len(args) != 4 or sorted(args[3].upper()) != ["X", "Y", "Z"]:
-                raise ParseError(
-                    p, ln, f"expected 'axis a1 a2 a3 ORDER' (e.g. '0 0 20 XYZ'), found {' '.join(args)!r}"
-                )
-            angles = np.array([_num(p, ln, t, "an axis angle") for t in args[:3]]) * to_rad
-            current["axis"] = _extrinsic(angles, args[3].upper())
-        elif key == "dof":
-            dof = tuple(t.lower() for t in args)
-            for t in dof:
-                if t not in _ROT_DOF:
-                    raise ParseError(
-                        p,
-                        ln,
-                        f"expected rotation dofs (rx, ry, rz), found {t!r} "
-                        "(translation and length dofs are not supported)",
-                    )
-            if len(set(dof)) != len(dof):
-                raise ParseError(p, ln, f"repeated dof in {list(dof)}")
-            current["dof"] = dof
+            self.finish(self.current, ln)
+            self.current = None
+        elif toks[0].startswith("(") and self.limit_items:  # continuation of a limits block
+            self.limit_items.append((ln, " ".join(toks)))
         elif key == "limits":
-            limits_items = [(ln, " ".join(args))]
-        elif key == "id":
-            if len(args) != 1:
-                raise ParseError(p, ln, f"expected one id, found {args}")
-        # bodymass, cofmass and other keys carry nothing we use: skipped.
-    if current is not None:
-        raise ParseError(p, len(lines), f"bone starting on line {current['line']} has no 'end'")
+            self.limit_items = [(ln, " ".join(toks[1:]))]
+        elif key in _BONE_FIELDS:
+            value = _BONE_FIELDS[key](self.path, ln, toks[1:], self.to_rad)
+            if key != "id":
+                self.current[key] = value
 
-    # -- hierarchy -------------------------------------------------------------------------------
+    def finish(self, bone: dict[str, Any], end_line: int) -> None:
+        for key in ("name", "direction", "length"):
+            if key not in bone:
+                raise ParseError(self.path, end_line, f"bone starting on line {bone['line']} has no '{key}'")
+        if self.limit_items:
+            bone["limits"] = _parse_limits(
+                self.path, self.limit_items, len(bone.get("dof", ())), bone["name"]
+            )
+        if bone["name"] in self.bones or bone["name"] == "root":
+            raise ParseError(self.path, bone["line"], f"bone name {bone['name']!r} is used twice")
+        self.bones[bone["name"]] = bone
+
+
+@dataclass(frozen=True)
+class _Tree:
+    """The bones' tree of ``:hierarchy``: ``order`` lists ``root`` then the bones depth-first."""
+
+    order: list[str]
+    parent_of: dict[str, str]
+    children: dict[str, list[str]]
+
+
+def _hierarchy_links(
+    p: str, items: _Items, bones: dict[str, Any]
+) -> tuple[dict[str, list[str]], dict[str, str]]:
+    """The ``parent child child ...`` lines of ``:hierarchy``: children and parent of each name."""
     children: dict[str, list[str]] = {"root": []}
     parent_of: dict[str, str] = {}
-    h_line, h_items = sections["hierarchy"]
     opened = False
-    for ln, toks in h_items:
+    for ln, toks in items:
         key = toks[0].lower()
         if key == "begin":
             opened = True
@@ -335,51 +381,220 @@ def read_asf(path: str | os.PathLike[str]) -> AsfSkeleton:
                 raise ParseError(p, ln, f"bone {kid!r} has more than one parent in :hierarchy")
             parent_of[kid] = parent
             children.setdefault(parent, []).append(kid)
+    return children, parent_of
+
+
+def _asf_hierarchy(p: str, section: tuple[int, _Items], bones: dict[str, Any]) -> _Tree:
+    """``:hierarchy``: every bone attached once, all connected to the root."""
+    h_line, h_items = section
+    children, parent_of = _hierarchy_links(p, h_items, bones)
     order_names = ["root"]
     stack = list(reversed(children.get("root", [])))
     while stack:
         name = stack.pop()
         order_names.append(name)
         stack.extend(reversed(children.get(name, [])))
-    missing = [b for b in bone_order if b not in parent_of]
+    missing = [b for b in bones if b not in parent_of]
     if missing:
         raise ParseError(p, h_line, f"bone {missing[0]!r} is not attached to the skeleton in :hierarchy")
-    if len(order_names) != len(bone_order) + 1:  # a cycle detached from the root
-        lost = [b for b in bone_order if b not in set(order_names)]
+    if len(order_names) != len(bones) + 1:  # a cycle detached from the root
+        lost = [b for b in bones if b not in set(order_names)]
         raise ParseError(p, h_line, f"bone {lost[0]!r} is not connected to the root (cycle in :hierarchy)")
+    return _Tree(order_names, parent_of, children)
 
-    index = {n: k for k, n in enumerate(order_names)}
-    n = len(order_names)
-    _limits.check_clip(p, h_line, joints=n)
+
+def _joint_skeleton(tree: _Tree, bones: dict[str, Any], root_axis: np.ndarray) -> tuple[Skeleton, np.ndarray]:
+    """The joint skeleton (module docstring) and the rest frames ``C_b`` ``(J, 3, 3)``."""
+    index = {n: k for k, n in enumerate(tree.order)}
+    n = len(tree.order)
     parents = np.full(n, -1)
     offsets = np.zeros((n, 3))
     axis = np.empty((n, 3, 3))
-    axis[0] = _extrinsic(root_orient, root_axis_order)
-    dof: list[tuple[str, ...]] = [tuple(order)]
-    limits: list[list[tuple[float, float]]] = [[]]
+    axis[0] = root_axis
     es_parents, es_offsets = [], []
-    for k, name in enumerate(order_names[1:], start=1):
+    for k, name in enumerate(tree.order[1:], start=1):
         bone = bones[name]
-        par = parent_of[name]
+        par = tree.parent_of[name]
         parents[k] = index[par]
         if par != "root":
             pb = bones[par]
             offsets[k] = pb["direction"] * pb["length"]
         axis[k] = bone.get("axis", np.eye(3))
-        dof.append(bone.get("dof", ()))
-        limits.append(bone.get("limits", []))
-        if not children.get(name):
+        if not tree.children.get(name):
             es_parents.append(k)
             es_offsets.append(bone["direction"] * bone["length"])
     skeleton = Skeleton(
-        names=order_names,
+        names=tree.order,
         parents=parents,
         offsets=offsets,
         channels=[_BVH_ROOT_CHANNELS] + [_BVH_JOINT_CHANNELS] * (n - 1),
         end_site_parents=es_parents,
         end_site_offsets=np.array(es_offsets).reshape(-1, 3),
     )
+    return skeleton, axis
+
+
+def read_asf(path: str | os.PathLike[str]) -> AsfSkeleton:
+    """Read an ASF skeleton file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    AsfSkeleton
+
+    Raises
+    ------
+    ParseError
+        Missing sections, a bone without name/direction/length, unknown bones or cycles
+        in ``:hierarchy``, non-numeric values.
+    """
+    p = os.fspath(path)
+    lines = _read_lines(path)
+    sections = _split_sections(p, lines)
+    for key in ("root", "bonedata", "hierarchy"):
+        if key not in sections:
+            raise ParseError(p, len(lines), f"expected a ':{key}' section, found none")
+    angle_unit, metres_per_unit = _asf_units(p, sections["units"][1] if "units" in sections else [])
+    to_rad = math.pi / 180.0 if angle_unit == "deg" else 1.0
+    root_order, root_axis = _asf_root(p, sections["root"], to_rad)
+    bones = _BoneData(p, to_rad).read(sections["bonedata"][1], len(lines))
+    tree = _asf_hierarchy(p, sections["hierarchy"], bones)
+    _limits.check_clip(p, sections["hierarchy"][0], joints=len(tree.order))
+    skeleton, axis = _joint_skeleton(tree, bones, root_axis)
+    dof: list[tuple[str, ...]] = [root_order] + [bones[name].get("dof", ()) for name in tree.order[1:]]
+    limits: list[list[tuple[float, float]]] = [[]] + [
+        bones[name].get("limits", []) for name in tree.order[1:]
+    ]
     return AsfSkeleton(skeleton, dof, axis, limits, angle_unit, metres_per_unit, p)
+
+
+# ------------------------------------------------------------------------------------------
+# AMC: frame blocks of bone lines
+# ------------------------------------------------------------------------------------------
+class _AmcFrames:
+    """The frame blocks of an AMC file, one line at a time (:func:`read_amc`).
+
+    ``frames[f][k]`` holds the values of joint ``k`` in frame ``f`` (None until its line);
+    ``to_rad`` follows ``:RADIANS`` / ``:DEGREES`` (the ASF's angle unit by default).
+    """
+
+    def __init__(self, path: str, asf: AsfSkeleton) -> None:
+        self.path = path
+        self.asf = asf
+        self.index = {name: k for k, name in enumerate(asf.skeleton.names)}
+        self.n_vals = [len(d) for d in asf.dof]
+        self.needed = [k for k in range(asf.skeleton.n_joints) if self.n_vals[k] > 0]
+        self.to_rad = math.pi / 180.0 if asf.angle_unit == "deg" else 1.0
+        self.frames: list[list[np.ndarray | None]] = []
+        self.frame_lines: list[int] = []
+        self.current: list[np.ndarray | None] | None = None
+        self.last_number: int | None = None
+
+    def read(self, lines: list[str]) -> list[list[np.ndarray | None]]:
+        for i, raw in enumerate(lines, start=1):
+            s = raw.strip()
+            if not s or s.startswith("#"):
+                continue
+            if s.startswith(":"):
+                self.keyword(i, s.split()[0].upper())
+                continue
+            toks = s.split()
+            if len(toks) == 1 and toks[0].isascii() and toks[0].isdigit():
+                self.frame_number(i, toks[0])
+            else:
+                self.bone_line(i, toks)
+        if not self.frames:
+            raise ParseError(self.path, len(lines), "expected at least one frame, found none")
+        self.close_frame()
+        return self.frames  # type: ignore[return-value]
+
+    def keyword(self, i: int, word: str) -> None:
+        if self.current is not None:
+            raise ParseError(self.path, i, f"expected bone values or a frame number, found {word!r}")
+        if word == ":RADIANS":
+            self.to_rad = 1.0
+        elif word == ":DEGREES":
+            self.to_rad = math.pi / 180.0
+
+    def frame_number(self, i: int, tok: str) -> None:
+        if len(tok) > 18:  # int() of thousands of digits is refused (and no clip is that long)
+            raise ParseError(
+                self.path, i, f"expected a frame number, found {tok[:20]!r}... ({len(tok)} digits)"
+            )
+        number = int(tok)
+        if self.last_number is not None and number != self.last_number + 1:
+            raise ParseError(self.path, i, f"expected frame number {self.last_number + 1}, found {number}")
+        self.close_frame()
+        self.last_number = number
+        self.current = [None] * self.asf.skeleton.n_joints
+        self.frames.append(self.current)
+        self.frame_lines.append(i)
+
+    def close_frame(self) -> None:
+        if self.current is None:
+            return
+        for k in self.needed:
+            if self.current[k] is None:
+                raise ParseError(
+                    self.path,
+                    self.frame_lines[-1],
+                    f"frame {self.last_number} has no line for bone {self.asf.skeleton.names[k]!r}",
+                )
+
+    def bone_line(self, i: int, toks: list[str]) -> None:
+        name = toks[0]
+        if self.current is None:
+            raise ParseError(
+                self.path, i, f"expected a frame number before the first bone line, found {name!r}"
+            )
+        if name not in self.index:
+            raise ParseError(self.path, i, f"unknown bone {name!r} (not in the ASF skeleton {self.asf.path})")
+        k = self.index[name]
+        if self.current[k] is not None:
+            raise ParseError(self.path, i, f"bone {name!r} appears twice in frame {self.last_number}")
+        vals = toks[1:]
+        if len(vals) != self.n_vals[k]:
+            dof = " ".join(self.asf.dof[k]) or "none"
+            raise ParseError(
+                self.path,
+                i,
+                f"expected {self.n_vals[k]} values for bone {name!r} (dof {dof}), found {len(vals)}",
+            )
+        self.current[k] = np.array([_num(self.path, i, t, f"a value for bone {name!r}") for t in vals])
+
+
+def _amc_pose(
+    asf: AsfSkeleton, frames: list[list[np.ndarray]], to_rad: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Root translation ``(F, 3)`` and local rotations ``(F, J, 3, 3)`` (``R_b = C_b M_b C_b^T``)
+    of the frames' values."""
+    f, j = len(frames), asf.skeleton.n_joints
+    n_vals = [len(d) for d in asf.dof]
+    # Gather per-joint value arrays (F, n_vals[k]).
+    values = [np.array([fr[k] for fr in frames]) if n_vals[k] else np.zeros((f, 0)) for k in range(j)]
+    rotations = np.empty((f, j, 3, 3))
+    # Root: translation and rotation channels as listed in `order`.
+    root_translation = np.zeros((f, 3))
+    rot_axes = ""
+    rot_cols = []
+    for c, tok in enumerate(asf.dof[0]):
+        if tok.startswith("T"):
+            root_translation[:, "XYZ".index(tok[1])] = values[0][:, c]
+        else:
+            rot_axes += tok[1]
+            rot_cols.append(c)
+    m_root = _extrinsic(values[0][:, rot_cols] * to_rad, rot_axes)
+    c0 = asf.axis[0]
+    rotations[:, 0] = c0 @ m_root @ c0.T
+    for k in range(1, j):
+        axes = "".join(_ROT_DOF[d] for d in asf.dof[k])
+        m = _extrinsic(values[k] * to_rad, axes)
+        ck = asf.axis[k]
+        rotations[:, k] = ck @ m @ ck.T
+    return root_translation, rotations
 
 
 def read_amc(
@@ -417,101 +632,14 @@ def read_amc(
         raise ValueError(f"fps: expected a positive frame rate; got {fps!r}")
     _limits.check_option("fps", "a frame rate (fps) of", fps, "max_fps")
     _limits.check_option("fps", "a frame rate (fps) of", fps, "min_fps", at_least=True)
-    text = read_text(path).replace("\r\n", "\n").replace("\r", "\n")
-    lines = text.split("\n")
-    sk = asf.skeleton
-    index = {name: k for k, name in enumerate(sk.names)}
-    n_vals = [len(d) for d in asf.dof]
-    needed = [k for k in range(sk.n_joints) if n_vals[k] > 0]
-    to_rad = math.pi / 180.0 if asf.angle_unit == "deg" else 1.0
-
-    frames: list[list[np.ndarray | None]] = []
-    frame_lines: list[int] = []
-    current: list[np.ndarray | None] | None = None
-    last_number: int | None = None
-
-    def close_frame() -> None:
-        if current is None:
-            return
-        for k in needed:
-            if current[k] is None:
-                raise ParseError(
-                    p, frame_lines[-1], f"frame {last_number} has no line for bone {sk.names[k]!r}"
-                )
-
-    for i, raw in enumerate(lines, start=1):
-        s = raw.strip()
-        if not s or s.startswith("#"):
-            continue
-        if s.startswith(":"):
-            word = s.split()[0].upper()
-            if current is not None:
-                raise ParseError(p, i, f"expected bone values or a frame number, found {word!r}")
-            if word == ":RADIANS":
-                to_rad = 1.0
-            elif word == ":DEGREES":
-                to_rad = math.pi / 180.0
-            continue
-        toks = s.split()
-        if len(toks) == 1 and toks[0].isascii() and toks[0].isdigit():
-            if len(toks[0]) > 18:  # int() of thousands of digits is refused (and no clip is that long)
-                raise ParseError(
-                    p, i, f"expected a frame number, found {toks[0][:20]!r}... ({len(toks[0])} digits)"
-                )
-            number = int(toks[0])
-            if last_number is not None and number != last_number + 1:
-                raise ParseError(p, i, f"expected frame number {last_number + 1}, found {number}")
-            close_frame()
-            last_number = number
-            current = [None] * sk.n_joints
-            frames.append(current)
-            frame_lines.append(i)
-            continue
-        name = toks[0]
-        if current is None:
-            raise ParseError(p, i, f"expected a frame number before the first bone line, found {name!r}")
-        if name not in index:
-            raise ParseError(p, i, f"unknown bone {name!r} (not in the ASF skeleton {asf.path})")
-        k = index[name]
-        if current[k] is not None:
-            raise ParseError(p, i, f"bone {name!r} appears twice in frame {last_number}")
-        vals = toks[1:]
-        if len(vals) != n_vals[k]:
-            dof = " ".join(asf.dof[k]) or "none"
-            raise ParseError(
-                p, i, f"expected {n_vals[k]} values for bone {name!r} (dof {dof}), found {len(vals)}"
-            )
-        current[k] = np.array([_num(p, i, t, f"a value for bone {name!r}") for t in vals])
-    if not frames:
-        raise ParseError(p, len(lines), "expected at least one frame, found none")
-    close_frame()
-
-    f, j = len(frames), sk.n_joints
+    lines = _read_lines(path)
+    reader = _AmcFrames(p, asf)
+    frames = reader.read(lines)
+    f, j = len(frames), asf.skeleton.n_joints
     _limits.check_clip(p, len(lines), frames=f, duration=f / fps, joints=j)
-    # Gather per-joint value arrays (F, n_vals[k]).
-    values = [np.array([fr[k] for fr in frames]) if n_vals[k] else np.zeros((f, 0)) for k in range(j)]
-    rotations = np.empty((f, j, 3, 3))
-    # Root: translation and rotation channels as listed in `order`.
-    root_order = asf.dof[0]
-    root_translation = np.zeros((f, 3))
-    rot_axes = ""
-    rot_cols = []
-    for c, tok in enumerate(root_order):
-        if tok.startswith("T"):
-            root_translation[:, "XYZ".index(tok[1])] = values[0][:, c]
-        else:
-            rot_axes += tok[1]
-            rot_cols.append(c)
-    m_root = _extrinsic(values[0][:, rot_cols] * to_rad, rot_axes)
-    c0 = asf.axis[0]
-    rotations[:, 0] = c0 @ m_root @ c0.T
-    for k in range(1, j):
-        axes = "".join(_ROT_DOF[d] for d in asf.dof[k])
-        m = _extrinsic(values[k] * to_rad, axes)
-        ck = asf.axis[k]
-        rotations[:, k] = ck @ m @ ck.T
+    root_translation, rotations = _amc_pose(asf, frames, reader.to_rad)
     return Motion(
-        skeleton=sk,
+        skeleton=asf.skeleton,
         fps=fps,
         root_translation=root_translation,
         rotations=rotations,

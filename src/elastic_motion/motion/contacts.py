@@ -57,12 +57,18 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from elastic_motion.errors import OptionError
+from elastic_motion.legacy_notes import LegacyNote
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.skeleton import Motion, Skeleton
+from elastic_motion.notes import Note, note_texts
 
 __all__ = [
     "CONTACT_POLICIES",
+    "FLOOR_NOT_LEVEL",
+    "MISSED_STANCES",
     "MISSED_STANCES_NOTE",
+    "NEVER_NEAR_FLOOR",
+    "NO_CONTACT_JOINTS",
     "ContactOptions",
     "ContactPolicy",
     "Contacts",
@@ -86,7 +92,22 @@ FLOOR_MAX_RATE = 0.07
 #: Largest total variation of a floor that is not level, in multiples of its range (one way).
 _FLOOR_MONOTONE = 1.2
 #: How the note on stretches that look planted but are not contacts starts (:func:`detect_contacts`).
+#: Kept for one release for callers that test the text: test ``note.kind == MISSED_STANCES``.
 MISSED_STANCES_NOTE = "slow stretches above the contact height, not counted as contacts"
+
+# Kinds of :attr:`Contacts.notes` (:mod:`elastic_motion.notes`), data in the contacts' unit
+# (metres, or the motion's unit when unknown) and seconds.
+#: No candidate joint in the skeleton (no data).
+NO_CONTACT_JOINTS = "contacts.no_candidates"
+#: The floor is not level (module docstring); data ``rise``, ``start``, ``end`` (its height
+#: above ``floor`` at the first and last frames) and ``floor``.
+FLOOR_NOT_LEVEL = "contacts.floor_not_level"
+#: Candidates that never touch in this clip; data ``joints`` (names).
+NEVER_NEAR_FLOOR = "contacts.never_near_floor"
+#: Stretches that look planted above the contact height (module docstring); data ``joints``:
+#: per joint ``count``, ``first_s`` (start of the first), ``lowest`` and ``highest`` (their
+#: lowest heights above the joint's ground height, the least and the most).
+MISSED_STANCES = "contacts.missed_stances"
 _GROUND_PERCENTILE = 5.0
 
 #: What an app does with the contacts of its inputs, one vocabulary for blend, loop, blend
@@ -174,8 +195,9 @@ class Contacts:
     fps : float
     up_axis : str
     options : ContactOptions
-    notes : tuple of str
-        What was found or skipped (no candidate joints, joints that never touch).
+    notes : tuple of Note
+        What was found or skipped, kinds :data:`NO_CONTACT_JOINTS`, :data:`FLOOR_NOT_LEVEL`,
+        :data:`NEVER_NEAR_FLOOR`, :data:`MISSED_STANCES`.
     floor_offset : ndarray, shape (F,), or None
         A floor that is not level (module docstring): its height above ``floor`` frame by
         frame (same unit); None for a level floor. :meth:`floor_heights` gives both.
@@ -189,7 +211,7 @@ class Contacts:
     fps: float
     up_axis: str
     options: ContactOptions = field(default_factory=ContactOptions)
-    notes: tuple[str, ...] = ()
+    notes: tuple[Note, ...] = ()
     floor_offset: np.ndarray | None = None
 
     @property
@@ -256,7 +278,7 @@ class Contacts:
                 for name, runs in self.all_intervals().items()
             },
             "candidates": list(self.joints),
-            "notes": list(self.notes),
+            "notes": note_texts(self.notes),
         }
 
 
@@ -313,6 +335,7 @@ def floor_profile(motion: Motion, positions: np.ndarray, floor: float, rise: flo
         None for a clip shorter than ``1.5 * FLOOR_WINDOW``, a floor that moves less than
         ``rise``, faster than :data:`FLOOR_MAX_RATE`, or up and down.
     """
+    # local: scipy.ndimage takes 0.3 s to import, which `import elastic_motion.motion` does not pay
     from scipy.ndimage import gaussian_filter1d, percentile_filter
 
     f = motion.n_frames
@@ -390,6 +413,11 @@ def _below(skeleton: Skeleton, idx: Sequence[int]) -> list[list[int]]:
     return [[i for i, j in enumerate(idx) if j != jk and j in skeleton.subtree(jk)] for jk in idx]
 
 
+def _frames_of(seconds: float, fps: float) -> int:
+    """The least whole number of frames (at least 1) that lasts ``seconds``."""
+    return max(1, math.ceil(seconds * fps - 1e-9))
+
+
 def _missed_stances(
     names: Sequence[str],
     mask: np.ndarray,
@@ -398,18 +426,22 @@ def _missed_stances(
     touches: np.ndarray,
     below: Sequence[Sequence[int]],
     opts: ContactOptions,
-    min_len: int,
     fps: float,
-) -> list[str]:
+) -> dict[str, dict[str, Any]]:
     """Per joint, the stretches that look planted but are not contacts: slower than
     ``speed_enter`` for at least ``min_duration``, never in contact, within
     ``max_ground_offset / 2`` of the joint's ground height but above ``height_enter``
     (CMU 07_01 and 08_02: the floor rises 4-6 cm over 2.6 s and the later stances stand
     3-6 cm above the first). A stretch during most of which a joint below it (``below[k]``:
     its toe) is planted is a heel raised on the toe, not a missed stance, and is left out
-    (CMU 131_02 walks slowly on its toes: 10 such stretches of its ankles, 5-9 cm up). One
-    text per joint that has some (lengths in the contacts' unit)."""
-    out = []
+    (CMU 131_02 walks slowly on its toes: 10 such stretches of its ankles, 5-9 cm up).
+
+    Returns, for each joint that has some: ``count``, ``first_s`` (start of the first, s),
+    ``lowest`` and ``highest`` (the least and the most of their lowest heights above the
+    joint's ground height, in the contacts' unit).
+    """
+    min_len = _frames_of(opts.min_duration, fps)
+    out = {}
     for k in np.flatnonzero(touches):
         found = []
         for a, b in mask_runs(speed[:, k] <= opts.speed_enter):
@@ -422,11 +454,59 @@ def _missed_stances(
                 found.append((a, low))
         if found:
             lows = [x for _, x in found]
-            out.append(
-                f"{names[k]} {len(found)} (the first at {found[0][0] / fps:.2f} s), "
-                f"{min(lows):.3f}-{max(lows):.3f} m above its lowest height"
-            )
+            out[names[k]] = {
+                "count": len(found),
+                "first_s": found[0][0] / fps,
+                "lowest": min(lows),
+                "highest": max(lows),
+            }
     return out
+
+
+def _contact_notes(
+    names: Sequence[str], touches: np.ndarray, floor: float, offset: np.ndarray | None, missed: dict[str, Any]
+) -> tuple[Note, ...]:
+    """The notes of :func:`detect_contacts`: a floor that is not level (``offset``), joints
+    that never touch, missed stances (:func:`_missed_stances`)."""
+    notes = []
+    if offset is not None:
+        notes.append(
+            LegacyNote(
+                FLOOR_NOT_LEVEL,
+                f"the floor is not level: it moves by {np.ptp(offset):.3g} over the clip (from "
+                f"{offset[0]:+.3g} to {offset[-1]:+.3g} about the floor {floor:.3g}); heights are "
+                "measured from it frame by frame",
+                {
+                    "rise": float(np.ptp(offset)),
+                    "start": float(offset[0]),
+                    "end": float(offset[-1]),
+                    "floor": float(floor),
+                },
+            )
+        )
+    never = [n for n, t in zip(names, touches, strict=True) if not t]
+    if never:
+        notes.append(
+            LegacyNote(
+                NEVER_NEAR_FLOOR, f"never near the floor in this clip: {never}", {"joints": list(never)}
+            )
+        )
+    if missed:
+        per_joint = [
+            f"{name} {m['count']} (the first at {m['first_s']:.2f} s), "
+            f"{m['lowest']:.3f}-{m['highest']:.3f} m above its lowest height"
+            for name, m in missed.items()
+        ]
+        notes.append(
+            LegacyNote(
+                MISSED_STANCES,
+                MISSED_STANCES_NOTE + " (a floor that is not "
+                "level, or a capture that drifts? ContactOptions(height_enter=) counts them): "
+                + "; ".join(per_joint),
+                {"joints": missed},
+            )
+        )
+    return tuple(notes)
 
 
 def detect_contacts(
@@ -477,7 +557,8 @@ def detect_contacts(
     if not idx:
         return Contacts(
             names, np.zeros(0, dtype=np.int64), np.zeros((f, 0), dtype=bool), floor, np.zeros(0),
-            motion.fps, motion.up_axis, opts, ("no joint that can touch the floor (feet, toes, hands)",),
+            motion.fps, motion.up_axis, opts,
+            (LegacyNote(NO_CONTACT_JOINTS, "no joint that can touch the floor (feet, toes, hands)"),),
         )  # fmt: skip
     p = pos[:, idx]
     offset = floor_profile(motion, pos, floor, opts.height_enter) if opts.follow_floor else None
@@ -489,29 +570,14 @@ def detect_contacts(
     near_enter = (rel <= opts.height_enter) & (speed <= opts.speed_enter) & touches
     near_exit = (rel <= opts.height_exit) & (speed <= opts.speed_exit) & touches
     mask = _hysteresis(near_enter, near_exit)
-    min_len = max(1, math.ceil(opts.min_duration * motion.fps - 1e-9))
-    min_gap = max(1, math.ceil(opts.min_gap * motion.fps - 1e-9))
+    min_len = _frames_of(opts.min_duration, motion.fps)
+    min_gap = _frames_of(opts.min_gap, motion.fps)
     for k in range(mask.shape[1]):
         mask[:, k] = close_gaps(mask[:, k], min_len, min_gap)
-    notes = []
-    if offset is not None:
-        notes.append(
-            f"the floor is not level: it moves by {np.ptp(offset):.3g} over the clip (from "
-            f"{offset[0]:+.3g} to {offset[-1]:+.3g} about the floor {floor:.3g}); heights are "
-            "measured from it frame by frame"
-        )
-    never = [n for n, t in zip(names, touches, strict=True) if not t]
-    if never:
-        notes.append(f"never near the floor in this clip: {never}")
-    missed = _missed_stances(names, mask, rel, speed, touches, _below(sk, idx), opts, min_len, motion.fps)
-    if missed:
-        notes.append(
-            MISSED_STANCES_NOTE + " (a floor that is not "
-            "level, or a capture that drifts? ContactOptions(height_enter=) counts them): "
-            + "; ".join(missed)
-        )
+    missed = _missed_stances(names, mask, rel, speed, touches, _below(sk, idx), opts, motion.fps)
+    notes = _contact_notes(names, touches, floor, offset, missed)
     ground_out = np.where(touches, ground, np.nan)
     return Contacts(
         names, np.asarray(idx, dtype=np.int64), mask, floor, ground_out, motion.fps, motion.up_axis,
-        opts, tuple(notes), offset,
+        opts, notes, offset,
     )  # fmt: skip

@@ -33,6 +33,7 @@ import math
 import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -40,6 +41,7 @@ from elastic_motion import limits
 from elastic_motion._io import read_text
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.bvh import snap_fps
+from elastic_motion.motion.edit import resample_at_times
 from elastic_motion.motion.rotations import axis_rotation, quaternion_to_matrix
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
@@ -266,6 +268,130 @@ def _check_frames(p: str, text: str, frames: object) -> np.ndarray:
     return out
 
 
+def _load_clip(p: str, text: str) -> dict[str, Any]:
+    """The clip's JSON object, which must hold ``Frames``."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ParseError(p, exc.lineno, f"expected JSON ({exc.msg})") from exc
+    except RecursionError as exc:
+        raise ParseError(p, None, "expected JSON (nesting too deep)") from exc
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise ParseError(p, None, f"expected JSON numbers of usual size ({exc})") from exc
+    if not isinstance(data, dict) or "Frames" not in data:
+        raise ParseError(p, 1, "expected a JSON object with a 'Frames' list (a DeepMimic clip)")
+    return data
+
+
+def _frame_slots(skeleton: Skeleton) -> list[int]:
+    """The skeleton index of each joint of the frames (:data:`DEEPMIMIC_JOINTS` order)."""
+    try:
+        slot = [skeleton.index(name) for name, _, _ in DEEPMIMIC_JOINTS]
+    except KeyError as exc:
+        raise ValueError(f"skeleton: expected the DeepMimic humanoid's joints; {exc.args[0]}") from None
+    n_expected = len(DEEPMIMIC_JOINTS) + len(DEEPMIMIC_FIXED_JOINTS)
+    if skeleton.n_joints != n_expected or not all(n in skeleton.names for n, _ in DEEPMIMIC_FIXED_JOINTS):
+        raise ValueError(
+            f"skeleton: expected the {n_expected}-joint DeepMimic humanoid (with the fixed wrists); "
+            f"got {skeleton.n_joints} joints"
+        )
+    return slot
+
+
+def _frame_timing(p: str, text: str, values: np.ndarray, n_joints: int) -> tuple[np.ndarray, float, float]:
+    """The frames' durations checked: ``(steps, dt, fps)`` with ``steps`` the durations
+    between frames (s; the only one of a one-frame clip), ``dt`` their median (positive ones)
+    and ``fps`` its rate (:func:`.bvh.snap_fps`); the clip checked against the limits."""
+    durations = values[:, 0]
+    if (durations < 0).any():
+        k = int(np.argmax(durations < 0))
+        raise ParseError(
+            p,
+            _frame_line(text, k),
+            f"expected a non-negative frame duration in frame {k}, found {durations[k]}",
+        )
+    f = values.shape[0]
+    steps = durations[:-1] if f > 1 else durations
+    positive = steps[steps > 0]
+    if positive.size == 0:
+        positive = durations[durations > 0]
+    if positive.size == 0:
+        raise ParseError(
+            p, _frame_line(text, 0), "expected a positive frame duration in some frame, found none"
+        )
+    if f > 1 and not (steps > 0).all():
+        k = int(np.argmax(~(steps > 0)))
+        raise ParseError(
+            p,
+            _frame_line(text, k),
+            f"expected a positive duration in frame {k} (not the last), found {steps[k]}",
+        )
+    dt = float(np.median(positive))
+    fps = snap_fps(dt)
+    with np.errstate(over="ignore"):  # an overflowing sum is inf, refused by the duration limit
+        duration = float(np.sum(steps)) if f > 1 else dt
+    limits.check_clip(p, _frame_line(text, 0), frames=f, fps=fps, duration=duration, joints=n_joints)
+    return steps, dt, fps
+
+
+def _rotations(p: str, text: str, values: np.ndarray, skeleton: Skeleton, slot: list[int]) -> np.ndarray:
+    """Local rotations ``(F, J, 3, 3)``: the frames' quaternions (normalised) and revolute
+    angles (about ``z``) at ``slot``, the identity at the fixed wrists."""
+    rotations = np.empty((values.shape[0], skeleton.n_joints, 3, 3))
+    for name, _ in DEEPMIMIC_FIXED_JOINTS:
+        rotations[:, skeleton.index(name)] = np.eye(3)
+    col = 4
+    for j, (name, _, revolute) in zip(slot, DEEPMIMIC_JOINTS, strict=True):
+        if revolute:
+            rotations[:, j] = axis_rotation(values[:, col], "Z")
+            col += 1
+            continue
+        q = values[:, col : col + 4]
+        scale = np.abs(q).max(axis=1, keepdims=True)  # rescaled first: |q| of 1e308 values overflows
+        q = q / np.where(scale > 0, scale, 1.0)
+        norms = np.linalg.norm(q, axis=1)
+        if not (norms > 1e-12).all():
+            k = int(np.argmax(~(norms > 1e-12)))
+            raise ParseError(
+                p, _frame_line(text, k), f"expected a non-zero quaternion for {name!r} in frame {k}"
+            )
+        rotations[:, j] = quaternion_to_matrix(q)
+        col += 4
+    return rotations
+
+
+def _resample_uniform(p: str, text: str, motion: Motion, steps: np.ndarray, fps: float) -> Motion:
+    """``motion`` (frames ``steps`` seconds apart) on a uniform grid at ``fps``, its size
+    checked against the limits before it is allocated."""
+    f = motion.n_frames
+    times = np.concatenate([[0.0], np.cumsum(steps)])
+    if not (np.diff(times) > 0).all():  # a duration too small to advance the clock (1e-320 after 2 s)
+        k = int(np.argmax(~(np.diff(times) > 0)))
+        raise ParseError(
+            p,
+            _frame_line(text, k),
+            f"expected a duration that advances the time in frame {k}, found {steps[k]}",
+        )
+    n_out = math.floor(times[-1] * fps + 1e-6) + 1  # finite: duration and fps within the limits
+    lim = limits.current()
+    grown = lim.max_resample_growth * f + 1000
+    if n_out > grown:
+        k = int(np.argmax(steps))
+        raise ParseError(
+            p,
+            _frame_line(text, k),
+            limits.limit_message(
+                f"a uniform resampling at {fps:g} fps of {f} frames (frame {k} lasts {steps[k]:g} s) "
+                "to give a number of frames",
+                n_out,
+                "max_resample_growth",
+                f"{lim.max_resample_growth:g} x {f} + 1000 = {grown:g}",
+            ),
+        )
+    limits.check_clip(p, _frame_line(text, 0), frames=n_out, joints=motion.n_joints)
+    return resample_at_times(motion, times, np.arange(n_out) / fps, fps=fps)
+
+
 def read_deepmimic(
     path: str | os.PathLike[str],
     *,
@@ -302,117 +428,21 @@ def read_deepmimic(
     """
     p = os.fspath(path)
     text = read_text(path)
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ParseError(p, exc.lineno, f"expected JSON ({exc.msg})") from exc
-    except RecursionError as exc:
-        raise ParseError(p, None, "expected JSON (nesting too deep)") from exc
-    except ValueError as exc:  # e.g. an integer of more than 4300 digits
-        raise ParseError(p, None, f"expected JSON numbers of usual size ({exc})") from exc
-    if not isinstance(data, dict) or "Frames" not in data:
-        raise ParseError(p, 1, "expected a JSON object with a 'Frames' list (a DeepMimic clip)")
-    values = _check_frames(p, text, data["Frames"])
+    values = _check_frames(p, text, _load_clip(p, text)["Frames"])
     if skeleton is None:
         skeleton = read_urdf_skeleton(urdf) if urdf is not None else deepmimic_skeleton()
-    try:
-        slot = [skeleton.index(name) for name, _, _ in DEEPMIMIC_JOINTS]
-    except KeyError as exc:
-        raise ValueError(f"skeleton: expected the DeepMimic humanoid's joints; {exc.args[0]}") from None
-    n_expected = len(DEEPMIMIC_JOINTS) + len(DEEPMIMIC_FIXED_JOINTS)
-    if skeleton.n_joints != n_expected or not all(n in skeleton.names for n, _ in DEEPMIMIC_FIXED_JOINTS):
-        raise ValueError(
-            f"skeleton: expected the {n_expected}-joint DeepMimic humanoid (with the fixed wrists); "
-            f"got {skeleton.n_joints} joints"
-        )
-
-    durations = values[:, 0]
-    if (durations < 0).any():
-        k = int(np.argmax(durations < 0))
-        raise ParseError(
-            p,
-            _frame_line(text, k),
-            f"expected a non-negative frame duration in frame {k}, found {durations[k]}",
-        )
-    f = values.shape[0]
-    steps = durations[:-1] if f > 1 else durations
-    positive = steps[steps > 0]
-    if positive.size == 0:
-        positive = durations[durations > 0]
-    if positive.size == 0:
-        raise ParseError(
-            p, _frame_line(text, 0), "expected a positive frame duration in some frame, found none"
-        )
-    if f > 1 and not (steps > 0).all():
-        k = int(np.argmax(~(steps > 0)))
-        raise ParseError(
-            p,
-            _frame_line(text, k),
-            f"expected a positive duration in frame {k} (not the last), found {steps[k]}",
-        )
-    dt = float(np.median(positive))
-    fps = snap_fps(dt)
-    with np.errstate(over="ignore"):  # an overflowing sum is inf, refused by the duration limit
-        duration = float(np.sum(steps)) if f > 1 else dt
-    limits.check_clip(p, _frame_line(text, 0), frames=f, fps=fps, duration=duration, joints=skeleton.n_joints)
-
-    rotations = np.empty((f, skeleton.n_joints, 3, 3))
-    for name, _ in DEEPMIMIC_FIXED_JOINTS:
-        rotations[:, skeleton.index(name)] = np.eye(3)
-    col = 4
-    for j, (name, _, revolute) in zip(slot, DEEPMIMIC_JOINTS, strict=True):
-        if revolute:
-            rotations[:, j] = axis_rotation(values[:, col], "Z")
-            col += 1
-            continue
-        q = values[:, col : col + 4]
-        scale = np.abs(q).max(axis=1, keepdims=True)  # rescaled first: |q| of 1e308 values overflows
-        q = q / np.where(scale > 0, scale, 1.0)
-        norms = np.linalg.norm(q, axis=1)
-        if not (norms > 1e-12).all():
-            k = int(np.argmax(~(norms > 1e-12)))
-            raise ParseError(
-                p, _frame_line(text, k), f"expected a non-zero quaternion for {name!r} in frame {k}"
-            )
-        rotations[:, j] = quaternion_to_matrix(q)
-        col += 4
+    slot = _frame_slots(skeleton)
+    steps, dt, fps = _frame_timing(p, text, values, skeleton.n_joints)
     motion = Motion(
         skeleton=skeleton,
         fps=fps,
         root_translation=values[:, 1:4],
-        rotations=rotations,
+        rotations=_rotations(p, text, values, skeleton, slot),
         metres_per_unit=1.0,
         up_axis="y",
         source=(p,) if urdf is None else (p, os.fspath(urdf)),
         name=Path(p).stem,
     )
-    if resample_uniform and f > 2 and np.abs(steps - dt).max() > 1e-3 * dt:
-        from elastic_motion.motion.edit import resample_at_times
-
-        times = np.concatenate([[0.0], np.cumsum(steps)])
-        if not (np.diff(times) > 0).all():  # a duration too small to advance the clock (1e-320 after 2 s)
-            k = int(np.argmax(~(np.diff(times) > 0)))
-            raise ParseError(
-                p,
-                _frame_line(text, k),
-                f"expected a duration that advances the time in frame {k}, found {steps[k]}",
-            )
-        n_out = math.floor(times[-1] * fps + 1e-6) + 1  # finite: duration and fps within the limits
-        lim = limits.current()
-        grown = lim.max_resample_growth * f + 1000
-        if n_out > grown:
-            k = int(np.argmax(steps))
-            raise ParseError(
-                p,
-                _frame_line(text, k),
-                limits.limit_message(
-                    f"a uniform resampling at {fps:g} fps of {f} frames (frame {k} lasts {steps[k]:g} s) "
-                    "to give a number of frames",
-                    n_out,
-                    "max_resample_growth",
-                    f"{lim.max_resample_growth:g} x {f} + 1000 = {grown:g}",
-                ),
-            )
-        limits.check_clip(p, _frame_line(text, 0), frames=n_out, joints=skeleton.n_joints)
-        motion = resample_at_times(motion, times, np.arange(n_out) / fps, fps=fps)
+    if resample_uniform and values.shape[0] > 2 and np.abs(steps - dt).max() > 1e-3 * dt:
+        motion = _resample_uniform(p, text, motion, steps, fps)
     return motion

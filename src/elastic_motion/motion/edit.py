@@ -22,6 +22,8 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from elastic_motion import limits
+from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.rotations import axis_rotation
@@ -285,9 +287,6 @@ def resampled_frames(motion: Motion, fps: float, option: str) -> int:
     ``OptionError(option, ...)`` beyond the limit ``max_frames``, or ``max_samples`` for its
     frames x joints (:mod:`elastic_motion.limits`); ``OptionError(option, ...)`` too for a rate
     that is not a positive finite number."""
-    from elastic_motion import limits
-    from elastic_motion.errors import OptionError
-
     if not (math.isfinite(fps) and fps > 0):
         raise OptionError(option, f"expected a positive frame rate; got {fps!r}")
     n = math.floor(motion.duration * fps + 1e-6) + 1
@@ -298,7 +297,7 @@ def resampled_frames(motion: Motion, fps: float, option: str) -> int:
 
 def _cubic_at_times(motion: Motion, src: np.ndarray, dst: np.ndarray, fps: float) -> Motion:
     """:func:`resample_at_times` with ``interpolation="cubic"`` (checked times, >= 4 frames)."""
-    from scipy.interpolate import CubicSpline
+    from scipy.interpolate import CubicSpline  # local: 0.3 s to import, not on `import elastic_motion.motion`
 
     f, j = motion.n_frames, motion.n_joints
     mats = CubicSpline(src, motion.rotations.reshape(f, -1), axis=0)(dst)
@@ -705,7 +704,9 @@ def gaussian_frames(x: np.ndarray, sigma_frames: float) -> np.ndarray:
     """``x`` ``(F, ...)`` through a Gaussian along its frames (axis 0) of ``sigma_frames``
     standard deviation (frames; ends held, ``mode="nearest"``); ``x`` itself for
     ``sigma_frames <= 0`` or fewer than 2 frames."""
-    from scipy.ndimage import gaussian_filter1d
+    from scipy.ndimage import (
+        gaussian_filter1d,
+    )  # local: 0.3 s to import, not on `import elastic_motion.motion`
 
     if not math.isfinite(sigma_frames):
         raise ValueError(f"sigma_frames: expected a finite number of frames; got {sigma_frames!r}")
