@@ -71,7 +71,7 @@ from pathlib import Path
 import numpy as np
 
 from _common import MOCAP, load_clip, machine_info, write_json
-from elastic_motion.apps.align import motion_curves
+from elastic_motion.apps.align import LANDMARK_PLAN, motion_curves
 from elastic_motion.apps.blend import NOTE_CLEANUP, NOTE_CYCLES, NOTE_LANDMARKS, blend_motions
 from elastic_motion.apps.cleanup import carry_contacts
 from elastic_motion.apps.distance import distance_table
@@ -84,7 +84,7 @@ from elastic_motion.warp import WarpOptions, optimal_warp
 
 REPO = Path(__file__).resolve().parents[1]
 #: The kinds of the blend notes each row lists (cycles matched, clean-up, landmarks).
-REPORTED_NOTES = (NOTE_CYCLES, NOTE_CLEANUP, NOTE_LANDMARKS)
+REPORTED_NOTES = (NOTE_CYCLES, NOTE_CLEANUP, LANDMARK_PLAN, NOTE_LANDMARKS)
 
 #: (label, method, warp, landmarks, cycles)
 METHODS = (

@@ -91,7 +91,7 @@ def blend_all(a, b, tag: str, out: Path, title: str) -> dict:
     rows["inputs"] = {
         "foot_sliding_m_s": [x["mean_speed_m_s"] for x in first.metrics.summary()["foot_sliding"]["inputs"]],
         "distance_a_b": float(first.metrics.distances_between_inputs[0, 1]),
-        "notes": list(first.notes),
+        "notes": [str(n) for n in first.notes],
     }
     fig = plot_foot_trajectories(
         [pa, pb] + [r.motion for _, r in results],
@@ -196,7 +196,7 @@ def transitions(out: Path) -> dict:
         rows["speed_sweep"] = {
             "params": ps.tolist(),
             "speeds": [motion_speed(m) for m in sweep],
-            "notes": list(space.notes),
+            "notes": [str(n) for n in space.notes],
         }
     return rows
 

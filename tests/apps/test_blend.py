@@ -9,10 +9,10 @@ import pytest
 from blend_testlib import walker
 
 from elastic_motion.apps.align import align_motions
-from elastic_motion.apps.blend import NOTE_ANCHOR, NOTE_PREPARE, BlendOptions, blend_motions
+from elastic_motion.apps.blend import NOTE_ANCHOR, BlendOptions, blend_motions
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import bone_length_error, foot_joints, foot_sliding
-from elastic_motion.apps.prepare import PrepareOptions, prepare_motions
+from elastic_motion.apps.prepare import JOINTS_DROPPED, RESAMPLED, PrepareOptions, prepare_motions
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import (
@@ -187,7 +187,7 @@ def test_different_skeletons_name_the_joints(pair):
         blend_motions([a, b2], 0.5, metrics=False)
     res = blend_motions([a, b2], 0.5, prepare=PrepareOptions(joints="common"), metrics=False)
     assert "LeftHand" not in res.motion.skeleton.names
-    assert any(n.kind == NOTE_PREPARE and "joints not shared by all inputs" in str(n) for n in res.notes)
+    assert any(n.kind == JOINTS_DROPPED and "joints not shared by all inputs" in str(n) for n in res.notes)
     # the same skeleton under other names (a CMU ASF file against a BVH conversion of it):
     # no joint is shared, so the message says to rename, not to keep the shared joints
     sk = b.skeleton
@@ -202,7 +202,7 @@ def test_different_frame_rates_are_resampled(pair):
     b60 = resample(b, 60.0)
     res = blend_motions([a, b60], 0.5, metrics=False)
     assert res.motion.fps == a.fps
-    assert any(n.kind == NOTE_PREPARE and "resampled from 60 to 30 fps" in str(n) for n in res.notes)
+    assert any(n.kind == RESAMPLED and "resampled from 60 to 30 fps" in str(n) for n in res.notes)
 
 
 def test_landmarks_pull_the_warp(pair):

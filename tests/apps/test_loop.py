@@ -11,6 +11,7 @@ from elastic_motion.apps.loop import loop_motion
 from elastic_motion.apps.loop import notes as loop_notes
 from elastic_motion.apps.loop.seam_choice import SEAM_C0_KEPT, SEAM_C1_TAKEN
 from elastic_motion.apps.metrics import foot_joints, seam_metrics
+from elastic_motion.apps.prepare import UNITS_TO_METRES
 from elastic_motion.closing import close_curve
 from elastic_motion.curves import curve_distance
 from elastic_motion.errors import OptionError
@@ -621,5 +622,5 @@ def test_notes_are_notes_with_kinds_and_the_report_lists_their_texts():
     m = synthetic().replace(metres_per_unit=0.01)  # prepared: "lengths from cm to metres"
     res = loop_motion(m, seam="c0")
     assert res.notes and all(isinstance(n, Note) for n in res.notes)
-    assert of_kind(res.notes, loop_notes.PREPARE)
+    assert of_kind(res.notes, UNITS_TO_METRES)
     assert res.summary()["notes"] == [str(n) for n in res.notes]

@@ -66,6 +66,7 @@ from elastic_motion.motion import (
 )
 from elastic_motion.motion.edit import check_interpolation, resampled_frames, smooth_motion
 from elastic_motion.motion.representations import representation
+from elastic_motion.notes import Note, note_texts
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
 from elastic_motion.warp.options import DEFAULT_SAMPLE_SMOOTHING
 
@@ -323,7 +324,7 @@ class AlignResult:
             "duration_a_s": self.duration_a,
             "duration_b_s": self.duration_b,
             "warp_vertices_s": np.column_stack([ta, tb]).tolist(),
-            "notes": list(self.prepared.notes),
+            "notes": note_texts(self.prepared.notes),
         }
         if self.landmark_pairing is not None:
             out["landmark_pairing"] = self.landmark_pairing.summary()
@@ -337,6 +338,8 @@ class AlignResult:
         return out
 
 
+#: Kind of the landmark plan's notes (``Note.kind``): where the pairs came from.
+LANDMARK_PLAN = "landmarks.plan"
 #: Relative landmark weight at least used for automatic landmarks: pairs found by phase
 #: around the warp without landmarks are trusted, so the warp meets them closely.
 AUTO_LANDMARK_WEIGHT = 1000.0
@@ -353,8 +356,9 @@ class LandmarkPlan:
     options : WarpOptions
         The warp options to solve with (``"auto"`` raises the landmark weight to at least
         :data:`AUTO_LANDMARK_WEIGHT`).
-    notes : tuple of str
-        How the pairs were found (``"auto"``: paired by phase, how many left unpaired).
+    notes : tuple of Note
+        How the pairs were found (``"auto"``: paired by phase, how many left unpaired), kind
+        :data:`LANDMARK_PLAN`.
     pairing : PhasePairing or None
         ``"auto"``: the phase pairing the pairs come from (pinned and dropped events, why:
         :func:`elastic_motion.apps.landmarks.phase_landmarks`); None otherwise.
@@ -362,7 +366,7 @@ class LandmarkPlan:
 
     pairs: list[tuple[float, float]]
     options: WarpOptions
-    notes: tuple[str, ...] = ()
+    notes: tuple[Note, ...] = ()
     pairing: Any = None
 
 
@@ -409,7 +413,7 @@ def plan_landmarks(
         note = f"landmarks from {Path(landmarks.path).name}: {len(landmarks.pairs)} pairs" + (
             "" if weight is None else f", met with the relative weight it records ({weight:g})"
         )
-        return LandmarkPlan(list(landmarks.pairs), options, (note,))
+        return LandmarkPlan(list(landmarks.pairs), options, (Note(LANDMARK_PLAN, note),))
     if isinstance(landmarks, str):
         if landmarks != "auto":
             raise OptionError(
@@ -428,14 +432,21 @@ def plan_landmarks(
         pairs = list(pairing.times)
         if not pairs:
             return LandmarkPlan(
-                [], options, ("landmarks auto: no events to pair; warp without landmarks",), pairing
+                [],
+                options,
+                (Note(LANDMARK_PLAN, "landmarks auto: no events to pair; warp without landmarks"),),
+                pairing,
             )
         return LandmarkPlan(
             pairs,
             options.replace(landmark_weight=max(options.landmark_weight, AUTO_LANDMARK_WEIGHT)),
             (
-                f"landmarks auto: {len(pairs)} events paired by phase (prior: the warp without "
-                f"landmarks), {len(pairing.skipped)} left unpaired",
+                Note(
+                    LANDMARK_PLAN,
+                    f"landmarks auto: {len(pairs)} events paired by phase (prior: the warp without "
+                    f"landmarks), {len(pairing.skipped)} left unpaired",
+                    {"pairs": len(pairs), "unpaired": len(pairing.skipped)},
+                ),
             ),
             pairing,
         )

@@ -33,7 +33,6 @@ import numpy as np
 from elastic_motion._options import with_overrides
 from elastic_motion.apps.align import motion_curves
 from elastic_motion.apps.blend import BlendResult, blend_motions
-from elastic_motion.apps.blend.result import NOTE_PREPARE, as_notes
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cycles import gait_cycles
 from elastic_motion.apps.metrics import blend_metrics
@@ -241,7 +240,7 @@ def blendspace(
         param_name=name,
         warps=tuple(np.asarray(v) for v in km.warps),
         options=opts.replace(prepare=None),
-        notes=(*as_notes(prep.notes, NOTE_PREPARE), *extra_notes, template),
+        notes=(*tuple(prep.notes), *extra_notes, template),
     )
 
 

@@ -77,7 +77,7 @@ class DistanceTable:
             "warp": self.warp,
             "distances": self.matrix.tolist(),
             "distances_unwarped": self.unwarped.tolist(),
-            "notes": list(self.notes),
+            "notes": [str(n) for n in self.notes],
         }
 
 

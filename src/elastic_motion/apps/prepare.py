@@ -56,7 +56,6 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.errors import OptionError
-from elastic_motion.legacy_notes import LegacyNote
 from elastic_motion.motion import (
     UNITS,
     Motion,
@@ -293,9 +292,9 @@ class MotionPreparation:
         The up axis as read (or forced).
     static_root_folded : str or None
         Name of the folded root joint.
-    notes : tuple of str
-        One sentence per step that changed something: the texts of this input's notes (their
-        kinds in :attr:`PreparedMotions.notes`, which lists them first).
+    notes : tuple of Note
+        One per step that changed something (also in :attr:`PreparedMotions.notes`, which lists
+        them first).
     """
 
     label: str
@@ -309,7 +308,7 @@ class MotionPreparation:
     metres_per_unit_in: float | None
     up_axis_in: str
     static_root_folded: str | None
-    notes: tuple[str, ...] = ()
+    notes: tuple[Note, ...] = ()
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready: every field, the notes as their texts (what reports list)."""
@@ -375,9 +374,8 @@ class PreparedMotions:
             return m
         return select_joints(m, self.curve_joints)
 
-    def with_notes(self, *notes: Note | str) -> PreparedMotions:
-        """A copy with more notes (texts of apps whose notes are not yet typed are kept as they
-        are, for one release)."""
+    def with_notes(self, *notes: Note) -> PreparedMotions:
+        """A copy with more notes (an app's own, e.g. the landmark plan of an alignment)."""
         return replace(self, notes=(*self.notes, *notes))
 
 
@@ -514,7 +512,7 @@ def _load(
         up_axis_in=up_in,
         static_root_folded=folded,
         # texts while apps serialise reports with dataclasses.asdict; summary() lists texts
-        notes=tuple(note_texts(notes)),
+        notes=tuple(notes),
     )
     return m, report, notes
 
@@ -525,12 +523,12 @@ def _check_up_axis(m: Motion, name: str, estimate: UpAxisEstimate | None, notes:
     # Motion built in code) or a format without detection is checked here
     warning = up_axis_warning(m.replace(name=name), estimate=estimate)
     if warning:
-        notes.append(LegacyNote(UP_AXIS_WARNING, f"warning: {warning}", {"input": name, "warning": warning}))
+        notes.append(Note(UP_AXIS_WARNING, f"warning: {warning}", {"input": name, "warning": warning}))
 
 
 def _drop_tpose(m: Motion, name: str, notes: list[Note]) -> Motion:
     """Step 2: ``m`` without its frame 0 (a T-pose), with its note."""
-    notes.append(LegacyNote(TPOSE_DROPPED, f"{name}: dropped frame 0 (a T-pose)", {"input": name}))
+    notes.append(Note(TPOSE_DROPPED, f"{name}: dropped frame 0 (a T-pose)", {"input": name}))
     return select_frames(m, slice(1, None))
 
 
@@ -541,7 +539,7 @@ def _trim_step(m: Motion, rng: TimeRange, name: str, notes: list[Note]) -> Motio
     start_s = rng[0] if rng[0] is not None else 0
     stop_s = rng[1] if rng[1] is not None else end
     notes.append(
-        LegacyNote(
+        Note(
             TRIMMED,
             f"{name}: kept {start_s:g}-{stop_s:g} s ({m.n_frames} frames)",
             {"input": name, "start_s": start_s, "stop_s": stop_s, "frames": m.n_frames},
@@ -555,7 +553,7 @@ def _fold_static_root(m: Motion, name: str, notes: list[Note]) -> Motion:
     folded = m.skeleton.names[0]
     m = merge_root(m)
     notes.append(
-        LegacyNote(
+        Note(
             STATIC_ROOT_FOLDED,
             f"{name}: folded the static root {folded!r} into its child {m.skeleton.names[0]!r}",
             {"input": name, "root": folded, "child": m.skeleton.names[0]},
@@ -570,7 +568,7 @@ def _to_metres(m: Motion, name: str, notes: list[Note]) -> Motion:
         if m.metres_per_unit != 1.0:
             unit = unit_name(m.metres_per_unit)
             notes.append(
-                LegacyNote(
+                Note(
                     UNITS_TO_METRES,
                     f"{name}: lengths from {unit} to metres",
                     {"input": name, "unit": unit, "metres_per_unit": m.metres_per_unit},
@@ -579,9 +577,7 @@ def _to_metres(m: Motion, name: str, notes: list[Note]) -> Motion:
         m = to_metres(m)
     else:
         notes.append(
-            LegacyNote(
-                UNITS_UNKNOWN, f"{name}: length unit unknown; lengths kept as in the file", {"input": name}
-            )
+            Note(UNITS_UNKNOWN, f"{name}: length unit unknown; lengths kept as in the file", {"input": name})
         )
     return m
 
@@ -590,7 +586,7 @@ def _to_y_up(m: Motion, name: str, notes: list[Note]) -> Motion:
     """Step 6: ``m`` rotated to Y-up, with its note."""
     if m.up_axis != "y":
         notes.append(
-            LegacyNote(
+            Note(
                 UP_AXIS_ROTATED,
                 f"{name}: rotated from {m.up_axis}-up to y-up",
                 {"input": name, "from": m.up_axis},
@@ -714,7 +710,7 @@ def _select_joints(
         dropped = [n for n in m.skeleton.names if n not in keep]
         if dropped:
             notes.append(
-                LegacyNote(
+                Note(
                     JOINTS_DROPPED,
                     f"{labels[k]}: dropped {len(dropped)} joints not shared by all inputs: {dropped}",
                     {"input": labels[k], "joints": dropped},
@@ -885,7 +881,7 @@ def _same_joint_order(ms: list[Motion], names: list[str]) -> tuple[list[Motion],
         if ms[k].skeleton.names != order:
             ms[k] = _reorder(ms[k], order)
             notes.append(
-                LegacyNote(
+                Note(
                     JOINTS_REORDERED,
                     f"{names[k]}: joints reordered like {names[0]}",
                     {"input": names[k], "like": names[0]},
@@ -912,7 +908,7 @@ def _same_frame_rate(ms: list[Motion], names: list[str]) -> tuple[list[Motion], 
     for k in range(1, len(ms)):
         if not math.isclose(ms[k].fps, fps, rel_tol=1e-9):
             notes.append(
-                LegacyNote(
+                Note(
                     RESAMPLED,
                     f"{names[k]}: resampled from {ms[k].fps:g} to {fps:g} fps (the rate of {names[0]})",
                     {"input": names[k], "like": names[0], "from_fps": ms[k].fps, "to_fps": fps},
@@ -930,7 +926,7 @@ def _placed_like_first(ms: list[Motion], names: list[str]) -> tuple[list[Motion]
     for k in range(1, len(ms)):
         ms[k], how = place_like(ms[0], ms[k])
         notes.append(
-            LegacyNote(
+            Note(
                 PLACED,
                 f"{names[k]}: placed like {names[0]} ({how})",
                 {"input": names[k], "like": names[0], "how": how},
@@ -948,7 +944,7 @@ def _facing_notes(ms: list[Motion], names: list[str]) -> list[Note]:
             apart = abs(math.degrees(math.remainder(facing[k] - facing[0], 2 * math.pi)))
             if apart > _FACING_APART:
                 notes.append(
-                    LegacyNote(
+                    Note(
                         FACING_DIFFERS,
                         f"{names[k]}: faces {apart:.0f} deg away from its way of travel compared with "
                         f"{names[0]} (one walks backwards or sideways?): a blend or a distance of the two "
@@ -969,7 +965,7 @@ def _curve_weights(ms: list[Motion]) -> tuple[tuple[str, ...], np.ndarray, float
     notes: list[Note] = []
     if fingers:
         notes.append(
-            LegacyNote(
+            Note(
                 FINGERS_NOT_CURVES,
                 "finger joints not part of the curves (a blend interpolates them frame by frame): "
                 f"{sorted(fingers)}",
@@ -1013,7 +1009,7 @@ def _rest_pose_note(reference: Skeleton, m: Motion, label0: str, label: str) -> 
     # the joints are the first's (selected and ordered before): every one has a frame there
     out = change_rest_frames(m, rest_frames_towards(m.skeleton, reference, min_length=shortest))
     after, _ = rest_pose_difference(reference, out.skeleton, min_length=shortest)
-    return out, LegacyNote(
+    return out, Note(
         REST_POSE_CHANGED,
         f"{label}: rest pose unlike {label0}'s (bone {bone} {angle:.0f} deg apart, another conversion): its "
         f"rotations re-expressed in {label0}'s rest frames, the same motion in the world (bones now within "

@@ -83,7 +83,7 @@ def report_header(
         "created": now.isoformat().replace("+00:00", "Z"),
         "inputs": [os.fspath(p) for p in inputs],
         "outputs": [os.fspath(p) for p in outputs],
-        "notes": list(notes),
+        "notes": [str(n) for n in notes],
     }
 
 

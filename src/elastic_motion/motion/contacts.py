@@ -57,7 +57,6 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from elastic_motion.errors import OptionError
-from elastic_motion.legacy_notes import LegacyNote
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.skeleton import Motion, Skeleton
 from elastic_motion.notes import Note, note_texts
@@ -471,7 +470,7 @@ def _contact_notes(
     notes = []
     if offset is not None:
         notes.append(
-            LegacyNote(
+            Note(
                 FLOOR_NOT_LEVEL,
                 f"the floor is not level: it moves by {np.ptp(offset):.3g} over the clip (from "
                 f"{offset[0]:+.3g} to {offset[-1]:+.3g} about the floor {floor:.3g}); heights are "
@@ -487,9 +486,7 @@ def _contact_notes(
     never = [n for n, t in zip(names, touches, strict=True) if not t]
     if never:
         notes.append(
-            LegacyNote(
-                NEVER_NEAR_FLOOR, f"never near the floor in this clip: {never}", {"joints": list(never)}
-            )
+            Note(NEVER_NEAR_FLOOR, f"never near the floor in this clip: {never}", {"joints": list(never)})
         )
     if missed:
         per_joint = [
@@ -498,7 +495,7 @@ def _contact_notes(
             for name, m in missed.items()
         ]
         notes.append(
-            LegacyNote(
+            Note(
                 MISSED_STANCES,
                 MISSED_STANCES_NOTE + " (a floor that is not "
                 "level, or a capture that drifts? ContactOptions(height_enter=) counts them): "
@@ -558,7 +555,7 @@ def detect_contacts(
         return Contacts(
             names, np.zeros(0, dtype=np.int64), np.zeros((f, 0), dtype=bool), floor, np.zeros(0),
             motion.fps, motion.up_axis, opts,
-            (LegacyNote(NO_CONTACT_JOINTS, "no joint that can touch the floor (feet, toes, hands)"),),
+            (Note(NO_CONTACT_JOINTS, "no joint that can touch the floor (feet, toes, hands)"),),
         )  # fmt: skip
     p = pos[:, idx]
     offset = floor_profile(motion, pos, floor, opts.height_enter) if opts.follow_floor else None

@@ -147,7 +147,7 @@ from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, blend_contacts
 from elastic_motion.apps.blend.curves import blend_curves
 from elastic_motion.apps.blend.inputs import NOTE_CYCLES, prepare_inputs
 from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, close_again, close_cycle
-from elastic_motion.apps.blend.result import NOTE_PREPARE, BlendResult
+from elastic_motion.apps.blend.result import BlendResult
 from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
 from elastic_motion.apps.blend.transitions import NOTE_WEIGHT_CURVE
 from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, find_warps
@@ -162,7 +162,6 @@ __all__ = [
     "NOTE_CYCLES",
     "NOTE_LANDMARKS",
     "NOTE_LOOP",
-    "NOTE_PREPARE",
     "NOTE_TIMING",
     "NOTE_WARP",
     "NOTE_WEIGHT_CURVE",

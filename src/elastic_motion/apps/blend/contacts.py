@@ -37,7 +37,7 @@ from elastic_motion.apps.cleanup import (
 from elastic_motion.apps.metrics import contact_skating
 from elastic_motion.apps.prepare import PreparedMotions
 from elastic_motion.motion import Motion
-from elastic_motion.motion.contacts import MISSED_STANCES_NOTE, Contacts, detect_contacts
+from elastic_motion.motion.contacts import MISSED_STANCES, Contacts, detect_contacts
 from elastic_motion.motion.edit import gaussian_frames
 from elastic_motion.notes import Note
 
@@ -149,7 +149,7 @@ def blend_contacts(
         Note(NOTE_CLEANUP, f"clean-up: contacts of {label}: {n}")
         for label, c in zip(prep.labels, found, strict=True)
         for n in c.notes
-        if str(n).startswith(MISSED_STANCES_NOTE)
+        if n.kind == MISSED_STANCES
     ]
     if not any(c.any for c in found):
         return _skipped("clean-up: skipped, no contacts found in the inputs", notes)

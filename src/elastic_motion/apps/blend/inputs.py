@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
-from elastic_motion.apps.blend.result import NOTE_PREPARE, as_notes
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cycles import CycleMatch, gait_cycles, match_cycles
 from elastic_motion.apps.prepare import PreparedMotions, Source, prepare_motions
@@ -145,7 +144,7 @@ def prepare_inputs(
     if options.landmarks is not None and k != 2:
         raise OptionError("landmarks", f"expected two motions (landmarks pair A with B); got {k} motions")
     prep = prepare_motions(motions, options.prepare)
-    notes = as_notes(prep.notes, NOTE_PREPARE)
+    notes = tuple(prep.notes)
     landmarks, warp, match = options.landmarks, options.warp, None
     if options.matches_cycles:
         if k != 2:

@@ -8,8 +8,6 @@ result lists them in the order the stages ran, and its JSON summary their texts.
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,17 +23,10 @@ from elastic_motion.motion import Motion
 from elastic_motion.notes import Note, note_texts
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["NOTE_PREPARE", "BlendResult", "as_notes"]
+__all__ = ["BlendResult"]
+
 
 #: The preparation's notes (units, T-pose, joints, frame rates, placement), as the inputs came.
-NOTE_PREPARE = "blend.prepare"
-
-
-def as_notes(notes: Iterable[str | Note], kind: str) -> tuple[Note, ...]:
-    """``notes`` as :class:`Note` objects: texts get ``kind``, notes keep their own."""
-    return tuple(n if isinstance(n, Note) else Note(kind, n) for n in notes)
-
-
 @dataclass(frozen=True, eq=False)
 class BlendResult:
     """The outcome of :func:`~elastic_motion.apps.blend.blend_motions`.
@@ -128,7 +119,7 @@ class BlendResult:
             "joints": m.n_joints,
             "warp_options": self.warp_options.to_json(),
             "warp_vertices": [w.tolist() for w in self.warps],
-            "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
+            "preparation": [r.summary() for r in self.prepared.inputs],
             "metrics": None if self.metrics is None else self.metrics.summary(),
             "notes": note_texts(self.notes),
             "cleanup": None if self.cleanup is None else self.cleanup.summary(),

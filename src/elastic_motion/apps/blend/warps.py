@@ -18,7 +18,6 @@ import numpy as np
 
 from elastic_motion.apps.align import landmark_parameters, motion_curves, plan_landmarks, solve_warp
 from elastic_motion.apps.blend.inputs import BlendInputs
-from elastic_motion.apps.blend.result import as_notes
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.statistics import karcher_mean
 from elastic_motion.curves import DiscreteCurve, srv_transform
@@ -108,7 +107,7 @@ def pairwise_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs, options:
         max_pairs=options.max_pairs,
     )
     pairs, opts = plan.pairs, plan.options
-    notes = list(as_notes(plan.notes, NOTE_LANDMARKS))
+    notes = list(plan.notes)
     if plan.pairing is not None:
         notes += pairing_notes(plan.pairing)
     theta = landmark_parameters(pairs, durations[0], durations[1], prep.labels[:2]) if pairs else None
@@ -143,22 +142,28 @@ def pairing_notes(pairing: Any) -> list[Note]:
     out = []
     if pairing.details:
         out.append(
-            "landmarks auto: pinned (offset from the warp without landmarks beyond the events' "
-            "timing uncertainty; met at the window's edge): "
-            + ", ".join(
-                f"{d['kind']} {d['time_a_s']:.3f}:{d['time_b_s']:.3f} "
-                f"({d['offset_s']:+.3f} +- {d['window_s']:.4f} s -> {d['target_b_s']:.3f})"
-                for d in pairing.details
+            Note(
+                NOTE_LANDMARKS,
+                "landmarks auto: pinned (offset from the warp without landmarks beyond the events' "
+                "timing uncertainty; met at the window's edge): "
+                + ", ".join(
+                    f"{d['kind']} {d['time_a_s']:.3f}:{d['time_b_s']:.3f} "
+                    f"({d['offset_s']:+.3f} +- {d['window_s']:.4f} s -> {d['target_b_s']:.3f})"
+                    for d in pairing.details
+                ),
             )
         )
     if pairing.dropped:
         out.append(
-            "landmarks auto: dropped (the warp without landmarks meets them within the events' "
-            "timing uncertainty, or out of order once pinned): "
-            + ", ".join(
-                f"{d['kind']} {d['time_s']:.3f}:{d['time_b_s']:.3f} "
-                f"({d['offset_s']:+.3f} +- {d['window_s']:.4f} s)"
-                for d in pairing.dropped
+            Note(
+                NOTE_LANDMARKS,
+                "landmarks auto: dropped (the warp without landmarks meets them within the events' "
+                "timing uncertainty, or out of order once pinned): "
+                + ", ".join(
+                    f"{d['kind']} {d['time_s']:.3f}:{d['time_b_s']:.3f} "
+                    f"({d['offset_s']:+.3f} +- {d['window_s']:.4f} s)"
+                    for d in pairing.dropped
+                ),
             )
         )
-    return list(as_notes(out, NOTE_LANDMARKS))
+    return out

@@ -38,6 +38,7 @@ from elastic_motion.motion import Motion
 from elastic_motion.motion.edit import heading_angle
 from elastic_motion.motion.representations import Representation, representation
 from elastic_motion.motion.rotations import axis_rotation
+from elastic_motion.notes import note_texts
 
 __all__ = [
     "PreparedMotion",
@@ -133,7 +134,7 @@ def prepare_motion(
     """
     label = Path(path).stem
     m, report = load_motion(path if motion is None else motion, options, label=label)
-    notes = list(report.notes)
+    notes = note_texts(report.notes)  # the cache stores texts
     if drop_fingers:
         fingers = mm.finger_joints(m.skeleton)
         if fingers:

@@ -20,7 +20,7 @@ from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.apps.metrics import ContactSkating, SeamMetrics
 from elastic_motion.apps.prepare import PreparedMotions
 from elastic_motion.motion import Motion, forward_kinematics
-from elastic_motion.motion.contacts import MISSED_STANCES_NOTE, Contacts
+from elastic_motion.motion.contacts import MISSED_STANCES, Contacts
 from elastic_motion.notes import Note
 
 __all__ = [
@@ -43,10 +43,8 @@ HITCH_RATIO = 1.5
 WHIP_RATIO = 1.5
 
 #: Kinds of the notes (``Note.kind``).
-PREPARE = "prepare"  # the preparation step's notes (its texts, as it gives them)
 CONTACTS_SKIPPED = "loop.contacts_skipped"  # no joint that can touch the floor
 NO_CONTACTS = "loop.no_contacts"  # no joint planted in the clip
-MISSED_STANCES = "contacts.missed_stances"  # slow stretches above the contact height
 TREADMILL = "loop.contacts_treadmill"  # in place, contacts kept on a treadmill
 POLISHED = "loop.contacts_polished"  # the stalled solve closed exactly from where it stopped
 DROPPED = "loop.contacts_dropped"  # contacts and closure did not fit: closed without them
@@ -62,8 +60,8 @@ _HITCH_TEXT = "a hitch at the seam"
 
 
 def prepare_notes(prepared: PreparedMotions) -> tuple[Note, ...]:
-    """The preparation step's notes (strings) as notes of kind :data:`PREPARE`."""
-    return tuple(Note(PREPARE, text) for text in prepared.notes)
+    """The preparation step's notes (their kinds are :mod:`elastic_motion.apps.prepare`'s)."""
+    return tuple(prepared.notes)
 
 
 def policy_notes(
@@ -110,10 +108,9 @@ def policy_notes(
 
 
 def contact_notes(found: Contacts | None) -> list[Note]:
-    """What contact detection found worth saying (None: not detected, ``contacts="off"``); the
-    one place that reads a note of :func:`~elastic_motion.motion.contacts.detect_contacts` by
-    its opening words (:data:`~elastic_motion.motion.contacts.MISSED_STANCES_NOTE`: its notes
-    are strings)."""
+    """What contact detection found worth saying (None: not detected, ``contacts="off"``): no
+    candidate joint, no contact, and the stances it did not count
+    (:data:`~elastic_motion.motion.contacts.MISSED_STANCES`)."""
     if found is None:
         return []
     notes = []
@@ -123,9 +120,7 @@ def contact_notes(found: Contacts | None) -> list[Note]:
         )
     elif not found.any:
         notes.append(Note(NO_CONTACTS, "contacts: no joint is planted in this clip"))
-    notes += [
-        Note(MISSED_STANCES, f"contacts: {n}") for n in found.notes if n.startswith(MISSED_STANCES_NOTE)
-    ]
+    notes += [Note(MISSED_STANCES, f"contacts: {n}", n.data) for n in found.notes if n.kind == MISSED_STANCES]
     return notes
 
 

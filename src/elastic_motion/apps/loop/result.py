@@ -6,7 +6,6 @@ when the motion's ``metres_per_unit`` is known (else in its length unit), times 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -137,7 +136,7 @@ class LoopResult:
             "skating_on_treadmill": _summary(self.skating_on_treadmill),
             "contacts_kept": _summary(self.contacts_kept),
             "joint_limits": _summary(self.joint_limits),
-            "preparation": [dataclasses.asdict(r) for r in self.prepared.inputs],
+            "preparation": [r.summary() for r in self.prepared.inputs],
             "notes": [str(n) for n in self.notes],
         }
 

@@ -108,7 +108,7 @@ class ViewerPage:
         return {
             "clips": [c.summary() for c in self.clips],
             "html_bytes": len(self.html.encode("utf-8")),
-            "notes": list(self.notes),
+            "notes": [str(n) for n in self.notes],
         }
 
 

@@ -80,7 +80,7 @@ class ViewerClip:
             "contacts": self.contacts,
             "seams_s": list(self.seams),
             "warp": self.warp,
-            "notes": list(self.notes),
+            "notes": [str(n) for n in self.notes],
         }
 
 
