@@ -26,20 +26,32 @@ from typing import Any
 
 from elastic_motion.apps.align import AlignResult, align_motions
 from elastic_motion.apps.blend import BlendResult, blend_motions
+from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.blendspace import BlendSpace, blendspace
-from elastic_motion.apps.cleanup import CleanupResult, cleanup_footskate
+from elastic_motion.apps.cleanup import CleanupOptions, CleanupResult, cleanup_footskate
 from elastic_motion.apps.cycles import gait_cycles
 from elastic_motion.apps.database import (  # motion databases (issue 15)
+    Classification,
+    Clustering,
+    MatrixOptions,
+    MatrixResult,
+    MeanMotionResult,
+    MeanOptions,
     MotionIndex,
     SearchResult,
     WithinResult,
     build_index,
+    classify_motions,
+    cluster_motions,
+    compute_matrix,
     find_within,
     knn_search,
+    mean_motion,
 )
 from elastic_motion.apps.distance import DistanceTable, distance_table
+from elastic_motion.apps.landmark_detection import LandmarkReport, detect_landmarks
 from elastic_motion.apps.landmark_files import LandmarkFile, read_landmark_file
-from elastic_motion.apps.loop import LoopResult, loop_motion, repeat_loop
+from elastic_motion.apps.loop import KeptContacts, LoopOptions, LoopResult, loop_motion, repeat_loop
 from elastic_motion.apps.loop.limits import joint_limit_report
 from elastic_motion.apps.metrics import BlendMetrics, SeamMetrics, blend_metrics, seam_metrics
 from elastic_motion.apps.pca import MotionPCA, motion_pca
@@ -52,32 +64,48 @@ from elastic_motion.apps.prepare import (
     output_motion,
     prepare_motions,
 )
+from elastic_motion.apps.render_files import RenderResult, render_motions
 from elastic_motion.apps.report import jsonable, report_json
-from elastic_motion.apps.viewer import ViewerPage, build_viewer
+from elastic_motion.apps.viewer import ViewerOptions, ViewerPage, build_viewer
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, read_motion, write_bvh
 from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.motion.looping import repeat_motion
+from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
     "AlignResult",
     "BlendMetrics",
+    "BlendOptions",
     "BlendResult",
     "BlendSpace",
+    "Classification",
+    "CleanupOptions",
     "CleanupResult",
+    "Clustering",
     "ContactOptions",
     "DistanceTable",
+    "KeptContacts",
     "LandmarkFile",
+    "LandmarkReport",
+    "LoopOptions",
     "LoopResult",
+    "MatrixOptions",
+    "MatrixResult",
+    "MeanMotionResult",
+    "MeanOptions",
     "Motion",
     "MotionIndex",
     "MotionPCA",
     "MotionPreparation",
+    "Note",
     "PrepareOptions",
     "PreparedMotions",
+    "RenderResult",
     "SeamMetrics",
     "SearchResult",
+    "ViewerOptions",
     "ViewerPage",
     "WarpOptions",
     "WithinResult",
@@ -86,7 +114,10 @@ __all__ = [
     "blend_metrics",
     "blendspace",
     "build_index",
+    "classify",
     "cleanup_footskate",
+    "cluster",
+    "detect_landmarks",
     "distance",
     "distances",
     "find_within",
@@ -94,10 +125,13 @@ __all__ = [
     "joint_limits",
     "load",
     "loop",
+    "matrix",
+    "mean",
     "pca",
     "prepare",
     "read",
     "read_landmarks",
+    "render",
     "repeat",
     "seam_metrics",
     "search",
@@ -112,14 +146,16 @@ read = read_motion
 load = load_motion
 #: ``em.prepare(sources, options)``: inputs made comparable (the step every app runs first).
 prepare = prepare_motions
-#: ``em.blend(motions, weights, method=, warp=, landmarks=, prepare=, metrics=)``.
+#: ``em.blend(motions, weights, options=BlendOptions(...), **overrides)`` (``method=``, ``warp=``,
+#: ``landmarks=``, ``prepare=``, ``contacts=``, ``metrics=``...).
 blend = blend_motions
 #: ``em.blendspace(motions, params="speed", one_cycle=)``: motions placed by a parameter,
 #: aligned to one template; ``.at(p)`` blends any parameter (a BlendResult).
 #: ``em.cleanup_footskate(motion, contacts)``: plant contacts by leg IK (blends do it by default).
 #: ``em.gait_cycles(motion)``: heel strike to heel strike, from the contacts.
-#: ``em.loop(motion, root=, c1=, method=, solver=, free_joints=, prepare=, window=, min_length=,
-#: contacts=)``: ``window="auto"`` loops the best cycle, ``contacts="keep"`` plants contacts.
+#: ``em.loop(motion, options=LoopOptions(...), **overrides)`` (``root=``, ``seam=``, ``method=``,
+#: ``solver=``, ``window=``, ``contacts=``...): ``window="auto"`` loops the best cycle,
+#: ``contacts="keep"`` plants contacts.
 loop = loop_motion
 #: ``em.joint_limits(motion, limits=None)``: DOF angles beyond / at their ASF limits
 #: (``loop(joint_limits="keep")`` keeps the loop within the limits the input respects).
@@ -141,6 +177,21 @@ search = knn_search
 #: ``em.pca(files, method=, warp=)``: mean and principal modes of aligned motions (MotionPCA:
 #: ``.motion_at(z)``, ``.sample(n)``, ``.explained``).
 pca = motion_pca
+#: ``em.matrix(files, out_dir, settings, options=MatrixOptions(...))``: all-pairs distances of
+#: a database, resumable (the ``matrix`` command; MatrixResult).
+matrix = compute_matrix
+#: ``em.classify(matrix, labels, k=1)``: leave-one-out k-NN accuracy (the ``classify`` command).
+classify = classify_motions
+#: ``em.mean(files, options=MeanOptions(...))``: the Karcher mean of motions as a motion (the
+#: ``mean`` command; MeanMotionResult).
+mean = mean_motion
+#: ``em.cluster(matrix, linkage="average", n_clusters=)``: hierarchical clustering (the
+#: ``cluster`` command; Clustering, ``.plot(path)`` the dendrogram).
+cluster = cluster_motions
+#: ``em.render(sources, path, kind="auto")``: pictures and videos (the ``render`` command).
+render = render_motions
+# (``em.detect_landmarks(a, b=None, kinds=)``, imported above under its own name: events of a
+# motion, paired by phase with those of a second; the ``landmarks`` command, LandmarkReport.)
 
 
 def distance(
