@@ -312,7 +312,7 @@ def test_a_bvh_file_is_labelled_by_one_up_axis_detection(mocap_dir, tmp_path, mo
         assert len(calls) == 1
         assert prep.up_axis_in == label
         if warning:  # the same warning, under the preparation's label
-            assert any(warning.split(": ", 1)[1] in n for n in prep.notes)
+            assert any(warning.split(": ", 1)[1] in str(n) for n in prep.notes)
 
 
 def test_the_package_face_is_lazy_and_complete():

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 
 import pytest
@@ -21,7 +20,7 @@ from elastic_motion.apps.prepare import (
     prepare_motions,
 )
 from elastic_motion.motion import drop_joints, resample, set_up_axis, write_bvh
-from elastic_motion.notes import Note, of_kind
+from elastic_motion.notes import Note
 
 
 def test_set_steps_write_their_kinds_in_order():
@@ -50,25 +49,10 @@ def test_per_input_steps_write_their_kinds(tmp_path):
     assert trim.data == {"input": "w", "start_s": 0.5, "stop_s": pytest.approx(2.0), "frames": 46}
     assert units.data == {"input": "w", "unit": "cm", "metres_per_unit": 0.01}
     assert str(up) == "w: rotated from z-up to y-up" and up.data["from"] == "z"
-    # the input's report lists the same notes as texts, and its summary is today's JSON
+    # the input's report holds the same notes, and its summary lists their texts
     (report,) = prep.inputs
-    assert report.notes == tuple(str(n) for n in prep.notes[:3])  # the set's notes come after
-    assert report.summary() == {**dataclasses.asdict(report), "notes": list(report.notes)}
-    assert json.loads(json.dumps(report.summary()))["notes"] == list(report.notes)
+    assert report.notes == prep.notes[:3]  # the set's notes come after
+    assert report.summary()["notes"] == [str(n) for n in report.notes]
+    assert json.loads(json.dumps(report.summary()))["notes"] == [str(n) for n in report.notes]
     _, alone = load_motion(path, opts, trim=(0.5, None))
     assert alone == report
-
-
-def test_summary_lists_texts_of_typed_notes_too():
-    """MotionPreparation.summary() is what loop/blend reports list, whether its notes are the
-    texts (this release) or Notes."""
-    _, rep = load_motion(walker(name="w"), PrepareOptions(check_up_axis=False), trim=(0.5, None))
-    typed = dataclasses.replace(rep, notes=(Note(TRIMMED, rep.notes[0]),))
-    assert typed.summary() == rep.summary()
-
-
-def test_notes_answer_older_text_tests_for_one_release():
-    a, b = walker(name="A"), walker(speed=1.2, name="B")
-    (placed,) = of_kind(prepare_motions([a, b]).notes, PLACED)
-    assert placed.startswith("B: placed like A") and "placed like" in placed
-    assert placed == Note(placed.kind, placed.text, placed.data)

@@ -18,7 +18,7 @@ from elastic_motion.motion.contacts import (
     contact_joints,
     detect_contacts,
 )
-from elastic_motion.notes import Note, of_kind
+from elastic_motion.notes import of_kind
 
 ROOT = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 
@@ -253,14 +253,3 @@ def test_the_stances_of_a_rising_floor_are_contacts(mocap_dir):
     left = c.intervals("LeftFoot")
     assert len(left) == 3 and left[1][0] / m.fps == pytest.approx(1.2, abs=0.05)
     assert not of_kind(c.notes, MISSED_STANCES)
-
-
-def test_notes_still_answer_the_text_tests_of_older_callers():
-    """For one release a contacts note also answers ``startswith`` and ``in`` on its text
-    (apps/loop.py and apps/blend.py test ``n.startswith(MISSED_STANCES_NOTE)``), and equals the
-    plain ``Note`` of the same fields."""
-    height, x = stance_swing(fps=45.0)
-    height[60:85] = 0.05
-    (note,) = of_kind(detect_contacts(foot_motion(height, x, fps=45.0)).notes, MISSED_STANCES)
-    assert isinstance(note, Note) and note.startswith(MISSED_STANCES_NOTE) and "LeftFoot 1" in note
-    assert note == Note(note.kind, note.text, note.data) and not note.startswith("never")
