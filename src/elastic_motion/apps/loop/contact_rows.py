@@ -175,8 +175,9 @@ class _SeamPlan:
         end = {n for n, runs in intervals.items() if runs and runs[-1][1] == f_count}
         plan = cls(sk, intervals, start, set(), {})
         plan.crossing_bodies.update(plan.body(n) for n in end & start)
-        # the seam contacts kept relative to the last frame, per body: (joint, first frame)
-        for name in end:
+        # the seam contacts kept relative to the last frame, per body: (joint, first frame), in
+        # skeleton order (a set's order follows the string hash, which changes from run to run)
+        for name in sorted(end, key=sk.index):
             a = intervals[name][-1][0]
             if a > 0 and not plan.left_to_toe(name):
                 plan.seam_runs.setdefault(plan.body(name), []).append((sk.index(name), a))
