@@ -273,7 +273,7 @@ def closed_markdown(rows: list[dict]) -> str:
 # ----------------------------------------------------------------------------- main
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parse(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[100, 200, 400, 800, 1600])
     ap.add_argument("--cases", nargs="*", default=list(CASES), choices=CASES)
@@ -290,71 +290,78 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "warp.json")
     ap.add_argument("--steep", action="store_true", help="default method vs dp on steep warps (issue 13)")
     ap.add_argument("--closed", action="store_true", help="closed matching vs paper 001 Table 1 (issue 13)")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
 
-    have_fd = False
-    if not args.no_fdasrsf:
-        try:
-            import fdasrsf
 
-            have_fd = True
-        except ImportError:
-            print("fdasrsf not installed (pip install -e '.[benchmark]'): comparing nothing", file=sys.stderr)
+def _fdasrsf_version() -> str | None:
+    """fdasrsf's version, or None when it is not installed (the competitor is then skipped)."""
+    try:
+        import fdasrsf
+    except ImportError:
+        return None
+    return getattr(fdasrsf, "__version__", "unknown")
 
-    # warm-up: numba compilation (cached on disk after the first run)
+
+def _warm_up() -> float:
+    """Seconds of numba compilation (cached on disk after the first run)."""
     t = time.perf_counter()
     q0, q1, _ = synthetic(64, 3)
     for method in ("dp", "dp+refine"):
         optimal_warp(q0, q1, method=method)
     optimal_warp(q0, q1, coarse_to_fine=True)
-    compile_s = time.perf_counter() - t
+    return time.perf_counter() - t
 
+
+def _measure(case: str, n: int, args: argparse.Namespace, have_fd: bool) -> dict | None:
+    """One row: our solvers and fdasrsf's on one pair of SRV functions."""
+    if case.startswith("synth"):
+        q0, q1, gamma = synthetic(n, int(case[5:]))
+    elif not MOCAP.is_dir():
+        print(f"skip {case}: {MOCAP} not found", file=sys.stderr)
+        return None
+    else:
+        q0, q1, gamma = real_pair(case, n)
+    res: dict[str, dict] = {}
+    for name, kw in (
+        ("ours-dp", {"method": "dp"}),
+        ("ours-dp+refine", {"method": "dp+refine"}),
+        ("ours-c2f", {"coarse_to_fine": True, "method": "dp"}),
+    ):
+        sec, verts, info = run_ours(q0, q1, args.repeat, **kw)
+        res[name] = {"time": sec, "vertices": verts, **info}
+    if have_fd and n <= args.fd_max_n:
+        sec, verts = run_fdasrsf(q0, q1, "DP", args.fd_repeat)
+        res["fdasrsf-DP"] = {"time": sec, "vertices": verts}
+    if have_fd and n <= args.rbfgs_max_n:
+        sec, verts = run_fdasrsf(q0, q1, "RBFGS", args.fd_repeat)
+        res["fdasrsf-RBFGS"] = {"time": sec, "vertices": verts}
+    for r in res.values():
+        verts = r.pop("vertices")
+        r["energy"] = warp_energy(q0, q1, verts)
+        r["err_max"], r["err_rms"] = warp_error(verts, gamma)
+        r["n_vertices"] = len(verts)
+    identity = warp_energy(q0, q1, [[0, 0], [1, 1]])
+    return {"case": case, "N": n, "D": q0.shape[1], "identity_energy": identity, "methods": res}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parse(argv)
+    fd_version = None if args.no_fdasrsf else _fdasrsf_version()
+    if not args.no_fdasrsf and fd_version is None:
+        print("fdasrsf not installed (pip install -e '.[benchmark]'): comparing nothing", file=sys.stderr)
+    compile_s = _warm_up()
     extra: dict[str, list] = {}
     if args.steep:
         extra["steep"] = steep_rows(args.n, args.repeat)
     if args.closed:
         extra["closed"] = closed_rows(args.repeat)
-
     rows = []
     for case in args.cases:
         for n in args.n:
-            if case.startswith("synth"):
-                q0, q1, gamma = synthetic(n, int(case[5:]))
-            else:
-                if not MOCAP.is_dir():
-                    print(f"skip {case}: {MOCAP} not found", file=sys.stderr)
-                    continue
-                q0, q1, gamma = real_pair(case, n)
-            d = q0.shape[1]
-            res: dict[str, dict] = {}
-            for name, kw in (
-                ("ours-dp", {"method": "dp"}),
-                ("ours-dp+refine", {"method": "dp+refine"}),
-                ("ours-c2f", {"coarse_to_fine": True, "method": "dp"}),
-            ):
-                sec, verts, info = run_ours(q0, q1, args.repeat, **kw)
-                res[name] = {"time": sec, "vertices": verts, **info}
-            if have_fd and n <= args.fd_max_n:
-                sec, verts = run_fdasrsf(q0, q1, "DP", args.fd_repeat)
-                res["fdasrsf-DP"] = {"time": sec, "vertices": verts}
-            if have_fd and n <= args.rbfgs_max_n:
-                sec, verts = run_fdasrsf(q0, q1, "RBFGS", args.fd_repeat)
-                res["fdasrsf-RBFGS"] = {"time": sec, "vertices": verts}
-            for r in res.values():
-                verts = r.pop("vertices")
-                r["energy"] = warp_energy(q0, q1, verts)
-                r["err_max"], r["err_rms"] = warp_error(verts, gamma)
-                r["n_vertices"] = len(verts)
-            row = {
-                "case": case,
-                "N": n,
-                "D": d,
-                "identity_energy": warp_energy(q0, q1, [[0, 0], [1, 1]]),
-                "methods": res,
-            }
-            rows.append(row)
-            print(format_row(row), file=sys.stderr, flush=True)
-
+            row = _measure(case, n, args, fd_version is not None)
+            if row is not None:
+                rows.append(row)
+                print(format_row(row), file=sys.stderr, flush=True)
     meta = {
         "python": platform.python_version(),
         "machine": platform.machine(),
@@ -365,12 +372,8 @@ def main(argv: list[str] | None = None) -> int:
         "fd_max_n": args.fd_max_n,
         "rbfgs_max_n": args.rbfgs_max_n,
     }
-    try:
-        import fdasrsf
-
-        meta["fdasrsf"] = fdasrsf.__version__
-    except (ImportError, AttributeError):
-        pass
+    if fd_version is not None:
+        meta["fdasrsf"] = fd_version
     write_json(args.out, {"meta": meta, "rows": rows, **extra})
     if rows:
         print(markdown(rows))
