@@ -602,7 +602,7 @@ class _Projection:
         while not log.converged and log.iterations < max_iter:
             accepted, alpha = self.step(p)
             if accepted is None:
-                log.message = f"line search failed (gap {p.feas:.3g}, KKT residual {p.kkt:.3g})"
+                log.message = self.no_step_message(p, log)
                 break
             p = self.point(accepted)
             log.record(
@@ -662,6 +662,20 @@ class _Projection:
                 return trial, alpha
             alpha *= 0.5
         return None, alpha
+
+    def no_step_message(self, p: _Point, log: SolverLog) -> str:
+        """Why no step was accepted. With ``stall_iterations``, a gap above the tolerance that
+        the last step barely decreased (by under a fifth) is the constraints not fitting
+        together: the penalty cannot go down either, and whether the line search fails before
+        the stall test has seen ``stall_iterations`` flat steps depends on the rounding of the
+        platform's linear algebra. Otherwise the line search failed."""
+        stall, hist = self.opts.stall_iterations, self.feas_hist  # hist[-1] is p's gap
+        if stall and p.feas > self.opts.tolerance and len(hist) >= 2 and p.feas > 0.8 * hist[-2]:
+            return (
+                f"the constraints look inconsistent: gap {p.feas:.3g} after {log.iterations} iterations "
+                "(no step decreases it)"
+            )
+        return f"line search failed (gap {p.feas:.3g}, KKT residual {p.kkt:.3g})"
 
     def stop(self, p: _Point, log: SolverLog) -> bool:
         """After an accepted step: converged, stalled at the rounding floor, or the constraints
