@@ -16,11 +16,14 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import stat
 import tempfile
+import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from elastic_motion import limits
 from elastic_motion.errors import ParseError
 
 __all__ = [
@@ -51,8 +54,6 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
     the path, and a file larger than the ``max_file_bytes`` limit (:mod:`elastic_motion.limits`)
     is refused before it is read.
     """
-    from elastic_motion import limits
-
     p = os.fspath(path)
     try:
         fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
@@ -167,9 +168,6 @@ def remove_stale_temporaries(path: str | os.PathLike[str]) -> list[Path]:
     mid-write). Temporaries of the earlier naming (``.<stem>.<8 random><suffix>``) are stale
     after :data:`STALE_SECONDS`. Files that cannot be removed are left (never an error).
     """
-    import re
-    import time
-
     dest = Path(path)
     folder = dest.parent if str(dest.parent) else Path(".")
     suffix = dest.suffix or ".tmp"

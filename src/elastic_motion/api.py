@@ -68,7 +68,7 @@ from elastic_motion.apps.render_files import RenderResult, render_motions
 from elastic_motion.apps.report import jsonable, report_json
 from elastic_motion.apps.viewer import ViewerOptions, ViewerPage, build_viewer
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import Motion, read_motion, write_bvh
+from elastic_motion.motion import UNITS, Motion, read_motion, write_bvh
 from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.motion.looping import repeat_motion
 from elastic_motion.notes import Note
@@ -267,8 +267,6 @@ def write(
     -------
     pathlib.Path
     """
-    from elastic_motion.motion import UNITS
-
     if units is not None and units not in UNITS:
         raise OptionError("units", f"expected one of {sorted(UNITS)}; got {units!r}")
     if isinstance(result, BlendResult | LoopResult):

@@ -50,6 +50,8 @@ import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+from elastic_motion.errors import OptionError, ParseError
+
 __all__ = [
     "ENV_VAR",
     "Limits",
@@ -179,8 +181,6 @@ def check_clip(
     joints : int, optional
         With ``frames``: ``frames * joints`` is checked against ``max_samples``.
     """
-    from elastic_motion.errors import ParseError
-
     lim = _current
     if joints is not None and joints > lim.max_joints:
         raise ParseError(path, line, limit_message("a joint count of", joints, "max_joints", lim.max_joints))
@@ -205,8 +205,6 @@ def check_clip(
 
 def check_option(option: str, what: str, value: float, name: str, *, at_least: bool = False) -> None:
     """``OptionError(option, ...)`` when ``value`` is beyond the limit ``name`` (or not a number)."""
-    from elastic_motion.errors import OptionError
-
     bound = getattr(_current, name)
     ok = value >= bound if at_least else value <= bound
     if not ok:  # NaN fails both
