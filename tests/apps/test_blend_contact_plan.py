@@ -1,0 +1,133 @@
+"""Issue 29: a blend's contact plan in output time, its trimmed ends, and the blend measured
+the same way as its inputs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import elastic_motion as em
+from elastic_motion.apps.blend.contact_plan import carried_interval, match_intervals
+from elastic_motion.apps.blend.timing import HELD_RATE, NOTE_TRIM, held_ends
+from elastic_motion.apps.metrics.floor import foot_quality
+from elastic_motion.motion import drop_tpose, forward_kinematics, read_motion
+
+
+def test_carried_interval_keeps_the_output_frames_that_round_into_it():
+    frames = np.array([0.0, 0.4, 0.8, 1.2, 1.6, 2.0, 2.4, 2.8, 3.2])  # input frame of each output frame
+    # input frames [1, 3): output frames whose input frame rounds to 1 or 2 (0.8 ... 2.4)
+    assert carried_interval((1, 3), frames) == (2, 7)
+    assert carried_interval((0, 1), frames) == (0, 2)
+
+
+def test_an_interval_over_two_of_the_other_is_split_at_the_gap():
+    """A stands (one interval) while B steps (two intervals and a gap): A's stance is split at the
+    middle of B's gap, and each piece pairs with one of B's."""
+    pairs = match_intervals([(0, 30)], [(0, 10), (20, 30)])
+    assert pairs == [((0, 15), (0, 10)), ((15, 30), (20, 30))]
+    # left alone, an interval is paired with None
+    assert match_intervals([(0, 10)], [(40, 50)]) == [((0, 10), None), (None, (40, 50))]
+
+
+def test_held_ends_cut_where_an_input_is_held_still():
+    fps = 30.0
+    n = 90
+    a = np.arange(n) / fps
+    b = a.copy()
+    b[:15] = 0.1 * a[:15]  # B held (a tenth of A's rate) for the first half second
+    b[15:] = b[14] + (a[15:] - a[14])
+    head, tail = held_ends([a, b], fps)
+    assert 10 <= head <= 16 and tail == 0
+    assert held_ends([a, a], fps) == (0, 0)
+    # the rate of a walk of another rhythm (half or twice) is not held
+    assert held_ends([a, 0.5 * a], fps) == (0, 0) and HELD_RATE < 0.5
+
+
+@pytest.fixture(scope="module")
+def mocap(mocap_dir: Path) -> Path:
+    return mocap_dir
+
+
+@pytest.mark.mocap
+@pytest.mark.parametrize(
+    "rel", ["bandai/dataset-1_walk_normal_001.bvh", "cmu/bvh/07_01.bvh", "deepmimic/humanoid3d_walk.txt"]
+)
+def test_a_clip_blended_with_itself_is_itself(mocap, rel):
+    """blend(A, A) is A, with the contacts planted, at any weight; so is a mean of copies."""
+    a = read_motion(mocap / rel)
+    for weights in (0.5, 0.3):
+        res = em.blend([a, a], weights)
+        assert res.cleanup is not None and res.cleanup.applied
+        A = res.prepared.motions[0]
+        assert res.motion.n_frames == A.n_frames
+        diff = forward_kinematics(res.motion, end_sites=True) - forward_kinematics(A, end_sites=True)
+        assert np.abs(diff).max() < 1e-6
+    three = em.blend([a, a, a], [0.2, 0.3, 0.5])
+    diff = forward_kinematics(three.motion, end_sites=True) - forward_kinematics(A, end_sites=True)
+    assert np.abs(diff).max() < 1e-6
+
+
+@pytest.mark.mocap
+def test_no_skid_where_exactly_one_input_foot_is_planted(mocap):
+    """Bandai normal x old: where the warp holds the normal walk's planted foot while the old
+    walk shuffles a step, the blend of a stance and a step slid the toe along the floor (10
+    skids, 1.45 m, against the inputs' 0 and 4). The plan plants or lifts it."""
+    a = read_motion(mocap / "bandai/dataset-1_walk_normal_001.bvh")
+    b = read_motion(mocap / "bandai/dataset-1_walk_old_001.bvh")
+    res = em.blend([a, b], 0.5)
+    inputs = [foot_quality(m) for m in res.prepared.motions]
+    out = foot_quality(res.motion)
+    assert out.skid_count <= max(q.skid_count for q in inputs)
+    assert out.slid_m <= max(q.slid_m for q in inputs)
+    assert out.skating.mean_speed <= 1.1 * min(q.skating.mean_speed for q in inputs)
+
+
+@pytest.mark.mocap
+def test_the_report_measures_the_written_blend_like_its_inputs(mocap, tmp_path, capsys):
+    """The report gives the blend's skating over its own contacts, found by the inputs' detector
+    with the same options, on the written file: not only over contacts carried from the inputs
+    (which left out the frames where the blend's feet slid)."""
+    from elastic_motion.cli import main
+
+    cmu = mocap / "cmu/bvh"
+    out, rep = tmp_path / "b.bvh", tmp_path / "b.json"
+    code = main(["blend", str(cmu / "107_02_30hz.bvh"), str(cmu / "108_01_30hz.bvh"), "-o", str(out),
+                 "--json", str(rep), "-q"])  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    feet = json.loads(rep.read_text())["metrics"]["feet"]
+    written = em.prepare([read_motion(out)], em.PrepareOptions(drop_tpose=False)).motions[0]
+    q = foot_quality(written)
+    assert feet["result"]["skating_m_s"] == pytest.approx(q.skating.mean_speed, rel=1e-6, abs=1e-9)
+    assert feet["result"]["skid_count"] == q.skid_count
+    prepared = em.prepare([cmu / "107_02_30hz.bvh", cmu / "108_01_30hz.bvh"]).motions
+    inputs = [foot_quality(m) for m in prepared]
+    assert [x["skating_m_s"] for x in feet["inputs"]] == pytest.approx([i.skating.mean_speed for i in inputs])
+
+
+@pytest.mark.mocap
+def test_the_clean_up_adds_no_skid(mocap):
+    """CMU 107_02 x 108_01 whole: the clean-up's vertical settle lowered a swinging toe that
+    passed 3.4 cm over the floor to 1.2 cm, and the blend skidded 3 times where it did once
+    unplanted. The plan lifts swings to the inputs' heights and does not settle the body."""
+    a = drop_tpose(read_motion(mocap / "cmu/bvh/107_02_30hz.bvh"))
+    b = drop_tpose(read_motion(mocap / "cmu/bvh/108_01_30hz.bvh"))
+    kept = em.blend([a, b], 0.5)
+    measured = em.blend([a, b], 0.5, contacts="report")
+    assert not measured.cleanup.applied  # "report": measured, nothing changed
+    assert foot_quality(kept.motion).skid_count <= foot_quality(measured.motion).skid_count
+    assert kept.cleanup.settle_offset == 0.0
+
+
+@pytest.mark.mocap
+def test_the_trim_is_reported_and_can_be_turned_off(mocap):
+    b = "bandai/dataset-1_walk_"
+    a, c = (read_motion(mocap / f"{b}{s}_001.bvh") for s in ("angry", "tired"))
+    trimmed = em.blend([a, c], 0.5, contacts="off")
+    whole = em.blend([a, c], 0.5, contacts="off", trim_ends=False)
+    assert sum(trimmed.trimmed) > 0 and whole.trimmed == (0, 0)
+    assert trimmed.motion.n_frames == whole.motion.n_frames - sum(trimmed.trimmed)
+    assert trimmed.summary()["trimmed_frames"] == list(trimmed.trimmed)
+    assert any(n.kind == NOTE_TRIM and n.data["start_frames"] == trimmed.trimmed[0] for n in trimmed.notes)
