@@ -17,9 +17,13 @@ from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion, forward_kinematics
 from elastic_motion.motion.looping import check_loop_motion, check_root, cycle_transform, repeat_motion
 
-__all__ = ["SeamMetrics", "seam_metrics"]
+__all__ = ["SEAM_WINDOW", "SeamMetrics", "seam_metrics"]
 
 _SO3 = SO3()
+#: Seconds before and after the seam over which its whips are looked for
+#: (:attr:`SeamMetrics.seam_acceleration_ratio`): a closing spreads its change over the frames
+#: next to the seam, a limb's whip there lasts a few frames.
+SEAM_WINDOW = 0.3
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +55,21 @@ class SeamMetrics:
         0.1-1.2); well above: a visible hitch (C0 loops of the same clips up to 5.5).
     seam_velocity_jump_point : str
         The point where that ratio is largest (a joint name, or ``"<joint> end site"``).
+    seam_acceleration_ratio : float
+        The whip an animator sees *around* the seam: per FK point its largest acceleration over
+        the last and the first :data:`SEAM_WINDOW` seconds of two cycles played in a row (the
+        seam in the middle) over its own 99th percentile of acceleration inside the clip
+        (``original``'s when given; floored like the velocity jump's), the largest over the
+        points. A closing that puts its change into the frames next to the seam whips a limb
+        there that the jump at the seam frame does not show (DeepMimic long walk closed whole:
+        an ankle at 25.7x its own). At most about 2: no quicker than the clip itself.
+    seam_acceleration_point : str
+        The point where that ratio is largest.
+    seam_speed_ratio : float
+        Likewise for speed: the largest speed over that window over the point's own largest
+        speed inside the clip (floored at a tenth of the largest over the points).
+    seam_speed_max_m_s : float
+        The largest speed of a point over that window (m/s).
     foot_sliding_m_s : float
         Mean horizontal speed of foot joints over frame steps where they touch the floor,
         over two cycles played in a row (so the seam counts).
@@ -72,6 +91,10 @@ class SeamMetrics:
     seam_velocity_max_m_s: float
     seam_velocity_jump_ratio: float
     seam_velocity_jump_point: str
+    seam_acceleration_ratio: float
+    seam_acceleration_point: str
+    seam_speed_ratio: float
+    seam_speed_max_m_s: float
     foot_sliding_m_s: float
     foot_sliding_seam_m_s: float
     seam_angle_deg: np.ndarray
@@ -177,6 +200,7 @@ def seam_metrics(
         "seam_angular_velocity_deg_s": dw,
     }
     out.update(_foot_sliding(motion, root, contact_height))
+    out.update(_around_the_seam(motion, root, points, ref, names, scale))
     if pos_original is not None:
         dev = np.linalg.norm(pos_original - pos, axis=-1) * scale
         out["deviation_max_m"] = float(dev.max())
@@ -184,6 +208,38 @@ def seam_metrics(
         out["deviation_per_frame_max_m"] = dev.max(axis=1)
         out["deviation_per_frame_mean_m"] = dev.mean(axis=1)
     return SeamMetrics(**out)
+
+
+def _around_the_seam(
+    motion: Motion, root: str, points: np.ndarray, ref: np.ndarray, names: list[str], scale: float
+) -> dict:
+    """The seam's acceleration and speed ratios (:class:`SeamMetrics`) of the FK ``points``
+    (indices into joints and end sites), ``ref`` ``(F, P, 3)`` the clip they are measured
+    against (its own or the original's positions)."""
+    fps = motion.fps
+    f = motion.n_frames
+    two = forward_kinematics(repeat_motion(motion, 2, root), end_sites=True)[:, points]
+    w = max(2, round(SEAM_WINDOW * fps))
+    seam = f - 1  # the first cycle's last frame is the second's first
+    lo, hi = max(1, seam - w), min(two.shape[0] - 1, seam + w + 1)
+    acc = np.linalg.norm(
+        two[lo - 1 : hi + 1][2:] - 2 * two[lo - 1 : hi + 1][1:-1] + two[lo - 1 : hi + 1][:-2], axis=-1
+    )
+    acc *= fps * fps * scale  # (frames around the seam, P), m/s^2
+    vel = np.linalg.norm(np.diff(two[lo - 1 : hi + 1], axis=0), axis=-1) * fps * scale
+    own_acc = np.percentile(np.linalg.norm(np.diff(ref, 2, axis=0), axis=-1), 99, axis=0) * fps * fps * scale
+    own_acc = np.maximum(own_acc, 0.1 * own_acc.max(initial=0.0))
+    own_vel = np.linalg.norm(np.diff(ref, axis=0), axis=-1).max(axis=0) * fps * scale
+    own_vel = np.maximum(own_vel, 0.1 * own_vel.max(initial=0.0))
+    tiny = np.finfo(float).tiny
+    acc_ratio = acc.max(axis=0) / np.maximum(own_acc, tiny)
+    vel_ratio = vel.max(axis=0) / np.maximum(own_vel, tiny)
+    return {
+        "seam_acceleration_ratio": float(acc_ratio.max()),
+        "seam_acceleration_point": names[int(points[int(acc_ratio.argmax())])],
+        "seam_speed_ratio": float(vel_ratio.max()),
+        "seam_speed_max_m_s": float(vel.max()),
+    }
 
 
 def _foot_sliding(motion: Motion, root: str, contact_height: float) -> dict:
