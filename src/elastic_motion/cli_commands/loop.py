@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
 from elastic_motion._options import choices
 from elastic_motion.cli_commands._argparse import add_alias
@@ -47,9 +47,6 @@ from elastic_motion.vocabulary import (
     Solver,
     WindowMode,
 )
-
-if TYPE_CHECKING:
-    from elastic_motion.apps.loop import LoopOptions
 
 
 def _representation(value: str) -> str:
@@ -200,12 +197,10 @@ def _free(value: str):
     return [v.strip() for v in value.split(",") if v.strip()]
 
 
-def _options(args: argparse.Namespace) -> LoopOptions:
-    """The arguments as one :class:`LoopOptions`."""
-    from elastic_motion.apps.loop import LoopOptions  # CLI start-up (module docstring)
-    from elastic_motion.cli_commands._running import contact_options
-
-    return LoopOptions(
+def _fields(args: argparse.Namespace) -> dict[str, Any]:
+    """The arguments as the fields of one :class:`~elastic_motion.apps.loop.LoopOptions`, but
+    ``contact_options`` (``--contact-height``, made in ``run``)."""
+    return dict(
         root=args.root,
         seam=args.seam,
         method=args.method,
@@ -216,16 +211,20 @@ def _options(args: argparse.Namespace) -> LoopOptions:
         window=args.window,
         min_length=args.min_length,
         contacts=args.contacts,
-        contact_options=contact_options(args),
         joint_limits=args.joint_limits,
     )
 
 
 def run(args: argparse.Namespace) -> int:
     # the app is imported here, not at the top: the command line starts without loading it
-    from elastic_motion.apps.loop import loop_motion, repeat_loop
+    from elastic_motion.apps.loop import LoopOptions, loop_motion, repeat_loop
     from elastic_motion.apps.report import report_header
-    from elastic_motion.cli_commands._running import emit_report, prepare_inputs, write_motion
+    from elastic_motion.cli_commands._running import (
+        contact_options,
+        emit_report,
+        prepare_inputs,
+        write_motion,
+    )
 
     inputs = [args.input]
     out = check_output(args.output, inputs, suffixes=(".bvh",))
@@ -238,7 +237,8 @@ def run(args: argparse.Namespace) -> int:
     bar = progress_for("loop", args)
     try:
         prepared = prepare_inputs(args, inputs)
-        res = loop_motion(prepared, _options(args), progress=bar)
+        options = LoopOptions(**_fields(args), contact_options=contact_options(args))
+        res = loop_motion(prepared, options, progress=bar)
     finally:
         bar.close()
     write_motion(res.motion, res.prepared, out, inputs)
