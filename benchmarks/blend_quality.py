@@ -73,19 +73,21 @@ import numpy as np
 from _common import MOCAP, load_clip, machine_info, write_json
 from elastic_motion.apps.align import LANDMARK_PLAN, motion_curves
 from elastic_motion.apps.blend import NOTE_CLEANUP, NOTE_CYCLES, NOTE_LANDMARKS, blend_motions
-from elastic_motion.apps.cleanup import carry_contacts
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import contact_skating, foot_sliding
+from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PrepareOptions, output_motion
 from elastic_motion.curves import DiscreteCurve, srv_transform, weighted_blend
 from elastic_motion.motion import from_lie_curve, read_bvh, write_bvh
-from elastic_motion.motion.contacts import detect_contacts
 from elastic_motion.warp import WarpOptions, optimal_warp
 
 REPO = Path(__file__).resolve().parents[1]
 #: The kinds of the blend notes each row lists (cycles matched, clean-up, landmarks).
 REPORTED_NOTES = (NOTE_CYCLES, NOTE_CLEANUP, LANDMARK_PLAN, NOTE_LANDMARKS)
 
+#: The library's default blend (``blend_motions([a, b], 0.5)``: Lie, dp+refine, contacts kept,
+#: ends trimmed): the row issue 29's targets are read on.
+DEFAULT = ("default (Lie + dp+refine)", "lie", None, None, False)
 #: (label, method, warp, landmarks, cycles)
 METHODS = (
     ("(a) Euler linear", "euler-linear", "none", None, False),
@@ -122,20 +124,30 @@ def pairs() -> dict:
             load_clip(b + "walk_happy_001.bvh", tpose=False),
             load_clip(b + "walk_sad_001.bvh", tpose=False),
         ),
+        # issue 29's held-out rows; the shared data has no Bandai "active", "elderly" or
+        # "exhausted" walk, nor a DeepMimic jog: the nearest styles stand in (angry: brisk,
+        # old, tired; DeepMimic's walker walk against its run)
+        "bandai_normal_angry": lambda: (
+            load_clip(b + "walk_normal_001.bvh", tpose=False),
+            load_clip(b + "walk_angry_001.bvh", tpose=False),
+        ),
+        "bandai_normal_old": lambda: (
+            load_clip(b + "walk_normal_001.bvh", tpose=False),
+            load_clip(b + "walk_old_001.bvh", tpose=False),
+        ),
+        "bandai_angry_tired": lambda: (
+            load_clip(b + "walk_angry_001.bvh", tpose=False),
+            load_clip(b + "walk_tired_001.bvh", tpose=False),
+        ),
+        "deepmimic_walker_run": lambda: (
+            load_clip("deepmimic/walker/0walk_forward.txt", tpose=False),
+            load_clip("deepmimic/humanoid3d_run.txt", tpose=False),
+        ),
+        "obstacles_whole": lambda: (
+            load_clip("cmu/bvh/107_02_30hz.bvh"),
+            load_clip("cmu/bvh/108_01_30hz.bvh"),
+        ),
     }
-
-
-def carried_contacts(res, contacts: list) -> object:
-    """The inputs' ``contacts`` carried through the warps of a blend ``res`` to its frames."""
-    return carry_contacts(
-        contacts,
-        res.warps,
-        res.timing,
-        [m.duration for m in res.prepared.motions],
-        res.weights,
-        fps=res.motion.fps,
-        joints=res.motion.skeleton.names,
-    )
 
 
 def written(res) -> object:
@@ -198,9 +210,27 @@ def references(res) -> dict:
     }
 
 
+def feet_row(q: FootQuality, inputs: list[FootQuality]) -> dict:
+    """The symmetric measures of one motion (its own contacts, skids, depth, clearance) and its
+    swing clearance against the lesser input's on each foot point."""
+    ratios = []
+    for name, v in q.swing_clearance_m.items():
+        own = [i.swing_clearance_m.get(name, np.nan) for i in inputs]
+        own = [x for x in own if np.isfinite(x)]
+        if own and np.isfinite(v) and min(own) > 0:
+            ratios.append(v / min(own))
+    return {
+        "skating_m_s": q.skating.mean_speed,
+        "skids": q.skid_count,
+        "slid_m": q.slid_m,
+        "below_floor_m": q.below_floor_m,
+        "swing_clearance_ratio_min": min(ratios) if ratios else None,
+    }
+
+
 def run_pair(key: str, a, b) -> list[dict]:
     rows = []
-    inputs_contacts = None
+    feet_in = None
     d_ab = None
     refs: dict = {}
     unclean = None  # the same method's blend without the clean-up
@@ -208,6 +238,7 @@ def run_pair(key: str, a, b) -> list[dict]:
     for label, method, warp, lm, cyc in (
         *METHODS,
         ("Lie + warp + cycles", "lie", "dp", None, True),
+        DEFAULT,
     ):
         for clean in (False, True):
             if cyc and not clean:
@@ -219,20 +250,19 @@ def run_pair(key: str, a, b) -> list[dict]:
                 method=method,
                 warp=warp,
                 landmarks=lm,
-                contacts="keep" if clean else "off",
+                contacts="keep" if clean else "report",  # report: the plan, nothing changed
                 cycles=cyc,
             )
             seconds = time.perf_counter() - t0
             ms = res.prepared.motions
             if label == "Lie + warp" and not clean:
                 refs = references(res)
-            if inputs_contacts is None:
-                inputs_contacts = [detect_contacts(m) for m in ms]
-                inp = [contact_skating(m, c) for m, c in zip(ms, inputs_contacts, strict=True)]
-            cs = [detect_contacts(m) for m in ms] if cyc else inputs_contacts
-            carried = res.cleanup.contacts if res.cleanup is not None else carried_contacts(res, cs)
+            if feet_in is None:
+                feet_in = [foot_quality(m) for m in ms]
             back = written(res)
-            sk = contact_skating(back, carried)
+            feet = feet_row(foot_quality(back), feet_in)
+            # the second column: against the contact plan (the inputs' carried through the warps)
+            carried = contact_skating(back, res.cleanup.contacts) if res.cleanup is not None else None
             d = distances([*ms, res.motion], ["A", "B", "R"])
             with_r0 = clean and not cyc and unclean is not None
             df = distances(
@@ -258,8 +288,9 @@ def run_pair(key: str, a, b) -> list[dict]:
                     "pair": key,
                     "method": label,
                     "cleanup": clean,
-                    "skating_m_s": sk.mean_speed,
-                    "below_floor_m": sk.below_floor,
+                    **feet,
+                    "skating_vs_plan_m_s": None if carried is None else carried.mean_speed,
+                    "below_plan_floor_m": None if carried is None else carried.below_floor,
                     "foot_sliding_m_s": fs.mean_speed,
                     "foot_sliding_unclean_threshold_m_s": fs_same,
                     "d_R_A": float(d[2, 0]),
@@ -284,28 +315,29 @@ def run_pair(key: str, a, b) -> list[dict]:
             "pair": key,
             "method": "inputs A, B",
             "cleanup": None,
-            "skating_m_s": [s.mean_speed for s in inp],
-            "below_floor_m": [s.below_floor for s in inp],
+            **{k: [feet_row(q, feet_in)[k] for q in feet_in] for k in ("skating_m_s", "skids", "slid_m")},
+            "below_floor_m": [q.below_floor_m for q in feet_in],
             "d_A_B": d_ab,
             **refs,
-            "papers_blends": papers_blends(a, b, inputs_contacts),
+            "papers_blends": papers_blends(a, b),
         },
     )
     return rows
 
 
-def papers_blends(a, b, contacts: list) -> dict:
+def papers_blends(a, b) -> dict:
     """(c) and (d) as the papers have them: no pose anchoring (``anchor=False``), no clean-up;
     foot sliding and skating on the written BVH (``examples/paper_figures.py``'s tables)."""
     out = {}
     for label, lm in (("(c)", None), ("(d)", "auto")):
         res = blend_motions(
-            [a, b], 0.5, method="euler-elastic", warp="dp", landmarks=lm, contacts="off", anchor=False
+            [a, b], 0.5, method="euler-elastic", warp="dp", landmarks=lm, contacts="report", anchor=False
         )
         back = written(res)
         out[label] = {
             "foot_sliding_m_s": foot_sliding(back).mean_speed,
-            "skating_m_s": contact_skating(back, carried_contacts(res, contacts)).mean_speed,
+            "skating_m_s": foot_quality(back).skating.mean_speed,
+            "skating_vs_plan_m_s": contact_skating(back, res.cleanup.contacts).mean_speed,
         }
     return out
 
@@ -356,7 +388,9 @@ def targets(rows: list[dict]) -> dict:
     c, dd = by.get(("(c) Euler + warp", False)), by.get(("(d) Euler + warp + landmarks", False))
     # as the library makes them by default: pose anchoring and the clean-up on
     cc, dc = by.get(("(c) Euler + warp", True)), by.get(("(d) Euler + warp + landmarks", True))
+    default = by.get((DEFAULT[0], True))
     return {
+        **_issue29_targets(inp, default),
         "lesser_input_skating_m_s": lesser,
         "skating_ratio_max": max(r["skating_m_s"] / lesser for r in clean) if lesser > 0 else None,
         "skating_met": all(r["skating_m_s"] <= 1.1 * lesser for r in clean),
@@ -387,6 +421,31 @@ def targets(rows: list[dict]) -> dict:
     }
 
 
+def _issue29_targets(inp: dict, r: dict | None) -> dict:
+    """Issue 29's targets on the default blend (clean-up on), measured like the inputs."""
+    if r is None:
+        return {}
+    half = inp["d_A_B_fine"] / 2 if inp.get("d_A_B_fine") else None
+    lesser = min(inp["skating_m_s"])
+    worst_d = max(r["d_R_A_fine"], r["d_R_B_fine"]) / half if half else None
+    clear = r["swing_clearance_ratio_min"]
+    return {
+        "default_skids": [r["skids"], max(inp["skids"])],
+        "default_slid_m": [r["slid_m"], max(inp["slid_m"])],
+        "default_skids_met": r["skids"] <= max(inp["skids"]) and r["slid_m"] <= max(inp["slid_m"]) + 1e-9,
+        "default_skating_ratio": r["skating_m_s"] / lesser if lesser > 0 else None,
+        "default_skating_met": r["skating_m_s"] <= 1.1 * lesser,
+        "default_below_floor_m": r["below_floor_m"],
+        "default_below_floor_met": r["below_floor_m"] <= 0.01,
+        "default_swing_clearance_ratio_min": clear,
+        "default_swing_clearance_met": clear is None or clear >= 0.8,
+        "default_distance_ratio_fine": worst_d,
+        "default_distance_met_fine": worst_d is not None
+        and abs(r["d_R_A_fine"] / half - 1) <= 0.1
+        and abs(r["d_R_B_fine"] / half - 1) <= 0.1,
+    }
+
+
 def _euler_metric_targets(clean: list[dict]) -> dict:
     """The distance target of the Euler rows (c), (d) with clean-up in their own metric (fine)."""
     own = [r["euler_metric_fine_d_R_A_R_B_A_B"] for r in clean if r.get("euler_metric_fine_d_R_A_R_B_A_B")]
@@ -413,21 +472,33 @@ def main() -> None:
         report["targets"][key] = targets(rows)
         print(f"\n### {key}\n")
         print(
-            "| method | clean-up | skating (m/s) | below floor (m) | foot sliding (m/s) | (threshold before "
-            "clean-up) | d(R,A) | d(R,B) | d(A,B) | fine d(R,A) | fine d(R,B) | fine d(A,B) | fine d(R,R0) "
-            "| time (s) |"
+            "| method | clean-up | skating (m/s) | vs plan | skids | slid (m) | below floor (m) | clearance "
+            "| foot sliding (m/s) | (threshold before clean-up) | d(R,A) | d(R,B) | d(A,B) | fine d(R,A) "
+            "| fine d(R,B) | fine d(A,B) | fine d(R,R0) | time (s) |"
         )
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|" + "---|" * 18)
         for r in rows:
             print(
                 f"| {r['method']} | {'' if r['cleanup'] is None else ('on' if r['cleanup'] else 'off')} | "
-                f"{fmt(r['skating_m_s'])} | {fmt(r['below_floor_m'])} | {fmt(r.get('foot_sliding_m_s'))} | "
+                f"{fmt(r['skating_m_s'])} | {fmt(r.get('skating_vs_plan_m_s'))} | {fmt(r.get('skids'))} | "
+                f"{fmt(r.get('slid_m'))} | {fmt(r['below_floor_m'])} | "
+                f"{fmt(r.get('swing_clearance_ratio_min'))} | "
+                f"{fmt(r.get('foot_sliding_m_s'))} | "
                 f"{fmt(r.get('foot_sliding_unclean_threshold_m_s'))} | "
                 f"{fmt(r.get('d_R_A'))} | {fmt(r.get('d_R_B'))} | {fmt(r.get('d_A_B'))} | "
                 f"{fmt(r.get('d_R_A_fine'))} | {fmt(r.get('d_R_B_fine'))} | {fmt(r.get('d_A_B_fine'))} | "
                 f"{fmt(r.get('d_R_R0_fine'))} | {fmt(r.get('seconds'))} |"
             )
         t = report["targets"][key]
+        print(
+            f"\nissue 29 (default blend, measured like the inputs): skids {fmt(t['default_skids'])} "
+            f"(blend / worst input), slid {fmt(t['default_slid_m'])} m: {t['default_skids_met']}; "
+            f"skating {fmt(t['default_skating_ratio'])}x the lesser input: {t['default_skating_met']}; "
+            f"below the floor {fmt(t['default_below_floor_m'])} m: {t['default_below_floor_met']}; "
+            f"swing clearance {fmt(t['default_swing_clearance_ratio_min'])}x the lesser input's: "
+            f"{t['default_swing_clearance_met']}; fine d(R, X) {fmt(t['default_distance_ratio_fine'])}x "
+            f"d(A,B)/2: {t['default_distance_met_fine']}"
+        )
         print(
             f"\ntargets: skating <= 1.1x lesser input: {t['skating_met']} "
             f"(worst {fmt(t['skating_ratio_max'])}x); "

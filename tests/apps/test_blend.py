@@ -75,7 +75,8 @@ def test_weight_one_gives_b_at_its_own_timing(pair, method, warp):
 
 def test_halfway_blend_duration_skeleton_and_fingers(pair):
     a, b = pair
-    res = blend_motions([a, b], 0.5, method="lie", warp="dp", metrics=True)
+    # (the blended clock's duration: the ends kept whole)
+    res = blend_motions([a, b], 0.5, method="lie", warp="dp", metrics=True, trim_ends=False)
     m = res.motion
     assert abs(m.duration - 0.5 * (a.duration + b.duration)) <= 1.0 / a.fps
     assert m.skeleton.names == a.skeleton.names
@@ -167,7 +168,7 @@ def test_extrapolation_needs_the_flag(pair):
 def test_three_way_weighted_mean(pair):
     a, b = pair
     c = walker(duration=2.3, freq=1.15, amp=0.6, speed=1.2, name="C")
-    res = blend_motions([a, b, c], [0.5, 0.3, 0.2], metrics=False)
+    res = blend_motions([a, b, c], [0.5, 0.3, 0.2], metrics=False, trim_ends=False)
     assert len(res.warps) == 3
     m = res.motion
     expected = 0.5 * a.duration + 0.3 * b.duration + 0.2 * c.duration
@@ -492,7 +493,7 @@ def test_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir, method):
     files = [mocap_dir / "bandai" / f"dataset-1_walk_{s}_001.bvh" for s in ("normal", "tired")]
     if not all(p.is_file() for p in files):
         pytest.skip("Bandai walks not found")
-    res = blend_motions(files, 0.5, method=method, warp="dp", contacts="off")
+    res = blend_motions(files, 0.5, method=method, warp="dp", contacts="off", trim_ends=False)
     assert any(n.kind == NOTE_ANCHOR and n.data for n in res.notes)
 
     def signed_bends(m):
@@ -508,7 +509,9 @@ def test_blend_knees_bend_no_further_back_than_the_inputs(mocap_dir, method):
     inputs_min = min(signed_bends(m).min() for m in res.prepared.motions)
     assert inputs_min > -1.0
     assert signed_bends(res.motion).min() > -3.0
-    plain = blend_motions(res.prepared, 0.5, method=method, warp="dp", contacts="off", anchor=False)
+    plain = blend_motions(
+        res.prepared, 0.5, method=method, warp="dp", contacts="off", anchor=False, trim_ends=False
+    )
     assert signed_bends(plain.motion).min() < -10.0  # what the anchoring is for
     d = distance_table(
         [*res.prepared.motions, res.motion], prepare=PrepareOptions(joints="common", drop_tpose=False)

@@ -31,7 +31,7 @@ __all__ = ["SKELETON_MODES", "BlendOptions", "SkeletonMode", "parse_weight_curve
 # Bone offsets of a blend: SkeletonMode ("blend": the weighted mean of the inputs', "first":
 # the first input's) and SKELETON_MODES, from elastic_motion.vocabulary.
 
-_FLAGS = ("extrapolate", "anchor", "cycles", "loop", "metrics")
+_FLAGS = ("extrapolate", "anchor", "trim_ends", "cycles", "loop", "metrics")
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,13 @@ class BlendOptions:
     loop : bool, default False
         Two motions: blend one matched cycle of each and close it into a seamless loop
         (:func:`elastic_motion.apps.loop.loop_motion`, root "travel", C1).
+    trim_ends : bool, default True
+        Trim the output's ends to the span where every input is in motion: where the warp holds
+        one input still while another moves on (its clock rate below
+        :data:`elastic_motion.apps.blend.timing.HELD_RATE` of the fastest input's, as at the
+        ends of clips that start or stop out of phase), the blend of a step and a pause is a
+        foot sliding at half a step's length. The trim is in the notes and the report; False
+        keeps the whole clips.
     metrics : bool, default False
         Compute the quality metrics (:func:`elastic_motion.apps.metrics.blend_metrics`:
         ``K (K + 1) / 2`` extra DP solves).
@@ -102,6 +109,7 @@ class BlendOptions:
     skeleton: SkeletonMode = "blend"
     weight_curve: tuple[tuple[float, float], ...] | None = None
     anchor: bool = True
+    trim_ends: bool = True
     contacts: ContactPolicy = "keep"
     contact_options: ContactOptions = field(default_factory=ContactOptions)
     cycles: bool = False

@@ -633,11 +633,41 @@ def _foot_turn(
     return _ease(vec, both, ease)
 
 
+def _swing_raise(
+    leg: LegChain, feet: _Feet, delta_up: np.ndarray, heights: Mapping[str, np.ndarray]
+) -> np.ndarray:
+    """How much to raise the ankle ``(F,)`` so that each point of the foot with a least height
+    (``heights``: per ankle or toe joint or ``"<joint> end site"``, absolute, NaN where none;
+    a contact plan's swings) is at least that high, after the raise ``delta_up`` planned."""
+    sk = feet.skeleton
+    points = [(sk.names[j], j) for j in (leg.ankle, leg.toe) if j >= 0]
+    points += [
+        (f"{sk.names[p]} end site", sk.n_joints + e)
+        for e, p in enumerate(sk.end_site_parents)
+        if p in (leg.ankle, leg.toe)
+    ]
+    need = np.zeros_like(delta_up)
+    for name, i in points:
+        if name not in heights:
+            continue
+        least = np.asarray(heights[name], dtype=np.float64)
+        if least.shape != delta_up.shape:
+            raise ValueError(f"swing_heights[{name!r}]: expected shape {delta_up.shape}; got {least.shape}")
+        deficit = least - (feet.points[:, i, feet.up] + delta_up)
+        need = np.maximum(need, np.where(np.isnan(deficit), 0.0, deficit))
+    return need
+
+
 def _planted_target(
-    leg: LegChain, feet: _Feet, plants: Mapping[str, np.ndarray] | None, strength: float
+    leg: LegChain,
+    feet: _Feet,
+    plants: Mapping[str, np.ndarray] | None,
+    strength: float,
+    swing_heights: Mapping[str, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """A planted leg's ankle targets ``(F, 3)`` (NaN: stays) and its foot's turn ``(F, 3, 3)``
-    (None without toe contacts): module docstring, step 2."""
+    (None without toe contacts): module docstring, step 2; with ``swing_heights``, the ankle
+    raised where a joint of the foot swings lower than its least height."""
     sk, up, width = feet.skeleton, feet.up, feet.width
     ma, ha = feet.column(leg.ankle)
     mt, ht = feet.column(leg.toe)
@@ -661,6 +691,8 @@ def _planted_target(
     # no point of the foot below the floor: raise the ankle where the foot would go under
     # (eased in and out like the plants: a raise of one frame would jerk the knee)
     delta[:, up] += eased_envelope(np.maximum(feet.floor - feet.low(leg.ankle) - delta[:, up], 0.0), width)
+    if swing_heights:
+        delta[:, up] += _swing_raise(leg, feet, delta[:, up], swing_heights)
     # a target within _STILL leg lengths of the ankle is where it is: IK there would only
     # bend a straight knee by its reach margin (cm at the knee for nothing)
     length = np.median(
@@ -677,6 +709,7 @@ def plant_targets(
     legs: Sequence[LegChain],
     options: CleanupOptions,
     plants: Mapping[str, np.ndarray] | None = None,
+    swing_heights: Mapping[str, np.ndarray] | None = None,
 ) -> tuple[list[np.ndarray | None], list[np.ndarray | None], list[str]]:
     """Each leg's ankle targets ``(F, 3)`` (NaN where it stays; None: the leg is not moved)
     and foot turn ``(F, 3, 3)`` (None: none), and the ankle names of the legs moved (module
@@ -689,7 +722,7 @@ def plant_targets(
         ma, _ = feet.column(leg.ankle)
         mt, _ = feet.column(leg.toe)
         if ma.any() or mt.any():
-            target, turn = _planted_target(leg, feet, plants, options.strength)
+            target, turn = _planted_target(leg, feet, plants, options.strength, swing_heights)
         else:
             target, turn = _out_of_floor_target(leg, feet), None  # no contact: out of the floor only
         if target is not None:
@@ -771,6 +804,7 @@ def cleanup_footskate(
     legs: Sequence[LegChain] | None = None,
     plants: Mapping[str, np.ndarray] | None = None,
     fixed: Sequence[int] = (),
+    swing_heights: Mapping[str, np.ndarray] | None = None,
     **overrides: Any,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
@@ -794,6 +828,10 @@ def cleanup_footskate(
     fixed : sequence of int
         Frames that must not change (a loop's seam frames): the clean-up's change fades to 0
         there, within a third of ``blend_time`` (:func:`elastic_motion.motion.edit.fade_change`).
+    swing_heights : mapping of str to ndarray of shape (F,), optional
+        Per ankle or toe joint, the least height (absolute, motion's unit; NaN where none) it
+        keeps while swinging: where it is lower, its leg's ankle is raised by IK (a blend's
+        contact plan, :mod:`elastic_motion.apps.blend.contact_plan`).
     **overrides
         Fields of :class:`CleanupOptions` changed from ``options`` (``smooth=0.0``, ...).
 
@@ -820,7 +858,7 @@ def cleanup_footskate(
         root = motion.root_translation.copy()
         root[:, _AXES.index(motion.up_axis)] += settled
         base = motion.replace(root_translation=root)
-    targets, turns, used = plant_targets(base, contacts, found, opts, plants)
+    targets, turns, used = plant_targets(base, contacts, found, opts, plants, swing_heights)
     other = _unenforced(contacts, motion.skeleton, found)
     if other:
         notes.append(

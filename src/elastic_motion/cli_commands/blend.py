@@ -115,6 +115,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "inputs' mean pose and root height (lie, euler-elastic; default: anchored, see the report's notes)",
     )
     p.add_argument(
+        "--no-trim-ends",
+        action="store_true",
+        help="keep the whole clips: do not trim the output's ends where the warp holds one input still "
+        "while another moves on (clips that start or stop out of phase; default: trimmed, the report "
+        "says how much)",
+    )
+    p.add_argument(
         "--no-metrics",
         action="store_true",
         help="skip the quality metrics in the report (saves three or more DP solves)",
@@ -171,6 +178,7 @@ def run(args: argparse.Namespace) -> int:
         skeleton=args.skeleton,
         weight_curve=args.weight_curve,
         anchor=not args.no_anchor,
+        trim_ends=not args.no_trim_ends,
         contacts=args.contacts,
         contact_options=contact_options(args),
         cycles=args.cycles,
@@ -223,6 +231,19 @@ def _summary(res, out, notes) -> str:
             + ", inputs "
             + ", ".join(fmt_float(x["mean_speed_m_s"]) for x in fs["inputs"])
         )
+        if met.get("feet"):
+            ft = met["feet"]
+            lines.append(
+                "feet, measured like the inputs (own contacts): skating "
+                + fmt_float(ft["result"]["skating_m_s"])
+                + " m/s (inputs "
+                + ", ".join(fmt_float(x["skating_m_s"]) for x in ft["inputs"])
+                + f"), skids {ft['result']['skid_count']} (inputs "
+                + ", ".join(str(x["skid_count"]) for x in ft["inputs"])
+                + "), below the floor "
+                + fmt_float(ft["result"]["below_floor_m"])
+                + " m"
+            )
         d = met["distances"]
         lines.append(
             "elastic distance (Lie): result to inputs "

@@ -225,7 +225,7 @@ def blend_motions(
     report("warp", 1, stages)
     warps = find_warps(inputs, opts, template_warps)
     report("blend", 2, stages)
-    clock = output_clock(inputs, warps)
+    clock = output_clock(inputs, warps, opts)
     anchored = anchor_blend(blend_curves(inputs, warps, clock, opts), inputs, clock, opts)
     blend = assemble_motion(anchored.body, inputs, clock, opts, warps.options.method)
     notes = [*inputs.notes, *warps.notes, *clock.notes, *anchored.notes]
@@ -245,7 +245,7 @@ def blend_motions(
     metrics = None
     if opts.metrics:
         report("metrics", 3, stages)
-        metrics = blend_metrics(blend, inputs.prepared, inputs.weights)
+        metrics = blend_metrics(blend, inputs.prepared, inputs.weights, opts.contact_options)
     report("done", stages, stages)
     return BlendResult(
         motion=blend,
@@ -268,4 +268,5 @@ def blend_motions(
         height_anchor_m=anchored.height_m,
         weight_curve=inputs.knots,
         options=opts,
+        trimmed=clock.trimmed,
     )

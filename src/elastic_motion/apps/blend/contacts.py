@@ -1,17 +1,18 @@
 """Stage 8 of a blend: the inputs' foot contacts (``contacts``: keep, report or off).
 
-The inputs' contacts (:func:`elastic_motion.motion.contacts.detect_contacts`) are carried
-through the warps to the blend's frames (:func:`elastic_motion.apps.cleanup.carry_contacts`).
-``"report"`` measures the blend's skating against them and changes nothing. ``"keep"``
-enforces them by leg IK and a smooth root correction (the foot-skate clean-up,
-:func:`elastic_motion.apps.cleanup.cleanup_footskate`; bone lengths kept): the whole body
-first settles vertically (slowly, within the inputs' root heights), then the change is
-smoothed in time by the largest of :data:`SMOOTHING` that leaves the blend skating at most
-:data:`SKATE_GOAL` times the lesser input (its own contacts), and then only the least
-fraction of the way to the plants that still does so (bisection): the smallest change of the
-blend's velocities (what the elastic distance measures) that skates no more than the inputs.
-The floor is enforced in full. Skipped, with a note, when the inputs have no contacts or a
-weight is 1.
+The inputs are measured on themselves (:func:`elastic_motion.apps.metrics.floor.foot_quality`:
+their own contacts, skating, skids, swing clearance) and their contacts become the blend's
+**contact plan** (:mod:`elastic_motion.apps.blend.contact_plan`): when each foot is planted,
+where, and how low it may swing. ``"report"`` measures the blend against the plan and changes
+nothing. ``"keep"`` plants the plan by leg IK and a smooth root correction (the foot-skate
+clean-up, :func:`elastic_motion.apps.cleanup.cleanup_footskate`; bone lengths kept): feet
+locked where the plan plants them (moving as the inputs' planted feet do, no faster than the
+better input's), lifted where they swing lower than the inputs' clearance. The change is
+then smoothed in time by the largest of :data:`SMOOTHING` whose blend, **measured like its
+inputs**, skids no more than they do and skates at most :data:`SKATE_GOAL` times the lesser
+input: the least change of the blend's velocities (what the elastic distance measures) that
+plants its feet as well as the inputs plant theirs. Skipped, with a note, when the inputs
+have no contacts or a weight is 1.
 """
 
 from __future__ import annotations
@@ -21,56 +22,45 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastic_motion.apps.blend.contact_plan import ContactPlan, plan_contacts
 from elastic_motion.apps.blend.inputs import BlendInputs
-from elastic_motion.apps.blend.sampling import frame_weight, sample_linear
 from elastic_motion.apps.blend.timing import Clock
 from elastic_motion.apps.blend.warps import Warps
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cleanup import (
     CleanupOptions,
     CleanupResult,
-    carry_contacts,
     cleanup_footskate,
     find_legs,
-    settle_offset,
 )
 from elastic_motion.apps.metrics import contact_skating
-from elastic_motion.apps.prepare import PreparedMotions
+from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.motion import Motion
-from elastic_motion.motion.contacts import MISSED_STANCES, Contacts, detect_contacts
-from elastic_motion.motion.edit import gaussian_frames
+from elastic_motion.motion.contacts import MISSED_STANCES, ContactOptions, Contacts
 from elastic_motion.notes import Note
 
 __all__ = [
     "NOTE_CLEANUP",
-    "SETTLE",
-    "SETTLE_MARGIN",
+    "PLANT",
     "SKATE_GOAL",
     "SMOOTHING",
-    "STRENGTH_STEPS",
     "BlendContacts",
     "blend_contacts",
-    "settle_bounds",
+    "plant_plan",
 ]
 
-#: The clean-up's smoothing of its change (s), tried in this order: the first whose skating is
-#: at most SKATE_GOAL times the lesser input's is kept (0: the exact plants); then the least
-#: fraction of the way to the plants (``strength``) that still meets the goal. The goal is the
-#: inputs' own skating (less 5 %, a margin for the written file and for the skating of the
-#: spans that ``cycles`` keeps): the clean-up removes what the blend adds, no more. The old goal
-#: of 0.9 with smoothings of at most 0.1 s moved the blends up to 33 % farther from their inputs
-#: (benchmarks/blend_quality.py, Bandai normal x tired); now at most 13 %.
+#: The clean-up's smoothing of its change (Gaussian, s), tried from the largest: the first whose
+#: blend skids no more than its inputs and skates at most :data:`SKATE_GOAL` times the lesser
+#: input, both measured on the blend as on the inputs, is kept (0: the exact plants). A smoother
+#: change moves the blend less from the SRV geodesic in the elastic distance (fine measure,
+#: Bandai normal x old: 0.75 of d(A, B) / 2 exact, 0.34 at 0.1 s) but lets the feet slide
+#: again (6 skids at 0.1 s, none exact): the feet come first.
 SMOOTHING = (0.4, 0.3, 0.2, 0.15, 0.1, 0.07, 0.05, 0.035, 0.025, 0.0)
-SKATE_GOAL = 0.95
-#: Bisection steps for the fraction of the way to the plants (1/64 resolution).
-STRENGTH_STEPS = 6
-#: The clean-up first moves the whole blend vertically, as slowly as this (s, Gaussian), so
-#: its planted feet stand at their ground heights (``cleanup_footskate(settle=...)``).
-SETTLE = 1.0
-#: Metres: how far the settle may take the root beyond the inputs' root heights at the
-#: matched times (the six pairs of ``benchmarks/blend_quality.py`` settle at most 2 cm
-#: beyond them: blended leg angles on a blended skeleton; :func:`settle_bounds`).
-SETTLE_MARGIN = 0.03
+SKATE_GOAL = 1.05
+#: How a blend's contact plan is planted: all the way (its targets already carry what the
+#: inputs' planted feet do), without a vertical settle (the targets' heights are the inputs'
+#: own), eased in and out over the default 0.15 s; the smoothing is :func:`plant_plan`'s.
+PLANT = CleanupOptions(smooth=0.0, strength=1.0, settle=0.0)
 #: The contacts carried to the blend: enforced (with the skating before and after), measured
 #: (``"report"``), missed stances of the inputs, or why nothing was done.
 NOTE_CLEANUP = "blend.cleanup"
@@ -99,123 +89,74 @@ class BlendContacts:
         return self.cleanup is not None and self.cleanup.applied
 
 
-def settle_bounds(
-    result: Motion, prep: PreparedMotions, local_u: Sequence[np.ndarray], wf: np.ndarray
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Per-frame bounds ``(lower, upper)`` of the clean-up's vertical settle
-    (:func:`~elastic_motion.apps.cleanup.settle_offset`): it may take the blend's root no
-    lower than the lowest and no higher than the highest root of the inputs that weigh in
-    on the frame, at the matched times (``local_u``: each input's curve parameter per output
-    frame), give or take :data:`SETTLE_MARGIN`, the inputs' heights smoothed like the settle
-    (their step-by-step bob would make it fast); where the root is already outside that
-    range, no further out. ``(None, None)`` for weights outside ``[0, 1]`` (extrapolation).
-
-    A planted foot that the blend holds decimetres above the floor while its root is at the
-    inputs' height is a leg posed wrong (an Euler blend's hip), not a body floating: settled
-    down to it, the body sank 16-30 cm and the other stance knee folded 30-47 deg more than
-    in either input (CMU 131_01's crouch blended with 131_02 or 02_01); leg IK plants it.
-    """
-    if not bool(np.all((wf >= 0.0) & (wf <= 1.0))):
-        return None, None
-    up = _AXES.index(result.up_axis)
-    n = result.n_frames
-    heights = np.stack(
-        [
-            gaussian_frames(
-                sample_linear(m.root_translation[:, up], m.fps, lu * m.duration), SETTLE * result.fps
-            )
-            for m, lu in zip(prep.motions, local_u, strict=True)
-        ]
-    )  # (K, F)
-    weighs = np.stack([np.broadcast_to(frame_weight(wf, k, n, 0), (n,)) > 0 for k in range(len(local_u))])
-    root = result.root_translation[:, up]
-    lo = np.where(weighs, heights, np.inf).min(axis=0) - SETTLE_MARGIN - root
-    hi = np.where(weighs, heights, -np.inf).max(axis=0) + SETTLE_MARGIN - root
-    return np.minimum(lo, 0.0), np.maximum(hi, 0.0)
-
-
 def blend_contacts(
     result: Motion, inputs: BlendInputs, warps: Warps, clock: Clock, options: BlendOptions
 ) -> BlendContacts:
-    """Stage 8 (module docstring): carry the inputs' contacts to the blend and plant them
-    (``"keep"``) or measure the blend's skating against them (``"report"``)."""
+    """Stage 8 (module docstring): the contact plan of the blend, planted (``"keep"``) or
+    measured against (``"report"``)."""
     if options.contacts == "off":
         return BlendContacts(None, ())
     w, prep = clock.weights, inputs.prepared
     if w.ndim == 1 and np.isclose(w, 1.0).any():
         return _skipped("clean-up: skipped, the result is one of the inputs (a weight of 1)")
-    found = [detect_contacts(m, options.contact_options) for m in prep.motions]
+    measured = [foot_quality(m, options.contact_options) for m in prep.motions]
+    found = [q.contacts for q in measured]
     notes = [
-        Note(NOTE_CLEANUP, f"clean-up: contacts of {label}: {n}")
+        Note(NOTE_CLEANUP, f"clean-up: contacts of {label}: {n}", n.data)
         for label, c in zip(prep.labels, found, strict=True)
         for n in c.notes
         if n.kind == MISSED_STANCES
     ]
     if not any(c.any for c in found):
         return _skipped("clean-up: skipped, no contacts found in the inputs", notes)
-    carried = carry_contacts(
-        found,
-        warps.vertices,
-        clock.u,
-        [m.duration for m in prep.motions],
-        w,
-        fps=result.fps,
-        joints=result.skeleton.names,
-        options=options.contact_options,
-    )
-    own = [contact_skating(m, c).mean_speed for m, c in zip(prep.motions, found, strict=True) if c.any]
+    own = [q.skating.mean_speed for q in measured if q.contacts.any]
+    plan = plan_contacts(result, prep.motions, found, clock, options.contact_options, min(own))
     if options.contacts == "report":
-        return _measured(result, carried, own, notes)
-    lower, upper = settle_bounds(result, prep, clock.local_u, w)
-    res, leg_notes = plant_least(result, carried, SKATE_GOAL * min(own), lower, upper)
+        return _measured(result, plan.contacts, own, notes)
+    res = plant_plan(result, plan, measured, options.contact_options)
     if res.applied:
         notes.append(_planted_note(res, own))
     else:
-        notes += [Note(NOTE_CLEANUP, f"clean-up: {n}") for n in (*leg_notes, *res.notes)]
+        notes += [Note(NOTE_CLEANUP, f"clean-up: {n}") for n in res.notes]
     return BlendContacts(res, tuple(notes))
 
 
-def plant_least(
-    result: Motion, carried: Contacts, goal: float, lower: np.ndarray | None, upper: np.ndarray | None
-) -> tuple[CleanupResult, list[str]]:
-    """The smoothest change (least change of velocities) that skates at most ``goal`` (m/s)
-    against ``carried``: the largest smoothing of :data:`SMOOTHING` that meets it, then the
-    least fraction of the way to the plants (bisection, :data:`STRENGTH_STEPS`); the body
-    settled vertically first within ``lower`` and ``upper`` (:func:`settle_bounds`). Returns
-    the clean-up and the notes on legs that could not be used."""
-    legs, leg_notes = find_legs(result)  # once, for every trial below
-    lift = settle_offset(result, carried, legs, sigma=SETTLE, lower=lower, upper=upper)  # for every trial
-    base = CleanupOptions(settle=lift)
+def plant_plan(
+    result: Motion, plan: ContactPlan, inputs: Sequence[FootQuality], contact_options: ContactOptions
+) -> CleanupResult:
+    """The plan planted with the smoothest change whose blend, measured like its inputs, skids
+    no more than they do and skates at most :data:`SKATE_GOAL` times the lesser (module
+    docstring); the exact plants when no smoothing does."""
+    legs, _ = find_legs(result)  # once, for every trial below
+    goal = SKATE_GOAL * min(q.skating.mean_speed for q in inputs if q.contacts.any)
+    skids = max(q.skid_count for q in inputs)
+    slid = max(q.slid_m for q in inputs)
     for smooth in SMOOTHING:
-        res = cleanup_footskate(result, carried, base, legs=legs, smooth=smooth)
-        if not res.applied or res.skating_after.mean_speed <= goal:
-            break
-    if res.applied and res.skating_after.mean_speed < goal:
-        # then the least fraction of that change that still meets the goal (bisection)
-        lo, hi = 0.0, 1.0
-        for _ in range(STRENGTH_STEPS):
-            mid = 0.5 * (lo + hi)
-            trial = cleanup_footskate(result, carried, base, legs=legs, smooth=res.smooth, strength=mid)
-            if trial.skating_after.mean_speed <= goal:
-                hi, res = mid, trial
-            else:
-                lo = mid
-    return res, leg_notes
+        res = cleanup_footskate(
+            result, plan.contacts, PLANT, legs=legs, plants=plan.plants, swing_heights=plan.swing_heights,
+            smooth=smooth,
+        )  # fmt: skip
+        if not res.applied:
+            return res
+        q = foot_quality(res.motion, contact_options)
+        if q.skid_count <= skids and q.slid_m <= slid + 1e-9 and q.skating.mean_speed <= goal:
+            return res
+    return res
 
 
 def _planted_note(res: CleanupResult, own: Sequence[float]) -> Note:
     text = (
-        "clean-up: contacts carried through the warps and enforced by leg IK; skating "
-        f"{res.skating_before.mean_speed:.3g} -> {res.skating_after.mean_speed:.3g} m/s (inputs "
-        + ", ".join(f"{x:.3g}" for x in own)
-        + f"), body settled vertically by up to {res.settle_offset:+.3g} m, "
-        f"change smoothed over {res.smooth:g} s, {100 * res.strength:.0f} % of it kept; "
-        f"largest change {res.max_position_change:.3g} m, {res.max_rotation_change_deg:.3g} deg"
+        "clean-up: the contact plan planted by leg IK (feet planted and swinging as the inputs' at "
+        f"matched times); skating {res.skating_before.mean_speed:.3g} -> {res.skating_after.mean_speed:.3g} "
+        "m/s against the plan (inputs " + ", ".join(f"{x:.3g}" for x in own) + " on their own), "
+        f"change smoothed over {res.smooth:g} s; largest change {res.max_position_change:.3g} m, "
+        f"{res.max_rotation_change_deg:.3g} deg"
     )
     data = {
         "skating_before_m_s": res.skating_before.mean_speed,
         "skating_after_m_s": res.skating_after.mean_speed,
         "inputs_skating_m_s": list(own),
+        "smooth_s": res.smooth,
     }
     return Note(NOTE_CLEANUP, text, data)
 
@@ -224,7 +165,7 @@ def _measured(result: Motion, carried: Contacts, own: Sequence[float], notes: li
     """``contacts="report"``: the blend's skating against the carried contacts, nothing changed."""
     skating = contact_skating(result, carried)
     text = (
-        "clean-up: not applied (contacts 'report'): contacts carried through the warps; skating "
+        "clean-up: not applied (contacts 'report'): the contact plan measured; skating "
         f"{skating.mean_speed:.3g} m/s (inputs " + ", ".join(f"{x:.3g}" for x in own) + "), below the "
         f"floor {skating.below_floor:.3g} m"
     )

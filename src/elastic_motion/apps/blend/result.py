@@ -80,6 +80,9 @@ class BlendResult:
         The knots ``(u, s)`` of a weight curve (``weight_curve=``); None for constant weights.
     options : BlendOptions
         The options of the blend.
+    trimmed : tuple of (int, int)
+        Output frames cut at the start and the end where the warp held an input still
+        (``trim_ends``; :func:`elastic_motion.apps.blend.timing.held_ends`).
     """
 
     motion: Motion
@@ -102,6 +105,7 @@ class BlendResult:
     height_anchor_m: float | None = None
     weight_curve: np.ndarray | None = None
     options: BlendOptions = field(default_factory=BlendOptions)
+    trimmed: tuple[int, int] = (0, 0)
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -127,4 +131,5 @@ class BlendResult:
             "loop": None if self.loop is None else self.loop.summary(),
             "pose_anchor_deg": self.pose_anchor_deg,
             "height_anchor_m": self.height_anchor_m,
+            "trimmed_frames": list(self.trimmed),
         }

@@ -7,6 +7,15 @@ B, each at its own timing. If extrapolation makes ``T`` decrease somewhere, its 
 there at :data:`CLOCK_FLOOR` of the mean rate and the clock rescaled to the blended duration;
 a note says so. A weight curve runs its own clock
 (:func:`elastic_motion.apps.blend.transitions.transition_clock`).
+
+**Trimmed ends** (``trim_ends=True``, the default; :func:`held_ends`): where the warp holds an
+input still while another moves on, at a clip's start or end, the inputs are not in the same
+phase there (a pause against a step: Bandai walks start and stop out of phase, the DP's
+steepest slope then plays one input at 0.18 of the other's rate for a third of a second), and
+their blend is a step at half its length: a foot sliding along the floor. The output keeps the
+span from the first to the last frame where every input runs at least :data:`HELD_RATE` of
+the fastest one's rate (over :data:`RATE_WINDOW`), when that span holds at least
+:data:`MIN_KEPT` of the frames; a note and the report say what was cut.
 """
 
 from __future__ import annotations
@@ -20,16 +29,39 @@ import numpy as np
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend.transitions import transition_clock, weight_curve_note
 from elastic_motion.apps.blend.warps import Warps
+from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.errors import OptionError
 from elastic_motion.notes import Note
 
-__all__ = ["CLOCK_FLOOR", "NOTE_TIMING", "Clock", "blended_clock", "output_clock"]
+__all__ = [
+    "CLOCK_FLOOR",
+    "HELD_RATE",
+    "MIN_KEPT",
+    "NOTE_TIMING",
+    "NOTE_TRIM",
+    "RATE_WINDOW",
+    "Clock",
+    "blended_clock",
+    "held_ends",
+    "output_clock",
+]
 
 #: Where an extrapolated blend's clock would run backwards, its rate is held at this fraction
 #: of the mean rate (:func:`blended_clock`).
 CLOCK_FLOOR = 0.1
 #: The blended clock held where extrapolation would run it backwards.
 NOTE_TIMING = "blend.timing"
+#: The output's ends trimmed where an input is held still (:func:`held_ends`).
+NOTE_TRIM = "blend.trim_ends"
+#: An input runs "held" when its clock rate is below this fraction of the fastest input's:
+#: the DP's steepest slope is 1/10 (Bandai walk ends: 0.18 / 1.82 = 0.1); a walk matched to a
+#: walk of another rhythm runs at 0.5-2x (CMU 07_01 x 08_02: 0.33-1.48 frame by frame).
+HELD_RATE = 0.25
+#: Seconds over which the rates are measured (a DP warp's slope changes from frame to frame).
+RATE_WINDOW = 0.2
+#: The trimmed output keeps at least this fraction of the frames (else nothing is trimmed: the
+#: inputs then never move together for long, and a note says so).
+MIN_KEPT = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +81,8 @@ class Clock:
     s : ndarray, shape (F,), or None
         The weight curve's ``s(u)`` at the output frames; None for constant weights.
     notes : tuple of Note
+    trimmed : tuple of (int, int)
+        Frames of the untrimmed clock cut at the start and at the end (``(0, 0)``: none).
     """
 
     u: np.ndarray
@@ -57,6 +91,7 @@ class Clock:
     weights: np.ndarray
     s: np.ndarray | None
     notes: tuple[Note, ...]
+    trimmed: tuple[int, int] = (0, 0)
 
 
 def blended_clock(
@@ -105,8 +140,69 @@ def blended_clock(
     return u, note
 
 
-def output_clock(inputs: BlendInputs, warps: Warps) -> Clock:
-    """Stage 3 (module docstring): the blended clock, or the weight curve's."""
+def held_ends(times: Sequence[np.ndarray], fps: float) -> tuple[int, int]:
+    """Frames to cut at the start and at the end of an output clock (module docstring).
+
+    Parameters
+    ----------
+    times : sequence of ndarray, shape (F,)
+        Each input's time (s) at the output frames (inputs of weight 0 left out).
+    fps : float
+        The output's frame rate.
+
+    Returns
+    -------
+    (int, int)
+        Leading and trailing frames during which some input runs below :data:`HELD_RATE` of
+        the fastest one; ``(0, 0)`` when the kept span would be under :data:`MIN_KEPT`.
+    """
+    t = np.stack(times)
+    f = t.shape[1]
+    half = max(1, round(0.5 * RATE_WINDOW * fps))
+    if len(times) < 2 or f < 2 * half + 3:
+        return 0, 0
+    idx = np.arange(f)
+    lo, hi = np.clip(idx - half, 0, f - 1), np.clip(idx + half, 0, f - 1)
+    rate = (t[:, hi] - t[:, lo]) / ((hi - lo) / fps)  # input seconds per output second
+    fastest = rate.max(axis=0)
+    moving = rate.min(axis=0) >= HELD_RATE * np.where(fastest > 0, fastest, np.inf)
+    if not moving.any():
+        return 0, 0
+    first, last = int(np.argmax(moving)), int(f - 1 - np.argmax(moving[::-1]))
+    if last - first + 1 < MIN_KEPT * f:
+        return 0, 0
+    return first, f - 1 - last
+
+
+def _trim(clock: Clock, fps: float) -> Clock:
+    """The clock without its held ends (:func:`held_ends`), and a note when it cut any."""
+    weights = np.asarray(clock.weights)
+    moving = [t for t, w in zip(clock.times, weights, strict=True) if w > 0]
+    head, tail = held_ends(moving, fps)
+    if not (head or tail):
+        return clock
+    keep = slice(head, clock.u.shape[0] - tail)
+    text = (
+        f"ends trimmed: {head} frames ({head / fps:.2f} s) at the start and {tail} ({tail / fps:.2f} s) at "
+        f"the end, where the warp holds an input still while another moves on (its clock under "
+        f"{HELD_RATE:g} of the fastest input's; --no-trim-ends / trim_ends=False keeps them)"
+    )
+    note = Note(NOTE_TRIM, text, {"start_frames": head, "end_frames": tail, "fps": fps})
+    return Clock(
+        clock.u[keep],
+        tuple(lu[keep] for lu in clock.local_u),
+        tuple(t[keep] for t in clock.times),
+        clock.weights,
+        None,
+        (*clock.notes, note),
+        (head, tail),
+    )
+
+
+def output_clock(inputs: BlendInputs, warps: Warps, options: BlendOptions) -> Clock:
+    """Stage 3 (module docstring): the blended clock, or the weight curve's; its held ends
+    trimmed when asked (constant weights in ``[0, 1]``, no matched cycles: those are trimmed
+    already)."""
     prep, durations, knots = inputs.prepared, inputs.durations, inputs.knots
     if knots is not None:
         u = transition_clock(warps.vertices, knots, durations, prep.fps)
@@ -118,4 +214,7 @@ def output_clock(inputs: BlendInputs, warps: Warps) -> Clock:
     s = None if knots is None else np.interp(u, knots[:, 0], knots[:, 1])
     frame_weights = inputs.weights if s is None else np.column_stack([1.0 - s, s])
     times = tuple(lu * d for lu, d in zip(local_u, durations, strict=True))
-    return Clock(u, local_u, times, frame_weights, s, notes)
+    clock = Clock(u, local_u, times, frame_weights, s, notes)
+    w = inputs.weights
+    trim = options.trim_ends and knots is None and inputs.cycles is None and bool(((w >= 0) & (w <= 1)).all())
+    return _trim(clock, prep.fps) if trim else clock

@@ -11,8 +11,10 @@ import numpy as np
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics.bones import BoneLengthError, bone_length_error
 from elastic_motion.apps.metrics.feet import FootSliding, foot_sliding
+from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions
 from elastic_motion.motion import Motion
+from elastic_motion.motion.contacts import ContactOptions
 
 __all__ = ["BlendMetrics", "blend_metrics"]
 
@@ -39,6 +41,10 @@ class BlendMetrics:
         From the result to each input, same metric.
     geodesic_expected : ndarray, shape (2,) or (0,)
         Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
+    feet, feet_inputs : FootQuality, tuple of FootQuality
+        The result and each input measured the same way, each on itself
+        (:func:`elastic_motion.apps.metrics.floor.foot_quality`: its own contacts and their
+        skating, skids, depth below the floor, swing clearance), with the same contact options.
     """
 
     labels: tuple[str, ...]
@@ -49,6 +55,8 @@ class BlendMetrics:
     distances_between_inputs: np.ndarray
     distances_to_inputs: np.ndarray
     geodesic_expected: np.ndarray
+    feet: FootQuality | None = None
+    feet_inputs: tuple[FootQuality, ...] = ()
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready scalars (speeds in m/s, distances in the Lie SRV metric)."""
@@ -61,6 +69,15 @@ class BlendMetrics:
                 "result": self.bone_length_error.summary(),
                 "vs_inputs": [b.summary() for b in self.bone_length_error_vs_inputs],
             },
+            "feet": None
+            if self.feet is None
+            else {
+                "measure": "each motion on itself: its own contacts (detect_contacts), their skating, "
+                "skids (a foot point within 0.02 leg lengths of the floor, faster than 0.3 leg "
+                "lengths/s, for 0.1 s)",
+                "result": _feet_summary(self.feet),
+                "inputs": [_feet_summary(q) for q in self.feet_inputs],
+            },
             "distances": {
                 "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
                 "labels": list(self.labels),
@@ -71,7 +88,17 @@ class BlendMetrics:
         }
 
 
-def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray) -> BlendMetrics:
+def _feet_summary(q: FootQuality) -> dict[str, Any]:
+    """A FootQuality's report without its contact intervals (the contacts are reported apart)."""
+    return {k: v for k, v in q.summary().items() if k != "contacts"}
+
+
+def blend_metrics(
+    result: Motion,
+    prepared: PreparedMotions,
+    weights: np.ndarray,
+    contact_options: ContactOptions | None = None,
+) -> BlendMetrics:
     """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
 
     Parameters
@@ -81,6 +108,8 @@ def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray
     prepared : PreparedMotions
         Its prepared inputs (:attr:`BlendResult.prepared`).
     weights : ndarray, shape (K,)
+    contact_options : ContactOptions, optional
+        Of the feet measure (the blend's, default ``ContactOptions()``).
 
     Returns
     -------
@@ -104,4 +133,6 @@ def blend_metrics(result: Motion, prepared: PreparedMotions, weights: np.ndarray
         distances_between_inputs=d[:k, :k].copy(),
         distances_to_inputs=d[k, :k].copy(),
         geodesic_expected=expected,
+        feet=foot_quality(result, contact_options),
+        feet_inputs=tuple(foot_quality(m, contact_options) for m in ms),
     )
