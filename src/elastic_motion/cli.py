@@ -20,6 +20,22 @@ import sys
 from collections.abc import Sequence
 
 from elastic_motion import __version__
+from elastic_motion.cli_commands import (
+    align,
+    blend,
+    blender_addon,
+    blendspace,
+    database,
+    demo,
+    distance,
+    index,
+    info,
+    landmarks,
+    loop,
+    pca,
+    render,
+    view,
+)
 from elastic_motion.cli_commands._argparse import (
     EXIT_CODES_HELP,
     EXIT_OK,
@@ -45,24 +61,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CliParser)
-    # local: the command modules read their choices from the API's types (numpy, numba); they
-    # are loaded here, inside main's error handling, so that `import elastic_motion.cli` is light
-    from elastic_motion.cli_commands import (
-        align,
-        blend,
-        blender_addon,
-        blendspace,
-        database,
-        demo,
-        distance,
-        index,
-        info,
-        landmarks,
-        loop,
-        pca,
-        render,
-        view,
-    )
 
     # The README's first command first; then the motion commands; then the database ones, the
     # database index and statistical model (issue 15), blend spaces (issue 16), the viewer and

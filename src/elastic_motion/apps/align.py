@@ -47,7 +47,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 
@@ -55,6 +55,7 @@ from elastic_motion.apps.landmark_files import LandmarkFile
 from elastic_motion.apps.landmarks import DEFAULT_PAIR_KINDS, phase_landmarks
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
+from elastic_motion.defaults import AUTO_LANDMARK_WEIGHT
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import Euclidean
 from elastic_motion.motion import (
@@ -67,6 +68,7 @@ from elastic_motion.motion import (
 from elastic_motion.motion.edit import check_interpolation, resampled_frames, smooth_motion
 from elastic_motion.motion.representations import representation
 from elastic_motion.notes import Note, note_texts
+from elastic_motion.vocabulary import CURVE_METHODS, CurveMethod
 from elastic_motion.warp import WARP_METHODS, WarpOptions, WarpResult, optimal_warp, warp_energy
 from elastic_motion.warp.options import DEFAULT_SAMPLE_SMOOTHING
 
@@ -86,9 +88,9 @@ __all__ = [
 ]
 
 #: Blend / alignment methods: the two representations (:data:`elastic_motion.motion.METHODS`)
-#: and ``"euler-linear"``, Euler curves interpolated frame by frame (paper 001 Fig. 5 (a)).
-CurveMethod = Literal["lie", "euler-elastic", "euler-linear"]
-METHODS: tuple[str, ...] = get_args(CurveMethod)
+#: and ``"euler-linear"``, Euler curves interpolated frame by frame (paper 001 Fig. 5 (a)):
+#: the values of :data:`CurveMethod` (:mod:`elastic_motion.vocabulary`).
+METHODS: tuple[str, ...] = CURVE_METHODS
 
 
 def warp_options(warp: str | WarpOptions | None) -> WarpOptions:
@@ -340,9 +342,8 @@ class AlignResult:
 
 #: Kind of the landmark plan's notes (``Note.kind``): where the pairs came from.
 LANDMARK_PLAN = "landmarks.plan"
-#: Relative landmark weight at least used for automatic landmarks: pairs found by phase
-#: around the warp without landmarks are trusted, so the warp meets them closely.
-AUTO_LANDMARK_WEIGHT = 1000.0
+# AUTO_LANDMARK_WEIGHT (elastic_motion.defaults): the relative landmark weight at least used
+# for automatic landmarks (pairs found by phase around the warp without landmarks are trusted).
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ app: the package imports the loop app for ``loop=True``, 1.1 s of the command li
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 
@@ -23,13 +23,13 @@ from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contact_policy
 from elastic_motion.motion.representations import EULER, Representation, representation
+from elastic_motion.vocabulary import SKELETON_MODES, SkeletonMode
 from elastic_motion.warp import WarpOptions
 
 __all__ = ["SKELETON_MODES", "BlendOptions", "SkeletonMode", "parse_weight_curve"]
 
-#: Bone offsets of a blend: the weighted mean of the inputs' (``"blend"``) or the first input's.
-SkeletonMode = Literal["blend", "first"]
-SKELETON_MODES: tuple[str, ...] = get_args(SkeletonMode)
+# Bone offsets of a blend: SkeletonMode ("blend": the weighted mean of the inputs', "first":
+# the first input's) and SKELETON_MODES, from elastic_motion.vocabulary.
 
 _FLAGS = ("extrapolate", "anchor", "trim_ends", "cycles", "loop", "metrics")
 

@@ -37,19 +37,16 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 from elastic_motion._io import read_text
-from elastic_motion._options import choices
 from elastic_motion.errors import OptionError, ParseError
+from elastic_motion.vocabulary import TIME_UNITS, TimeUnit
 from elastic_motion.warp import WarpOptions
 
 __all__ = ["TIME_UNITS", "LandmarkFile", "TimeUnit", "landmark_time", "parse_landmarks", "read_landmark_file"]
 
-#: The unit of a landmark time without a suffix.
-TimeUnit = Literal["seconds", "frames"]
-#: The values of :data:`TimeUnit`.
-TIME_UNITS: tuple[str, ...] = choices(TimeUnit)
+# The unit of a landmark time without a suffix: TimeUnit ("seconds", "frames") and its values
+# TIME_UNITS, from elastic_motion.vocabulary.
 
 
 @dataclass(frozen=True)

@@ -94,6 +94,7 @@ import numpy as np
 
 from elastic_motion.motion import Motion, Skeleton, forward_kinematics
 from elastic_motion.motion.contacts import ContactOptions, close_gaps, detect_contacts, mask_runs
+from elastic_motion.vocabulary import DEFAULT_PAIR_KINDS, EVENT_KINDS, GAIT_KINDS
 
 __all__ = [
     "DEFAULT_PAIR_KINDS",
@@ -110,21 +111,10 @@ __all__ = [
     "phase_landmarks",
 ]
 
-#: Event kinds from the contacts (:func:`contact_events`).
-GAIT_KINDS = ("left_heel_strike", "right_heel_strike", "left_toe_off", "right_toe_off")
-
-#: The event kinds :func:`detect_events` knows.
-EVENT_KINDS = (
-    "left_knee_passes",
-    "right_knee_passes",
-    "left_foot_contact",
-    "right_foot_contact",
-    *GAIT_KINDS,
-)
-
-#: The default of ``landmarks="auto"``: foot strikes and toe-offs of both feet and the
-#: paper's knee crossings (paper 001, sec. 4.2), all paired by phase.
-DEFAULT_PAIR_KINDS = ("left_knee_passes", "right_knee_passes", *GAIT_KINDS)
+# The event kinds: EVENT_KINDS (those detect_events knows), GAIT_KINDS (those from the
+# contacts, contact_events) and DEFAULT_PAIR_KINDS (the default of landmarks="auto": foot
+# strikes and toe-offs of both feet and the paper's knee crossings, paper 001, sec. 4.2), from
+# elastic_motion.vocabulary.
 
 _AXES = "xyz"
 _PARTS = {

@@ -49,12 +49,12 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from elastic_motion._io import atomic_path, check_not_input
-from elastic_motion._options import choices, with_overrides
+from elastic_motion._options import with_overrides
 from elastic_motion.apps.align import align_motions
 from elastic_motion.apps.landmarks import find_leg_joints
 from elastic_motion.apps.palette import (
@@ -74,6 +74,7 @@ from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, forward_kinematics, global_rotations, select_frames
 from elastic_motion.motion.looping import RootMode, check_root, cycle_transform, repeat_motion
+from elastic_motion.vocabulary import RENDER_KINDS, ROTATION_FRAMES, RenderKind, RotationFrame
 
 __all__ = [
     "FRAMES",
@@ -105,16 +106,12 @@ VIDEO_FORMATS = (".gif", ".mp4")
 
 _AXES = "xyz"
 
-#: What :func:`render` draws: ``"auto"`` (an animation for a video file, the foot
-#: trajectories for a still), or one picture.
-RenderKind = Literal["auto", "animation", "feet", "warp", "seam", "sphere"]
-#: The values of :data:`RenderKind`.
-KINDS: tuple[str, ...] = choices(RenderKind)
-#: The frame of a joint's rotation curve (:func:`joint_rotation_curve`): relative to its
-#: parent, or to the world.
-RotationFrame = Literal["local", "global"]
-#: The values of :data:`RotationFrame`.
-FRAMES: tuple[str, ...] = choices(RotationFrame)
+#: What :func:`render` draws: the values of :data:`RenderKind` (:mod:`elastic_motion.vocabulary`):
+#: ``"auto"`` (an animation for a video file, the foot trajectories for a still), or one picture.
+KINDS: tuple[str, ...] = RENDER_KINDS
+#: The frame of a joint's rotation curve (:func:`joint_rotation_curve`): the values of
+#: :data:`RotationFrame`, relative to its parent or to the world.
+FRAMES: tuple[str, ...] = ROTATION_FRAMES
 
 
 # ------------------------------------------------------------------------------------------

@@ -45,7 +45,7 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +57,9 @@ from elastic_motion.curves import (
     srv_transform,
     weighted_blend,
 )
+from elastic_motion.defaults import MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError
+from elastic_motion.vocabulary import LINKAGES, Linkage
 from elastic_motion.warp import WarpOptions, compose_warps, optimal_warp, warp_energy
 
 __all__ = [
@@ -358,7 +360,7 @@ def dtw_matrix(
 #: non-increasing (the previous warp is a path of the next DP; the refinement off the grid,
 #: ``"dp+refine"``, gives closer warps but loses that). A database compares its motions with
 #: the same warp (:data:`elastic_motion.apps.database.DEFAULT_WARP`).
-MEAN_WARP = WarpOptions(method="dp")
+MEAN_WARP = WarpOptions(method=MEAN_WARP_METHOD)
 
 
 def as_warp_options(warp: WarpOptions | str | None, default: WarpOptions | None = MEAN_WARP) -> WarpOptions:
@@ -625,11 +627,10 @@ def recenter_warps(warps: Sequence[np.ndarray], weights: Sequence[float] | None 
 # --------------------------------------------------------------------------------------------
 
 
-#: How :func:`cluster` measures the distance between two clusters: the mean of their pairs'
-#: distances (UPGMA), the largest, the smallest, or the mean of the two clusters they merged
-#: (WPGMA). The linkages that assume Euclidean data (Ward, centroid, median) are not offered.
-Linkage = Literal["average", "complete", "single", "weighted"]
-LINKAGES: tuple[str, ...] = get_args(Linkage)
+# How cluster measures the distance between two clusters: Linkage ("average": the mean of
+# their pairs' distances, UPGMA; "complete": the largest; "single": the smallest; "weighted":
+# the mean of the two clusters they merged, WPGMA) and LINKAGES, from elastic_motion.vocabulary.
+# The linkages that assume Euclidean data (Ward, centroid, median) are not offered.
 
 
 @dataclass(frozen=True, eq=False)

@@ -2,27 +2,26 @@
 ``classify``, ``mean``, ``cluster``, ``index``, ``pca``): the preparation and warp options,
 ``--method``, the settings they make, the error line and the report.
 
-The allowed values are read from the API's types: ``--method`` from
-:data:`elastic_motion.motion.representations.Method`, ``--linkage`` from
-:data:`elastic_motion.apps.statistics.Linkage`, ``--engine`` from
-:data:`elastic_motion.apps.database.engines.EngineName`, ``--joints`` from
-:data:`elastic_motion.apps.database.settings.JOINT_SELECTIONS`.
+The allowed values are read from the API's types (:mod:`elastic_motion.vocabulary`):
+``--method`` from :data:`~elastic_motion.vocabulary.Method`, ``--linkage`` from
+:data:`~elastic_motion.vocabulary.Linkage`, ``--engine`` from
+:data:`~elastic_motion.vocabulary.EngineName`, ``--joints`` from
+:data:`~elastic_motion.vocabulary.JOINT_SELECTIONS`; the warp defaults to the database's
+(:data:`elastic_motion.defaults.MEAN_WARP_METHOD`). This module loads no numpy (it is imported
+when the parser is built); what makes the parsed flags into the apps' settings is in
+:mod:`._database_running`, which a command imports inside its ``run``.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 
 from elastic_motion._options import choices
-from elastic_motion.apps.database.engines import EngineName
-from elastic_motion.apps.database.settings import DEFAULT_WARP, JOINT_SELECTIONS, DatabaseSettings
-from elastic_motion.apps.report import report_header
-from elastic_motion.apps.statistics import Linkage
 from elastic_motion.cli_commands._argparse import EXIT_BAD_INPUT, add_alias, handle_error, print_error
-from elastic_motion.cli_commands._common import CommandError, add_warp_options, emit_report, joints_arg
+from elastic_motion.cli_commands._common import CommandError, add_warp_options, joints_arg
+from elastic_motion.defaults import MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError, ParseError
-from elastic_motion.motion.representations import Method, Representation, representation
+from elastic_motion.vocabulary import JOINT_SELECTIONS, EngineName, Linkage, Method
 
 #: Curve representations (``--method``) of the database commands (``euler`` is accepted for
 #: ``euler-elastic``, the name of the other commands).
@@ -109,7 +108,7 @@ def joints_option(value: str) -> str | tuple[str, ...]:
 def add_warp(p: argparse.ArgumentParser) -> None:
     """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults."""
     # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
-    add_warp_options(p, defaults=DEFAULT_WARP, sampling=False, coarse_to_fine=True)
+    add_warp_options(p, method=MEAN_WARP_METHOD, sampling=False, coarse_to_fine=True)
 
 
 def add_distance_terms(p: argparse.ArgumentParser) -> None:
@@ -154,30 +153,13 @@ def add_method(p: argparse.ArgumentParser, *, several: bool) -> None:
     alias(p, "--repr", "--method")
 
 
-def methods(value: str, *, several: bool) -> tuple[Representation, ...]:
-    """The representations of ``--method``'s value (names, comma-separated with ``several``)."""
-    got = tuple(v.strip() for v in value.split(",") if v.strip()) if several else (value,)
-    try:
-        reps = tuple(representation(m) for m in got)
-    except OptionError:
-        reps = ()
-    if not got or len(reps) != len(got) or len(set(reps)) != len(reps):
-        if not several and value in LINKAGES:
-            raise CommandError(
-                f"--method: expected a curve representation, one of {', '.join(METHODS)}; got {value!r}, a "
-                f"linkage (use --linkage {value})"
-            )
-        what = "distinct entries of" if several else "one of"
-        raise CommandError(f"--method: expected {what} {', '.join(METHODS)}; got {value!r}")
-    return reps
-
-
 def defaults_unset(p: argparse.ArgumentParser) -> None:
     """Make the preparation, warp and distance-term flags of ``p`` default to None ("not given"),
     for a command that may read a stored database, which uses its own settings: only the
-    flags given are then compared with them (:func:`given_fields`). :func:`database_settings`
-    fills the others with :class:`~elastic_motion.apps.database.DatabaseSettings`' defaults,
-    the values the help text shows."""
+    flags given are then compared with them (:func:`._database_running.given_fields`).
+    :func:`._database_running.database_settings` fills the others with
+    :class:`~elastic_motion.apps.database.DatabaseSettings`' defaults, the values the help text
+    shows."""
     p.set_defaults(
         samples=None,
         joints=None,
@@ -186,51 +168,6 @@ def defaults_unset(p: argparse.ArgumentParser) -> None:
         warp=None,
         neighbourhood=None,
         coarse_to_fine=None,
-    )
-
-
-def _given(args: argparse.Namespace) -> tuple[dict, dict]:
-    """The :class:`DatabaseSettings` fields and the warp's fields that the parsed flags set
-    (None: not given)."""
-    fields: dict = {}
-    if getattr(args, "samples", None) is not None:
-        fields["n_samples"] = args.samples
-    if getattr(args, "joints", None) is not None:
-        fields["joints"] = joints_option(args.joints)
-    if getattr(args, "keep_fingers", None) is not None:
-        fields["drop_fingers"] = not args.keep_fingers
-    if getattr(args, "no_align", None) is not None:
-        fields["align_heading"] = not args.no_align
-    if getattr(args, "pose_weight", None) is not None:
-        fields["pose_weight"] = args.pose_weight  # "balanced" or a number: DatabaseSettings checks it
-    if getattr(args, "cyclic", None) is not None:
-        fields["cyclic"] = bool(args.cyclic)
-    warp = {
-        f: getattr(args, f)
-        for f in ("warp", "neighbourhood", "coarse_to_fine")
-        if getattr(args, f, None) is not None
-    }
-    if "warp" in warp:
-        warp["method"] = warp.pop("warp")
-    return fields, warp
-
-
-def given_fields(args: argparse.Namespace) -> tuple[str, ...]:
-    """The flat settings fields (``n_samples``, ``warp.method``, ...; as in
-    :data:`~elastic_motion.apps.database.settings.QUERY_FIELDS`) the parsed flags set."""
-    fields, warp = _given(args)
-    return (*fields, *(f"warp.{f}" for f in warp))
-
-
-def database_settings(args: argparse.Namespace, reps: tuple[Representation, ...]) -> DatabaseSettings:
-    """The :class:`~elastic_motion.apps.database.DatabaseSettings` of the parsed flags: those
-    given, the defaults for the others."""
-    fields, warp = _given(args)
-    return DatabaseSettings(
-        representations=reps,
-        warp=dataclasses.replace(DEFAULT_WARP, **warp),
-        tile_size=getattr(args, "tile_size", 32),
-        **fields,
     )
 
 
@@ -251,9 +188,3 @@ def fail(command: str, exc: BaseException) -> int:
 
 #: Exceptions a database command reports as an error line (others are bugs and propagate).
 USER_ERRORS = (CommandError, ValueError, KeyError, OSError, ParseError)
-
-
-def emit(args: argparse.Namespace, command: str, body: dict, inputs, outputs, lines: list[str]) -> None:
-    """The shared report: header (command, version, time, inputs, outputs) + ``body``."""
-    report = {**report_header(command, inputs=inputs, outputs=outputs), **body}
-    emit_report(args, report, [str(p) for p in inputs], "\n".join(lines))

@@ -1,16 +1,13 @@
 """``elastic-motion align A B``: the time warp, the distance and a plot (:mod:`elastic_motion.apps.align`).
 
-``--method`` lists :data:`elastic_motion.motion.representations.METHODS`. ``run`` imports the
-apps when the command runs (CLI start-up: the other commands never load the plots).
+``--method`` lists :data:`elastic_motion.vocabulary.METHODS`. ``run`` imports the apps (and
+numpy) when the command runs (CLI start-up: building the parser loads neither).
 """
 
 from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._common import (
     add_input_options,
     add_joint_options,
@@ -18,15 +15,11 @@ from elastic_motion.cli_commands._common import (
     add_landmark_options,
     add_warp_options,
     check_output,
-    emit_report,
     fmt_float,
     landmark_kinds,
-    prepare_inputs,
-    read_landmarks,
     run_guarded,
-    warp_options,
 )
-from elastic_motion.motion.representations import METHODS
+from elastic_motion.vocabulary import METHODS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -57,8 +50,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from elastic_motion.apps.align import align_motions
     from elastic_motion.apps.render import plot_warp
+    from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import emit_report, prepare_inputs, read_landmarks, warp_options
 
     inputs = [args.a, args.b]
     plot = (

@@ -1,12 +1,14 @@
-"""``elastic-motion blend A B [C ...] -o OUT.bvh``: blend motions (:mod:`elastic_motion.apps.blend`)."""
+"""``elastic-motion blend A B [C ...] -o OUT.bvh``: blend motions (:mod:`elastic_motion.apps.blend`).
+
+The choices are the API's vocabularies (:mod:`elastic_motion.vocabulary`); ``run`` imports the
+app when the command runs (CLI start-up: building the parser loads no numpy).
+"""
 
 from __future__ import annotations
 
 import argparse
 
 from elastic_motion._options import choices
-from elastic_motion.apps.align import CurveMethod
-from elastic_motion.apps.blend_options import SkeletonMode
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_contact_height_option,
@@ -17,19 +19,12 @@ from elastic_motion.cli_commands._common import (
     add_quiet_option,
     add_warp_options,
     check_output,
-    contact_options,
-    emit_report,
     fmt_float,
     landmark_kinds,
-    prepare_inputs,
     progress_for,
-    read_landmarks,
     run_guarded,
-    warp_options,
-    write_motion,
 )
-from elastic_motion.errors import OptionError
-from elastic_motion.motion.contacts import ContactPolicy, contact_policy
+from elastic_motion.vocabulary import CONTACT_POLICY_ALIASES, ContactPolicy, CurveMethod, SkeletonMode
 
 _METHOD_HELP = (
     "euler-linear: frame-by-frame linear interpolation of Euler angles (paper 001 Fig. 5a); "
@@ -140,10 +135,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def contacts_flag(value: str) -> str:
     """``--contacts``: a contact policy, its old names (``auto`` for ``keep``) accepted; other
     words are left for argparse to refuse with the choices."""
-    try:
-        return contact_policy(value, "--contacts")
-    except OptionError:
-        return value
+    return CONTACT_POLICY_ALIASES.get(value, value)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -151,6 +143,14 @@ def run(args: argparse.Namespace) -> int:
     # the app is imported here, not at the top: the command line starts without loading it
     from elastic_motion.apps.blend import BlendOptions, blend_motions
     from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import (
+        contact_options,
+        emit_report,
+        prepare_inputs,
+        read_landmarks,
+        warp_options,
+        write_motion,
+    )
 
     inputs = list(args.inputs)
     if len(inputs) < 2:

@@ -1,5 +1,8 @@
 """``elastic-motion blendspace A B C ... --at P -o OUT.bvh``: a blend space of N >= 3 motions
-placed by a parameter (:mod:`elastic_motion.apps.blendspace`)."""
+placed by a parameter (:mod:`elastic_motion.apps.blendspace`).
+
+``run`` imports the app when the command runs (CLI start-up: building the parser loads no numpy).
+"""
 
 from __future__ import annotations
 
@@ -11,15 +14,11 @@ from elastic_motion.cli_commands._common import (
     add_input_options,
     add_json_option,
     check_output,
-    emit_report,
     fmt_float,
-    prepare_options,
     run_guarded,
-    write_motion,
 )
 from elastic_motion.cli_commands.blend import contacts_flag
-from elastic_motion.motion.contacts import ContactPolicy
-from elastic_motion.motion.representations import Method
+from elastic_motion.vocabulary import ContactPolicy, Method
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -80,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from elastic_motion.apps.blend_options import BlendOptions
     from elastic_motion.apps.blendspace import blendspace
     from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import emit_report, prepare_options, write_motion
 
     inputs = list(args.inputs)
     if len(inputs) < 3:

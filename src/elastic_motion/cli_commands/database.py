@@ -44,13 +44,9 @@ from elastic_motion.cli_commands._database_options import (
     add_preparation,
     add_warp,
     alias,
-    database_settings,
     defaults_unset,
-    emit,
     fail,
-    given_fields,
     joints_option,
-    methods,
 )
 
 
@@ -128,6 +124,7 @@ def _register_matrix(subparsers: argparse._SubParsersAction) -> None:
 
 def run_matrix(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import ClusterUnavailableError, MatrixOptions, compute_matrix
+    from elastic_motion.cli_commands._database_running import database_settings, emit, methods
 
     bar = progress_for("matrix", args)
     try:
@@ -210,6 +207,7 @@ _WITHIN_FIELDS = {
 def _run_within(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import find_within, is_stored_database
     from elastic_motion.apps.database.settings import flat_settings
+    from elastic_motion.cli_commands._database_running import database_settings, emit, given_fields, methods
 
     bar = progress_for("search", args)
     try:
@@ -258,6 +256,7 @@ def _run_within(args: argparse.Namespace) -> int:
 def run_search(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import is_stored_database, knn_search
     from elastic_motion.apps.database.settings import ignored_settings_note
+    from elastic_motion.cli_commands._database_running import database_settings, emit, given_fields, methods
 
     if args.within:
         return _run_within(args)
@@ -336,6 +335,7 @@ def _register_classify(subparsers: argparse._SubParsersAction) -> None:
 
 def run_classify(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import classify_motions
+    from elastic_motion.cli_commands._database_running import emit, methods
 
     try:
         results = {
@@ -398,6 +398,7 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
 
 def run_mean(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import MeanOptions, mean_motion
+    from elastic_motion.cli_commands._database_running import emit, methods
     from elastic_motion.motion import write_bvh
     from elastic_motion.warp import WarpOptions
 
@@ -474,6 +475,7 @@ def _register_cluster(subparsers: argparse._SubParsersAction) -> None:
 
 def run_cluster(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import cluster_motions
+    from elastic_motion.cli_commands._database_running import emit, methods
 
     try:
         (method,) = methods(args.method, several=False)

@@ -15,14 +15,10 @@ from elastic_motion.cli_commands._common import (
     add_json_option,
     add_quiet_option,
     add_warp_options,
-    emit_report,
-    prepare_inputs,
     progress_for,
     run_guarded,
-    warp_options,
 )
-from elastic_motion.motion.edit import INTERPOLATIONS
-from elastic_motion.motion.representations import Method
+from elastic_motion.vocabulary import INTERPOLATIONS, Method
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     # the app is imported here: the command line starts without loading what it does not run
     from elastic_motion.apps.distance import distance_table, format_table
     from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import emit_report, prepare_inputs, warp_options
 
     inputs = list(args.inputs)
     if len(inputs) < 2:

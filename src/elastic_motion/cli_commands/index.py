@@ -15,10 +15,7 @@ from elastic_motion.cli_commands._database_options import (
     add_method,
     add_preparation,
     add_warp,
-    database_settings,
-    emit,
     fail,
-    methods,
 )
 
 
@@ -52,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     """Build the index; print a summary (or the ``--json`` report)."""
     # the app is imported here: the command line starts without loading what it does not run
     from elastic_motion.apps.database import build_index
+    from elastic_motion.cli_commands._database_running import database_settings, emit, methods
 
     bar = progress_for("index", args)
     try:

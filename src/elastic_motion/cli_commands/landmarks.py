@@ -1,7 +1,7 @@
 """``elastic-motion landmarks FILE [FILE2]``: automatic events; with two files, their pairs
 (:func:`elastic_motion.apps.landmark_detection.detect_landmarks`).
 
-``--method`` lists :data:`elastic_motion.motion.representations.METHODS`. ``run`` imports the
+``--method`` lists :data:`elastic_motion.vocabulary.METHODS`. ``run`` imports the
 app when the command runs (CLI start-up: the other commands never load it).
 """
 
@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
     CommandError,
@@ -18,13 +17,10 @@ from elastic_motion.cli_commands._common import (
     add_json_option,
     add_landmark_weight_option,
     add_warp_options,
-    emit_report,
     landmark_kinds,
-    prepare_options,
     run_guarded,
-    warp_options,
 )
-from elastic_motion.motion.representations import METHODS
+from elastic_motion.vocabulary import METHODS
 
 if TYPE_CHECKING:
     from elastic_motion.apps.landmark_detection import LandmarkReport
@@ -79,6 +75,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from elastic_motion.apps.landmark_detection import detect_landmarks  # CLI start-up
+    from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import emit_report, prepare_options, warp_options
 
     inputs = list(args.inputs)
     if len(inputs) not in (1, 2):

@@ -1,19 +1,19 @@
 """``elastic-motion loop IN -o OUT.bvh``: make a clip loop seamlessly (:mod:`elastic_motion.apps.loop`).
 
-The allowed values of every option are read from the types of
-:class:`~elastic_motion.apps.loop.LoopOptions` (never re-typed), and the arguments become one
-``LoopOptions``.
+The allowed values of every option are the types of
+:class:`~elastic_motion.apps.loop.LoopOptions` (never re-typed: :mod:`elastic_motion.vocabulary`),
+the defaults its defaults (:mod:`elastic_motion.defaults`), and the arguments become one
+``LoopOptions``. ``run`` imports the loop app when the command runs (CLI start-up: building the
+parser loads no numpy).
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from elastic_motion._options import choices
-from elastic_motion.apps.loop import LoopOptions, loop_motion, repeat_loop
-from elastic_motion.apps.loop.options import LimitPolicy, Seam, Solver, WindowMode
-from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
     CommandError,
@@ -22,30 +22,37 @@ from elastic_motion.cli_commands._common import (
     add_json_option,
     add_quiet_option,
     check_output,
-    contact_options,
-    emit_report,
     fmt_float,
     non_negative_float,
-    prepare_inputs,
     progress_for,
     run_guarded,
-    write_motion,
 )
-from elastic_motion.errors import OptionError
-from elastic_motion.motion.contacts import ContactPolicy
-from elastic_motion.motion.looping import RootMode
-from elastic_motion.motion.representations import Method, representation
-
-#: The API's defaults, which the flags default to (both doors agree).
-_DEFAULTS = LoopOptions()
+from elastic_motion.defaults import (
+    LOOP_FREE_JOINTS,
+    LOOP_JOINT_LIMITS,
+    LOOP_MAX_ITER,
+    LOOP_METHOD,
+    LOOP_ROOT,
+    LOOP_SEAM,
+    LOOP_SOLVER,
+    LOOP_TOL,
+)
+from elastic_motion.vocabulary import (
+    METHOD_ALIASES,
+    ContactPolicy,
+    LimitPolicy,
+    Method,
+    RootMode,
+    Seam,
+    Solver,
+    WindowMode,
+)
 
 
 def _representation(value: str) -> str:
-    # the old --representation said "euler" for what --method calls "euler-elastic"
-    try:
-        return representation(value).name
-    except OptionError:
-        return value  # argparse names the allowed choices
+    # the old --representation said "euler" for what --method calls "euler-elastic"; other
+    # words are left for argparse to refuse with the choices
+    return METHOD_ALIASES.get(value, value)
 
 
 def _method(value: str) -> str:
@@ -93,13 +100,13 @@ def _add_closing_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--root",
         choices=choices(RootMode),
-        default=_DEFAULTS.root,
+        default=LOOP_ROOT,
         help="loop convention: keep one cycle's displacement and turn, or come back to the start",
     )
     p.add_argument(
         "--seam",
         choices=choices(Seam),
-        default=_DEFAULTS.seam,
+        default=LOOP_SEAM,
         help="what closes at the seam: 'c0' the poses (paper 000), 'c1' the velocities too, "
         "'auto' C0 unless its seam has a hitch (a velocity jump above 1.5x the clip's own quick "
         "changes), then C1 when that is smoother without skating or changing the clip more (a note "
@@ -110,14 +117,14 @@ def _add_closing_options(p: argparse.ArgumentParser) -> None:
         "--method",
         type=_method,
         choices=choices(Method),
-        default=_DEFAULTS.method,
+        default=LOOP_METHOD,
         help="close the Lie group curve or the Euler-angle curve (the baseline of paper 001)",
     )
     add_alias(p, "--representation", "--method", convert=_representation)
     p.add_argument(
         "--solver",
         choices=choices(Solver),
-        default=_DEFAULTS.solver,
+        default=LOOP_SOLVER,
         help="closing solver: 'kkt' the closed curve nearest the input in SRV L2 (a KKT point of the "
         "projection); 'gauss-newton' / 'gradient' the closing flows (closed, nearest only to first order)",
     )
@@ -143,7 +150,7 @@ def _add_window_and_contact_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--contacts",
         choices=choices(ContactPolicy),
-        default=_DEFAULTS.contacts,
+        default=None,  # LoopOptions.contacts: keep with --method lie and --solver kkt, else report
         help="'keep' (default with --method lie and --solver kkt): plant the input's foot/toe/hand "
         "contacts, as constraints of the same projection on a 30 fps grid (with --root inplace on a "
         "treadmill: the clip's travel removed at a constant rate, the planted feet move back with it); "
@@ -155,7 +162,7 @@ def _add_window_and_contact_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--joint-limits",
         choices=choices(LimitPolicy),
-        default=_DEFAULTS.joint_limits,
+        default=LOOP_JOINT_LIMITS,
         help="limits of the joints' DOF angles, from the ASF file of an .amc input (none: nothing "
         "happens): 'keep': the loop stays within every limit the input respects (DOFs pinned at "
         "their limit in the same projection; 16-110 s on CMU clips); 'report': only measured; "
@@ -168,16 +175,16 @@ def _add_stopping_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--tol",
         type=non_negative_float,
-        default=_DEFAULTS.tol,
+        default=LOOP_TOL,
         help="stop when the seam gap is below this (radians for joint rotations; the weighted norm "
         "of the closing residual)",
     )
     p.add_argument(
-        "--max-iter", type=int, default=_DEFAULTS.max_iter, help="iterations of the closing solver at most"
+        "--max-iter", type=int, default=LOOP_MAX_ITER, help="iterations of the closing solver at most"
     )
     p.add_argument(
         "--free-joints",
-        default=_DEFAULTS.free_joints,
+        default=LOOP_FREE_JOINTS,
         help="joints left free: 'fingers' (finger/thumb joints), 'none', or comma-separated names",
     )
 
@@ -190,9 +197,10 @@ def _free(value: str):
     return [v.strip() for v in value.split(",") if v.strip()]
 
 
-def _options(args: argparse.Namespace) -> LoopOptions:
-    """The arguments as one :class:`LoopOptions`."""
-    return LoopOptions(
+def _fields(args: argparse.Namespace) -> dict[str, Any]:
+    """The arguments as the fields of one :class:`~elastic_motion.apps.loop.LoopOptions`, but
+    ``contact_options`` (``--contact-height``, made in ``run``)."""
+    return dict(
         root=args.root,
         seam=args.seam,
         method=args.method,
@@ -203,12 +211,21 @@ def _options(args: argparse.Namespace) -> LoopOptions:
         window=args.window,
         min_length=args.min_length,
         contacts=args.contacts,
-        contact_options=contact_options(args),
         joint_limits=args.joint_limits,
     )
 
 
 def run(args: argparse.Namespace) -> int:
+    # the app is imported here, not at the top: the command line starts without loading it
+    from elastic_motion.apps.loop import LoopOptions, loop_motion, repeat_loop
+    from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import (
+        contact_options,
+        emit_report,
+        prepare_inputs,
+        write_motion,
+    )
+
     inputs = [args.input]
     out = check_output(args.output, inputs, suffixes=(".bvh",))
     preview = None
@@ -220,7 +237,8 @@ def run(args: argparse.Namespace) -> int:
     bar = progress_for("loop", args)
     try:
         prepared = prepare_inputs(args, inputs)
-        res = loop_motion(prepared, _options(args), progress=bar)
+        options = LoopOptions(**_fields(args), contact_options=contact_options(args))
+        res = loop_motion(prepared, options, progress=bar)
     finally:
         bar.close()
     write_motion(res.motion, res.prepared, out, inputs)

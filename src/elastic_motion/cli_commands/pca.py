@@ -17,10 +17,8 @@ from elastic_motion.cli_commands._database_options import (
     add_method,
     add_preparation,
     add_warp,
-    emit,
     fail,
     joints_option,
-    methods,
 )
 
 
@@ -68,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import MeanOptions
     from elastic_motion.apps.pca import motion_pca, write_modes
     from elastic_motion.apps.plots_database import plot_variance_explained
+    from elastic_motion.cli_commands._database_running import emit, methods
     from elastic_motion.motion import write_bvh
     from elastic_motion.warp import WarpOptions
 

@@ -2,8 +2,8 @@
 (:func:`elastic_motion.apps.render_files.render_motions`).
 
 The choices of ``--kind``, ``--frame``, ``--root`` and ``--method`` are the API's types
-(:data:`elastic_motion.apps.render.RenderKind`, ...). ``run`` imports the drawing app when the
-command runs (CLI start-up: the other commands never load it).
+(:data:`elastic_motion.vocabulary.RenderKind`, ...). ``run`` imports the drawing app when the
+command runs (CLI start-up: building the parser, and the other commands, never load it).
 """
 
 from __future__ import annotations
@@ -13,21 +13,16 @@ import math
 from typing import Any
 
 from elastic_motion import limits
-from elastic_motion.apps.render import FRAMES, KINDS, render_kind
-from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_input_options,
     add_json_option,
     add_quiet_option,
     check_output,
-    emit_report,
     joints_arg,
-    prepare_options,
     progress_for,
 )
-from elastic_motion.motion.looping import ROOT_MODES
-from elastic_motion.motion.representations import METHODS
+from elastic_motion.vocabulary import METHODS, RENDER_KINDS, ROOT_MODES, ROTATION_FRAMES
 
 #: The options that only some kinds use: option -> (``args`` attribute, kinds).
 _KIND_OPTIONS = {
@@ -57,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--kind",
-        choices=KINDS,
+        choices=RENDER_KINDS,
         default="auto",
         help="what to draw; auto: an animation for .gif/.mp4, the foot trajectories for a still "
         "(default: auto)",
@@ -126,7 +121,7 @@ def _add_picture_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--frame",
-        choices=FRAMES,
+        choices=ROTATION_FRAMES,
         default=None,
         help="--kind sphere: the joint's rotation relative to its parent (local) or to the world "
         "(global) (default: local)",
@@ -197,7 +192,10 @@ def _check_limits(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from elastic_motion.apps.render_files import render_motions  # CLI start-up: loaded to run only
+    from elastic_motion.apps.render import render_kind  # CLI start-up: loaded to run only
+    from elastic_motion.apps.render_files import render_motions
+    from elastic_motion.apps.report import report_header
+    from elastic_motion.cli_commands._running import emit_report, prepare_options
 
     inputs = list(args.inputs)
     _check_limits(args)

@@ -2,8 +2,11 @@
 (:mod:`elastic_motion.apps.viewer`).
 
 ``--layout`` and ``--contacts`` list the viewer's vocabularies
-(:data:`elastic_motion.apps.viewer.options.Layout`, :data:`~elastic_motion.apps.viewer.options.ContactMarks`;
-``--contacts none`` is read as ``off``).
+(:data:`elastic_motion.vocabulary.Layout`, :data:`~elastic_motion.vocabulary.ContactMarks`;
+``--contacts none`` is read as ``off``) and default to
+:class:`~elastic_motion.apps.viewer.ViewerOptions`' defaults (:mod:`elastic_motion.defaults`).
+``run`` imports the viewer app when the command runs (CLI start-up: building the parser loads
+no numpy).
 """
 
 from __future__ import annotations
@@ -14,17 +17,20 @@ from typing import Literal
 
 from elastic_motion._io import atomic_write_text
 from elastic_motion._options import choices
-from elastic_motion.apps.report import report_header
-from elastic_motion.apps.viewer import build_viewer, plotly_js, write_viewer
-from elastic_motion.apps.viewer.options import CONTACT_MARKS, LAYOUTS, ViewerOptions, contact_marks
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_json_option,
     check_output,
-    emit_report,
     run_guarded,
 )
-from elastic_motion.errors import OptionError
+from elastic_motion.defaults import (
+    VIEWER_CONTACTS,
+    VIEWER_LAYOUT,
+    VIEWER_MAX_FPS,
+    VIEWER_MAX_FRAMES,
+    VIEWER_TITLE,
+)
+from elastic_motion.vocabulary import CONTACT_MARK_ALIASES, CONTACT_MARKS, LAYOUTS
 
 #: Where the command writes plotly.js: into the page, or as ``plotly.min.js`` beside it
 #: (a command-line choice only: in Python, :func:`~elastic_motion.apps.viewer.plotly_js`
@@ -62,27 +68,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--layout",
         choices=LAYOUTS,
-        default=ViewerOptions().layout,
+        default=VIEWER_LAYOUT,
         help="clips side by side or overlaid on one floor, at first (the page has a switch)",
     )
     p.add_argument(
         "--contacts",
         type=_contacts,
         choices=CONTACT_MARKS,
-        default=ViewerOptions().contacts,
+        default=VIEWER_CONTACTS,
         help="contacts to mark: report: from the reports; detect: from the reports, else detected on "
         "the motion; off: none (also 'none')",
     )
     p.add_argument(
         "--max-frames",
         type=int,
-        default=ViewerOptions().max_frames,
+        default=VIEWER_MAX_FRAMES,
         help="at most this many frames of a clip are shown (every n-th frame; said on the page)",
     )
     p.add_argument(
         "--max-fps",
         type=float,
-        default=ViewerOptions().max_fps,
+        default=VIEWER_MAX_FPS,
         help="at most this many frames per second are shown (frames/s)",
     )
     p.add_argument(
@@ -91,7 +97,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="inline",
         help="write plotly.js into the page (one file, about 4.8 MB) or as plotly.min.js beside it",
     )
-    p.add_argument("--title", default=ViewerOptions().title, help="title of the page")
+    p.add_argument("--title", default=VIEWER_TITLE, help="title of the page")
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("view", run, a))
 
@@ -99,14 +105,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _contacts(value: str) -> str:
     """``--contacts``: the viewer's word for ``value`` (``none`` is ``off``); an unknown word is
     left for ``choices`` to refuse."""
-    try:
-        return contact_marks(value)
-    except OptionError:
-        return value
+    return CONTACT_MARK_ALIASES.get(value, value)
 
 
 def run(args: argparse.Namespace) -> int:
     """Build the page and write it; exit code 0, or 2 for bad input (no page written then)."""
+    # the app is imported here, not at the top: the command line starts without loading it
+    from elastic_motion.apps.report import report_header
+    from elastic_motion.apps.viewer import build_viewer, plotly_js, write_viewer
+    from elastic_motion.cli_commands._running import emit_report
+
     inputs = list(args.inputs)
     out = check_output(args.output, inputs, suffixes=(".html", ".htm"))
     if args.labels is not None and len(args.labels) != len(inputs):

@@ -52,14 +52,16 @@ import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 
+from elastic_motion.defaults import CONTACT_HEIGHT_ENTER, CONTACT_SPEED_ENTER
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.skeleton import Motion, Skeleton
 from elastic_motion.notes import Note, note_texts
+from elastic_motion.vocabulary import CONTACT_POLICIES, CONTACT_POLICY_ALIASES, ContactPolicy
 
 __all__ = [
     "CONTACT_POLICIES",
@@ -109,14 +111,10 @@ NEVER_NEAR_FLOOR = "contacts.never_near_floor"
 MISSED_STANCES = "contacts.missed_stances"
 _GROUND_PERCENTILE = 5.0
 
-#: What an app does with the contacts of its inputs, one vocabulary for blend, loop, blend
-#: spaces and the viewer: ``"keep"`` plants them in the output (a loop: constraints of its
-#: closing; a blend: the foot-skate clean-up), ``"report"`` only measures the output against
-#: them, ``"off"`` skips them. ``"auto"`` (the blend's name before) is accepted for
-#: ``"keep"``, ``"none"`` for ``"off"``.
-ContactPolicy = Literal["keep", "report", "off"]
-CONTACT_POLICIES: tuple[str, ...] = get_args(ContactPolicy)
-_POLICY_ALIASES = {"auto": "keep", "none": "off"}
+# What an app does with the contacts of its inputs, one vocabulary for blend, loop, blend
+# spaces and the viewer: ContactPolicy ("keep", "report", "off") and its values
+# CONTACT_POLICIES, from elastic_motion.vocabulary; "auto" (the blend's name before) is accepted
+# for "keep", "none" for "off" (CONTACT_POLICY_ALIASES).
 
 
 def contact_policy(value: str | None, argument: str = "contacts") -> str:
@@ -130,7 +128,7 @@ def contact_policy(value: str | None, argument: str = "contacts") -> str:
     if value is None:
         return "off"
     if isinstance(value, str):
-        value = _POLICY_ALIASES.get(value, value)
+        value = CONTACT_POLICY_ALIASES.get(value, value)
         if value in CONTACT_POLICIES:
             return value
     raise OptionError(argument, f"expected one of {list(CONTACT_POLICIES)}; got {value!r}")
@@ -150,9 +148,9 @@ class ContactOptions:
     durations in seconds. ``follow_floor``: measure heights from a floor that is not level
     (:func:`floor_profile`); False: from one floor height (a loop: periodic, its floor level)."""
 
-    height_enter: float = 0.03
+    height_enter: float = CONTACT_HEIGHT_ENTER
     height_exit: float = 0.06
-    speed_enter: float = 0.4
+    speed_enter: float = CONTACT_SPEED_ENTER
     speed_exit: float = 0.8
     min_duration: float = 0.1
     min_gap: float = 0.05

@@ -28,6 +28,7 @@ from elastic_motion.groups import SO3
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.rotations import axis_rotation
 from elastic_motion.motion.skeleton import Motion, Skeleton
+from elastic_motion.vocabulary import INTERPOLATIONS
 
 __all__ = [
     "align_heading",
@@ -152,8 +153,8 @@ def trim(motion: Motion, start: float | None = None, stop: float | None = None) 
     return select_frames(motion, keep)
 
 
-#: How a motion is sampled between its frames (:func:`resample_at_times`).
-INTERPOLATIONS = ("geodesic", "cubic")
+# How a motion is sampled between its frames (:func:`resample_at_times`): INTERPOLATIONS,
+# the values of Interpolation (elastic_motion.vocabulary).
 
 
 def check_interpolation(interpolation: str, error: type = ValueError) -> str:

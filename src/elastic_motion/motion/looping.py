@@ -25,7 +25,6 @@ Conventions
 from __future__ import annotations
 
 import math
-from typing import Literal, get_args
 
 import numpy as np
 
@@ -35,6 +34,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion.rotations import axis_rotation
 from elastic_motion.motion.skeleton import Motion
+from elastic_motion.vocabulary import ROOT_MODES, RootMode
 
 __all__ = [
     "ROOT_MODES",
@@ -48,10 +48,9 @@ __all__ = [
     "twist_angle",
 ]
 
-#: The loop conventions (module docstring): the character travels on from cycle to cycle, or
-#: comes back to where it started.
-RootMode = Literal["travel", "inplace"]
-ROOT_MODES: tuple[str, ...] = get_args(RootMode)
+# The loop conventions (module docstring), RootMode ("travel": the character travels on from
+# cycle to cycle, "inplace": it comes back to where it started) and ROOT_MODES, live in
+# elastic_motion.vocabulary.
 
 _SO3 = SO3()
 _AXES = "xyz"

@@ -47,7 +47,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, get_args
 
 import numpy as np
 from numba import njit
@@ -57,6 +56,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.groups import Euclidean, ProductGroup, animation_group
 from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler
 from elastic_motion.motion.skeleton import Motion, Skeleton
+from elastic_motion.vocabulary import METHOD_ALIASES, METHODS, Method
 
 __all__ = [
     "EULER",
@@ -498,11 +498,10 @@ def from_euler_curve(curve: DiscreteCurve, like: Motion, *, fps: float | None = 
 # ------------------------------------------------------------------------------------------
 # The representation, one home
 # ------------------------------------------------------------------------------------------
-#: The curve a motion becomes: the Lie group curve (the method, paper 000) or continuous Euler
-#: angles (the baseline of paper 001). ``"euler"`` is accepted for ``"euler-elastic"``
-#: everywhere (:func:`representation`).
-Method = Literal["lie", "euler-elastic"]
-METHODS: tuple[str, ...] = get_args(Method)
+# The curve a motion becomes: :data:`Method` (the Lie group curve, paper 000, or continuous
+# Euler angles, the baseline of paper 001) and its values :data:`METHODS`, from
+# :mod:`elastic_motion.vocabulary`. ``"euler"`` is accepted for ``"euler-elastic"``
+# everywhere (:func:`representation`).
 
 
 @dataclass(frozen=True)
@@ -553,7 +552,8 @@ LIE = Representation("lie", "lie", "Lie group curve in R^3 x SO(3)^J")
 #: Continuous Euler angles in ``R^(3 + 3 J)`` (the baseline of paper 001).
 EULER = Representation("euler-elastic", "euler", "Euler angles in R^(3+3J)")
 
-_BY_NAME = {"lie": LIE, "euler-elastic": EULER, "euler": EULER}
+_BY_NAME = {"lie": LIE, "euler-elastic": EULER}
+_BY_NAME.update({alias: _BY_NAME[name] for alias, name in METHOD_ALIASES.items()})
 
 
 def representation(value: str | Representation, argument: str = "method") -> Representation:

@@ -27,7 +27,15 @@ import numpy as np
 
 from elastic_motion._options import with_overrides
 from elastic_motion._validation import check_parameters
+from elastic_motion.defaults import (
+    DEFAULT_LANDMARK_WEIGHT,
+    DEFAULT_MAX_STEP,
+    DEFAULT_METHOD,
+    DEFAULT_SAMPLE_FPS,
+    DEFAULT_SAMPLE_SMOOTHING,
+)
 from elastic_motion.errors import OptionError
+from elastic_motion.vocabulary import WARP_METHODS, WarpMethod
 from elastic_motion.warp.dp import as_steps
 from elastic_motion.warp.landmarks import PENALTIES, Penalty
 
@@ -39,34 +47,21 @@ __all__ = [
     "SOLVER_METHODS",
     "WARP_METHODS",
     "SolverMethod",
+    "WarpMethod",
     "WarpOptions",
     "WarpSolverOptions",
     "solver_options",
 ]
 
-#: Default DP neighbourhood: coprime slopes ``(a, b)`` with ``a, b <= 10`` (fdasrsf's 63).
-DEFAULT_MAX_STEP = 10
-#: Default relative landmark weight (module docstring).
-DEFAULT_LANDMARK_WEIGHT = 100.0
-#: Default frame rate (at most) of the curves a warp between motions is computed on.
-DEFAULT_SAMPLE_FPS = 30.0
-#: Default low-pass before sampling a motion's curve: Gaussian standard deviation in seconds
-#: (1/60 s: half a frame at the default 30 fps, -3 dB at 8 Hz; 0: none). Measured in
-#: ``docs/applications.md``, "Smoothing before the SRV".
-DEFAULT_SAMPLE_SMOOTHING = 1.0 / 60.0
-#: Warp methods: none (identity), dynamic programming, DP then gradient refinement off the grid.
-WARP_METHODS = ("none", "dp", "dp+refine")
+# The defaults (DEFAULT_MAX_STEP, DEFAULT_LANDMARK_WEIGHT, DEFAULT_SAMPLE_FPS,
+# DEFAULT_SAMPLE_SMOOTHING, DEFAULT_METHOD) live in elastic_motion.defaults and the warp methods
+# (WarpMethod, WARP_METHODS: none, dp, dp+refine) in elastic_motion.vocabulary, where the
+# command line reads them without loading numpy; they are re-exported here.
 
-WarpMethod = Literal["none", "dp", "dp+refine"]
 #: Solvers of :func:`elastic_motion.warp.optimal_warp`: dynamic programming, DP then gradient
 #: refinement off the grid, refinement alone from the identity (a local method).
 SolverMethod = Literal["dp", "dp+refine", "refine"]
 SOLVER_METHODS = ("dp", "dp+refine", "refine")
-#: Default solver (of :class:`WarpSolverOptions` and :class:`WarpOptions`): the DP alone has
-#: slopes in ``[1/m, m]`` and does not reach the elastic distance when the best warp is
-#: steeper or flatter, whatever the grid; the refinement off the grid does (``docs/warp.md``,
-#: "Default method").
-DEFAULT_METHOD: SolverMethod = "dp+refine"
 
 
 @dataclass(frozen=True)
@@ -102,7 +97,7 @@ class WarpOptions:
         Relative weight of the landmark term (module docstring); must be >= 0.
     """
 
-    method: WarpMethod = "dp+refine"
+    method: WarpMethod = DEFAULT_METHOD
     neighbourhood: int = DEFAULT_MAX_STEP
     coarse_to_fine: bool = False
     sample_fps: float = DEFAULT_SAMPLE_FPS

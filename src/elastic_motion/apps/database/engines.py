@@ -40,7 +40,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, Protocol, get_args
+from typing import Any, Protocol
 
 import numba
 import numpy as np
@@ -57,6 +57,7 @@ from elastic_motion.apps.database.tiles import compute_tile, pair_distance
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, Skeleton, write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
+from elastic_motion.vocabulary import ENGINES, EngineName
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -71,11 +72,9 @@ __all__ = [
     "open_engine",
 ]
 
-#: Where a matrix run computes its tiles (module docstring): this process, a Dask
-#: ``LocalCluster`` started here, or a running Dask scheduler.
-EngineName = Literal["serial", "local", "dask"]
-#: Engine names accepted by :func:`open_engine`.
-ENGINES: tuple[str, ...] = get_args(EngineName)
+# Where a matrix run computes its tiles (module docstring), EngineName ("serial": this process,
+# "local": a Dask LocalCluster started here, "dask": a running Dask scheduler), and the names
+# open_engine accepts, ENGINES: from elastic_motion.vocabulary.
 
 
 class ClusterUnavailableError(RuntimeError):

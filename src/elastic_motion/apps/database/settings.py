@@ -27,6 +27,7 @@ from typing import Any
 from elastic_motion.apps.statistics import MEAN_WARP, as_warp_options
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.representations import EULER, LIE, METHODS, Representation, representation
+from elastic_motion.vocabulary import JOINT_SELECTIONS
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -71,8 +72,8 @@ def representation_keys(value: Any, option: str = "representations") -> tuple[st
     return keys
 
 
-#: The joint selections by name (``DatabaseSettings.joints``; otherwise a list of joint names).
-JOINT_SELECTIONS = ("all", "common", "map")
+# The joint selections by name (DatabaseSettings.joints; otherwise a list of joint names):
+# JOINT_SELECTIONS, the values of JointSelection (elastic_motion.vocabulary).
 
 
 def joint_selection(value: str | Sequence[str]) -> str | tuple[str, ...]:

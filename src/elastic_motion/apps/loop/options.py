@@ -16,7 +16,7 @@ import math
 import numbers
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import Any, Literal, get_args
+from typing import Any
 
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.errors import OptionError
@@ -24,6 +24,16 @@ from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contac
 from elastic_motion.motion.joint_limits import JointLimits
 from elastic_motion.motion.looping import RootMode, check_root
 from elastic_motion.motion.representations import Method, representation
+from elastic_motion.vocabulary import (
+    LIMIT_POLICIES,
+    SEAMS,
+    SOLVERS,
+    WINDOW_MODES,
+    LimitPolicy,
+    Seam,
+    Solver,
+    WindowMode,
+)
 
 __all__ = [
     "LIMIT_POLICIES",
@@ -37,24 +47,9 @@ __all__ = [
     "WindowMode",
 ]
 
-#: What closes at the seam: the poses (``"c0"``, paper 000's closing), the velocities too
-#: (``"c1"``), or C0 unless its seam hitches, then C1 when that is better (``"auto"``,
-#: :mod:`elastic_motion.apps.loop.seam_choice`).
-Seam = Literal["auto", "c0", "c1"]
-SEAMS: tuple[str, ...] = get_args(Seam)
-#: Closing solvers: ``"kkt"`` the closed curve nearest the input
-#: (:func:`elastic_motion.closing.project_closed`), ``"gauss-newton"`` / ``"gradient"``
-#: the flows of :func:`elastic_motion.closing.close_curve` (closed, nearest to first order).
-Solver = Literal["kkt", "gauss-newton", "gradient"]
-SOLVERS: tuple[str, ...] = get_args(Solver)
-#: What the loop does with joint limits (ASF ``limits``): keep them (an active set of the
-#: projection, :mod:`elastic_motion.apps.loop.limits`), report them, or ignore them.
-LimitPolicy = Literal["keep", "report", "off"]
-LIMIT_POLICIES: tuple[str, ...] = get_args(LimitPolicy)
-#: Which frames loop, by name: the whole clip (``None`` in Python) or the best cycle.
-#: A ``(start, stop)`` pair of frames is the third way (:attr:`LoopOptions.window`).
-WindowMode = Literal["whole", "auto"]
-WINDOW_MODES: tuple[str, ...] = get_args(WindowMode)
+# What closes at the seam (Seam), the closing solvers (Solver), what the loop does with joint
+# limits (LimitPolicy) and which frames loop by name (WindowMode; a (start, stop) pair of
+# frames is the third way, LoopOptions.window), with their values: elastic_motion.vocabulary.
 
 
 @dataclass(frozen=True)

@@ -11,29 +11,29 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import Any
 
-from elastic_motion._options import choices
+from elastic_motion.defaults import (
+    VIEWER_CONTACTS,
+    VIEWER_LAYOUT,
+    VIEWER_MAX_FPS,
+    VIEWER_MAX_FRAMES,
+    VIEWER_TITLE,
+)
 from elastic_motion.errors import OptionError
+from elastic_motion.vocabulary import CONTACT_MARK_ALIASES, CONTACT_MARKS, LAYOUTS, ContactMarks, Layout
 
 __all__ = ["CONTACT_MARKS", "LAYOUTS", "ContactMarks", "Layout", "ViewerOptions", "contact_marks"]
 
-#: How the clips are placed at first (the page has a switch): side by side, or on one spot.
-Layout = Literal["side", "overlay"]
-#: The values of :data:`Layout`.
-LAYOUTS: tuple[str, ...] = choices(Layout)
-#: Which contacts are marked: from the reports; from the reports, else detected on the
-#: motion; none.
-ContactMarks = Literal["report", "detect", "off"]
-#: The values of :data:`ContactMarks`.
-CONTACT_MARKS: tuple[str, ...] = choices(ContactMarks)
+# How the clips are placed at first (Layout: side by side, or on one spot) and which contacts
+# are marked (ContactMarks: from the reports; from the reports, else detected on the motion;
+# none), with their values LAYOUTS and CONTACT_MARKS: from elastic_motion.vocabulary.
 
 
 def contact_marks(value: Any) -> str:
     """``value`` as one of :data:`CONTACT_MARKS` (``"none"`` is ``"off"``); an
     :class:`OptionError` naming ``contacts`` otherwise."""
-    if value == "none":
-        return "off"
+    value = CONTACT_MARK_ALIASES.get(value, value) if isinstance(value, str) else value
     if value not in CONTACT_MARKS:
         raise OptionError("contacts", f"expected 'report', 'detect' or 'off' ('none'); got {value!r}")
     return value
@@ -64,12 +64,12 @@ class ViewerOptions:
         HTML id of the viewer (several viewers on one page need different ids).
     """
 
-    layout: Layout = "side"
-    max_frames: int = 2000
-    max_fps: float = 30.0
-    contacts: ContactMarks = "report"
+    layout: Layout = VIEWER_LAYOUT
+    max_frames: int = VIEWER_MAX_FRAMES
+    max_fps: float = VIEWER_MAX_FPS
+    contacts: ContactMarks = VIEWER_CONTACTS
     plotly_src: str | None = None
-    title: str = "elastic-motion viewer"
+    title: str = VIEWER_TITLE
     element_id: str = "em-viewer"
 
     def __post_init__(self) -> None:
