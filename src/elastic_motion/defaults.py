@@ -4,10 +4,6 @@ The options classes take their field defaults from here (``WarpOptions.neighbour
 :data:`DEFAULT_MAX_STEP`), and the command line shows the same numbers in ``--help`` without
 loading the numerical stack (numpy, numba, scipy): both doors agree, and the parser is built
 from this module and :mod:`elastic_motion.vocabulary` alone.
-
-The exception is :class:`elastic_motion.apps.loop.LoopOptions`: its fields still spell
-their defaults, which the ``LOOP_*`` constants repeat for the command line;
-``tests/test_defaults.py`` checks they are the same.
 """
 
 from __future__ import annotations
@@ -21,6 +17,7 @@ __all__ = [
     "DEFAULT_METHOD",
     "DEFAULT_SAMPLE_FPS",
     "DEFAULT_SAMPLE_SMOOTHING",
+    "LOOP_CHANGE_BOUND",
     "LOOP_FREE_JOINTS",
     "LOOP_JOINT_LIMITS",
     "LOOP_MAX_ITER",
@@ -29,6 +26,7 @@ __all__ = [
     "LOOP_SEAM",
     "LOOP_SOLVER",
     "LOOP_TOL",
+    "LOOP_WINDOW",
     "MEAN_WARP_METHOD",
     "VIEWER_CONTACTS",
     "VIEWER_LAYOUT",
@@ -79,7 +77,7 @@ CONTACT_HEIGHT_ENTER = 0.03
 CONTACT_SPEED_ENTER = 0.4
 
 # ------------------------------------------------------------------------------------------
-# Loops (elastic_motion.apps.loop.LoopOptions; the same values, checked by the tests)
+# Loops (elastic_motion.apps.loop.LoopOptions)
 # ------------------------------------------------------------------------------------------
 
 #: ``LoopOptions.root``: the character keeps one cycle's displacement and turn.
@@ -98,6 +96,14 @@ LOOP_MAX_ITER = 100
 LOOP_FREE_JOINTS = "fingers"
 #: ``LoopOptions.joint_limits``: joint limits are measured, not enforced.
 LOOP_JOINT_LIMITS = "report"
+#: Which frames a loop closes by default: the whole clip when that changes it by at most
+#: :data:`LOOP_CHANGE_BOUND`, else the best cycle (``LoopOptions.window``).
+LOOP_WINDOW = "safe"
+#: Metres: the most a loop may change its clip (the largest root-relative move of a joint or
+#: end site) without ``force``; also what ``window="safe"`` keeps the whole clip within. A
+#: walk's or run's cycle closes within 4-12 cm (CMU 07_01, 09_11, 49_08, 55_01 auto windows);
+#: clips that do not repeat move by 30-120 cm when closed whole.
+LOOP_CHANGE_BOUND = 0.15
 
 # ------------------------------------------------------------------------------------------
 # The viewer (elastic_motion.apps.viewer.ViewerOptions)

@@ -162,9 +162,10 @@ SOLVERS: tuple[str, ...] = get_args(Solver)
 LimitPolicy = Literal["keep", "report", "off"]
 #: The values of :data:`LimitPolicy`.
 LIMIT_POLICIES: tuple[str, ...] = get_args(LimitPolicy)
-#: Which frames loop, by name: the whole clip (``None`` in Python) or the best cycle.
-#: A ``(start, stop)`` pair of frames is the third way (``LoopOptions.window``).
-WindowMode = Literal["whole", "auto"]
+#: Which frames loop, by name: ``"safe"`` the whole clip when it closes with little change, else
+#: the best cycle; ``"whole"`` the whole clip (``None`` in Python); ``"auto"`` the best cycle.
+#: A ``(start, stop)`` pair of frames is the fourth way (``LoopOptions.window``).
+WindowMode = Literal["safe", "whole", "auto"]
 #: The values of :data:`WindowMode`.
 WINDOW_MODES: tuple[str, ...] = get_args(WindowMode)
 

@@ -24,10 +24,12 @@ from elastic_motion.cli_commands._common import (
     check_output,
     fmt_float,
     non_negative_float,
+    positive_float,
     progress_for,
     run_guarded,
 )
 from elastic_motion.defaults import (
+    LOOP_CHANGE_BOUND,
     LOOP_FREE_JOINTS,
     LOOP_JOINT_LIMITS,
     LOOP_MAX_ITER,
@@ -36,6 +38,7 @@ from elastic_motion.defaults import (
     LOOP_SEAM,
     LOOP_SOLVER,
     LOOP_TOL,
+    LOOP_WINDOW,
 )
 from elastic_motion.vocabulary import (
     METHOD_ALIASES,
@@ -135,16 +138,34 @@ def _add_window_and_contact_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--window",
         choices=choices(WindowMode),
-        default="whole",
-        help="loop the whole clip, or 'auto': the sub-clip (start and end frame) that closes with the "
-        "least change (the whole clip is closed too, for the report)",
+        default=LOOP_WINDOW,
+        help="'safe': the whole clip when its loop changes it by at most --change-bound, else the best "
+        "sub-clip (the first line of the output says which and why); 'whole': the whole clip; 'auto': "
+        "the sub-clip (start and end frame) that closes with the least change (the whole clip is closed "
+        "too, for the report)",
+    )
+    p.add_argument(
+        "--change-bound",
+        type=positive_float,
+        default=LOOP_CHANGE_BOUND,
+        metavar="METRES",
+        help="the most the loop may move a joint relative to the root; a loop that changes the clip more, "
+        "or whose feet slide along the floor more often than the input's, is refused (exit 2) unless "
+        "--force",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="keep a loop that changes the clip by more than --change-bound or adds foot slides (default: "
+        "refused, with the numbers and the window that closes with the least change)",
     )
     p.add_argument(
         "--min-length",
         type=float,
         default=None,
         metavar="SECONDS",
-        help="shortest window for --window auto, seconds (default: 90%% of the clip's period, or half "
+        help="shortest window for --window auto (and safe), seconds (default: 90%% of the clip's period, "
+        "or half "
         "the clip when it does not repeat)",
     )
     p.add_argument(
@@ -210,6 +231,8 @@ def _fields(args: argparse.Namespace) -> dict[str, Any]:
         free_joints=_free(args.free_joints),
         window=args.window,
         min_length=args.min_length,
+        change_bound=args.change_bound,
+        force=args.force,
         contacts=args.contacts,
         joint_limits=args.joint_limits,
     )
@@ -218,6 +241,7 @@ def _fields(args: argparse.Namespace) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     # the app is imported here, not at the top: the command line starts without loading it
     from elastic_motion.apps.loop import LoopOptions, loop_motion, repeat_loop
+    from elastic_motion.apps.loop.window import WINDOW_CHOICE
     from elastic_motion.apps.report import report_header
     from elastic_motion.cli_commands._running import (
         contact_options,
@@ -248,18 +272,34 @@ def run(args: argparse.Namespace) -> int:
         outputs.append(str(preview))
     report = report_header("loop", inputs, outputs, res.notes)
     report.update(res.summary())
+    lines = _lines(res, out, WINDOW_CHOICE)
+    if preview is not None:
+        lines.append(f"wrote {preview}: the loop played {args.repeat} times")
+    lines += [f"note: {n}" for n in res.notes if n.kind != WINDOW_CHOICE]
+    emit_report(args, report, [*inputs, *outputs], "\n".join(lines))
+    return 0
+
+
+def _lines(res, out: Path, choice_kind: str) -> list[str]:
+    """What the command prints: the window chosen and why first (the note of ``choice_kind``),
+    then the headline numbers."""
     before, after, c = res.seam_before, res.seam_after, res.closing
+    choice = [str(n) for n in res.notes if n.kind == choice_kind]
     lines = [
+        *choice,
         f"wrote {out}: {res.motion.n_frames} frames at {res.motion.fps:g} fps, loop ({res.root}, "
-        f"{res.method}{', C1' if res.c1 else ''})",
+        f"{res.method}{', C1' if res.c1 else ''}); its last frame is its first pose moved by the cycle: "
+        "a player drops it when it repeats the clip",
         f"seam: largest joint angle {fmt_float(before.seam_angle_max_deg)} -> "
         f"{fmt_float(after.seam_angle_max_deg)} deg, largest position jump "
         f"{fmt_float(before.seam_position_max_m)} -> {fmt_float(after.seam_position_max_m)} m, "
-        f"velocity jump {fmt_float(before.seam_velocity_jump_ratio)} -> "
-        f"{fmt_float(after.seam_velocity_jump_ratio)}x the clip's quickest changes",
-        f"changed the clip by at most {fmt_float(after.deviation_max_m or 0.0)} m "
-        f"(mean {fmt_float(after.deviation_mean_m or 0.0)} m); foot sliding "
-        f"{fmt_float(before.foot_sliding_m_s)} -> {fmt_float(after.foot_sliding_m_s)} m/s",
+        f"velocity jump {fmt_float(after.seam_velocity_jump_ratio)}x the clip's quickest changes; "
+        f"around the seam (0.3 s each side) acceleration {fmt_float(after.seam_acceleration_ratio)}x "
+        "and speed "
+        f"{fmt_float(after.seam_speed_ratio)}x the clip's own (worst at {after.seam_acceleration_point})",
+        f"changed the clip by at most {fmt_float(res.change_m)} m relative to the root "
+        f"(positions: at most {fmt_float(after.deviation_max_m or 0.0)} m, mean "
+        f"{fmt_float(after.deviation_mean_m or 0.0)} m)",
         f"closing: {c.iterations} iterations, gap {fmt_float(c.gap_initial)} -> {fmt_float(c.gap)}"
         + ("" if c.converged else f" (not converged: {c.message})"),
     ]
@@ -271,6 +311,21 @@ def run(args: argparse.Namespace) -> int:
             f"{w.length:.3f} s) changes at most {fmt_float(w.deviation_max_m)} m"
             + (f" (whole clip: {fmt_float(whole)} m)" if whole is not None else "")
         )
+    lines += _contact_lines(res)
+    free = res.summary()["free_joints_seam_deg"]
+    if free:
+        worst = max(free, key=free.get)
+        lines.append(
+            f"free joints (not closed): {len(free)}, the largest seam jump {fmt_float(free[worst])} deg "
+            f"({worst}); "
+            "--free-joints none closes them"
+        )
+    return lines
+
+
+def _contact_lines(res) -> list[str]:
+    """The contacts' and feet's lines, and the joint limits'."""
+    lines = []
     if res.skating_before is not None and res.skating_after is not None and res.contacts.any:
         belt = res.skating_on_treadmill
         belt = "" if belt is None else f"; on the treadmill (its motion out) {fmt_float(belt.mean_speed)} m/s"
@@ -280,14 +335,16 @@ def run(args: argparse.Namespace) -> int:
             f"{fmt_float(res.skating_before.below_floor)} -> {fmt_float(res.skating_after.below_floor)} m"
             + belt
         )
+    if res.feet_before is not None and res.feet_after is not None:
+        lines.append(
+            f"feet, measured on each: skids {res.feet_before.skid_count} -> {res.feet_after.skid_count}, "
+            f"skating over their own contacts {fmt_float(res.feet_before.skating.mean_speed)} -> "
+            f"{fmt_float(res.feet_after.skating.mean_speed)} m/s"
+        )
     if res.joint_limits is not None:
         jl = res.joint_limits
         lines.append(
             f"joint limits ({jl.mode}): input beyond {len(jl.before.violations)} dof limits, loop beyond "
             f"{len(jl.after.violations)}; {len(jl.new_violations)} newly crossed; {jl.pinned} frames pinned"
         )
-    if preview is not None:
-        lines.append(f"wrote {preview}: the loop played {args.repeat} times")
-    lines += [f"note: {n}" for n in res.notes]
-    emit_report(args, report, [*inputs, *outputs], "\n".join(lines))
-    return 0
+    return lines

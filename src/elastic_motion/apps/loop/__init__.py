@@ -13,9 +13,12 @@ options object (:class:`LoopOptions`) passed down:
    (:mod:`.kept_contacts`, :mod:`.contact_rows`, :mod:`.contact_grid`, :mod:`.planting`)
    and its joint limits (:mod:`.limits`);
 4. **seam metrics** (:mod:`.measure`): the seam before and after, skating during contacts;
-5. **policy notes** (:mod:`.notes`): what a user should know, as :class:`~elastic_motion.notes.Note`;
+5. **policy notes** (:mod:`.notes`): what a user should know, as :class:`~elastic_motion.notes.Note`
+   (the first says which frames loop and why);
 6. **result** (:class:`LoopResult`); with ``seam="auto"`` the seam stage
-   (:mod:`.seam_choice`) closes C1 too when the C0 seam hitches, and takes the better.
+   (:mod:`.seam_choice`) closes C1 too when the C0 seam hitches, and takes the better;
+7. **refusal** (:mod:`.refusal`): a loop that changes its clip by more than ``change_bound``
+   or adds skids is an error unless ``force``.
 
 Units of the metrics: angles in degrees, positions in metres when the motion's
 ``metres_per_unit`` is known (else in its length unit), times in seconds.
@@ -32,6 +35,7 @@ from elastic_motion.apps.loop.limits import LoopLimits, joint_limit_report, limi
 from elastic_motion.apps.loop.measure import measure_loop
 from elastic_motion.apps.loop.notes import policy_notes, prepare_notes
 from elastic_motion.apps.loop.options import LoopOptions, Seam, Solver
+from elastic_motion.apps.loop.refusal import LoopRefused, check_loop
 from elastic_motion.apps.loop.result import LoopResult
 from elastic_motion.apps.loop.seam_choice import c1_options, choose_seam, hitches
 from elastic_motion.apps.loop.window import CycleWindow, loop_window
@@ -46,6 +50,7 @@ __all__ = [
     "KeptContacts",
     "LoopLimits",
     "LoopOptions",
+    "LoopRefused",
     "LoopResult",
     "Seam",
     "Solver",
@@ -87,16 +92,18 @@ def loop_motion(
         An unknown or bad option (naming it); fewer than 3 frames; NaN/inf in the motion; a
         closed joint whose seam rotation is at log's cut locus (angle pi: the error names the
         joint; leave it free with ``free_joints`` to loop anyway); a ``min_length`` longer
-        than the clip.
+        than the clip. :class:`~elastic_motion.apps.loop.refusal.LoopRefused` (an
+        ``OptionError``): the loop changes the clip by more than ``change_bound`` or adds
+        skids, without ``force``.
     """
     options = with_overrides(LoopOptions, options, overrides)
     prepared = _prepare(motion, options)
     if options.seam != "auto":
-        return loop_prepared(prepared, options, progress)
+        return check_loop(loop_prepared(prepared, options, progress), options)
     c0 = loop_prepared(prepared, options.replace(seam="c0"), progress)
     if not hitches(c0):
-        return c0
-    return choose_seam(c0, loop_prepared(prepared, c1_options(c0, options), progress))
+        return check_loop(c0, options)
+    return check_loop(choose_seam(c0, loop_prepared(prepared, c1_options(c0, options), progress)), options)
 
 
 def loop_prepared(
@@ -127,7 +134,7 @@ def loop_prepared(
         seam_before=measures.seam_before,
         seam_after=measures.seam_after,
         prepared=prepared,
-        notes=(*prepare_notes(prepared), *notes),
+        notes=(*((looped.choice,) if looped.choice is not None else ()), *prepare_notes(prepared), *notes),
         window=looped.window,
         contacts=measures.contacts,
         skating_before=measures.skating_before,
@@ -135,6 +142,9 @@ def loop_prepared(
         contacts_kept=closed.kept,
         joint_limits=joint_limits,
         skating_on_treadmill=measures.skating_on_treadmill,
+        change_m=measures.change_m,
+        feet_before=measures.feet_before,
+        feet_after=measures.feet_after,
     )
 
 

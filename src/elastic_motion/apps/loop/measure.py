@@ -13,7 +13,9 @@ import numpy as np
 
 from elastic_motion.apps.loop.close import ClosedClip, ClosedJoints
 from elastic_motion.apps.loop.options import LoopOptions
+from elastic_motion.apps.loop.window import relative_change
 from elastic_motion.apps.metrics import ContactSkating, SeamMetrics, contact_skating, seam_metrics
+from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import Contacts, detect_contacts
 from elastic_motion.motion.looping import cycle_transform, on_belt, twist_angle
@@ -43,6 +45,14 @@ class LoopMeasures:
         without a joint that can touch the floor).
     skating_on_treadmill : ContactSkating or None
         Contacts kept on a treadmill: the loop's skating with the belt's motion taken out.
+    change_m : float
+        The most the loop moves a closed joint or end site relative to the root, against the
+        clip (in place: the clip on its own treadmill), metres (what ``change_bound`` bounds).
+    feet_before, feet_after : FootQuality or None
+        The clip and the loop each measured on itself the same way
+        (:func:`~elastic_motion.apps.metrics.floor.foot_quality`: own contacts, skating, skids),
+        the loop in place with the belt's motion put back (:func:`on_belt`); None with
+        ``contacts="off"``.
     """
 
     seam_before: SeamMetrics
@@ -53,6 +63,9 @@ class LoopMeasures:
     skating_before: ContactSkating | None = None
     skating_after: ContactSkating | None = None
     skating_on_treadmill: ContactSkating | None = None
+    change_m: float = 0.0
+    feet_before: FootQuality | None = None
+    feet_after: FootQuality | None = None
 
 
 def measure_loop(
@@ -70,7 +83,14 @@ def measure_loop(
         if closed.kept is not None and closed.kept.treadmill:
             # in place the feet ride the belt: how much they slip on it
             sk_belt = contact_skating(on_belt(out, clip), found)
+    feet_before = feet_after = None
+    if options.contact_mode != "off":
+        feet_before = foot_quality(clip, options.detection)
+        feet_after = foot_quality(out if travel else on_belt(out, clip), options.detection)
     return LoopMeasures(
+        change_m=relative_change(out, clip, root, joints.closed),
+        feet_before=feet_before,
+        feet_after=feet_after,
         seam_before=seam_metrics(clip, root=root, joints=joints.closed),
         seam_after=seam_metrics(out, original=clip, root=root, joints=joints.closed),
         heading_change=float(twist_angle(rot, _AXES.index(clip.up_axis)) if travel else 0.0),

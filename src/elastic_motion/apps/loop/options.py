@@ -18,6 +18,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
+from elastic_motion import defaults
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contact_policy
@@ -96,14 +97,16 @@ class LoopOptions:
         :func:`elastic_motion.motion.to_lie_curve`); the Euler curve takes the same.
     translation_weight : float or None, default None
         Weight of the root translation, 1 / length^2 (default: as ``joint_weights``).
-    window : None, "auto" or (start, stop), default None
-        Loop the whole clip (``None``; ``"whole"`` is accepted for it), the best cycle
-        (``"auto"``: the window ``[start, stop)`` of frames whose loop changes the motion
-        least, :mod:`elastic_motion.apps.loop.window`; the whole clip is closed too, for the
-        report) or the given frames (at least 3).
+    window : "safe", None, "auto" or (start, stop), default "safe"
+        ``"safe"``: the whole clip when its loop changes it by at most ``change_bound``, else
+        the best cycle (``"auto"``); the first note says which and why. ``None``: the whole
+        clip (``"whole"`` is accepted for it). ``"auto"``: the window ``[start, stop)`` of
+        frames whose loop changes the motion least (:mod:`elastic_motion.apps.loop.window`;
+        the whole clip is closed too, for the report). ``(start, stop)``: the given frames
+        (at least 3).
     min_length : float or None, default None
-        Shortest window for ``"auto"``, seconds (default: 90 % of the clip's period, or
-        half the clip when it does not repeat); only with ``window="auto"``.
+        Shortest window for ``"auto"`` (and ``"safe"`` when it looks for one), seconds
+        (default: 90 % of the clip's period, or half the clip when it does not repeat).
     candidates : int, default 5
         Windows closed exactly by ``"auto"`` (the best of the cheap pose/velocity match).
     contacts : {"keep", "report", "off"} or None, default None
@@ -132,26 +135,37 @@ class LoopOptions:
     limit_tol : float, default 0.5
         Degrees: beyond a limit means by more than this, at a limit within it (the loop
         between two pinned frames may bulge past the limit by a fraction of a degree).
+    change_bound : float, default 0.15
+        Metres: the most the loop may move a joint or end site relative to the root
+        (:attr:`~elastic_motion.apps.metrics.SeamMetrics.deviation_relative_max_m`) without
+        ``force``; ``window="safe"`` keeps the whole clip only within it.
+    force : bool, default False
+        Keep a loop that changes its clip by more than ``change_bound``, or whose feet skid
+        more than the input's (:mod:`elastic_motion.apps.loop.refusal`); without it such a
+        loop is refused (:class:`~elastic_motion.apps.loop.refusal.LoopRefused`, with the
+        numbers and a window that closes with less change).
     """
 
-    root: RootMode = "travel"
-    seam: Seam = "auto"
-    method: Method = "lie"
-    solver: Solver = "kkt"
-    tol: float = 1e-6
-    max_iter: int = 100
-    free_joints: str | tuple[str, ...] | None = "fingers"
+    root: RootMode = defaults.LOOP_ROOT
+    seam: Seam = defaults.LOOP_SEAM
+    method: Method = defaults.LOOP_METHOD
+    solver: Solver = defaults.LOOP_SOLVER
+    tol: float = defaults.LOOP_TOL
+    max_iter: int = defaults.LOOP_MAX_ITER
+    free_joints: str | tuple[str, ...] | None = defaults.LOOP_FREE_JOINTS
     prepare: PrepareOptions | None = None
     joint_weights: tuple[float, ...] | None = None
     translation_weight: float | None = None
-    window: str | tuple[int, int] | None = None
+    window: str | tuple[int, int] | None = defaults.LOOP_WINDOW
     min_length: float | None = None
     candidates: int = 5
     contacts: ContactPolicy | None = None
     contact_options: ContactOptions | None = None
     contact_step: float = 1.0 / 30.0
-    joint_limits: LimitPolicy | JointLimits = "report"
+    joint_limits: LimitPolicy | JointLimits = defaults.LOOP_JOINT_LIMITS
     limit_tol: float = 0.5
+    change_bound: float = defaults.LOOP_CHANGE_BOUND
+    force: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "method", representation(self.method).name)
@@ -163,6 +177,12 @@ class LoopOptions:
         object.__setattr__(self, "window", _window(self.window))
         self._check_min_length()
         check_root(self.root)
+        if not (_finite(self.change_bound) and self.change_bound > 0):
+            raise OptionError(
+                "change_bound", f"expected a positive number of metres; got {self.change_bound!r}"
+            )
+        if not isinstance(self.force, bool):
+            raise OptionError("force", f"expected True or False; got {self.force!r}")
         if self.seam not in SEAMS:
             raise OptionError("seam", f"expected one of {list(SEAMS)}; got {self.seam!r}")
         object.__setattr__(self, "free_joints", _free_joints(self.free_joints))
@@ -171,6 +191,13 @@ class LoopOptions:
         if self.prepare is not None and not isinstance(self.prepare, PrepareOptions):
             got = type(self.prepare).__name__
             raise OptionError("prepare", f"expected PrepareOptions or None; got {got}")
+
+    def _check_refusal(self) -> None:
+        bound = self.change_bound
+        if not (_finite(bound) and bound > 0):
+            raise OptionError("change_bound", f"expected a positive number of metres; got {bound!r}")
+        if not isinstance(self.force, bool):
+            raise OptionError("force", f"expected True or False; got {self.force!r}")
 
     def _check_solver_numbers(self) -> None:
         tol, it, c = self.tol, self.max_iter, self.candidates
@@ -207,7 +234,7 @@ class LoopOptions:
 
     def _check_min_length(self) -> None:
         # it bounds the sub-clips the auto window chooses from: silently ignored otherwise
-        if self.min_length is not None and self.window != "auto":
+        if self.min_length is not None and self.window not in ("auto", "safe"):
             what = f"window={self.window!r}"
             if self.window is None:
                 what = "the whole clip (window=None, --window whole)"
@@ -254,16 +281,16 @@ def _finite(x: object) -> bool:
 
 
 #: The errors of a bad ``window`` and ``free_joints`` (what they accept).
-_WINDOW_ERROR = "expected 'auto', None or (start, stop) frames; got {!r}"
+_WINDOW_ERROR = "expected 'safe', 'auto', None or (start, stop) frames; got {!r}"
 _FREE_ERROR = "expected 'fingers', None or a list of joint names; got {!r}"
 
 
 def _window(window: object) -> str | tuple[int, int] | None:
-    """``window`` as stored: None (``"whole"`` too), ``"auto"`` or ``(start, stop)`` frames."""
+    """``window`` as stored: None (``"whole"`` too), ``"safe"``, ``"auto"`` or ``(start, stop)``."""
     if window is None or (isinstance(window, str) and window == "whole"):
         return None
     if isinstance(window, str):
-        if window != "auto":
+        if window not in ("auto", "safe"):
             raise OptionError("window", _WINDOW_ERROR.format(window))
         return window
     try:

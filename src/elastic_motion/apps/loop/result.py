@@ -16,6 +16,7 @@ from elastic_motion.apps.loop.kept_contacts import KeptContacts
 from elastic_motion.apps.loop.limits import LoopLimits
 from elastic_motion.apps.loop.window import CycleWindow
 from elastic_motion.apps.metrics import ContactSkating, SeamMetrics
+from elastic_motion.apps.metrics.floor import FootQuality
 from elastic_motion.apps.prepare import PreparedMotions
 from elastic_motion.closing import ClosingResult
 from elastic_motion.motion import Motion
@@ -67,6 +68,12 @@ class LoopResult:
         What became of the kept contacts (``contacts="keep"`` and some found).
     joint_limits : LoopLimits or None
         What the loop did with joint limits (None without limits).
+    change_m : float
+        The most the loop moves a closed joint or end site relative to the root, metres (what
+        ``change_bound`` bounds; :attr:`LoopMeasures.change_m`).
+    feet_before, feet_after : FootQuality or None
+        The clip and the loop, each measured on itself the same way (own contacts, skating,
+        skids: :func:`~elastic_motion.apps.metrics.floor.foot_quality`).
     skating_on_treadmill : ContactSkating or None
         In place with contacts kept (a treadmill,
         :func:`~elastic_motion.motion.looping.treadmill`): the loop's skating with the belt's
@@ -95,6 +102,9 @@ class LoopResult:
     contacts_kept: KeptContacts | None = None
     joint_limits: LoopLimits | None = None
     skating_on_treadmill: ContactSkating | None = None
+    change_m: float = 0.0
+    feet_before: FootQuality | None = None
+    feet_after: FootQuality | None = None
 
     @property
     def c1(self) -> bool:
@@ -127,8 +137,15 @@ class LoopResult:
                 "message": c.message,
                 "time_s": c.time,
             },
+            "change_m": self.change_m,
             "seam_before": self.seam_before.summary(),
             "seam_after": self.seam_after.summary(),
+            "free_joints_seam_deg": {
+                n: float(self.seam_after.seam_angle_deg[self.motion.skeleton.index(n)])
+                for n in self.free_joints
+            },
+            "feet_before": _feet(self.feet_before),
+            "feet_after": _feet(self.feet_after),
             "window": _summary(self.window),
             "contacts": _summary(self.contacts),
             "skating_before": _summary(self.skating_before),
@@ -139,6 +156,11 @@ class LoopResult:
             "preparation": [r.summary() for r in self.prepared.inputs],
             "notes": [str(n) for n in self.notes],
         }
+
+
+def _feet(q: FootQuality | None) -> dict | None:
+    """A FootQuality's report without its contact intervals (``contacts`` has the input's)."""
+    return None if q is None else {k: v for k, v in q.summary().items() if k != "contacts"}
 
 
 def _summary(record: Any) -> Any:

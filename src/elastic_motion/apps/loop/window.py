@@ -1,12 +1,14 @@
 """The window stage of a loop: which frames loop (:func:`loop_window`).
 
-The whole clip (``window=None``), the given frames ``(start, stop)``, or the best cycle
-(``"auto"``): the cheap pass of :mod:`elastic_motion.apps.loop.window_candidates` proposes a
-few windows, each is closed exactly (by the close stage, :class:`~.close.ClipCloser`) and
-the one whose loop changes the motion least is kept (:class:`CycleWindow` says how it was
-chosen; the whole clip is closed too, for the report). Candidates with kept contacts are
-ranked by the plain projection (ranking every candidate with them would cost a constrained
-projection each) and the chosen one is closed again with its contacts.
+The whole clip (``window=None``), the given frames ``(start, stop)``, the best cycle
+(``"auto"``), or by default (``"safe"``) the whole clip when its loop changes it by at most
+``change_bound`` relative to the root, else the best cycle. The best cycle (``"auto"``): the
+cheap pass of :mod:`elastic_motion.apps.loop.window_candidates` proposes a few windows, each
+is closed exactly (by the close stage, :class:`~.close.ClipCloser`) and the one whose loop
+changes the motion least is kept (:class:`CycleWindow` says how it was chosen; the whole
+clip is closed too, for the report). Candidates with kept contacts are ranked by the plain
+projection (ranking every candidate with them would cost a constrained projection each) and
+the chosen one is closed again with its contacts.
 
 How much a loop changes a window is measured on the closed joints and their end sites
 (:func:`~elastic_motion.apps.metrics.seam_metrics`, ``deviation_*``, metres), against the
@@ -27,8 +29,9 @@ from elastic_motion.apps.metrics import SeamMetrics, seam_metrics
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 from elastic_motion.motion.looping import treadmill
+from elastic_motion.notes import Note
 
-__all__ = ["CycleWindow", "WindowedLoop", "loop_window"]
+__all__ = ["WINDOW_CHOICE", "CycleWindow", "WindowedLoop", "loop_window", "relative_change"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,6 +129,11 @@ class WindowedLoop:
     window: CycleWindow | None
     clip: Motion
     closed: ClosedClip
+    choice: Note | None = None
+
+
+#: Kind of the note that says which frames loop and why (the first line of the output).
+WINDOW_CHOICE = "loop.window"
 
 
 def loop_window(motion: Motion, options: LoopOptions, close: ClipCloser) -> WindowedLoop:
@@ -139,7 +147,11 @@ def loop_window(motion: Motion, options: LoopOptions, close: ClipCloser) -> Wind
         closed; a bad ``min_length`` (:func:`~.window_candidates.cycle_candidates`).
     """
     if options.window is None:
-        return WindowedLoop(None, motion, close(motion))
+        return WindowedLoop(
+            None, motion, close(motion), Note(WINDOW_CHOICE, "window: the whole clip (as asked)")
+        )
+    if options.window == "safe":
+        return _safe_window(motion, options, close)
     keep = options.contact_mode == "keep"
     windows, cand = _windows(motion, options, close)
     trials, best = _rank(motion, windows, close, keep)
@@ -164,7 +176,42 @@ def loop_window(motion: Motion, options: LoopOptions, close: ClipCloser) -> Wind
         quiet_excluded=cand.quiet_excluded if cand is not None else False,
         period=cand.period if cand is not None else None,
     )
-    return WindowedLoop(window, clip, closed)
+    return WindowedLoop(window, clip, closed, Note(WINDOW_CHOICE, _window_text(window, options)))
+
+
+def _frames_text(w: CycleWindow) -> str:
+    """``frames a..b (s-t s)`` of a window."""
+    return f"frames {w.start}..{w.stop - 1} ({w.start / w.fps:.2f}-{(w.stop - 1) / w.fps:.2f} s)"
+
+
+def _window_text(window: CycleWindow, options: LoopOptions) -> str:
+    if options.window == "auto":
+        return (
+            f"window: {_frames_text(window)}, the best cycle (as asked), its loop changes it by "
+            f"{window.deviation_max_m:.3g} m"
+        )
+    return f"window: {_frames_text(window)} (as given)"
+
+
+def _safe_window(motion: Motion, options: LoopOptions, close: ClipCloser) -> WindowedLoop:
+    """``window="safe"``: the whole clip when its loop (the plain projection) changes it by at
+    most ``change_bound`` relative to the root, else the best cycle; the note says which and why."""
+    keep = options.contact_mode == "keep"
+    plain = close(motion, "report") if keep else close(motion)
+    whole = _change(plain, motion, close).deviation_relative_max_m
+    bound = options.change_bound
+    if whole <= bound:
+        closed = close(motion) if keep else plain
+        text = f"window: the whole clip: its loop changes it by at most {whole:.3g} m, within {bound:g} m"
+        return WindowedLoop(None, motion, closed, Note(WINDOW_CHOICE, text, {"whole_change_m": whole}))
+    auto = loop_window(motion, options.replace(window="auto"), close)
+    w = auto.window
+    text = (
+        f"window: {_frames_text(w)}, the best cycle: the whole clip's loop would change it by up to "
+        f"{whole:.3g} m, more than {bound:g} m (--window whole keeps the whole clip)"
+    )
+    data = {"whole_change_m": whole, "start": w.start, "stop": w.stop}
+    return WindowedLoop(w, auto.clip, auto.closed, Note(WINDOW_CHOICE, text, data))
 
 
 def _windows(
@@ -240,6 +287,13 @@ def _whole_clip(motion: Motion, trials: list[dict], close: ClipCloser, keep: boo
         "deviation_mean_m": sm.deviation_mean_m,
         "change_srv_l2": closed.closing.change,
     }
+
+
+def relative_change(loop: Motion, clip: Motion, root: str, joints: tuple[str, ...]) -> float:
+    """The most ``loop`` moves a point of ``joints`` relative to the root against ``clip``
+    (in place: the clip on its own treadmill), metres."""
+    reference = treadmill(clip)[0] if root == "inplace" else clip
+    return seam_metrics(loop, original=reference, root=root, joints=joints).deviation_relative_max_m
 
 
 def _change(closed: ClosedClip, clip: Motion, close: ClipCloser) -> SeamMetrics:

@@ -31,6 +31,10 @@ Conventions
   such repetition (a single cartwheel, a walk that starts and stops).
 * **Default minimum length** (``min_length=None``): 90 % of the period when there is one
   (a window holds one cycle), else half the clip.
+* **Walking clips**: in a clip whose root moves at :data:`WALKING` or faster (median over its
+  frames), a window whose root moves slower than a quarter of that on average is not a
+  candidate either: the near-standing lead-in of a long walk closes with millimetres of change
+  and used to win.
 * **Quiet windows**: a window whose mean feature speed ``|v|`` is below 30 % of the mean
   over the clip's busier half of frames is not a candidate (unless every window is): a
   pause closes with no change at all, and without this the auto window of CMU 131_01 (a
@@ -56,6 +60,12 @@ _MIN_PERIOD = 0.3  # seconds
 #: A candidate window moves on average at least this fraction of the clip's busier half
 #: (module docstring, "Quiet windows").
 _QUIET = 0.3
+#: m/s: a clip whose root's median floor-plane speed is at least this walks (a slow walk is
+#: 0.5-1 m/s; a dance or a cartwheel in place turns about 0.1-0.3)...
+WALKING = 0.3
+#: ...and a window of it carries the walk when its root moves at least this fraction of the
+#: clip's median speed on average.
+_TRAVEL = 0.25
 
 
 def _features(motion: Motion, root: str, closed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -229,8 +239,9 @@ def cycle_candidates(
         )
     f = motion.n_frames
     a, b = np.triu_indices(f, k=lmin)
-    # a pause or a frozen lead-in closes with no change at all: only windows that move
-    active = _active_windows(np.linalg.norm(v, axis=1), a, b)
+    # a pause or a frozen lead-in closes with no change at all: only windows that move, and in
+    # a clip that walks, only windows that walk
+    active = _active_windows(np.linalg.norm(v, axis=1), a, b) & _travelling_windows(motion, a, b)
     quiet = bool(active.any() and not active.all())
     if quiet:
         a, b = a[active], b[active]
@@ -247,6 +258,23 @@ def cycle_candidates(
             if len(chosen) >= count:
                 break
     return CycleCandidates(chosen, np.asarray(chosen_scores), float(min_length), default, period, quiet)
+
+
+def _travelling_windows(motion: Motion, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """In a clip that walks (its root's median floor-plane speed at least :data:`WALKING`),
+    which windows ``[a, b]`` carry its travel: their root's mean floor speed at least
+    :data:`_TRAVEL` times the clip's median (an idle lead-in is never chosen over the walk).
+    All of them in a clip that does not walk."""
+    up = _AXES.index(motion.up_axis)
+    scale = motion.metres_per_unit if motion.metres_per_unit is not None else 1.0
+    floor = np.delete(motion.root_translation, up, axis=1) * scale
+    speed = np.linalg.norm(np.gradient(floor, axis=0), axis=1) * motion.fps
+    median = float(np.median(speed))
+    if median < WALKING:
+        return np.ones(a.shape, dtype=bool)
+    total = np.concatenate([[0.0], np.cumsum(speed)])
+    mean = (total[b + 1] - total[a]) / (b - a + 1)
+    return mean >= _TRAVEL * median
 
 
 def _active_windows(speed: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -79,6 +79,9 @@ class SeamMetrics:
         Per joint (all joints, also those not selected).
     deviation_max_m, deviation_mean_m : float or None
         With ``original``: FK positions of the same points against the original, all frames.
+    deviation_relative_max_m : float or None
+        With ``original``: the same, each point relative to the root joint (the body's own
+        change, whatever the root's path: what a loop's ``change_bound`` bounds).
     deviation_per_frame_max_m, deviation_per_frame_mean_m : ndarray, shape (F,), or None
     """
 
@@ -101,6 +104,7 @@ class SeamMetrics:
     seam_angular_velocity_deg_s: np.ndarray
     deviation_max_m: float | None = None
     deviation_mean_m: float | None = None
+    deviation_relative_max_m: float | None = None
     deviation_per_frame_max_m: np.ndarray | None = None
     deviation_per_frame_mean_m: np.ndarray | None = None
 
@@ -205,6 +209,10 @@ def seam_metrics(
         dev = np.linalg.norm(pos_original - pos, axis=-1) * scale
         out["deviation_max_m"] = float(dev.max())
         out["deviation_mean_m"] = float(dev.mean())
+        root_now = forward_kinematics(motion)[:, 0]
+        root_then = forward_kinematics(original)[:, 0]
+        rel = (pos - root_now[:, None]) - (pos_original - root_then[:, None])
+        out["deviation_relative_max_m"] = float(np.linalg.norm(rel, axis=-1).max() * scale)
         out["deviation_per_frame_max_m"] = dev.max(axis=1)
         out["deviation_per_frame_mean_m"] = dev.mean(axis=1)
     return SeamMetrics(**out)
