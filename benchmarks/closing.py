@@ -151,6 +151,8 @@ def real_rows() -> list[dict]:
                         method=rep,
                         seam="c1" if c1 else "c0",
                         prepare=PrepareOptions(drop_tpose=False),
+                        window=None,  # the whole clip, whatever it changes: the solvers compared
+                        force=True,
                     )
                 except ValueError as exc:
                     rows.append({**base, "variant": f"{rep}{' C1' if c1 else ''}", "error": str(exc)})

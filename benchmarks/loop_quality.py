@@ -50,7 +50,8 @@ from pathlib import Path
 
 import elastic_motion as em
 from _common import RESULTS, machine_info, write_json
-from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.loop import LoopRefused, loop_motion
+from elastic_motion.apps.loop.window import WINDOW_CHOICE
 from elastic_motion.apps.metrics import contact_skating, seam_metrics
 from elastic_motion.motion import read_motion, to_metres
 from elastic_motion.motion.contacts import ContactOptions, detect_contacts
@@ -79,9 +80,20 @@ def mocap_dir() -> Path:
     return Path(env) if env else Path(__file__).resolve().parents[2] / "shared" / "mocap"
 
 
-def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report", seam: str = "auto") -> dict:
+def measure(path: Path, window, tmp: Path, contacts: str | None = "report", seam: str = "auto") -> dict:
+    """One loop, written and read back, measured (module docstring). ``window="default"``: the
+    library's defaults (the safe window, contacts kept, no force); any other row is forced (it
+    measures what that window's loop is, accepted or not)."""
     t0 = time.perf_counter()
-    res = loop_motion(path, window=window, contacts=contacts, seam=seam)
+    if window == "default":
+        try:
+            res = loop_motion(path)
+        except LoopRefused as exc:
+            r = exc.result
+            return {"refused": exc.message, "change_rel_m": r.change_m, "total_s": time.perf_counter() - t0,
+                    "skids_in": r.feet_before.skid_count, "skids_loop": r.feet_after.skid_count}  # fmt: skip
+    else:
+        res = loop_motion(path, window=window, contacts=contacts, seam=seam, force=True)
     total = time.perf_counter() - t0
     out = em.write(res, tmp / f"{path.stem}.{window or 'whole'}.{contacts}.bvh")
     back = read_motion(out)
@@ -103,6 +115,12 @@ def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report",
         "joints": inp.n_joints,
         "change_max_m": sm.deviation_max_m,
         "change_mean_m": sm.deviation_mean_m,
+        "change_rel_m": res.change_m,
+        "seam_acceleration_ratio": sm.seam_acceleration_ratio,
+        "seam_speed_ratio": sm.seam_speed_ratio,
+        "skids_in": None if res.feet_before is None else res.feet_before.skid_count,
+        "skids_loop": None if res.feet_after is None else res.feet_after.skid_count,
+        "window_choice": next((str(n) for n in res.notes if n.kind == WINDOW_CHOICE), None),
         "seam_rad": math.radians(sm.seam_angle_max_deg),
         "seam_m": sm.seam_position_max_m,
         "hitch_ratio": sm.seam_velocity_jump_ratio,
@@ -118,6 +136,23 @@ def measure(path: Path, window: str | None, tmp: Path, contacts: str = "report",
         "kkt_residual": res.closing.kkt_residual,
         "converged": res.closing.converged,
         "contacts_kept": None if res.contacts_kept is None else res.contacts_kept.summary(),
+    }
+
+
+def issue30_targets(rows: list[dict]) -> dict:
+    """Issue 30's targets on the default rows: change at most 0.15 m (root-relative) unless
+    refused, skating at most 1.1x the input, no new skid, seam acceleration at most 2."""
+    default = [r for r in rows if r.get("mode") == "default"]
+    kept = [r for r in default if "refused" not in r and "error" not in r]
+    return {
+        "refused": [r["clip"] for r in default if "refused" in r],
+        "change_rel_max_m": max((r["change_rel_m"] for r in kept), default=None),
+        "change_met": all(r["change_rel_m"] <= 0.15 for r in kept),
+        "skating_ratio_max": max((r["skating_ratio"] or 0 for r in kept), default=None),
+        "skating_met": all((r["skating_ratio"] or 0) <= 1.1 for r in kept),
+        "new_skids": sum(max(0, r["skids_loop"] - r["skids_in"]) for r in kept),
+        "seam_acceleration_ratio_max": max((r["seam_acceleration_ratio"] for r in kept), default=None),
+        "seam_acceleration_met": all(r["seam_acceleration_ratio"] <= 2 for r in kept),
     }
 
 
@@ -145,7 +180,13 @@ def main() -> None:
             if not path.exists():
                 print(f"skip {name}: {path} not found")
                 continue
-            modes = [(None, "report"), ("auto", "report"), (None, "keep"), ("auto", "keep")]
+            modes = [
+                ("default", None),
+                (None, "report"),
+                ("auto", "report"),
+                (None, "keep"),
+                ("auto", "keep"),
+            ]
             if name == SPEED_ROW[0]:
                 modes.append((SPEED_ROW[1], "keep"))
             for window, contacts in modes:
@@ -157,11 +198,12 @@ def main() -> None:
                     r = {"error": f"{type(exc).__name__}: {exc}"}
                 label = f"frames {window[0]}:{window[1]}" if isinstance(window, tuple) else window or "whole"
                 r.update(clip=name, mode=label + (", contacts keep" if contacts == "keep" else ""))
+                print(name, label, contacts, r.get("total_s"), flush=True)
                 rows.append(r)
     head = (
-        "| clip | mode | start | stop | change max m | change mean m | seam rad | seam m | C1 | hitch "
-        "| skating in m/s | skating loop m/s | ratio | below floor in m | below floor loop m "
-        "| solve s | total s |"
+        "| clip | mode | start | stop | change max m | change mean m | change rel m | seam rad | seam m | C1 "
+        "| hitch | accel | skids in / loop | skating in m/s | skating loop m/s | ratio | below floor in m "
+        "| below floor loop m | solve s | total s |"
     )
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
@@ -169,15 +211,21 @@ def main() -> None:
         if "error" in r:
             print(f"| {r['clip']} | {r['mode']} | error: {r['error']} |")
             continue
+        if "refused" in r:
+            print(f"| {r['clip']} | {r['mode']} | refused: {r['refused']} |")
+            continue
         print(
             f"| {r['clip']} | {r['mode']} | {r['start']} | {r['stop']} | {fmt(r['change_max_m'])} "
-            f"| {fmt(r['change_mean_m'])} | {fmt(r['seam_rad'], '.2e')} | {fmt(r['seam_m'], '.2e')} "
-            f"| {'C1' if r['c1'] else 'C0'} | {fmt(r['hitch_ratio'], '.2f')} "
+            f"| {fmt(r['change_mean_m'])} | {fmt(r['change_rel_m'])} | {fmt(r['seam_rad'], '.2e')} "
+            f"| {fmt(r['seam_m'], '.2e')} | {'C1' if r['c1'] else 'C0'} | {fmt(r['hitch_ratio'], '.2f')} "
+            f"| {fmt(r['seam_acceleration_ratio'], '.2f')} | {r['skids_in']} / {r['skids_loop']} "
             f"| {fmt(r['skating_in_m_s'])} | {fmt(r['skating_loop_m_s'])} | {fmt(r['skating_ratio'])} "
             f"| {fmt(r['below_floor_in_m'])} | {fmt(r['below_floor_loop_m'])} | {fmt(r['solve_s'])} "
             f"| {fmt(r['total_s'])} |"
         )
-    write_json(args.out, {"machine": machine_info(), "rows": rows})
+    targets = issue30_targets(rows)
+    print(f"\nissue 30 (default options): {targets}")
+    write_json(args.out, {"machine": machine_info(), "rows": rows, "targets": targets})
     print(f"\nwrote {args.out}")
 
 

@@ -88,9 +88,9 @@ def side_view(paths: list[np.ndarray], up: int):
 
 def plot_case(key: str, out: Path) -> dict:
     rel, spec, title = CASES[key]
-    lie = loop_motion(MOCAP / rel, seam="c0")
+    lie = loop_motion(MOCAP / rel, seam="c0", window=None, force=True)
     m = lie.original  # prepared: T-pose dropped, metres, Y-up
-    eul = loop_motion(m, method="euler-elastic", seam="c0")
+    eul = loop_motion(m, method="euler-elastic", seam="c0", window=None, force=True)
     up = "xyz".index(m.up_axis)
     rows = [
         ("original", m),
@@ -149,7 +149,7 @@ def plot_case(key: str, out: Path) -> dict:
 
 def plot_seam_closeup(out: Path) -> None:
     m = drop_tpose(read_motion(MOCAP / CASES["dm_cartwheel"][0]))
-    lie = loop_motion(m, seam="c0")
+    lie = loop_motion(m, seam="c0", window=None, force=True)
     sk = m.skeleton
     left = [j for j, n in enumerate(sk.names) if not n.startswith("right")]
     fig, axes = plt.subplots(1, 2, figsize=(11, 5))
@@ -182,8 +182,8 @@ def plot_c0_c1(out: Path) -> None:
     joint = m.skeleton.index("right_knee")
     for label, mm, style in [
         ("original", m, "k:"),
-        ("closed, C0", loop_motion(m, seam="c0").motion, "C0-"),
-        ("closed, C1", loop_motion(m, seam="c1").motion, "C3-"),
+        ("closed, C0", loop_motion(m, seam="c0", window=None, force=True).motion, "C0-"),
+        ("closed, C1", loop_motion(m, seam="c1", window=None, force=True).motion, "C3-"),
     ]:
         rep = repeat_motion(mm, 3)
         w = (
@@ -209,8 +209,8 @@ def plot_euler_float(out: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for label, mm, style in [
         ("original (under the Lie curve)", m, "0.6"),
-        ("Lie group closed", loop_motion(m, seam="c0").motion, "C0--"),
-        ("Euler closed", loop_motion(m, method="euler-elastic", seam="c0").motion, "C3"),
+        ("Lie group closed", loop_motion(m, seam="c0", window=None, force=True).motion, "C0--"),
+        ("Euler closed", loop_motion(m, method="euler-elastic", seam="c0", window=None, force=True).motion, "C3"),
     ]:
         r = mm.rotations[:, 0]
         turn = np.concatenate([[0], np.cumsum(np.linalg.norm(SO3G.difference(r[:-1], r[1:]), axis=-1))])

@@ -221,7 +221,7 @@ def loops(out: Path) -> dict:
         ("dm_backflip", "deepmimic/humanoid3d_backflip.txt", "DeepMimic backflip"),
     ):
         t0 = time.perf_counter()
-        res = loop_motion(load(rel), seam="c0")  # the paper closes C0
+        res = loop_motion(load(rel), seam="c0", window=None, force=True)  # the paper closes C0, whole
         m = res.original  # prepared: metres, Y-up
         before, after = res.seam_before, res.seam_after
         plot_seam(

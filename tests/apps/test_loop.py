@@ -71,7 +71,7 @@ def test_seam_velocity_jump_ratio_against_the_clip_own_changes():
 @pytest.mark.mocap
 @pytest.mark.parametrize("key", list(CASES))
 def test_loop_closes_real_clips_and_keeps_travel(mocap_dir, key):
-    res = loop_motion(load(mocap_dir, key))
+    res = loop_motion(load(mocap_dir, key), window=None, force=True)
     m = res.original  # prepared: metres, Y-up
     before = seam_metrics(m, joints=closed_set(m))
     assert before.seam_angle_max_deg == res.seam_before.seam_angle_max_deg
@@ -102,7 +102,9 @@ def test_loop_closes_real_clips_and_keeps_travel(mocap_dir, key):
 @pytest.mark.mocap
 def test_cmu_cartwheels_49_08_long_clip(mocap_dir):
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
-    res = loop_motion(m, contacts="report")  # the projection alone (kept contacts: test_loop_contacts)
+    res = loop_motion(
+        m, contacts="report", window=None, force=True
+    )  # the projection alone (kept contacts: test_loop_contacts)
     m = res.original  # prepared: metres, Y-up
     assert res.closing.converged and res.closing.iterations <= 15
     assert res.closing.kkt_residual < 1e-8  # the default solver: the nearest closed curve
@@ -120,7 +122,7 @@ def test_cmu_cartwheels_49_08_long_clip(mocap_dir):
 @pytest.mark.mocap
 def test_inplace_closes_position_and_heading(mocap_dir):
     m = load(mocap_dir, "dm_run")
-    res = loop_motion(m, root="inplace")
+    res = loop_motion(m, root="inplace", window=None, force=True)
     out = res.motion
     np.testing.assert_allclose(out.root_translation[-1], out.root_translation[0], atol=1e-6)
     np.testing.assert_allclose(out.rotations[-1], out.rotations[0], atol=1e-6)
@@ -194,7 +196,7 @@ def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
     moves faster than the input's own root does, the seam closes and the note says why the
     planted feet move."""
     m = load(mocap_dir, "dm_run")
-    res = loop_motion(m, root="inplace")
+    res = loop_motion(m, root="inplace", window=None, force=True)
     assert res.contacts_kept is not None and res.contacts_kept.treadmill["travel_m"] > 2.5
     (note,) = of_kind(res.notes, loop_notes.TREADMILL)
     assert str(note).startswith("contacts kept on a treadmill") and note.data["travel_m"] > 2.5
@@ -212,7 +214,7 @@ def test_inplace_loop_keeps_contacts_on_a_treadmill(mocap_dir):
     assert res.skating_after.mean_speed > 2.0 and belt.mean_speed < 1.1 * res.skating_before.mean_speed
     assert res.summary()["skating_on_treadmill"]["skating_mean_m_s"] == pytest.approx(belt.mean_speed)
     # travel keeps the planted feet where they are: no treadmill there
-    travel = loop_motion(m, root="travel")
+    travel = loop_motion(m, root="travel", window=None, force=True)
     assert travel.contacts_kept.treadmill is None and travel.skating_on_treadmill is None
     assert "treadmill" not in travel.summary()["contacts_kept"]
 
@@ -235,8 +237,8 @@ def test_dropped_contacts_close_the_clip_itself_not_its_treadmill(mocap_dir, mon
         return dataclasses.replace(closing, motion=None, kept=kept)
 
     monkeypatch.setattr(close_mod, "close_keeping_contacts", dropped)
-    out = loop_motion(m, root="inplace")
-    plain = loop_motion(m, root="inplace", contacts="report")
+    out = loop_motion(m, root="inplace", window=None, force=True)
+    plain = loop_motion(m, root="inplace", contacts="report", window=None, force=True)
     np.testing.assert_allclose(out.motion.root_translation, plain.motion.root_translation, atol=1e-9)
     assert not any("treadmill" in str(n) for n in out.notes) and not of_kind(out.notes, loop_notes.TREADMILL)
     assert of_kind(out.notes, loop_notes.DROPPED)
@@ -247,7 +249,7 @@ def test_auto_seam_keeps_c0_when_c1_is_worse(mocap_dir):
     """The DeepMimic get-up (a clip that cannot repeat), frames 59-174: the C0 seam has a hitch
     (3.8x at an elbow), but closed C1 the loop whips a wrist at 52 m/s on its last step. The
     default keeps the C0 loop and says why, without suggesting C1."""
-    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174))
+    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174), force=True)
     assert not res.c1 and res.seam == "c0"
     assert not of_kind(res.notes, loop_notes.HITCH)
     (note,) = of_kind(res.notes, SEAM_C0_KEPT)
@@ -255,12 +257,14 @@ def test_auto_seam_keeps_c0_when_c1_is_worse(mocap_dir):
     assert text.startswith("a hitch at the seam") and "closed C1 too (c1='auto') and not taken" in text
     assert "it whips a limb" in text and "--seam c1" not in text
     assert note.data["ratio"] > 1.5 and any(w.startswith("it whips a limb") for w in note.data["c1_refused"])
-    plain = loop_motion(mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174), seam="c0")
+    plain = loop_motion(
+        mocap_dir / "deepmimic/humanoid3d_getup_facedown.txt", window=(59, 174), seam="c0", force=True
+    )
     np.testing.assert_allclose(res.motion.rotations, plain.motion.rotations, atol=1e-12)
     with pytest.raises(OptionError, match="seam"):
-        loop_motion(plain.motion, seam="yes")
+        loop_motion(plain.motion, seam="yes", window=None, force=True)
     with pytest.raises(OptionError, match=r"^c1: unknown option \['c1'\] of LoopOptions"):
-        loop_motion(plain.motion, c1=True)
+        loop_motion(plain.motion, c1=True, window=None, force=True)
 
 
 @pytest.mark.mocap
@@ -268,8 +272,8 @@ def test_auto_seam_keeps_c0_when_c1_is_worse(mocap_dir):
 @pytest.mark.parametrize("root", ["travel", "inplace"])
 def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     m = load(mocap_dir, key)
-    c0 = loop_motion(m, root=root, seam="c0")
-    c1 = loop_motion(m, root=root, seam="c1")
+    c0 = loop_motion(m, root=root, seam="c0", window=None, force=True)
+    c1 = loop_motion(m, root=root, seam="c1", window=None, force=True)
     assert c1.closing.converged
     s0 = seam_metrics(c0.motion, original=m, root=root, joints=c0.closed_joints)
     s1 = seam_metrics(c1.motion, original=m, root=root, joints=c1.closed_joints)
@@ -282,7 +286,7 @@ def test_c1_matches_seam_velocities_c0_does_not(mocap_dir, key, root):
     hitch = [str(n) for n in of_kind(c0.notes, loop_notes.HITCH)]
     assert all(h.startswith("a hitch at the seam") for h in hitch)
     assert s1.seam_velocity_jump_ratio < 1.0 and not of_kind(c1.notes, loop_notes.HITCH)
-    auto = loop_motion(m, root=root)  # the default, seam="auto"
+    auto = loop_motion(m, root=root, window=None, force=True)  # the default, seam="auto"
     if key == "dm_cartwheel":
         assert s0.seam_velocity_jump_ratio > 2.5 and s0.seam_velocity_jump_point == "right_wrist"
         assert len(hitch) == 1 and "right_wrist" in hitch[0] and "--seam c1" in hitch[0]
@@ -313,8 +317,10 @@ def test_euler_baseline_degrades_on_flips(mocap_dir, key):
     # a flip turns the root by 2 pi: the unwrapped Euler angles end 2 pi away from where they
     # started, and closing them undoes the flip (paper 000, sec. 5.4: the character floats)
     m = load(mocap_dir, key)
-    lie = loop_motion(m, contacts="report")  # the two projections alone
-    eul = loop_motion(m, method="euler-elastic", solver="gauss-newton")  # paper 001's projection
+    lie = loop_motion(m, contacts="report", window=None, force=True)  # the two projections alone
+    eul = loop_motion(
+        m, method="euler-elastic", solver="gauss-newton", window=None, force=True
+    )  # paper 001's projection
     assert lie.closing.converged and eul.closing.converged
     dl = seam_metrics(lie.motion, original=m)
     de = seam_metrics(eul.motion, original=m)
@@ -384,14 +390,14 @@ def test_looping_clip_is_a_fixed_point_and_metrics_vanish():
     s = seam_metrics(m, original=m)
     assert s.seam_angle_max_deg < 1e-9 and s.seam_position_max_m < 1e-12
     assert s.deviation_max_m == 0.0
-    res = loop_motion(m, tol=1e-8)
+    res = loop_motion(m, tol=1e-8, window=None, force=True)
     assert res.closing.iterations == 0
     np.testing.assert_allclose(res.motion.rotations, m.rotations, atol=1e-12)
 
 
 def test_synthetic_travel_loop_and_repeat():
     m = synthetic()
-    res = loop_motion(m, tol=1e-10)
+    res = loop_motion(m, tol=1e-10, window=None, force=True)
     out = res.motion
     s = seam_metrics(out, original=m)
     assert s.seam_angle_max_deg < 1e-6 and s.seam_position_max_m < 1e-8
@@ -408,22 +414,26 @@ def test_synthetic_travel_loop_and_repeat():
 def test_bad_input_gives_clear_errors():
     m = synthetic()
     with pytest.raises(ValueError, match=r"expected at least 3 frames.*got 2"):
-        loop_motion(m.replace(rotations=m.rotations[:2], root_translation=m.root_translation[:2]))
+        loop_motion(
+            m.replace(rotations=m.rotations[:2], root_translation=m.root_translation[:2]),
+            window=None,
+            force=True,
+        )
     rot = m.rotations.copy()
     rot[7, 2, 0, 0] = np.nan
     with pytest.raises(ValueError, match=r"synthetic.rotations: expected finite values"):
-        loop_motion(m.replace(rotations=rot))
+        loop_motion(m.replace(rotations=rot), window=None, force=True)
     with pytest.raises(ValueError, match=r"foot.*cut locus"):
-        loop_motion(synthetic(seam_pi=True), root="inplace")
+        loop_motion(synthetic(seam_pi=True), root="inplace", window=None, force=True)
     # leaving the joint free is the documented way out; its samples are kept
-    res = loop_motion(synthetic(seam_pi=True), root="inplace", free_joints=["foot"])
+    res = loop_motion(synthetic(seam_pi=True), root="inplace", free_joints=["foot"], window=None, force=True)
     assert res.free_joints == ("foot",) and np.isfinite(res.motion.rotations).all()
     with pytest.raises(ValueError, match="root"):
-        loop_motion(m, root="floating")
+        loop_motion(m, root="floating", window=None, force=True)
     with pytest.raises(ValueError, match="method"):
-        loop_motion(m, method="quaternion")
+        loop_motion(m, method="quaternion", window=None, force=True)
     with pytest.raises(ValueError, match="free_joints"):
-        loop_motion(m, free_joints=["nose"])
+        loop_motion(m, free_joints=["nose"], window=None, force=True)
     with pytest.raises(ValueError, match="original"):
         seam_metrics(m, original=synthetic(f=30))
 
@@ -443,7 +453,9 @@ def test_the_closing_reports_its_iterations(tmp_path, monkeypatch):
     """``progress("closing", k, 0)`` after each KKT iteration, from the API and the command
     line (whose bar is the callback)."""
     calls = []
-    res = loop_motion(synthetic(), progress=lambda *a: calls.append(a), contacts="off", seam="c0")
+    res = loop_motion(
+        synthetic(), progress=lambda *a: calls.append(a), contacts="off", seam="c0", window=None, force=True
+    )
     assert res.closing.iterations >= 1
     assert calls == [("closing", k, 0) for k in range(1, res.closing.iterations + 1)]
 
@@ -464,7 +476,8 @@ def test_the_closing_reports_its_iterations(tmp_path, monkeypatch):
     spy = Spy()
     monkeypatch.setattr(loop_cli, "progress_for", lambda command, args: spy)
     clip = write_bvh(synthetic(), tmp_path / "clip.bvh")
-    assert main(["loop", str(clip), "-o", str(tmp_path / "out.bvh"), "--contacts", "off", "-q"]) == 0
+    argv = ["loop", str(clip), "-o", str(tmp_path / "out.bvh"), "--contacts", "off", "--window", "whole"]
+    assert main([*argv, "--force", "-q"]) == 0
     assert spy.calls[0] == ("closing", 1, 0) and spy.calls[-1] == "closed"
 
 
@@ -474,13 +487,13 @@ def test_a_whole_clip_that_whips_a_limb_says_where_and_what_to_do(mocap_dir):
     toe, lifting off in the last frames, whips at 9.3 m/s (the input's fastest point 3.8):
     a note names it and the auto window; the auto window's loop has no such note."""
     path = mocap_dir / "bandai" / "dataset-1_walk_tired_001.bvh"
-    whole = loop_motion(path, seam="c0")
+    whole = loop_motion(path, seam="c0", window=None, force=True)
     (note,) = of_kind(whole.notes, loop_notes.WHIP)
     assert note.data["point"] == "Toes_R" and note.data["speed_m_s"] == pytest.approx(9.31, abs=0.005)
     text = str(note)
     assert text.startswith("fast point: Toes_R moves 9.31 m/s at frames 245-246 of the loop, 2.5x")
     assert "--window auto" in text and "ends 61 deg and 0.56 m from the pose it starts in" in text
-    auto = loop_motion(path, window="auto", seam="c0")
+    auto = loop_motion(path, window="auto", seam="c0", force=True)
     assert not of_kind(auto.notes, loop_notes.WHIP)
 
 
@@ -501,10 +514,11 @@ def test_a_whole_clip_that_whips_a_limb_says_where_and_what_to_do(mocap_dir):
         ("contact_step", float("nan"), r"^contact_step: expected a non-negative number of seconds"),
         ("joint_limits", "sometimes", r"^joint_limits: expected one of \['keep', 'report', 'off'\] or a"),
         ("limit_tol", -0.5, r"^limit_tol: expected a non-negative number of degrees"),
-        ("window", "best", r"^window: expected 'auto', None or \(start, stop\) frames; got 'best'"),
+        ("window", "best", r"^window: expected 'safe', 'auto', None or \(start, stop\) frames; got 'best'"),
         ("free_joints", "toes", r"^free_joints: expected 'fingers', None or a list of joint names"),
         ("translation_weight", 0.0, r"^translation_weight: expected a positive number or None"),
-        ("min_length", 0.5, r"^min_length: expected only with window='auto'.*the whole clip"),
+        ("change_bound", 0.0, r"^change_bound: expected a positive number of metres"),
+        ("force", "yes", r"^force: expected True or False"),
         ("prepare", {"drop_tpose": False}, r"^prepare: expected PrepareOptions or None; got dict"),
     ],
 )
@@ -513,8 +527,10 @@ def test_loop_options_name_the_bad_option(field, value, match):
 
     with pytest.raises(OptionError, match=match):
         LoopOptions(**{field: value})
+    with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*the whole clip"):
+        LoopOptions(min_length=0.5, window=None)
     with pytest.raises(OptionError, match=match):  # the same check through an override
-        loop_motion(synthetic(), **{field: value})
+        loop_motion(synthetic(), **{"force": True, field: value})
 
 
 def test_loop_options_normalise_and_cross_check():
@@ -539,9 +555,11 @@ def test_overrides_are_the_options_object():
 
     m = synthetic()
     fields = dict(root="inplace", seam="c1", contacts="off", tol=1e-8)
-    a = loop_motion(m, **fields)
-    b = loop_motion(m, LoopOptions(**fields))
-    c = loop_motion(m, LoopOptions(root="inplace", seam="c0"), seam="c1", contacts="off", tol=1e-8)
+    a = loop_motion(m, **fields, force=True)
+    b = loop_motion(m, LoopOptions(**fields), force=True)
+    c = loop_motion(
+        m, LoopOptions(root="inplace", seam="c0"), seam="c1", contacts="off", tol=1e-8, force=True
+    )
     for other in (b, c):
         np.testing.assert_array_equal(other.motion.rotations, a.motion.rotations)
         np.testing.assert_array_equal(other.motion.root_translation, a.motion.root_translation)
@@ -550,9 +568,9 @@ def test_overrides_are_the_options_object():
         assert so == sa
     assert a.c1 and a.seam == "c1" and a.summary()["c1"] is True and a.root == "inplace"
     with pytest.raises(OptionError, match=r"^rot: unknown option \['rot'\] of LoopOptions"):
-        loop_motion(m, rot="inplace")
+        loop_motion(m, rot="inplace", window=None, force=True)
     with pytest.raises(OptionError, match=r"^options: expected a LoopOptions; got dict"):
-        loop_motion(m, {"root": "inplace"})
+        loop_motion(m, {"root": "inplace"}, force=True)
 
 
 def test_kept_contacts_summary_is_the_report_dict_and_round_trips():
@@ -592,7 +610,7 @@ def test_the_seam_stage_reads_the_notes_kinds_not_their_words():
     from elastic_motion.apps.loop.seam_choice import choose_seam
     from elastic_motion.notes import Note
 
-    c0 = loop_motion(synthetic(), seam="c0", contacts="off")
+    c0 = loop_motion(synthetic(), seam="c0", contacts="off", window=None, force=True)
     assert c0.seam_after.seam_velocity_jump_ratio > 0
     smoother = dataclasses.replace(
         c0.seam_after, seam_velocity_jump_ratio=c0.seam_after.seam_velocity_jump_ratio / 2
@@ -620,7 +638,7 @@ def test_notes_are_notes_with_kinds_and_the_report_lists_their_texts():
     from elastic_motion.notes import Note
 
     m = synthetic().replace(metres_per_unit=0.01)  # prepared: "lengths from cm to metres"
-    res = loop_motion(m, seam="c0")
+    res = loop_motion(m, seam="c0", window=None, force=True)
     assert res.notes and all(isinstance(n, Note) for n in res.notes)
     assert of_kind(res.notes, UNITS_TO_METRES)
     assert res.summary()["notes"] == [str(n) for n in res.notes]

@@ -82,8 +82,8 @@ def test_kept_contacts_of_a_120fps_clip_do_not_skate(mocap_dir):
     """CMU 07_01 (120 fps): closed on a 30 fps grid with every grid frame of a contact kept,
     the loop skates about as the input (rows every 4th frame of the clip itself skated)."""
     path = mocap_dir / "cmu/bvh/07_01.bvh"
-    plain = loop_motion(path, contacts="report", seam="c0")
-    kept = loop_motion(path, contacts="keep", seam="c0")
+    plain = loop_motion(path, contacts="report", seam="c0", window=None, force=True)
+    kept = loop_motion(path, contacts="keep", seam="c0", window=None, force=True)
     info = kept.contacts_kept
     # 1368 rows on every frame: above the budget, so a 60 fps grid (every 2nd frame)
     assert kept.closing.converged and info.grid_fps == pytest.approx(60.0, rel=0.01)
@@ -113,7 +113,7 @@ def test_a_c1_loop_keeps_its_contacts_on_a_coarse_grid(mocap_dir):
     """CMU 07_01 (120 fps), C1: closed on the contacts' grid like C0 (on every frame a long
     clip needs too many rows: CMU 01_01 18915, refused), the grid's first and last steps are
     the clip's own, so the clip's seam velocities match exactly."""
-    res = loop_motion(mocap_dir / "cmu/bvh/07_01.bvh", seam="c1")
+    res = loop_motion(mocap_dir / "cmu/bvh/07_01.bvh", seam="c1", window=None, force=True)
     info = res.contacts_kept
     assert res.closing.converged and info.grid_frames < res.motion.n_frames // 1.5
     assert res.seam_after.seam_angle_max_deg < 1e-3
@@ -130,8 +130,8 @@ def test_a_contact_planted_at_the_end_but_not_the_start_lifts_early_without_slid
     floor plane only over its last 0.15 s: the foot rises there without sliding (it was
     released before, and slid 1.1x the input's skating)."""
     path = mocap_dir / "cmu/bvh/09_11.bvh"
-    plain = loop_motion(path, contacts="report")
-    kept = loop_motion(path, contacts="keep")
+    plain = loop_motion(path, contacts="report", window=None, force=True)
+    kept = loop_motion(path, contacts="keep", window=None, force=True)
     info = kept.contacts_kept
     assert kept.closing.converged and info.dropped is None and info.released == ()
     n = kept.motion.n_frames
@@ -154,7 +154,7 @@ def test_feet_stay_planted_between_the_grid_frames_of_a_whole_cartwheel_clip(moc
     """CMU 49_08 (120 fps) whole: closed on a 30 fps grid with a change of decimetres, the
     interpolated correction let planted feet drift between grid frames (skating 1.38x the
     input's); leg IK plants them on every frame, the seam untouched."""
-    res = loop_motion(mocap_dir / "cmu/bvh/49_08.bvh", contacts="keep")
+    res = loop_motion(mocap_dir / "cmu/bvh/49_08.bvh", contacts="keep", window=None, force=True)
     info = res.contacts_kept
     assert info.grid_fps == pytest.approx(30.0, rel=0.02) and info.released == ()
     ik = info.planted_by_ik
@@ -289,7 +289,7 @@ def test_kept_feet_do_not_push_the_body_into_the_floor(mocap_dir):
     foot 11 cm under the floor (the body was raised there by 12 cm, a hop). The points the
     loop takes under the floor are pinned at their deepest frames and the projection solved
     again: nothing goes under, and no body is raised."""
-    res = loop_motion(mocap_dir / "cmu/asfamc/backflip.amc")
+    res = loop_motion(mocap_dir / "cmu/asfamc/backflip.amc", window=None, force=True)
     info = res.contacts_kept
     assert info.floor_pins and all(0 < p["frame"] < res.motion.n_frames - 1 for p in info.floor_pins)
     assert info.lifted_max_m < 0.01
@@ -350,7 +350,7 @@ def test_the_hands_of_a_deepmimic_cartwheel_are_contacts_and_stay_planted(mocap_
     """DeepMimic's wrists are fixed joints of the skeleton: the hands on the floor are
     contacts, kept by the loop (arm IK between rows), and no longer pushed under the floor
     (with the feet alone kept an elbow's end site went 12 cm under)."""
-    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_cartwheel.txt", seam="c0")
+    res = loop_motion(mocap_dir / "deepmimic/humanoid3d_cartwheel.txt", seam="c0", window=None, force=True)
     found = res.contacts.all_intervals()
     assert found["right_wrist"] and found["left_wrist"]
     before, after = res.skating_before.per_joint, res.skating_after.per_joint
@@ -367,7 +367,7 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     contact within a few mm; the loop is closed exactly from there instead of releasing or
     dropping contacts."""
     path = mocap_dir / "cmu/bvh/49_08.bvh"
-    res = loop_motion(path, window=(231, 569), seam="c0")
+    res = loop_motion(path, window=(231, 569), seam="c0", force=True)
     info = res.contacts_kept
     assert info.polished is not None and "mm" in info.polished
     assert info.released == () and info.dropped is None
@@ -377,7 +377,7 @@ def test_contacts_that_nearly_hold_are_closed_exactly_from_there(mocap_dir):
     assert "closed exactly from there" in str(polished)
     assert not of_kind(res.notes, loop_notes.SKATING_WARNING)
     # the change is measured from the input (not from where the solver stopped)
-    plain = loop_motion(path, window=(231, 569), contacts="report", seam="c0")
+    plain = loop_motion(path, window=(231, 569), contacts="report", seam="c0", force=True)
     assert res.closing.change > plain.closing.change
 
 
@@ -388,7 +388,7 @@ def test_contacts_lost_by_the_exact_closing_are_released_not_all_dropped(mocap_d
     stance cannot stay planted on a seam 127 degrees away). Every contact was dropped and the
     loop skated 0.35 m/s against the input's 0.13; the worst are released instead and the rest
     kept."""
-    res = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102))
+    res = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102), force=True)
     info = res.contacts_kept
     assert info.dropped is None and res.closing.converged
     assert 1 <= len(info.released) <= 6
@@ -401,7 +401,7 @@ def test_contacts_lost_by_the_exact_closing_are_released_not_all_dropped(mocap_d
     warn = [str(n) for n in of_kind(res.notes, loop_notes.SKATING_WARNING)]
     assert len(warn) == 1 and warn[0].startswith("warning: the loop skates")
     assert "contacts released to close it" in warn[0] and "window='auto'" not in warn[0]
-    plain = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102), contacts="report")
+    plain = loop_motion(mocap_dir / "cmu/bvh/131_03.bvh", window=(840, 1102), contacts="report", force=True)
     warn = [str(n) for n in of_kind(plain.notes, loop_notes.SKATING_WARNING)]
     assert len(warn) == 1 and "contacts not kept (contacts='report'" in warn[0]
 
@@ -495,7 +495,7 @@ def test_a_foot_whose_toe_lifts_at_the_seam_keeps_its_direction(mocap_dir):
 
     from elastic_motion.motion.kinematics import global_rotations
 
-    res = loop_motion(mocap_dir / "bandai/dataset-1_walk_normal_001.bvh", window="auto")
+    res = loop_motion(mocap_dir / "bandai/dataset-1_walk_normal_001.bvh", window="auto", force=True)
     assert res.closing.converged and res.contacts_kept.gave_way == ()
     assert res.seam_after.seam_angle_max_deg < 1e-3
     j = res.motion.skeleton.index("Foot_R")
@@ -514,14 +514,14 @@ def test_kept_contacts_are_bounded_and_checked(mocap_dir):
     path = mocap_dir / "deepmimic/humanoid3d_run.txt"
     for bad in (-0.1, "0.1", float("nan")):
         with pytest.raises(OptionError, match="contact_step"):
-            loop_motion(path, contact_step=bad)
-    rows = loop_motion(path, contact_step=0.0).contacts_kept.rows
+            loop_motion(path, contact_step=bad, window=None, force=True)
+    rows = loop_motion(path, contact_step=0.0, window=None, force=True).contacts_kept.rows
     assert rows > 6
     with (
         limits.override(max_constraint_rows=rows // 2),
         pytest.raises(OptionError, match="max_constraint_rows"),
     ):
-        loop_motion(path, contact_step=0.0)
+        loop_motion(path, contact_step=0.0, window=None, force=True)
 
 
 @pytest.mark.mocap
@@ -532,7 +532,7 @@ def test_a_contact_across_the_seam_does_not_pop_in_the_last_step(mocap_dir):
     before); relative to the last frame, the last step is like the steps before it."""
     from elastic_motion.motion import forward_kinematics
 
-    res = loop_motion(mocap_dir / "cmu" / "bvh" / "07_01.bvh", window="auto")
+    res = loop_motion(mocap_dir / "cmu" / "bvh" / "07_01.bvh", window="auto", force=True)
     m = res.motion
     p = forward_kinematics(m) * m.metres_per_unit
     for name, limit in (("RightToeBase", 0.3), ("LeftToeBase", 5.0)):
@@ -548,7 +548,7 @@ def test_a_polish_stalled_at_the_rounding_floor_keeps_the_contacts(mocap_dir):
     with the seam shut. That loop was thrown away ("contacts dropped ... gap 1.38e-07") and
     the clip closed without its contacts (skating 0.0924 -> 0.0946 m/s, 3.4 mm under the
     floor); it is kept."""
-    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh", seam="c0")
+    res = loop_motion(mocap_dir / "bandai" / "dataset-1_walk_old_001.bvh", seam="c0", window=None, force=True)
     assert res.contacts_kept.dropped is None and res.contacts_kept.polished
     assert res.skating_after.mean_speed <= 1.01 * res.skating_before.mean_speed
     assert res.skating_after.below_floor <= res.skating_before.below_floor + 1e-4

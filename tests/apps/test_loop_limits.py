@@ -121,10 +121,10 @@ def test_limit_rows_and_stacking_match_finite_differences():
 def test_constrained_loop_stays_within_a_tight_limit_the_unconstrained_one_crosses():
     m = drifting_clip()
     lim = knee_limits()
-    free = loop_motion(m, root="inplace", joint_limits="off", seam="c0")
+    free = loop_motion(m, root="inplace", joint_limits="off", seam="c0", window=None, force=True)
     knee_free = np.degrees(lim.angles(free.motion.rotations, m.skeleton.names)[:, 0])
     assert knee_free.min() < -25  # closing pushes the knee 10 degrees past its limit
-    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0")
+    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0", window=None, force=True)
     knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
     assert knee.min() >= -15 - 0.5 and knee.max() <= 60 + 0.5  # limit_tol: 0.5 degrees
     assert kept.seam_after.seam_angle_max_deg < 1e-3
@@ -138,13 +138,13 @@ def test_constrained_loop_stays_within_a_tight_limit_the_unconstrained_one_cross
     # the limit costs change: the constrained loop is farther from the input than the free one
     assert kept.closing.change > free.closing.change
     # "report" reads the limits of the clip's ASF file: a synthetic clip has none
-    assert loop_motion(m, root="inplace", joint_limits="report").joint_limits is None
+    assert loop_motion(m, root="inplace", joint_limits="report", window=None, force=True).joint_limits is None
 
 
 def test_limits_the_input_violates_are_reported_not_enforced():
     m = drifting_clip()
     lim = knee_limits(lo_deg=-5.0)  # the input itself goes to -12.8 degrees
-    res = loop_motion(m, root="inplace", joint_limits=lim)
+    res = loop_motion(m, root="inplace", joint_limits=lim, window=None, force=True)
     jl = res.joint_limits
     assert [h.joint for h in jl.before.violations] == ["knee"]
     assert jl.before.violations[0].worst_deg == pytest.approx(7.8, abs=0.2)
@@ -155,7 +155,7 @@ def test_limits_the_input_violates_are_reported_not_enforced():
 
 def test_bad_joint_limits_option():
     with pytest.raises(OptionError, match="joint_limits"):
-        loop_motion(drifting_clip(), joint_limits="sometimes")
+        loop_motion(drifting_clip(), joint_limits="sometimes", window=None, force=True)
     with pytest.raises(OptionError, match="limits"):
         joint_limit_report(drifting_clip())
 
@@ -202,9 +202,9 @@ def test_cmu_02_01_amc_values_are_the_dof_angles(mocap_dir):
 
 def test_cmu_backflip_loop_keeps_its_limits_on_the_written_bvh(mocap_dir, tmp_path):
     path = mocap_dir / "cmu" / "asfamc" / "backflip.amc"
-    free = loop_motion(path, joint_limits="report")
+    free = loop_motion(path, joint_limits="report", window=None, force=True)
     assert free.joint_limits.new_violations  # the plain loop crosses limits the input respects
-    res = loop_motion(path, joint_limits="keep")
+    res = loop_motion(path, joint_limits="keep", window=None, force=True)
     jl = res.joint_limits
     assert jl.mode == "keep" and jl.new_violations == () and jl.pinned > 0
     assert jl.before.violations  # the input's own violations: reported
@@ -228,7 +228,9 @@ def test_cmu_backflip_loop_keeps_its_limits_on_the_written_bvh(mocap_dir, tmp_pa
 def test_limits_kept_only_with_the_kkt_projection_of_the_lie_curve():
     """Given limits with the Euler baseline are reported, not kept, and a note of kind
     ``loop.limits_reported_only`` says why."""
-    res = loop_motion(drifting_clip(), root="inplace", joint_limits=knee_limits(), method="euler")
+    res = loop_motion(
+        drifting_clip(), root="inplace", joint_limits=knee_limits(), method="euler", window=None, force=True
+    )
     assert res.joint_limits.mode == "report" and res.method == "euler-elastic"
     (note,) = of_kind(res.notes, REPORTED_ONLY_NOTE)
     assert str(note) == "joint limits: reported only (keeping them needs method='lie' and solver='kkt')"

@@ -131,7 +131,7 @@ def test_auto_windows_of_real_clips_move_and_in_place_ones_are_whole_cycles(moca
     speed = np.linalg.norm(np.diff(walk.root_translation[:, [0, 2]], axis=0), axis=1) * walk.fps
     assert cand.quiet_excluded
     assert all(speed[a : b - 1].mean() > 0.3 for a, b in cand.windows)
-    run = loop_motion(mocap_dir / "deepmimic/humanoid3d_run.txt", window="auto", root="inplace")
+    run = loop_motion(mocap_dir / "deepmimic/humanoid3d_run.txt", window="auto", root="inplace", force=True)
     assert (run.window.start, run.window.stop) == (0, run.prepared.motions[0].n_frames)
 
 
@@ -152,8 +152,8 @@ def test_period_and_candidates_of_a_periodic_clip():
 
 def test_auto_window_loops_one_period_with_almost_no_change():
     m = periodic()
-    whole = loop_motion(m, seam="c0")
-    res = loop_motion(m, window="auto", seam="c0")
+    whole = loop_motion(m, seam="c0", window=None, force=True)
+    res = loop_motion(m, window="auto", seam="c0", force=True)
     w = res.window
     assert (w.stop - 1 - w.start) % 40 == 0 and w.start >= 17
     assert res.motion.n_frames == w.stop - w.start
@@ -163,7 +163,7 @@ def test_auto_window_loops_one_period_with_almost_no_change():
     json.dumps(s)
     assert s["window"]["start_frame"] == w.start and s["window"]["length_s"] == pytest.approx(w.length)
     # an explicit window
-    res2 = loop_motion(m, window=(20, 100), seam="c0")
+    res2 = loop_motion(m, window=(20, 100), seam="c0", force=True)
     assert res2.motion.n_frames == 80 and res2.window.start == 20
     np.testing.assert_allclose(res2.motion.rotations[0], m.rotations[20], atol=1e-12)
 
@@ -171,20 +171,20 @@ def test_auto_window_loops_one_period_with_almost_no_change():
 def test_bad_windows_give_clear_errors():
     m = periodic(f=40, period=200, lead=0)
     with pytest.raises(OptionError, match=r"no longer than the clip \(1\.300 s, 40 frames\); got 5\.000 s"):
-        loop_motion(m, window="auto", min_length=5.0)
+        loop_motion(m, window="auto", min_length=5.0, force=True)
     with pytest.raises(OptionError, match="min_length"):
-        loop_motion(m, window="auto", min_length=-1.0)
+        loop_motion(m, window="auto", min_length=-1.0, force=True)
     with pytest.raises(OptionError, match="window"):
-        loop_motion(m, window="best")
+        loop_motion(m, window="best", force=True)
     with pytest.raises(OptionError, match="window"):
-        loop_motion(m, window=(30, 20))
+        loop_motion(m, window=(30, 20), force=True)
     with pytest.raises(OptionError, match="contacts"):
-        loop_motion(m, contacts="plant")
+        loop_motion(m, contacts="plant", window=None, force=True)
     # a minimum length bounds the auto window's choice: refused where it would be ignored
     with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*the whole clip"):
-        loop_motion(m, min_length=0.5)
+        loop_motion(m, min_length=0.5, window=None, force=True)
     with pytest.raises(OptionError, match=r"^min_length: expected only with window='auto'.*window=\(0, 30\)"):
-        loop_motion(m, window=(0, 30), min_length=0.5)
+        loop_motion(m, window=(0, 30), min_length=0.5, force=True)
 
 
 def test_the_window_report_says_where_its_minimum_length_came_from():
@@ -194,10 +194,10 @@ def test_the_window_report_says_where_its_minimum_length_came_from():
         0.5: "given",
     }
     for given, rule in rules.items():
-        w = loop_motion(m, window="auto", min_length=given, contacts="off").window.summary()
+        w = loop_motion(m, window="auto", min_length=given, contacts="off", force=True).window.summary()
         assert w["min_length_rule"] == rule and w["min_length_from_period"] == (given is None)
     lone = periodic(f=60, period=400, lead=0)  # no repetition: half the clip
-    w = loop_motion(lone, window="auto", contacts="off").window.summary()
+    w = loop_motion(lone, window="auto", contacts="off", force=True).window.summary()
     assert w["period_s"] is None and not w["min_length_from_period"]
     assert w["min_length_rule"] == "half the clip (no period found)"
     assert w["quiet_windows_excluded"] is False  # a clip that moves all along
@@ -205,23 +205,23 @@ def test_the_window_report_says_where_its_minimum_length_came_from():
 
 def test_contacts_reported_or_skipped():
     m = periodic()
-    res = loop_motion(m)
+    res = loop_motion(m, window=None, force=True)
     assert res.contacts is not None and res.contacts.joints == ("foot",)
     assert res.skating_before is not None and res.skating_after is not None
     assert res.summary()["skating_after"]["skating_mean_m_s"] == res.skating_after.mean_speed
     # no joint that can touch the floor: skipped, and the report says so
     bare = periodic(names=("root", "a", "b", "c"))
-    res = loop_motion(bare)
+    res = loop_motion(bare, window=None, force=True)
     assert res.skating_before is None
     (skipped,) = of_kind(res.notes, loop_notes.CONTACTS_SKIPPED)
     assert "contacts skipped" in str(skipped)
-    assert loop_motion(m, contacts="off").contacts is None
+    assert loop_motion(m, contacts="off", window=None, force=True).contacts is None
 
 
 @pytest.mark.mocap
 def test_auto_window_of_cmu_cartwheels_changes_a_third_of_the_whole_clip(mocap_dir):
     m = drop_tpose(read_motion(mocap_dir / "cmu/bvh/49_08.bvh"))
-    res = loop_motion(m, window="auto", candidates=2, contacts="report")  # the projections alone
+    res = loop_motion(m, window="auto", candidates=2, contacts="report", force=True)  # the projections alone
     w = res.window
     assert res.closing.converged and res.closing.kkt_residual < 1e-8
     assert w.deviation_max_m <= w.whole["deviation_max_m"] / 3
@@ -279,8 +279,8 @@ def test_contact_rows_jacobian_matches_central_differences():
 @pytest.mark.mocap
 def test_contacts_kept_plant_the_deepmimic_run(mocap_dir):
     path = mocap_dir / "deepmimic/humanoid3d_run.txt"
-    plain = loop_motion(path, contacts="report")
-    kept = loop_motion(path)  # the default: contacts kept
+    plain = loop_motion(path, contacts="report", window=None, force=True)
+    kept = loop_motion(path, window=None, force=True)  # the default: contacts kept
     assert kept.closing.converged and kept.closing.kkt_residual < 1e-8
     assert kept.contacts_kept.rows > 0 and kept.contacts_kept.dropped is None
     assert kept.seam_after.seam_angle_max_deg < 1e-3
@@ -290,7 +290,7 @@ def test_contacts_kept_plant_the_deepmimic_run(mocap_dir):
     assert kept.summary()["contacts_kept"]["gave_way"] == []
     assert kept.summary()["contacts_kept"] == kept.contacts_kept.summary()
     with pytest.raises(OptionError, match="contacts"):
-        loop_motion(path, contacts="keep", solver="gauss-newton")
+        loop_motion(path, contacts="keep", solver="gauss-newton", window=None, force=True)
 
 
 def test_contacts_that_give_way_are_reported():

@@ -319,7 +319,7 @@ def _loops(run: _Run) -> list[_Loop]:
     for n, (key, fname, label) in enumerate(_LOOP_INPUTS):
         run.progress("loops", n, len(_LOOP_INPUTS))
         m = run.read(fname)
-        res = loop_motion(m)
+        res = loop_motion(m, window=None, force=True)  # paper 000's loop of a whole clip that does not repeat
         before = seam_metrics(m, joints=list(res.closed_joints))
         after = seam_metrics(res.motion, original=m, joints=list(res.closed_joints))
         folder = run.out / "loops"

@@ -67,7 +67,11 @@ def close_loop(cycle: Motion) -> LoopResult:
     normal x tired 1.7), C1 0.8-2.1 (what is left is the root's floor velocity, which travel
     keeps), at the same skating and change."""
     return loop_motion(
-        cycle, LoopOptions(prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), seam="c1")
+        cycle,
+        # the blended cycle is the loop, whatever it changes: its own whole clip, never refused
+        LoopOptions(
+            prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), seam="c1", window=None, force=True
+        ),
     )
 
 
