@@ -210,7 +210,11 @@ def plot_euler_float(out: Path) -> None:
     for label, mm, style in [
         ("original (under the Lie curve)", m, "0.6"),
         ("Lie group closed", loop_motion(m, seam="c0", window=None, force=True).motion, "C0--"),
-        ("Euler closed", loop_motion(m, method="euler-elastic", seam="c0", window=None, force=True).motion, "C3"),
+        (
+            "Euler closed",
+            loop_motion(m, method="euler-elastic", seam="c0", window=None, force=True).motion,
+            "C3",
+        ),
     ]:
         r = mm.rotations[:, 0]
         turn = np.concatenate([[0], np.cumsum(np.linalg.norm(SO3G.difference(r[:-1], r[1:]), axis=-1))])

@@ -401,3 +401,91 @@ def test_inconsistent_extra_rows_give_up_early_when_asked():
     slow = project_closed(curve, factors=mask, extra=extra, max_iter=quick.iterations + 5)
     assert not slow.converged
     assert "inconsistent" in quick.message and "inconsistent" not in slow.message
+
+
+@pytest.mark.parametrize("one_slot", [False, True])
+@pytest.mark.parametrize("c1", [False, True])
+def test_structured_gram_solves_as_the_dense_gram(c1, one_slot):
+    """``(J J^* + mu I)^{-1}`` through the sparse time-ordered system (closing.structured)
+    against the dense Gram matrix of the reference Jacobian: the same shift ``mu`` (the exact
+    trace), the same multipliers and the same step ``J^* lambda``."""
+    g = lie_group()
+    curve = smooth_curve(g, 30, seed=4, scale=1.5)
+    mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    extra = Stacked(
+        PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5),
+        *(() if one_slot else (RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),)),
+        PinConstraints(30, 0, [1.0, 0.0, 0.0], [0.4, 0.0], 17, 2, 0.1),
+    )
+    prob = ClosingProblem.from_curve(curve, ClosingOptions(factors=mask, c1=c1, cut_locus_tol=1e-9))
+    s = prob.evaluate(prob.to_internal(prob.srv.q))
+    eu0 = _eu_samples(prob, s) + 0.3
+    dense = DenseLinear(prob, s, extra, eu0)
+    fast = _ExtraLinear(prob, s, extra, eu0)
+    gmat = dense.gmat
+    # drop the zero row (a row on the fixed first sample) from the comparison of lambda: its
+    # multiplier is r / mu, exact in both but a 1e12 scale
+    live = np.abs(gmat).sum(axis=1) > 0
+    mu = 1e-12 * np.trace(gmat) / gmat.shape[0]
+    sg = fast.structured()
+    rng = np.random.default_rng(1)
+    lam0 = rng.normal(size=gmat.shape[0]) * live
+    rhs = gmat @ lam0 + mu * lam0
+    want = np.linalg.solve(gmat + mu * np.eye(gmat.shape[0]), rhs)
+    got = sg.solve(rhs)
+    # lambda itself is defined to the conditioning of G (1e12: dependent rows); what the
+    # projection uses, the residual and the step J^* lambda, agree
+    assert np.linalg.norm(gmat @ got + mu * got - rhs) <= 1e-9 * np.linalg.norm(rhs)
+    step, want_step = dense.adjoint(got), dense.adjoint(want)
+    np.testing.assert_allclose(step, want_step, atol=1e-9 * np.abs(want_step).max())
+    # several right-hand sides at once (the Schur complement's), as one by one
+    many = sg.solve(np.stack([rhs, 2.0 * rhs], axis=1))
+    for col, factor in ((0, 1.0), (1, 2.0)):
+        np.testing.assert_allclose(dense.adjoint(many[:, col]), factor * step, atol=1e-9 * np.abs(step).max())
+
+
+class ManyPins(ExtraConstraints):
+    """Rows on many samples: Euclidean coordinate ``c`` and the direction of copy ``b`` at each
+    sample of ``frames`` take given values (consistent with closure: a loop's contacts)."""
+
+    def __init__(self, frames, b, a, dirs, c, eus):
+        self.parts = Stacked(
+            *(PinConstraints(f, b, a, d, f, c, e) for f, d, e in zip(frames, dirs, eus, strict=True))
+        )
+
+    def evaluate(self, rot, eu):
+        return self.parts.evaluate(rot, eu)
+
+
+def test_projection_with_many_extra_rows_is_the_same_structured_or_dense(monkeypatch):
+    """The closing with 3 rows on each of 23 samples, solved through the structure
+    (``structured_pays`` forced) and through the dense Gram matrix: the same closed curve to
+    1e-8, both KKT points."""
+    from elastic_motion.closing import kkt
+
+    g = lie_group()
+    curve = smooth_curve(g, 60, seed=6, scale=1.0)
+    mask = np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    frames = list(range(5, 50, 2))
+    rot = g.split_points(curve.values)[1]
+    a = np.array([1.0, 0.0, 0.0])
+    dirs = [(rot[f, 2] @ a)[:2] + 0.003 for f in frames]
+    eus = [float(curve.values[f, 1]) + 0.005 for f in frames]
+    extra = ManyPins(frames, 2, a, dirs, 1, eus)
+    used = []
+    results = {}
+    for forced in (True, False):
+        monkeypatch.setattr(kkt._ExtraLinear, "structured_pays", lambda self, f=forced: used.append(f) or f)
+        results[forced] = res = project_closed(curve, factors=mask, extra=extra)
+        assert res.converged and res.kkt_residual < 1e-8 and res.gap < 1e-9, res.message
+    assert True in used and False in used
+    np.testing.assert_allclose(results[True].curve.values, results[False].curve.values, atol=1e-8)
+    np.testing.assert_allclose(results[True].srv.q, results[False].srv.q, atol=1e-8)
+
+
+def test_structured_solve_is_chosen_for_many_rows_on_few_coordinates():
+    from elastic_motion.closing.structured import structured_pays
+
+    assert structured_pays(452, 28, 3462)  # CMU 55_01 whole with its contacts
+    assert not structured_pays(144, 55, 927)  # 49_08: the dense Gram matrix is cheaper
+    assert not structured_pays(30, 12, 9)

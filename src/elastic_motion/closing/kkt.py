@@ -51,6 +51,7 @@ import scipy.sparse
 from elastic_motion.closing.options import ClosingOptions, solver_options
 from elastic_motion.closing.problem import ClosingProblem, ClosingState, CutLocus, l2_norm
 from elastic_motion.closing.result import ClosingResult, SolverLog
+from elastic_motion.closing.structured import ExtraRowsSystem, StructuredGram, structured_pays
 from elastic_motion.curves import DiscreteCurve, SRVFunction
 
 __all__ = ["ExtraConstraints", "kkt_residual", "project_closed"]
@@ -108,6 +109,12 @@ def _eu_samples(prob: ClosingProblem, s: ClosingState) -> np.ndarray:
 def _solve(lin: _Linear | _ExtraLinear, rhs: np.ndarray) -> np.ndarray:
     """``(J J^* + mu I)^{-1} rhs`` at one linearisation (LU factors kept on ``lin``: the
     normal step, the projections of the CG loop and the multipliers share them)."""
+    if lin._factor is None and isinstance(lin, _ExtraLinear) and lin.structured_pays():
+        # thousands of extra rows (a loop's kept contacts): the sparse structure, not R x R
+        try:
+            lin._factor = ("structured", lin.structured())
+        except RuntimeError:  # an exactly singular pivot (SuperLU): the dense fallbacks below
+            pass
     if lin._factor is None:
         gmat = lin.gmat
         # (a relative 1e-12 shift: dependent rows, e.g. a foot and its toe planted together,
@@ -123,6 +130,8 @@ def _solve(lin: _Linear | _ExtraLinear, rhs: np.ndarray) -> np.ndarray:
             # an exactly singular Gram matrix (dependent rows): least squares instead
             lin._factor = ("lu", lu) if np.all(np.diag(lu[0]) != 0.0) else ("lstsq", None)
     kind, fac = lin._factor
+    if kind == "structured":
+        return fac.solve(rhs)
     if kind == "cho":
         return scipy.linalg.cho_solve(fac, rhs, check_finite=False)
     if kind == "lu":
@@ -141,6 +150,10 @@ class _Linear:
         self._factor: tuple | None = None
         self.f = prob.residual(s)
         self.fsel = self.f[self.sel]
+
+    def release(self) -> None:
+        """Drop the Gram matrix and its factors (rebuilt if asked for again)."""
+        self._gmat, self._factor = None, None
 
     @property
     def gmat(self) -> np.ndarray:
@@ -209,6 +222,9 @@ class _ExtraLinear:
             (np.ones(a_count), (atom_row, np.arange(a_count))), shape=(r_count, a_count)
         )
         self._one_atom_per_row = a_count == r_count and bool(np.all(atom_row == np.arange(r_count)))
+        row_atoms = np.full(r_count * slots, -1, dtype=np.int64)
+        row_atoms[valid] = np.arange(a_count)
+        self._row_atoms = row_atoms.reshape(r_count, slots)  # each row's atoms, -1: none
         self._scatter = scipy.sparse.csr_matrix(
             (np.ones(a_count), (self.fr, np.arange(a_count))), shape=(n + 1, a_count)
         )
@@ -265,6 +281,10 @@ class _ExtraLinear:
             out += prob.apply_m(self.s, self._extra_adjoint_w(lam[k:])) / prob.h[:, None]
         return out
 
+    def release(self) -> None:
+        """Drop the Gram matrix and its factors (rebuilt if asked for again)."""
+        self._gmat, self._factor = None, None
+
     @property
     def gmat(self) -> np.ndarray:
         """``J J^*`` of all rows (assembled on first use: Hessian products need only ``J^*``)."""
@@ -273,16 +293,48 @@ class _ExtraLinear:
         return self._gmat
 
     def _assemble_gram(self) -> np.ndarray:
-        prob, s = self.prob, self.s
-        n, m, ne, dim, h = prob.n, prob.m, prob.ne, prob.layout.dim, prob.h
-        lay = prob.layout
-        g_cc = prob.gram(s, self.bs, self.be)[np.ix_(self.sel, self.sel)]
+        """``J J^*`` of all rows, dense: the closing block, the extra rows' and the cross block."""
+        g_cc = self._closing_block()
         if not self.n_extra:
             return g_cc
-        qn2 = s.qn**2
+        z_rows = self._rank_one_rows()
+        g_cx = self._cross_block(z_rows)
+        g_xx = self._extra_block(z_rows)
+        return np.block([[g_cc, g_cx], [g_cx.T, g_xx]])
+
+    def _closing_block(self) -> np.ndarray:
+        return self.prob.gram(self.s, self.bs, self.be)[np.ix_(self.sel, self.sel)]
+
+    def _rank_one_rows(self) -> np.ndarray:
+        """``z`` of the rank-one part ``3 (b . q)(b . q) / h`` of ``M_i^2`` per row ``(R, n)``:
+        ``z[r, i] = D_r . y_i`` for the cells ``i`` before the row's frames."""
+        prob, s = self.prob, self.s
+        n, m, ne, dim, h = prob.n, prob.m, prob.ne, prob.layout.dim, prob.h
         d, fr = self.d_flat, self.fr
-        # J_{r,i} = (B_i^T W_r(i))^T M_i, M_i^2 = |q_i|^2 I + 3 q_i q_i^T
-        # (1) the |q|^2 part, block diagonal per cell: prefix of C_i = |q_i|^2 h_i / s^2 A_i A_i^T
+        y = np.empty((n, dim))
+        y[:, :ne] = self.scale_eu * s.q[:, :ne]
+        if m:
+            y[:, ne:] = (
+                self.scale_rot[:, :, None] * np.einsum("ibjk,ibk->ibj", self.a, s.q[:, ne:].reshape(n, m, 3))
+            ).reshape(n, 3 * m)
+        y *= np.sqrt(3.0 / h)[:, None]
+        cols = self._cols
+        z = (np.ascontiguousarray(d[:, cols]) @ y[:, cols].T) * (
+            np.arange(n)[None, :] < fr[:, None]
+        )  # (A, n)
+        return z if self._one_atom_per_row else self._rows @ z
+
+    @property
+    def _cols(self) -> np.ndarray:
+        """The coordinates the extra rows touch (a foot's chain: products on those only)."""
+        return np.flatnonzero(np.any(self.d_flat != 0.0, axis=0))
+
+    def _prefix_products(self) -> np.ndarray:
+        """``e_flat[a] = K(f_a) D_a`` ``(A, dim)``: the |q|^2 part of ``M_i^2``, block diagonal
+        per cell, its prefix ``K(f) = sum_{i<f} |q_i|^2 h_i / s^2 A_i A_i^T`` at each atom."""
+        prob, s = self.prob, self.s
+        m, ne, h, lay = prob.m, prob.ne, prob.h, prob.layout
+        qn2, d, fr = s.qn**2, self.d_flat, self.fr
         c_eu = (qn2 * h)[:, None] / lay.s_eu[None, :] ** 2  # (n, e)
         c_rot = (
             (qn2 * h)[:, None, None, None]
@@ -295,27 +347,40 @@ class _ExtraLinear:
         e_flat[:, :ne] = k_eu * d[:, :ne]
         if m:
             e_flat[:, ne:] = np.einsum("abjk,abk->abj", k_rot, d[:, ne:].reshape(-1, m, 3)).reshape(-1, 3 * m)
-        # (the rows touch few coordinates, e.g. a foot's chain: multiply on those only)
-        cols = np.flatnonzero(np.any(d != 0.0, axis=0))
-        d_c = np.ascontiguousarray(d[:, cols])
-        prod = np.ascontiguousarray(e_flat[:, cols]) @ d_c.T  # [a, b] = D_a^T K(f_a) D_b if f_a <= f_b
+        return e_flat
+
+    def _extra_block(self, z_rows: np.ndarray) -> np.ndarray:
+        """``J_x J_x^*`` dense ``(R, R)``: ``D_a^T K(min(f_a, f_b)) D_b`` summed over the rows'
+        atoms, plus ``z z^T``."""
+        cols, fr = self._cols, self.fr
+        d_c = np.ascontiguousarray(self.d_flat[:, cols])
+        prod = np.ascontiguousarray(self._prefix_products()[:, cols]) @ d_c.T  # D_a^T K(f_a) D_b
         g_atoms = np.where(fr[:, None] <= fr[None, :], prod, prod.T)
-        # (2) the rank-one part 3 (b . q)(b . q) / h: z[a, i] = D_a . y_i for the cells i < f_a
-        y = np.empty((n, dim))
-        y[:, :ne] = self.scale_eu * s.q[:, :ne]
-        if m:
-            y[:, ne:] = (
-                self.scale_rot[:, :, None] * np.einsum("ibjk,ibk->ibj", self.a, s.q[:, ne:].reshape(n, m, 3))
-            ).reshape(n, 3 * m)
-        y *= np.sqrt(3.0 / h)[:, None]
-        z = (d_c @ y[:, cols].T) * (np.arange(n)[None, :] < fr[:, None])  # (A, n)
-        rows = self._rows
         if self._one_atom_per_row:
-            z_rows, g_xx = z, g_atoms + z @ z.T
-        else:
-            z_rows = rows @ z  # (R, n)
-            g_xx = rows @ (rows @ g_atoms).T + z_rows @ z_rows.T
-        # closing rows x extra rows
+            return g_atoms + z_rows @ z_rows.T
+        rows = self._rows
+        return rows @ (rows @ g_atoms).T + z_rows @ z_rows.T
+
+    def _extra_trace(self, z_rows: np.ndarray) -> float:
+        """The trace of :meth:`_extra_block` without forming it: per row, its atoms' pairs
+        ``D_a^T K(min(f_a, f_b)) D_b``, plus ``|z_r|^2``."""
+        e_flat, fr, slots = self._prefix_products(), self.fr, self._row_atoms
+        diag = 0.0
+        for s_a in range(slots.shape[1]):
+            for s_b in range(slots.shape[1]):
+                a, b = slots[:, s_a], slots[:, s_b]
+                ok = (a >= 0) & (b >= 0)
+                a, b = a[ok], b[ok]
+                first = fr[a] <= fr[b]  # K at the earlier frame
+                lo, hi = np.where(first, a, b), np.where(first, b, a)
+                diag += float(np.einsum("ad,ad->", e_flat[lo], self.d_flat[hi]))
+        return diag + float(np.einsum("rn,rn->", z_rows, z_rows))
+
+    def _cross_block(self, z_rows: np.ndarray) -> np.ndarray:
+        """The closing rows against the extra rows ``(k, R)`` (selected closing rows)."""
+        prob, s = self.prob, self.s
+        n, m, ne, dim, h, lay = prob.n, prob.m, prob.ne, prob.layout.dim, prob.h, prob.layout
+        qn2, d, fr = s.qn**2, self.d_flat, self.fr
         k = self.be.shape[-1]
         bs, be = self.bs, self.be
         v_eu = np.concatenate(
@@ -334,7 +399,7 @@ class _ExtraLinear:
                 idx = g * dim + ne + 3 * np.arange(m)[:, None] + np.arange(3)[None, :]  # (m, 3)
                 g_cx[idx.ravel()] = blk[:, :, 3 * g : 3 * g + 3].reshape(-1, 3 * m).T
         if not self._one_atom_per_row:
-            g_cx = (rows @ g_cx.T).T
+            g_cx = (self._rows @ g_cx.T).T
         # rank-one part: (b_c . q) sqrt(3 / h) against z
         yc = np.empty((n, k * dim))
         for g in range(k):
@@ -344,8 +409,52 @@ class _ExtraLinear:
                     "ibrk,ibk->ibr", bs[:, :, 3 * g : 3 * g + 3], s.q[:, ne:].reshape(n, m, 3)
                 ).reshape(n, 3 * m)
         g_cx += (yc * np.sqrt(3.0 / h)[:, None]).T @ z_rows.T
-        g_cx = g_cx[self.sel]
-        return np.block([[g_cc, g_cx], [g_cx.T, g_xx]])
+        return g_cx[self.sel]
+
+    def _cell_blocks(self, cols: np.ndarray) -> np.ndarray:
+        """``D_i`` on the coordinates ``cols`` ``(n, c, c)``: cell ``i``'s contribution to the
+        Gram matrix of the samples after it, ``(1 / h_i) T_i M_i^2 T_i^T`` (``T_i`` the cell's
+        map to the samples, :meth:`_cell_tangents`): the block-diagonal ``|q|^2`` part plus the
+        rank-one ``y_i y_i^T`` (:meth:`_rank_one_rows`)."""
+        prob, s = self.prob, self.s
+        n, m, ne, h, lay = prob.n, prob.m, prob.ne, prob.h, prob.layout
+        qn2 = s.qn**2
+        # each coordinate's block: a Euclidean coordinate its own, an SO(3) copy's three theirs
+        block = np.where(cols < ne, -1 - cols, (cols - ne) // 3)
+        within = np.where(cols < ne, 0, (cols - ne) % 3)
+        same = block[:, None] == block[None, :]
+        out = np.zeros((n, cols.size, cols.size))
+        eu = cols < ne
+        if eu.any():
+            k = np.flatnonzero(eu)
+            out[:, k, k] = (qn2 * h)[:, None] / lay.s_eu[cols[k]][None, :] ** 2
+        rot = ~eu
+        if m and rot.any():
+            c_rot = (
+                (qn2 * h)[:, None, None, None]
+                / (lay.s_so3**2)[None, :, None, None]
+                * np.einsum("ibjk,iblk->ibjl", self.a, self.a)
+            )  # (n, m, 3, 3)
+            i, j = np.nonzero(same & rot[:, None] & rot[None, :])
+            out[:, i, j] = c_rot[:, block[i], within[i], within[j]]
+        y = self._cell_tangents(s.q)[:, cols] * np.sqrt(3.0 / h)[:, None]
+        return out + y[:, :, None] * y[:, None, :]
+
+    def structured_pays(self) -> bool:
+        """Whether :meth:`structured` is cheaper than the dense :attr:`gmat`."""
+        return self.n_extra > 0 and structured_pays(self.prob.n, int(self._cols.size), self.n_extra)
+
+    def structured(self) -> StructuredGram:
+        """``(J J^* + mu I)^{-1}`` through the structure of the extra rows
+        (:mod:`elastic_motion.closing.structured`), ``mu`` as :func:`_solve` shifts the dense one."""
+        g_cc = self._closing_block()
+        z_rows = self._rank_one_rows()
+        size = g_cc.shape[0] + self.n_extra
+        mu = 1e-12 * max((float(np.trace(g_cc)) + self._extra_trace(z_rows)) / max(size, 1), 1e-300)
+        cols = self._cols
+        atoms = (np.ascontiguousarray(self.d_flat[:, cols]), self.fr, self._rows)
+        extra = ExtraRowsSystem(self._cell_blocks(cols), atoms, mu)
+        return StructuredGram(g_cc, self._cross_block(z_rows), extra, mu)
 
 
 def _dot(h: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -518,14 +627,14 @@ def project_closed(
     prob = ClosingProblem.from_curve(curve, opts)
     state = prob.evaluate_checked(prob.to_internal(prob.srv.q).copy())
     run = _Projection(prob, opts, extra, state)
-    point = run.point(state)
     log = SolverLog(
         gaps=[float(np.linalg.norm(state.f0))],
         velocity_gaps=[float(np.linalg.norm(state.f1))],
         objective=[0.0],
         started=t_begin,
     )
-    point = run.iterate(point, log, progress)
+    # (the first point is not kept here: each iterate's factors go when the next is built)
+    point = run.iterate(run.point(state), log, progress)
     q_final = prob.to_group(point.state.q)
     out_curve, closed = prob.closed_output(curve, q_final, moved=log.iterations > 0, keep_free=opts.keep_free)
     return ClosingResult(
@@ -604,6 +713,7 @@ class _Projection:
             if accepted is None:
                 log.message = self.no_step_message(p, log)
                 break
+            p.lin.release()  # its Gram matrix and factors are done with: free them first
             p = self.point(accepted)
             log.record(
                 step=alpha,

@@ -70,7 +70,10 @@ def close_loop(cycle: Motion) -> LoopResult:
         cycle,
         # the blended cycle is the loop, whatever it changes: its own whole clip, never refused
         LoopOptions(
-            prepare=PrepareOptions(drop_tpose=False, fold_static_root=False), seam="c1", window=None, force=True
+            prepare=PrepareOptions(drop_tpose=False, fold_static_root=False),
+            seam="c1",
+            window=None,
+            force=True,
         ),
     )
 
