@@ -428,6 +428,7 @@ def test_structured_gram_solves_as_the_dense_gram(c1, one_slot):
     live = np.abs(gmat).sum(axis=1) > 0
     mu = 1e-12 * np.trace(gmat) / gmat.shape[0]
     sg = fast.structured()
+    assert sg.mu == pytest.approx(mu, rel=1e-10)  # the exact trace, without the Gram matrix
     rng = np.random.default_rng(1)
     lam0 = rng.normal(size=gmat.shape[0]) * live
     rhs = gmat @ lam0 + mu * lam0

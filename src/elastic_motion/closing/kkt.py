@@ -56,6 +56,9 @@ from elastic_motion.curves import DiscreteCurve, SRVFunction
 
 __all__ = ["ExtraConstraints", "kkt_residual", "project_closed"]
 
+#: Atoms per chunk of the cross block and the trace (bounds their per-atom prefixes to a few MB).
+_ATOM_CHUNK = 512
+
 
 class ExtraConstraints:
     """Equality constraints ``g(c) = 0`` on the integrated curve, besides closure (interface).
@@ -297,29 +300,24 @@ class _ExtraLinear:
         g_cc = self._closing_block()
         if not self.n_extra:
             return g_cc
-        z_rows = self._rank_one_rows()
-        g_cx = self._cross_block(z_rows)
-        g_xx = self._extra_block(z_rows)
+        g_cx = self._cross_block()
+        g_xx = self._extra_block(self._rank_one_rows())
         return np.block([[g_cc, g_cx], [g_cx.T, g_xx]])
 
     def _closing_block(self) -> np.ndarray:
         return self.prob.gram(self.s, self.bs, self.be)[np.ix_(self.sel, self.sel)]
 
+    def _rank_one_y(self) -> np.ndarray:
+        """``y_i = sqrt(3 / h_i) T_i q_i`` ``(n, dim)``: the rank-one part ``y_i y_i^T`` of each
+        cell's Gram block (``M_i^2 = |q_i|^2 I + 3 q_i q_i^T``)."""
+        return self._cell_tangents(self.s.q) * np.sqrt(3.0 / self.prob.h)[:, None]
+
     def _rank_one_rows(self) -> np.ndarray:
-        """``z`` of the rank-one part ``3 (b . q)(b . q) / h`` of ``M_i^2`` per row ``(R, n)``:
-        ``z[r, i] = D_r . y_i`` for the cells ``i`` before the row's frames."""
-        prob, s = self.prob, self.s
-        n, m, ne, dim, h = prob.n, prob.m, prob.ne, prob.layout.dim, prob.h
-        d, fr = self.d_flat, self.fr
-        y = np.empty((n, dim))
-        y[:, :ne] = self.scale_eu * s.q[:, :ne]
-        if m:
-            y[:, ne:] = (
-                self.scale_rot[:, :, None] * np.einsum("ibjk,ibk->ibj", self.a, s.q[:, ne:].reshape(n, m, 3))
-            ).reshape(n, 3 * m)
-        y *= np.sqrt(3.0 / h)[:, None]
-        cols = self._cols
-        z = (np.ascontiguousarray(d[:, cols]) @ y[:, cols].T) * (
+        """``z`` of the rank-one part per row ``(R, n)``: ``z[r, i] = D_r . y_i`` for the cells
+        ``i`` before the row's frames."""
+        n, fr, cols = self.prob.n, self.fr, self._cols
+        y = self._rank_one_y()
+        z = (np.ascontiguousarray(self.d_flat[:, cols]) @ y[:, cols].T) * (
             np.arange(n)[None, :] < fr[:, None]
         )  # (A, n)
         return z if self._one_atom_per_row else self._rows @ z
@@ -361,46 +359,43 @@ class _ExtraLinear:
         rows = self._rows
         return rows @ (rows @ g_atoms).T + z_rows @ z_rows.T
 
-    def _extra_trace(self, z_rows: np.ndarray) -> float:
-        """The trace of :meth:`_extra_block` without forming it: per row, its atoms' pairs
-        ``D_a^T K(min(f_a, f_b)) D_b``, plus ``|z_r|^2``."""
-        e_flat, fr, slots = self._prefix_products(), self.fr, self._row_atoms
+    def _extra_trace(self, cells: np.ndarray, cols: np.ndarray) -> float:
+        """The trace of :meth:`_extra_block` without forming it, from the cell blocks ``D_i``
+        on ``cols`` (:meth:`_cell_blocks`): per row, its atoms' pairs ``D_a^T S(min(f_a, f_b))
+        D_b`` with ``S(f) = sum_{i<f} D_i``."""
+        prefix = np.concatenate([np.zeros((1,) + cells.shape[1:]), np.cumsum(cells, axis=0)])
+        d_c, fr, slots = self.d_flat[:, cols], self.fr, self._row_atoms
         diag = 0.0
         for s_a in range(slots.shape[1]):
             for s_b in range(slots.shape[1]):
                 a, b = slots[:, s_a], slots[:, s_b]
                 ok = (a >= 0) & (b >= 0)
                 a, b = a[ok], b[ok]
-                first = fr[a] <= fr[b]  # K at the earlier frame
-                lo, hi = np.where(first, a, b), np.where(first, b, a)
-                diag += float(np.einsum("ad,ad->", e_flat[lo], self.d_flat[hi]))
-        return diag + float(np.einsum("rn,rn->", z_rows, z_rows))
+                f = fr[np.where(fr[a] <= fr[b], a, b)]  # S at the earlier frame
+                for c0 in range(0, a.size, _ATOM_CHUNK):
+                    at = slice(c0, c0 + _ATOM_CHUNK)
+                    diag += float(np.einsum("aj,ajk,ak->", d_c[a[at]], prefix[f[at]], d_c[b[at]]))
+        return diag
 
-    def _cross_block(self, z_rows: np.ndarray) -> np.ndarray:
-        """The closing rows against the extra rows ``(k, R)`` (selected closing rows)."""
+    def _cross_block(self) -> np.ndarray:
+        """The closing rows against the extra rows ``(k, R)`` (selected closing rows): per atom,
+        ``B_c^T`` of the cells before its frame against ``D_a``, in chunks of atoms (the
+        per-atom prefixes are ``A x m x 3k x 3``)."""
         prob, s = self.prob, self.s
         n, m, ne, dim, h, lay = prob.n, prob.m, prob.ne, prob.layout.dim, prob.h, prob.layout
         qn2, d, fr = s.qn**2, self.d_flat, self.fr
         k = self.be.shape[-1]
         bs, be = self.bs, self.be
-        v_eu = np.concatenate(
+        # prefixes over the cells of each closing row's weighted block (|q|^2 part)
+        p_eu = np.concatenate(
             [np.zeros((1, ne, k)), np.cumsum((qn2[:, None, None] / lay.s_eu[None, :, None]) * be, axis=0)]
-        )[fr]  # (A, e, k)
-        g_cx = np.zeros((k * dim, fr.size))
-        for g in range(k):
-            g_cx[g * dim : g * dim + ne] = (v_eu[:, :, g] * d[:, :ne]).T
+        )  # (n+1, e, k)
         if m:
             v_rot = (qn2[:, None] / lay.s_so3[None, :])[:, :, None, None] * np.einsum(
                 "ibjk,ibrk->ibrj", self.a, bs
-            )  # (n, m, R, 3): (|q|^2 / s) A_i b_row
-            v_rot = np.concatenate([np.zeros((1,) + v_rot.shape[1:]), np.cumsum(v_rot, axis=0)])[fr]
-            blk = np.einsum("abrj,abj->abr", v_rot, d[:, ne:].reshape(-1, m, 3))  # (A, m, R)
-            for g in range(k):
-                idx = g * dim + ne + 3 * np.arange(m)[:, None] + np.arange(3)[None, :]  # (m, 3)
-                g_cx[idx.ravel()] = blk[:, :, 3 * g : 3 * g + 3].reshape(-1, 3 * m).T
-        if not self._one_atom_per_row:
-            g_cx = (self._rows @ g_cx.T).T
-        # rank-one part: (b_c . q) sqrt(3 / h) against z
+            )  # (n, m, 3k, 3): (|q|^2 / s) A_i b_row
+            p_rot = np.concatenate([np.zeros((1,) + v_rot.shape[1:]), np.cumsum(v_rot, axis=0)])
+        # the rank-one part: (b_c . q) sqrt(3 / h) against y_i . D_a over the cells before f_a
         yc = np.empty((n, k * dim))
         for g in range(k):
             yc[:, g * dim : g * dim + ne] = be[:, :, g] * s.q[:, :ne]
@@ -408,7 +403,24 @@ class _ExtraLinear:
                 yc[:, g * dim + ne : (g + 1) * dim] = np.einsum(
                     "ibrk,ibk->ibr", bs[:, :, 3 * g : 3 * g + 3], s.q[:, ne:].reshape(n, m, 3)
                 ).reshape(n, 3 * m)
-        g_cx += (yc * np.sqrt(3.0 / h)[:, None]).T @ z_rows.T
+        yc *= np.sqrt(3.0 / h)[:, None]
+        cols = self._cols
+        y_c = self._rank_one_y()[:, cols]
+        g_cx = np.zeros((k * dim, fr.size))
+        for lo in range(0, fr.size, _ATOM_CHUNK):
+            at = slice(lo, lo + _ATOM_CHUNK)
+            f_at, d_at = fr[at], d[at]
+            for g in range(k):
+                g_cx[g * dim : g * dim + ne, at] = (p_eu[f_at][:, :, g] * d_at[:, :ne]).T
+            if m:
+                blk = np.einsum("abrj,abj->abr", p_rot[f_at], d_at[:, ne:].reshape(-1, m, 3))  # (a, m, 3k)
+                for g in range(k):
+                    idx = g * dim + ne + 3 * np.arange(m)[:, None] + np.arange(3)[None, :]  # (m, 3)
+                    g_cx[idx.ravel(), at] = blk[:, :, 3 * g : 3 * g + 3].reshape(-1, 3 * m).T
+            z = (np.ascontiguousarray(d_at[:, cols]) @ y_c.T) * (np.arange(n)[None, :] < f_at[:, None])
+            g_cx[:, at] += yc.T @ z.T
+        if not self._one_atom_per_row:
+            g_cx = (self._rows @ g_cx.T).T
         return g_cx[self.sel]
 
     def _cell_blocks(self, cols: np.ndarray) -> np.ndarray:
@@ -448,13 +460,13 @@ class _ExtraLinear:
         """``(J J^* + mu I)^{-1}`` through the structure of the extra rows
         (:mod:`elastic_motion.closing.structured`), ``mu`` as :func:`_solve` shifts the dense one."""
         g_cc = self._closing_block()
-        z_rows = self._rank_one_rows()
-        size = g_cc.shape[0] + self.n_extra
-        mu = 1e-12 * max((float(np.trace(g_cc)) + self._extra_trace(z_rows)) / max(size, 1), 1e-300)
         cols = self._cols
+        cells = self._cell_blocks(cols)
+        size = g_cc.shape[0] + self.n_extra
+        mu = 1e-12 * max((float(np.trace(g_cc)) + self._extra_trace(cells, cols)) / max(size, 1), 1e-300)
         atoms = (np.ascontiguousarray(self.d_flat[:, cols]), self.fr, self._rows)
-        extra = ExtraRowsSystem(self._cell_blocks(cols), atoms, mu)
-        return StructuredGram(g_cc, self._cross_block(z_rows), extra, mu)
+        extra = ExtraRowsSystem(cells, atoms, mu)
+        return StructuredGram(g_cc, self._cross_block(), extra, mu)
 
 
 def _dot(h: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

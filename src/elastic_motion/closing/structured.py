@@ -83,6 +83,7 @@ class ExtraRowsSystem:
         blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
         def add(r: np.ndarray, col: np.ndarray, v: np.ndarray, sym: bool = True) -> None:
+            r, col = r.astype(np.int32), col.astype(np.int32)  # (the triplets are the peak memory)
             blocks.append((r, col, v))
             if sym:
                 blocks.append((col, r, v))
@@ -111,8 +112,8 @@ class ExtraRowsSystem:
         np.minimum.at(row_first, row_of, frames[atom_of])
         key = np.concatenate([3 * cell_of, 3 * cell_of + 1, 3 * (row_first - 1) + 2])
         order = np.argsort(key, kind="stable")
-        at = np.empty(size, dtype=np.int64)
-        at[order] = np.arange(size)  # each unknown's place in the elimination order
+        at = np.empty(size, dtype=np.int32)
+        at[order] = np.arange(size, dtype=np.int32)  # each unknown's place in the elimination order
         kkt = scipy.sparse.csc_matrix(
             (
                 np.concatenate([b[2] for b in blocks]),
@@ -154,7 +155,7 @@ class StructuredGram:
     """
 
     def __init__(self, g_cc: np.ndarray, g_cx: np.ndarray, extra: ExtraRowsSystem, mu: float) -> None:
-        self.extra = extra
+        self.extra, self.mu = extra, mu
         self.k = g_cc.shape[0]
         self.g_cx = g_cx
         if self.k:
