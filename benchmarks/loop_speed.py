@@ -46,19 +46,23 @@ MODES = {
 RUNNER = """
 import json, resource, sys, time
 import elastic_motion as em
-from elastic_motion.apps.loop import LoopOptions
+try:  # (older code has no LoopOptions and no refusals)
+    from elastic_motion.apps.loop import LoopOptions
+    refuses = "force" in LoopOptions.__dataclass_fields__
+except ImportError:
+    refuses = False
 path, kwargs = sys.argv[1], json.loads(sys.argv[2])
 motion = em.read(path)
 out = {}
 if kwargs is not None:
-    if kwargs and "force" in LoopOptions.__dataclass_fields__:
+    if kwargs and refuses:
         kwargs["force"] = True  # a whole loop is measured, whatever it changes
     t = time.perf_counter()
     try:
         res = em.loop(motion, **kwargs)
         out["converged"] = bool(res.closing.converged)
         kept = res.contacts_kept
-        out["rows"] = None if kept is None else kept.rows
+        out["rows"] = kept.get("rows") if isinstance(kept, dict) else getattr(kept, "rows", None)
         out["window"] = None if res.window is None else [res.window.start, res.window.stop]
     except Exception as exc:  # a refusal is a result too
         out["error"] = type(exc).__name__ + ": " + str(exc).splitlines()[0]
