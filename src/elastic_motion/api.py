@@ -51,7 +51,14 @@ from elastic_motion.apps.database import (  # motion databases (issue 15)
 from elastic_motion.apps.distance import DistanceTable, distance_table
 from elastic_motion.apps.landmark_detection import LandmarkReport, detect_landmarks
 from elastic_motion.apps.landmark_files import LandmarkFile, read_landmark_file
-from elastic_motion.apps.loop import KeptContacts, LoopOptions, LoopResult, loop_motion, repeat_loop
+from elastic_motion.apps.loop import (
+    KeptContacts,
+    LoopOptions,
+    LoopRefused,
+    LoopResult,
+    loop_motion,
+    repeat_loop,
+)
 from elastic_motion.apps.loop.limits import joint_limit_report
 from elastic_motion.apps.metrics import BlendMetrics, SeamMetrics, blend_metrics, seam_metrics
 from elastic_motion.apps.pca import MotionPCA, motion_pca
@@ -90,6 +97,7 @@ __all__ = [
     "LandmarkFile",
     "LandmarkReport",
     "LoopOptions",
+    "LoopRefused",
     "LoopResult",
     "MatrixOptions",
     "MatrixResult",
@@ -154,8 +162,10 @@ blend = blend_motions
 #: ``em.cleanup_footskate(motion, contacts)``: plant contacts by leg IK (blends do it by default).
 #: ``em.gait_cycles(motion)``: heel strike to heel strike, from the contacts.
 #: ``em.loop(motion, options=LoopOptions(...), **overrides)`` (``root=``, ``seam=``, ``method=``,
-#: ``solver=``, ``window=``, ``contacts=``...): ``window="auto"`` loops the best cycle,
-#: ``contacts="keep"`` plants contacts.
+#: ``solver=``, ``window=``, ``contacts=``, ``change_bound=``, ``force=``...): ``window="safe"``
+#: (default) the whole clip when its loop changes it by at most ``change_bound``, else the best
+#: cycle (``"auto"``); a loop that changes more or adds skids raises ``LoopRefused`` unless
+#: ``force=True``; ``contacts="keep"`` plants contacts.
 loop = loop_motion
 #: ``em.joint_limits(motion, limits=None)``: DOF angles beyond / at their ASF limits
 #: (``loop(joint_limits="keep")`` keeps the loop within the limits the input respects).

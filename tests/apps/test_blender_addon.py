@@ -54,6 +54,9 @@ HELP = """usage: elastic-motion blend [-h] -o OUTPUT [--weight WEIGHT] [--warp {
 LOOP_HELP = """usage: elastic-motion loop [-h] -o OUTPUT [--window {whole,auto}]
                            [--contacts {keep,report,off}]
 """
+SAFE_LOOP_HELP = """usage: elastic-motion loop [-h] -o OUTPUT [--window {safe,whole,auto}] [--force]
+                           [--contacts {keep,report,off}]
+"""
 
 
 def test_runner_reads_options_from_help():
@@ -91,6 +94,17 @@ def test_runner_reads_options_from_help():
         "i", "o", "r", root="travel", window="whole", contacts=True, help_text=LOOP_HELP
     )
     assert args[args.index("--contacts") + 1] == "keep" and not warn
+    # the safe window (the panel's default) and --force, on a command that has them; an older
+    # command loops the whole clip and says it has no safe window
+    args, warn = runner.loop_args(
+        "i", "o", "r", root="travel", window="safe", contacts=True, force=True, help_text=SAFE_LOOP_HELP
+    )
+    assert args[args.index("--window") + 1] == "safe" and "--force" in args and not warn
+    args, warn = runner.loop_args(
+        "i", "o", "r", root="travel", window="safe", contacts=True, force=True, help_text=LOOP_HELP
+    )
+    assert "--window" not in args and "--force" not in args
+    assert any("safe" in w for w in warn) and any("--force" in w for w in warn)
     # the blend settings as one object: the same command line as the keywords
     settings = runner.BlendSettings(weight=0.3, warp="dp", landmarks="auto", cleanup=False)
     assert runner.blend_args(

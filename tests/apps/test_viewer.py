@@ -27,7 +27,10 @@ def loop_files(tmp_path_factory, mocap_dir):
     src = mocap_dir / "deepmimic/humanoid3d_cartwheel.txt"
     out = tmp / "cart_loop.bvh"
     assert (
-        main(["loop", str(src), "-o", str(out), "--repeat", "2", "--json", str(tmp / "cart_loop.json"), "-q"])
+        main(
+            ["loop", str(src), "-o", str(out), "--repeat", "2", "--json", str(tmp / "cart_loop.json"), "-q"]
+            + ["--window", "whole", "--force"]  # the whole clip, as the viewer shows it
+        )
         == 0
     )
     return tmp, out, tmp / "cart_loop.repeat2.bvh", json.loads((tmp / "cart_loop.json").read_text())

@@ -67,10 +67,16 @@ class EMSettings(bpy.types.PropertyGroup):
     window: EnumProperty(
         name="Window",
         items=[
+            ("safe", "safe", "the whole action when it loops with little change, else its best cycle"),
             ("whole", "whole clip", "loop the whole action"),
             ("auto", "best cycle", "the cycle that loops best"),
         ],
-        default="whole",
+        default="safe",
+    )
+    force: BoolProperty(
+        name="Force",
+        description="Loop even when looping changes the action more than the command allows",
+        default=False,
     )
     contacts: BoolProperty(name="Contacts", description="Keep the feet planted while looping", default=True)
     root: EnumProperty(
@@ -352,6 +358,7 @@ class EM_OT_loop(bpy.types.Operator, _Run):
                 window=s.window,
                 contacts=s.contacts,
                 help_text=help_text,
+                force=s.force,
                 extra=s.extra.split(),
             )
             return args, warnings, out, rep
@@ -417,6 +424,7 @@ class EM_PT_panel(bpy.types.Panel):
         box = layout.box()
         box.label(text="Loop (active armature)")
         box.prop(s, "window", text="Cycle")
+        box.prop(s, "force")
         box.prop(s, "contacts")
         box.prop(s, "root", expand=True)
         box.operator(EM_OT_loop.bl_idname)

@@ -163,15 +163,28 @@ def blend_args(a, b, out, report, settings=None, *, help_text, extra=(), **overr
     return args, warnings
 
 
-def loop_args(inp, out, report, *, root, window, contacts, help_text, extra=()):
-    """Command line of ``elastic-motion loop`` and the warnings about skipped settings."""
+def loop_args(inp, out, report, *, root, window, contacts, help_text, force=False, extra=()):
+    """Command line of ``elastic-motion loop`` and the warnings about skipped settings.
+
+    ``window``: ``"safe"`` (the whole clip when it loops with little change, else its best
+    cycle), ``"whole"`` or ``"auto"``; ``force`` loops even a clip the loop would change by
+    more than the command's bound (``--force``). Older versions of the command loop the whole
+    clip by default and have neither ``safe`` nor ``--force``: said in a warning."""
     args = ["loop", inp, "-o", out, "--json", report, "-q", "--root", root]
     warnings = []
-    if window != "whole":
-        if option_choices(help_text, "--window") is not None:
-            args += ["--window", window]
-        else:
+    windows = option_choices(help_text, "--window")
+    if windows is None:
+        if window != "whole":
             warnings.append("this elastic-motion has no --window option: the whole clip is looped")
+    elif "safe" in windows or window == "auto":
+        args += ["--window", window]
+    elif window == "safe":
+        warnings.append("this elastic-motion has no safe window (an older version): the whole clip is looped")
+    if force:
+        if option_choices(help_text, "--force") is not None:
+            args.append("--force")
+        else:
+            warnings.append("this elastic-motion has no --force option (it never refuses a loop)")
     choices = option_choices(help_text, "--contacts")
     if choices is not None:
         # "Keep the feet planted": 'keep' first ('report' only measures them, the feet slide)
