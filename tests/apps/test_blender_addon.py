@@ -105,6 +105,12 @@ def test_runner_reads_options_from_help():
     )
     assert "--window" not in args and "--force" not in args
     assert any("safe" in w for w in warn) and any("--force" in w for w in warn)
+    settings = runner.LoopSettings(root="inplace", window="auto", contacts=False)
+    assert runner.loop_args("i", "o", "r", settings, help_text=SAFE_LOOP_HELP) == runner.loop_args(
+        "i", "o", "r", root="inplace", window="auto", contacts=False, help_text=SAFE_LOOP_HELP
+    )
+    with pytest.raises(TypeError, match="windw"):
+        runner.loop_args("i", "o", "r", windw="auto", help_text=SAFE_LOOP_HELP)
     # the blend settings as one object: the same command line as the keywords
     settings = runner.BlendSettings(weight=0.3, warp="dp", landmarks="auto", cleanup=False)
     assert runner.blend_args(
@@ -213,7 +219,12 @@ try:
 
     a.animation_data.action = bpy.data.actions[old]
     select(a)
+    n_actions = len(bpy.data.actions)
+    out["loop_refused"] = run(bpy.ops.elastic_motion.loop)  # the panel's defaults: the safe window
+    out["loop_refused_new_actions"] = len(bpy.data.actions) - n_actions
+    settings.force = True
     out["loop"] = run(bpy.ops.elastic_motion.loop)
+    settings.force = False
     rep = json.loads(bpy.data.texts["elastic-motion report"].as_string())
     out["loop_action"] = [a.animation_data.action.name, frames(a.animation_data.action), rep["frames"]]
     out["loop_status"] = settings.last_status
@@ -300,6 +311,12 @@ def test_addon_blend_makes_a_new_action(blender_run):
 @pytest.mark.mocap
 def test_addon_loop_makes_a_new_action(blender_run):
     out = blender_run
+    # 2.4 s of a walk that is no cycle: closed whole it moves a joint by 0.2 m, and the panel's
+    # default (the safe window) refuses it with the command's words and makes no action ...
+    status, message = out["loop_refused"]
+    assert status == ["ERROR"] and "refused" in message and "--force" in message, message
+    assert out["loop_refused_new_actions"] == 0
+    # ... which "Force" loops anyway
     assert out["loop"] == [["FINISHED"], ""], out["loop"]
     name, n, report_frames = out["loop_action"]
     assert name.endswith(" loop") and n == report_frames == out["input_frames"][0], out["loop_status"]

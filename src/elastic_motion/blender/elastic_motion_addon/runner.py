@@ -137,11 +137,7 @@ def blend_args(a, b, out, report, settings=None, *, help_text, extra=(), **overr
     ``settings`` (a :class:`BlendSettings`, default ``BlendSettings()``) or its fields as
     keywords (``weight=0.3``); an unknown keyword is a ``TypeError`` naming it.
     """
-    fields = {f.name for f in dataclasses.fields(BlendSettings)}
-    unknown = sorted(set(overrides) - fields)
-    if unknown:
-        raise TypeError(f"blend_args: unknown settings {unknown}; expected some of {sorted(fields)}")
-    s = dataclasses.replace(settings or BlendSettings(), **overrides)
+    s = _settings(BlendSettings, settings, overrides, "blend_args")
     args = ["blend", a, b, "-o", out, "--json", report, "-q", "--weight", repr(float(s.weight))]
     args += ["--warp", s.warp]
     warnings = []
@@ -163,13 +159,47 @@ def blend_args(a, b, out, report, settings=None, *, help_text, extra=(), **overr
     return args, warnings
 
 
-def loop_args(inp, out, report, *, root, window, contacts, help_text, force=False, extra=()):
+@dataclass(frozen=True)
+class LoopSettings:
+    """The panel's loop settings, as :func:`loop_args` turns them into options.
+
+    Attributes
+    ----------
+    root : str, default "travel"
+        ``--root``: ``"travel"`` or ``"inplace"``.
+    window : str, default "safe"
+        ``--window``: ``"safe"`` (the whole clip when it loops with little change, else its
+        best cycle), ``"whole"`` or ``"auto"``.
+    contacts : bool, default True
+        Keep the feet planted (``--contacts keep``), or not (``off``).
+    force : bool, default False
+        ``--force``: loop even a clip the loop would change by more than the command's bound.
+    """
+
+    root: str = "travel"
+    window: str = "safe"
+    contacts: bool = True
+    force: bool = False
+
+
+def _settings(kind, settings, overrides, caller):
+    """``settings`` (default ``kind()``) with the keyword ``overrides``; an unknown keyword is a
+    ``TypeError`` naming it."""
+    fields = {f.name for f in dataclasses.fields(kind)}
+    unknown = sorted(set(overrides) - fields)
+    if unknown:
+        raise TypeError(f"{caller}: unknown settings {unknown}; expected some of {sorted(fields)}")
+    return dataclasses.replace(settings or kind(), **overrides)
+
+
+def loop_args(inp, out, report, settings=None, *, help_text, extra=(), **overrides):
     """Command line of ``elastic-motion loop`` and the warnings about skipped settings.
 
-    ``window``: ``"safe"`` (the whole clip when it loops with little change, else its best
-    cycle), ``"whole"`` or ``"auto"``; ``force`` loops even a clip the loop would change by
-    more than the command's bound (``--force``). Older versions of the command loop the whole
-    clip by default and have neither ``safe`` nor ``--force``: said in a warning."""
+    ``settings`` (a :class:`LoopSettings`, default ``LoopSettings()``) or its fields as
+    keywords (``window="auto"``). Older versions of the command loop the whole clip by
+    default and have neither the safe window nor ``--force``: said in a warning."""
+    s = _settings(LoopSettings, settings, overrides, "loop_args")
+    root, window, contacts, force = s.root, s.window, s.contacts, s.force
     args = ["loop", inp, "-o", out, "--json", report, "-q", "--root", root]
     warnings = []
     windows = option_choices(help_text, "--window")
