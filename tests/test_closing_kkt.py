@@ -358,11 +358,9 @@ class Stacked(ExtraConstraints):
         return tuple(np.concatenate([p[k] for p in pad]) for k in range(4))
 
 
-@pytest.mark.parametrize("one_slot", [False, True])
-@pytest.mark.parametrize("c1", [False, True])
-def test_structured_extra_rows_equal_the_dense_jacobian(c1, one_slot):
-    """J d, J^* lambda and J J^* of the prefix-sum implementation against the dense Jacobian
-    (rows on two samples and unused slots; and rows on one sample each, the short path)."""
+def linearisations_of_two_kinds_of_rows(c1, one_slot):
+    """A curve with pinned rows (and rows on two samples unless ``one_slot``) linearised at
+    its start: ``(q, DenseLinear, _ExtraLinear)``."""
     g = lie_group()
     curve = smooth_curve(g, 30, seed=4, scale=1.5)
     mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
@@ -375,8 +373,15 @@ def test_structured_extra_rows_equal_the_dense_jacobian(c1, one_slot):
     q = prob.to_internal(prob.srv.q)
     s = prob.evaluate(q)
     eu0 = _eu_samples(prob, s) + 0.3
-    dense = DenseLinear(prob, s, extra, eu0)
-    fast = _ExtraLinear(prob, s, extra, eu0)
+    return q, DenseLinear(prob, s, extra, eu0), _ExtraLinear(prob, s, extra, eu0)
+
+
+@pytest.mark.parametrize("one_slot", [False, True])
+@pytest.mark.parametrize("c1", [False, True])
+def test_structured_extra_rows_equal_the_dense_jacobian(c1, one_slot):
+    """J d, J^* lambda and J J^* of the prefix-sum implementation against the dense Jacobian
+    (rows on two samples and unused slots; and rows on one sample each, the short path)."""
+    q, dense, fast = linearisations_of_two_kinds_of_rows(c1, one_slot)
     assert fast._one_atom_per_row == one_slot
     np.testing.assert_allclose(fast.fsel, dense.fsel, atol=1e-13)
     rng = np.random.default_rng(0)
@@ -409,19 +414,7 @@ def test_structured_gram_solves_as_the_dense_gram(c1, one_slot):
     """``(J J^* + mu I)^{-1}`` through the sparse time-ordered system (closing.structured)
     against the dense Gram matrix of the reference Jacobian: the same shift ``mu`` (the exact
     trace), the same multipliers and the same step ``J^* lambda``."""
-    g = lie_group()
-    curve = smooth_curve(g, 30, seed=4, scale=1.5)
-    mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
-    extra = Stacked(
-        PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5),
-        *(() if one_slot else (RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),)),
-        PinConstraints(30, 0, [1.0, 0.0, 0.0], [0.4, 0.0], 17, 2, 0.1),
-    )
-    prob = ClosingProblem.from_curve(curve, ClosingOptions(factors=mask, c1=c1, cut_locus_tol=1e-9))
-    s = prob.evaluate(prob.to_internal(prob.srv.q))
-    eu0 = _eu_samples(prob, s) + 0.3
-    dense = DenseLinear(prob, s, extra, eu0)
-    fast = _ExtraLinear(prob, s, extra, eu0)
+    _, dense, fast = linearisations_of_two_kinds_of_rows(c1, one_slot)
     gmat = dense.gmat
     # drop the zero row (a row on the fixed first sample) from the comparison of lambda: its
     # multiplier is r / mu, exact in both but a 1e12 scale
