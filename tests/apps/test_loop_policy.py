@@ -48,7 +48,9 @@ def test_a_loop_that_rewrites_its_clip_is_refused_unless_forced(mocap_dir, tmp_p
     with pytest.raises(LoopRefused) as err:
         loop_motion(path, window=None)
     message = str(err.value)
-    assert message.startswith("force: the loop of the whole clip is refused: it moves a joint by up to 0.7")
+    assert message.startswith(
+        "force: not given, so the loop of the whole clip is refused: it moves a joint by up to 0.7"
+    )
     assert "--window auto" in message and "--force" in message
     assert err.value.result is not None and err.value.result.change_m > 0.5
     forced = loop_motion(path, window=None, force=True)

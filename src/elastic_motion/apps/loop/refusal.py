@@ -75,7 +75,7 @@ def check_loop(result: LoopResult, options: LoopOptions) -> LoopResult:
             else "; window='auto' (--window auto) looks for the window that closes with the least change"
         )
     raise LoopRefused(
-        f"the loop of {where} is refused: "
+        f"not given, so the loop of {where} is refused: "
         + "; ".join(reasons)
         + suggestion
         + "; force=True (--force) keeps it anyway",

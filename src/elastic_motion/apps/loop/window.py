@@ -208,7 +208,7 @@ def _safe_window(motion: Motion, options: LoopOptions, close: ClipCloser) -> Win
     w = auto.window
     text = (
         f"window: {_frames_text(w)}, the best cycle: the whole clip's loop would change it by up to "
-        f"{whole:.3g} m, more than {bound:g} m (--window whole keeps the whole clip)"
+        f"{whole:.3g} m, more than {bound:g} m (--window whole --force loops the whole clip anyway)"
     )
     data = {"whole_change_m": whole, "start": w.start, "stop": w.stop}
     return WindowedLoop(w, auto.clip, auto.closed, Note(WINDOW_CHOICE, text, data))
