@@ -705,6 +705,7 @@ def gaussian_frames(x: np.ndarray, sigma_frames: float) -> np.ndarray:
     """``x`` ``(F, ...)`` through a Gaussian along its frames (axis 0) of ``sigma_frames``
     standard deviation (frames; ends held, ``mode="nearest"``); ``x`` itself for
     ``sigma_frames <= 0`` or fewer than 2 frames."""
+    # (scipy.ndimage on first use: its import takes about half a second cold, and most runs never need it)
     from scipy.ndimage import (
         gaussian_filter1d,
     )  # local: 0.3 s to import, not on `import elastic_motion.motion`

@@ -310,6 +310,7 @@ def turn_joint(motion: Motion, joint: int, turns: np.ndarray) -> Motion:
 
 
 def _dilate(x: np.ndarray, half_width: float) -> np.ndarray:
+    # (scipy.ndimage on first use: its import takes about half a second cold, and most runs never need it)
     from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
     size = 2 * int(np.ceil(half_width)) + 1
