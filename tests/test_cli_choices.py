@@ -3,10 +3,8 @@ command module drifts from what the Python API accepts (seven copies of ``("lie"
 "euler-elastic")``, one of them ``"euler "``).
 
 The test walks every sub-parser of the real parser, collects every argparse action with
-``choices`` and checks it against :data:`API` (the types of the Python API) or
-:data:`PENDING` (choices whose API type is being written by another part of issue 28: the
-lead replaces each by its API type at merge). An action with choices in neither table fails:
-a new re-typed tuple cannot sneak in.
+``choices`` and checks it against :data:`API` (the types of the Python API). An action with
+choices not in the table fails: a new re-typed tuple cannot sneak in.
 """
 
 from __future__ import annotations
@@ -30,6 +28,7 @@ from elastic_motion.motion.contacts import CONTACT_POLICIES
 from elastic_motion.motion.edit import INTERPOLATIONS
 from elastic_motion.motion.looping import ROOT_MODES
 from elastic_motion.motion.representations import METHODS
+from elastic_motion.vocabulary import UP_AXES
 from elastic_motion.warp.options import WarpMethod
 
 WARP = choices(WarpMethod)
@@ -76,14 +75,9 @@ API: dict[tuple[str, str], tuple[str, ...]] = {
     ("blendspace", "--contacts"): CONTACT_POLICIES,
     # cluster (apps.statistics)
     ("cluster", "--linkage"): LINKAGES,
-}
-
-#: Choices whose API type does not exist yet on branch ui: today's values, written here once.
-#: PENDING (lead, at merge): replace each by the API type its owner adds, then move it to API.
-PENDING: dict[tuple[str, str], tuple[str, ...]] = {
-    # lead: PrepareOptions.up (apps/prepare.py) has no Literal; every command with --up
+    # --up: every command that reads motions (PrepareOptions.up)
     **{
-        (cmd, "--up"): ("y", "z")
+        (cmd, "--up"): UP_AXES
         for cmd in ("blend", "landmarks", "loop", "align", "distance", "render", "blendspace")
     },
 }
@@ -111,7 +105,7 @@ def _choice_actions() -> dict[tuple[str, str], argparse.Action]:
 
 def test_every_choice_list_is_the_apis():
     actions = _choice_actions()
-    table = {**API, **PENDING}
+    table = API
     missing = sorted(set(actions) - set(table))
     assert not missing, (
         "options with choices that no API type gives (read them from the API's Literal with "
@@ -133,13 +127,6 @@ def test_aliases_take_their_options_choices():
             target = getattr(action, "target", None)
             if target is not None and action.choices is not None:
                 assert tuple(action.choices) == tuple(target.choices), (name, action.option_strings)
-
-
-def test_the_table_holds_no_pending_entry_that_an_api_type_now_gives():
-    """Each PENDING entry is a value no API type of branch ui gives; a shared vocabulary that
-    matches one (the contact policy, say) belongs in API."""
-    known = {CONTACT_POLICIES, METHODS, CURVE_METHODS, ROOT_MODES, WARP, TIME_UNITS, KINDS, FRAMES}
-    assert not [key for key, values in PENDING.items() if tuple(values) in known]
 
 
 @pytest.mark.parametrize("retyped", [("lie", "euler"), ("lie", "euler-elastic", "euler-linear")])

@@ -41,6 +41,7 @@ __all__ = [
     "SKELETON_MODES",
     "SOLVERS",
     "TIME_UNITS",
+    "UP_AXES",
     "WARP_METHODS",
     "WINDOW_MODES",
     "ContactMarks",
@@ -61,6 +62,7 @@ __all__ = [
     "SkeletonMode",
     "Solver",
     "TimeUnit",
+    "UpAxis",
     "WarpMethod",
     "WindowMode",
 ]
@@ -104,6 +106,12 @@ INTERPOLATIONS: tuple[str, ...] = get_args(Interpolation)
 TimeUnit = Literal["seconds", "frames"]
 #: The values of :data:`TimeUnit`.
 TIME_UNITS: tuple[str, ...] = get_args(TimeUnit)
+
+#: The axis a motion's up points along (``Motion.up_axis``, ``PrepareOptions.up``, ``--up``):
+#: BVH files are y-up by convention, Blender's exports and ASF/AMC may be z-up.
+UpAxis = Literal["x", "y", "z"]
+#: The values of :data:`UpAxis`.
+UP_AXES: tuple[str, ...] = get_args(UpAxis)
 
 #: The event kinds :func:`elastic_motion.apps.landmarks.detect_events` knows.
 EventKind = Literal[

@@ -79,6 +79,7 @@ from elastic_motion.motion import (
 )
 from elastic_motion.motion.rest_pose import change_rest_frames, rest_frames_towards, rest_pose_difference
 from elastic_motion.notes import Note, note_texts
+from elastic_motion.vocabulary import UP_AXES, UpAxis
 
 __all__ = [
     "FACING_DIFFERS",
@@ -163,8 +164,9 @@ class PrepareOptions:
     units : str or None, default None
         Length unit of BVH inputs (a key of :data:`elastic_motion.motion.UNITS`: ``m``,
         ``cm``, ``mm``, ``inch``, ``cmu``); default: guessed from the skeleton.
-    up : {"y", "z"} or None, default None
-        Up axis of the inputs; default: as read (the reader's detection or convention).
+    up : {"x", "y", "z"} or None, default None
+        Up axis of the inputs (:data:`elastic_motion.vocabulary.UpAxis`); default: as read
+        (the reader's detection or convention).
     trim : tuple, default ()
         ``()`` keeps whole clips; one ``(start, stop)`` range in seconds (either may be
         None) for every input; or one range (or None) per input.
@@ -184,7 +186,7 @@ class PrepareOptions:
 
     drop_tpose: bool = True
     units: str | None = None
-    up: str | None = None
+    up: UpAxis | None = None
     trim: tuple[Any, ...] = ()
     fold_static_root: bool = True
     joints: str | tuple[str, ...] = "all"
@@ -197,8 +199,8 @@ class PrepareOptions:
             raise OptionError("units", f"expected one of {sorted(UNITS)}; got {self.units!r}")
         if self.units_out is not None and self.units_out not in UNITS:
             raise OptionError("units_out", f"expected one of {sorted(UNITS)}; got {self.units_out!r}")
-        if self.up is not None and self.up not in ("x", "y", "z"):
-            raise OptionError("up", f"expected 'y' or 'z' (or 'x'); got {self.up!r}")
+        if self.up is not None and self.up not in UP_AXES:
+            raise OptionError("up", f"expected one of {', '.join(UP_AXES)}; got {self.up!r}")
         joints = self.joints
         if isinstance(joints, str):
             if joints not in ("all", "common"):

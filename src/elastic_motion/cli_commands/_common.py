@@ -37,7 +37,7 @@ from elastic_motion.defaults import (
     DEFAULT_SAMPLE_SMOOTHING,
 )
 from elastic_motion.errors import OptionError, ParseError
-from elastic_motion.vocabulary import DEFAULT_PAIR_KINDS, EVENT_KINDS, TIME_UNITS, WARP_METHODS
+from elastic_motion.vocabulary import DEFAULT_PAIR_KINDS, EVENT_KINDS, TIME_UNITS, UP_AXES, WARP_METHODS
 
 __all__ = [  # CommandError and check_output are re-exported: every command module uses them
     "CommandError",
@@ -132,7 +132,7 @@ def add_input_options(p: argparse.ArgumentParser, *, several: bool = True, write
     p.add_argument(
         "--up",
         default=None,
-        choices=("y", "z"),
+        choices=UP_AXES,
         help="up axis of the inputs (default: as detected when reading; Blender exports are z-up)",
     )
     if not writes_bvh:
