@@ -75,7 +75,8 @@ def test_look_alikes_are_never_removed(cache_home: Path, tmp_path: Path) -> None
         _name("walk", dead, ".bvh", key=other_key): "another user's (or an earlier key's) temporary",
         _name("walk", dead, ".bvh", key=key, host="another-host"): "made on another host",
         _name("walk", dead, ".bvh", key=key) + ".bak": "a copy of a temporary under another name",
-        _name("walk", 10**30, ".bvh", key=other_key): "a pid no system has",
+        f".walk.em{10**30}-abc.bvh": "the earlier pid pattern, a pid no system has",
+        _name("walk", 10**30, ".bvh", key=key): "a pid no system has",
         _name("walk", os.getpid(), ".bvh", key=key): "a live writer (this process)",
         _name("walk", os.getppid(), ".bvh", key=key): "a live writer (another process)",
     }
