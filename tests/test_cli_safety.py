@@ -112,6 +112,23 @@ def test_matrix_into_its_own_input_folder_is_refused(tmp_path: Path, capsys) -> 
     assert not (db / "M").exists() and not (tmp_path / "M").exists()
 
 
+def test_index_into_its_own_input_folder_is_refused_like_matrix(tmp_path: Path, capsys) -> None:
+    from elastic_motion.apps.database import build_index
+    from elastic_motion.errors import OptionError
+
+    db = tmp_path / "db"
+    db.mkdir()
+    _bvh(db / "a.bvh")
+    _refused(["index", db, "-o", db / "I"], capsys, "-o", "neither holds nor lies inside")
+    _refused(["index", db / "a.bvh", "-o", db], capsys, "-o", "neither holds nor lies inside")
+    _refused(["index", db, "-o", tmp_path / "I", "--json", tmp_path / "I" / "r.json"], capsys, "--json")
+    with pytest.raises(OptionError, match="out: expected a folder that neither holds nor lies inside"):
+        build_index([db], db / "I")
+    with pytest.raises(OptionError, match="out: expected a folder that neither holds nor lies inside"):
+        build_index([db], tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"] and os.listdir(db) == ["a.bvh"]
+
+
 def test_json_that_took_the_next_input_never_replaces_it(tmp_path: Path, capsys) -> None:
     """``--json`` before the inputs takes the first of them as its PATH: a motion file's name
     is refused, and so is any existing file that is not an earlier report (a DeepMimic

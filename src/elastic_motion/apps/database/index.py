@@ -36,7 +36,7 @@ from elastic_motion._io import atomic_write_bytes
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.bounds import part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
-from elastic_motion.apps.database.files import find_motion_files
+from elastic_motion.apps.database.files import check_output_folder, find_motion_files
 from elastic_motion.apps.database.settings import DatabaseSettings
 from elastic_motion.apps.progress import Progress
 from elastic_motion.errors import OptionError
@@ -128,14 +128,15 @@ def build_index(
     Raises
     ------
     OptionError
-        ``out`` holding an index (without ``overwrite``) or any other file; no readable motion.
+        ``out`` holding an index (without ``overwrite``) or any other file, holding or lying
+        inside an input folder, or being an input or a file; no readable motion.
     """
     settings = settings or DatabaseSettings()
     dest = Path(out)
+    own = {INDEX_JSON, CACHE} | {f"norms_{r.key}.npy" for r in storage.REPRESENTATIONS}
+    files, ignored = find_motion_files(inputs, recursive=recursive)
+    check_output_folder(dest, inputs, files, own, "out")
     if dest.exists():
-        if not dest.is_dir():
-            raise OptionError("out", f"expected a folder for the index; got the file {os.fspath(dest)!r}")
-        own = {INDEX_JSON, CACHE} | {f"norms_{r.key}.npy" for r in storage.REPRESENTATIONS}
         other = [p.name for p in dest.iterdir() if p.name not in own]
         if other:
             raise OptionError(
@@ -148,7 +149,6 @@ def build_index(
                 "(pass overwrite=True / --overwrite "
                 "to rebuild it)",
             )
-    files, ignored = find_motion_files(inputs, recursive=recursive)
     cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
     if len(cache) == 0:
         raise OptionError(

@@ -40,7 +40,7 @@ from elastic_motion.apps.database.engines import (
     open_engine,
     order_tiles,
 )
-from elastic_motion.apps.database.files import find_motion_files
+from elastic_motion.apps.database.files import check_output_folder, find_motion_files
 from elastic_motion.apps.database.settings import (
     FORMAT_VERSION,
     READABLE_FORMATS,
@@ -227,7 +227,7 @@ def compute_matrix(
     settings = settings or DatabaseSettings()
     out = Path(out_dir)
     files, ignored = find_motion_files(inputs, recursive=opts.recursive)
-    _check_output_folder(out, inputs, files)
+    check_output_folder(out, inputs, files, storage.our_names(), "out_dir")
     ident = _identity(settings, files)
     _check_resumable(out, ident, opts.overwrite)
     # connect before writing anything: an unreachable scheduler leaves no output behind
@@ -239,29 +239,6 @@ def compute_matrix(
         return _run(out, files, ignored, settings, ident, eng, progress)
     finally:
         eng.close()
-
-
-def _check_output_folder(out: Path, inputs: Sequence[str | os.PathLike[str]], files: list[Path]) -> None:
-    """Refuse an output folder that would overwrite an input, or that holds or lies inside an
-    input folder (a rerun would read its own files), or that is a file."""
-    names = storage.our_names()
-    if any(out.resolve() == f or (out.resolve() in f.parents and f.name in names) for f in files):
-        raise OptionError(
-            "out_dir",
-            f"expected a folder that holds no input; got {os.fspath(out)!r}, which would overwrite one",
-        )
-    for item in inputs:
-        if Path(item).is_dir():
-            folder = Path(item).resolve()
-            o = out.resolve()
-            if o == folder or folder in o.parents or o in folder.parents:
-                raise OptionError(
-                    "out_dir",
-                    f"expected a folder that neither holds nor lies inside an input folder; got "
-                    f"{os.fspath(out)!r} and the input folder {os.fspath(item)!r}",
-                )
-    if out.exists() and not out.is_dir():
-        raise OptionError("out_dir", f"expected a folder; got the file {os.fspath(out)!r}")
 
 
 def _check_resumable(out: Path, ident: dict[str, Any], overwrite: bool) -> None:
