@@ -2,7 +2,9 @@
 
 * :func:`read_text` decodes a file as UTF-8, falling back to Latin-1 (which never fails),
   so that a stray byte becomes a parse error about the text rather than a
-  ``UnicodeDecodeError``; an unreadable path is reported as a ``ParseError`` too.
+  ``UnicodeDecodeError``; an unreadable path is reported as a ``ParseError`` too. Only
+  regular files are opened (:func:`open_regular`: never a FIFO, which would block; with
+  ``follow_symlinks=False`` never a symbolic link).
 * :func:`atomic_write_text` writes through a temporary file in the destination folder
   and ``os.replace`` (atomic on POSIX and Windows), and refuses to write onto any of the
   given input paths: a writer never destroys the file it was read from.
@@ -45,6 +47,7 @@ import secrets
 import stat
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 from elastic_motion import limits
 from elastic_motion.errors import ParseError
@@ -55,6 +58,7 @@ __all__ = [
     "atomic_write_text",
     "check_not_input",
     "is_our_temporary",
+    "open_regular",
     "read_bytes",
     "read_text",
     "remove_stale_temporaries",
@@ -69,22 +73,29 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
-def read_bytes(path: str | os.PathLike[str]) -> bytes:
-    """The bytes of the regular file ``path``; ``ParseError`` for anything else.
+def open_regular(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> BinaryIO:
+    """``path`` opened for reading (binary, blocking) if it is a regular file; ``ParseError`` else.
 
     The file is opened non-blocking and checked with ``fstat`` before a byte is read: a FIFO,
-    socket or device (``mkfifo x.bvh``) is refused instead of blocking forever, a folder, a
+    socket or device (``mkfifo x.bvh``) is refused instead of blocking forever; a folder, a
     dangling or looping symbolic link, a missing or unreadable file is a ``ParseError`` naming
-    the path, and a file larger than the ``max_file_bytes`` limit (:mod:`elastic_motion.limits`)
-    is refused before it is read.
+    the path. With ``follow_symlinks=False`` (``O_NOFOLLOW``) a symbolic link is refused too
+    (files a program wrote itself and reads back: a link there was put by someone else).
     """
     p = os.fspath(path)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
+    if not follow_symlinks:
+        flags |= getattr(os, "O_NOFOLLOW", 0)
     try:
-        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+        if not follow_symlinks and not hasattr(os, "O_NOFOLLOW") and os.path.islink(p):
+            raise OSError(errno.ELOOP, "a symbolic link", p)
+        fd = os.open(p, flags)
     except IsADirectoryError as exc:
         raise ParseError(p, None, "expected a file, found a directory") from exc
     except OSError as exc:
-        if exc.errno == errno.ELOOP:
+        if not follow_symlinks and os.path.islink(p):
+            reason = "a symbolic link, not followed here"
+        elif exc.errno == errno.ELOOP:
             reason = "a symbolic link that points to itself (a loop)"
         elif exc.errno == errno.ENOENT and os.path.islink(p):
             reason = "a symbolic link whose target does not exist"
@@ -98,19 +109,38 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
         if not stat.S_ISREG(st.st_mode):
             kind = "a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else "a socket or device"
             raise ParseError(p, None, f"expected a regular file, found {kind}")
-        lim = limits.current().max_file_bytes
-        if st.st_size > lim:
-            raise ParseError(
-                p, None, limits.limit_message("a file size (bytes) of", st.st_size, "max_file_bytes", lim)
-            )
         if hasattr(os, "set_blocking"):
             os.set_blocking(fd, True)
-        with os.fdopen(fd, "rb") as fh:
-            fd = -1
+        fh = os.fdopen(fd, "rb")
+        fh.raw.name = p  # type: ignore[attr-defined]  # the path in messages, not the descriptor
+        return fh
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def read_bytes(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> bytes:
+    """The bytes of the regular file ``path``; ``ParseError`` for anything else.
+
+    Opened by :func:`open_regular` (a FIFO, socket, device, folder, broken link or missing
+    file is a ``ParseError`` naming the path, never a wait; a symbolic link too with
+    ``follow_symlinks=False``); a file larger than the ``max_file_bytes`` limit
+    (:mod:`elastic_motion.limits`) is refused before it is read.
+    """
+    p = os.fspath(path)
+    fh = open_regular(p, follow_symlinks=follow_symlinks)
+    lim = limits.current().max_file_bytes
+    try:
+        with fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size > lim:
+                raise ParseError(
+                    p, None, limits.limit_message("a file size (bytes) of", size, "max_file_bytes", lim)
+                )
             # read(n) allocates n bytes up front: ask for the size fstat gave, then chunks if it grew
-            chunks = [fh.read(st.st_size + 1)]
+            chunks = [fh.read(size + 1)]
             total = len(chunks[0])
-            while total > st.st_size and total <= lim:
+            while total > size and total <= lim:
                 more = fh.read(1 << 20)
                 if not more:
                     break
@@ -119,9 +149,6 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
             data = b"".join(chunks)
     except OSError as exc:
         raise ParseError(p, None, f"cannot read the file ({exc.strerror or exc})") from exc
-    finally:
-        if fd >= 0:
-            os.close(fd)
     if len(data) > lim:  # grew while being read
         raise ParseError(
             p, None, limits.limit_message("a file size (bytes) of", len(data), "max_file_bytes", lim)
