@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import signal
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -286,3 +287,30 @@ def test_the_command_line_says_what_it_did_not_trust(clean, tmp_path: Path, caps
         "not trusted: tiles/euler_1_2.npy: expected a regular file, found a FIFO (named pipe): computed again"
         in text
     ), text
+
+
+@pytest.mark.parametrize("name", ["manifest.json", "report.json", "distances_lie.npy", "index:norms_lie.npy"])
+def test_a_fifo_in_a_run_or_index_folder_is_an_error_never_a_wait(clean, tmp_path: Path, name: str) -> None:
+    from elastic_motion.apps.database import build_index, load_index, load_matrix
+    from elastic_motion.errors import ParseError
+
+    db, ref = clean
+    if name.startswith("index:"):
+        out = build_index([db], tmp_path / "index", SETTINGS).path
+        name = name.split(":")[1]
+    else:
+        out = tmp_path / "run"
+        shutil.copytree(ref, out, symlinks=True)
+    os.unlink(out / name)
+    os.mkfifo(out / name)
+    t0 = time.monotonic()
+    if name == "manifest.json":  # unreadable: refused, as any other run
+        with pytest.raises(ValueError, match="unreadable"):
+            compute_matrix([db], out, SETTINGS)
+    elif name.startswith("norms"):
+        with pytest.raises(ParseError, match="found a FIFO"):
+            load_index(out)
+    else:
+        with pytest.raises(ParseError, match="found a FIFO"):
+            load_matrix(out, "lie")
+    assert time.monotonic() - t0 < 10  # at once, not after the alarm broke a wait

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion import __version__
-from elastic_motion._io import atomic_write_bytes
+from elastic_motion._io import atomic_write_bytes, open_regular, read_text
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.bounds import part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
@@ -197,7 +197,7 @@ def load_index(path: str | os.PathLike[str]) -> MotionIndex:
     dest = Path(path)
     if not is_index(dest):
         raise OptionError("index", f"expected an index folder (with {INDEX_JSON}); got {os.fspath(dest)!r}")
-    meta = json.loads((dest / INDEX_JSON).read_text())
+    meta = json.loads(read_text(dest / INDEX_JSON))
     fmt, lib = meta.get("index_format"), meta.get("library")
     if fmt != INDEX_FORMAT or lib != _library_version():
         inputs = " ".join(meta.get("inputs") or ["DIR"])
@@ -212,6 +212,7 @@ def load_index(path: str | os.PathLike[str]) -> MotionIndex:
     for r in cache.settings.representations:
         f = dest / f"norms_{r}.npy"
         if f.exists():
-            memo[r] = np.load(f)
+            with open_regular(f) as fh:  # never a FIFO (it would block)
+                memo[r] = np.load(fh, allow_pickle=False)
     cache._norms = memo  # type: ignore[attr-defined]
     return MotionIndex(dest, cache, meta)

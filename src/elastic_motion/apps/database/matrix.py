@@ -448,6 +448,9 @@ class _TileRun:
         ts, m = settings.tile_size, len(groups)
         if manifest is None:
             manifest = {"n_motions": m, "tile_size": ts, "n_blocks": -(-m // ts), "tiles": {}, "runs": []}
+        for k, kind in (("tiles", dict), ("runs", list)):  # bookkeeping only: the tiles prove themselves
+            if not isinstance(manifest.get(k), kind):
+                manifest[k] = kind()
         manifest["identity"] = ident  # a format-1 run resumed is written in this release's form
         info: dict[str, Any] = {
             "run": len(manifest["runs"]) + 1,

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from elastic_motion._io import atomic_write_bytes, is_our_temporary
+from elastic_motion._io import atomic_write_bytes, is_our_temporary, read_text
 from elastic_motion.apps.report import jsonable
 from elastic_motion.motion.representations import EULER, LIE
 
@@ -81,8 +81,8 @@ def write_json(dest: Path, obj: Any) -> None:
 
 
 def read_json(path: Path) -> Any:
-    """The JSON content of ``path``."""
-    return json.loads(path.read_text())
+    """The JSON content of ``path`` (a regular file only: :func:`elastic_motion._io.read_text`)."""
+    return json.loads(read_text(path))
 
 
 def save_npy(dest: Path, arr: np.ndarray) -> None:
