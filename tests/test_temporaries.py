@@ -176,3 +176,14 @@ def test_without_a_usable_key_nothing_is_ever_removed(tmp_path: Path, monkeypatc
     keyfile.chmod(0o600)
     monkeypatch.setattr(_io, "_key_state", None)
     assert _io._temporary_key() == (bytes(32), True)
+
+
+def test_a_long_name_gets_a_temporary_within_the_name_limit(cache_home: Path, tmp_path: Path) -> None:
+    """A 250-byte file name (UTF-8, a 2-byte character cut in the middle in the temporary's
+    name) is written, and the temporary of a killed write of it is proven ours and removed."""
+    out = tmp_path / ("é" * 123 + ".bvh")
+    assert len(os.fsencode(out.name)) == 250
+    tmp = _killed_write(out, _env(cache_home))
+    assert len(os.fsencode(tmp.name)) <= 255 and is_our_temporary(tmp.name)
+    atomic_write_text(out, "x\n")  # the next write in that folder
+    assert out.read_text() == "x\n" and not tmp.exists()

@@ -308,10 +308,12 @@ def _tag(key: bytes, head: str, suffix: str) -> str:
 def _new_temporary(dest: Path) -> Path:
     """Create (exclusively, mode 0600) an empty temporary of ``dest`` beside it; return its path."""
     folder = dest.parent if str(dest.parent) else Path(".")
-    suffix = dest.suffix or ".tmp"
+    suffix = dest.suffix if 0 < len(os.fsencode(dest.suffix)) <= 100 else ".tmp"
+    # the name stays within 255 bytes whatever the length of dest's (the tag proves the name as written)
+    stem = os.fsdecode(os.fsencode(dest.stem)[: 190 - len(os.fsencode(suffix))])
     key, _ = _temporary_key()
     for _attempt in range(100):
-        head = f".{dest.stem}.em{os.getpid()}-{secrets.token_hex(8)}-"
+        head = f".{stem}.em{os.getpid()}-{secrets.token_hex(8)}-"
         tmp = folder / f"{head}{_tag(key, head, suffix)}{suffix}"
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
