@@ -314,3 +314,27 @@ def test_a_fifo_in_a_run_or_index_folder_is_an_error_never_a_wait(clean, tmp_pat
         with pytest.raises(ParseError, match="found a FIFO"):
             load_matrix(out, "lie")
     assert time.monotonic() - t0 < 10  # at once, not after the alarm broke a wait
+
+
+def test_an_index_rebuilt_over_the_temporary_of_a_killed_build(clean, tmp_path: Path) -> None:
+    """The temporary a killed index build left is the program's own: rebuilding with overwrite
+    is not refused for it, and removes it; a look-alike file of the user is refused as before."""
+    import subprocess
+    import sys
+
+    from elastic_motion.apps.database import build_index
+    from elastic_motion.errors import OptionError
+
+    db, _ = clean
+    idx = build_index([db], tmp_path / "index", SETTINGS).path
+    code = "import os, sys\nfrom elastic_motion._io import atomic_path\nwith atomic_path(sys.argv[1]):\n"
+    code += "    os._exit(0)"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src")}
+    subprocess.run([sys.executable, "-c", code, str(idx / "srv_cache.npz")], check=True, env=env)
+    (left,) = [p for p in idx.iterdir() if p.name.startswith(".srv_cache.em")]
+    build_index([db], idx, SETTINGS, overwrite=True)
+    assert not left.exists()
+    (idx / ".srv_cache.em1-abc.npz").write_text("the user's")
+    with pytest.raises(OptionError, match="expected an empty or index folder"):
+        build_index([db], idx, SETTINGS, overwrite=True)
+    assert (idx / ".srv_cache.em1-abc.npz").read_text() == "the user's"

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion import __version__
-from elastic_motion._io import atomic_write_bytes, open_regular, read_text
+from elastic_motion._io import atomic_write_bytes, open_regular, read_text, remove_stale_temporaries
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.bounds import part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
@@ -137,6 +137,7 @@ def build_index(
     files, ignored = find_motion_files(inputs, recursive=recursive)
     check_output_folder(dest, inputs, files, own, "out")
     if dest.exists():
+        remove_stale_temporaries(dest / CACHE)  # those a killed build left (a live one's stay: refused)
         other = [p.name for p in dest.iterdir() if p.name not in own]
         if other:
             raise OptionError(
