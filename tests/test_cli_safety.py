@@ -1,16 +1,15 @@
 """The command line's safety net and error path under hostile use (issue 14).
 
 Outputs never overwrite what a command reads (``--json`` onto the ASF found beside an AMC,
-onto the BVH just written, into a matrix folder), limits are checked before any work, stale
-temporaries of a killed write are removed by the next write, and OS errors, overflow and
-FIFOs end as one error line with exit code 2 or 3.
+onto the BVH just written, into a matrix folder), limits are checked before any work, and OS
+errors, overflow and FIFOs end as one error line with exit code 2 or 3. (Temporaries of a
+killed write: ``tests/test_temporaries.py``.)
 """
 
 from __future__ import annotations
 
 import errno
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -18,7 +17,6 @@ from pathlib import Path
 
 import pytest
 
-from elastic_motion._io import atomic_write_text, remove_stale_temporaries
 from elastic_motion.cli import main
 from elastic_motion.cli_commands._argparse import (
     EXIT_BAD_INPUT,
@@ -112,6 +110,23 @@ def test_matrix_into_its_own_input_folder_is_refused(tmp_path: Path, capsys) -> 
     _refused(["matrix", db, "-o", tmp_path], capsys, "-o")
     _refused(["matrix", db, "-o", tmp_path / "M", "--json", tmp_path / "M" / "report.json"], capsys, "--json")
     assert not (db / "M").exists() and not (tmp_path / "M").exists()
+
+
+def test_index_into_its_own_input_folder_is_refused_like_matrix(tmp_path: Path, capsys) -> None:
+    from elastic_motion.apps.database import build_index
+    from elastic_motion.errors import OptionError
+
+    db = tmp_path / "db"
+    db.mkdir()
+    _bvh(db / "a.bvh")
+    _refused(["index", db, "-o", db / "I"], capsys, "-o", "neither holds nor lies inside")
+    _refused(["index", db / "a.bvh", "-o", db], capsys, "-o", "neither holds nor lies inside")
+    _refused(["index", db, "-o", tmp_path / "I", "--json", tmp_path / "I" / "r.json"], capsys, "--json")
+    with pytest.raises(OptionError, match="out: expected a folder that neither holds nor lies inside"):
+        build_index([db], db / "I")
+    with pytest.raises(OptionError, match="out: expected a folder that neither holds nor lies inside"):
+        build_index([db], tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"] and os.listdir(db) == ["a.bvh"]
 
 
 def test_json_that_took_the_next_input_never_replaces_it(tmp_path: Path, capsys) -> None:
@@ -241,46 +256,3 @@ def test_info_on_a_fifo_returns_at_once(tmp_path: Path) -> None:
     res = subprocess.run([*CLI, "info", str(fifo)], capture_output=True, text=True, timeout=60, check=False)
     assert res.returncode == EXIT_BAD_INPUT
     assert res.stderr.endswith("x.bvh: expected a regular file, found a FIFO (named pipe)\n"), res.stderr
-
-
-# ------------------------------------------------------------------------------------------
-# Temporaries of a killed write
-# ------------------------------------------------------------------------------------------
-
-
-def test_a_write_killed_midway_leaves_a_temporary_the_next_write_removes(tmp_path: Path) -> None:
-    out = tmp_path / "out.bvh"
-    code = (
-        "import sys, time\n"
-        "from elastic_motion._io import atomic_path\n"
-        "with atomic_path(sys.argv[1]) as tmp:\n"
-        "    open(tmp, 'w').write('partial' * 1000)\n"
-        "    print(tmp, flush=True)\n"
-        "    time.sleep(60)\n"
-    )
-    proc = subprocess.Popen([sys.executable, "-c", code, str(out)], stdout=subprocess.PIPE, text=True)
-    try:
-        tmp = Path(proc.stdout.readline().strip())
-        assert tmp.exists() and tmp.name.startswith(".out.em")
-    finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=10)
-        proc.stdout.close()
-    assert tmp.exists() and not out.exists()  # SIGKILL: nothing could clean up
-    atomic_write_text(out, "done\n")  # the next write of the same path
-    assert out.read_text() == "done\n" and not tmp.exists()
-    assert [p.name for p in tmp_path.iterdir()] == ["out.bvh"]
-
-
-def test_live_and_foreign_temporaries_are_kept(tmp_path: Path) -> None:
-    out = tmp_path / "out.bvh"
-    live = tmp_path / f".out.em{os.getpid()}-abc.bvh"  # this process: still writing
-    other = tmp_path / ".other.em999999999-abc.bvh"  # another output
-    old_style = tmp_path / ".out.abcd1234.bvh"  # the earlier naming, fresh: kept
-    stale_old = tmp_path / ".out.zzzz9999.bvh"  # the earlier naming, a day old: removed
-    for p in (live, other, old_style, stale_old):
-        p.write_text("x")
-    os.utime(stale_old, (time.time() - 86400, time.time() - 86400))
-    removed = remove_stale_temporaries(out)
-    assert removed == [stale_old]
-    assert live.exists() and other.exists() and old_style.exists()

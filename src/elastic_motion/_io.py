@@ -2,26 +2,52 @@
 
 * :func:`read_text` decodes a file as UTF-8, falling back to Latin-1 (which never fails),
   so that a stray byte becomes a parse error about the text rather than a
-  ``UnicodeDecodeError``; an unreadable path is reported as a ``ParseError`` too.
+  ``UnicodeDecodeError``; an unreadable path is reported as a ``ParseError`` too. Only
+  regular files are opened (:func:`open_regular`: never a FIFO, which would block; with
+  ``follow_symlinks=False`` never a symbolic link).
 * :func:`atomic_write_text` writes through a temporary file in the destination folder
   and ``os.replace`` (atomic on POSIX and Windows), and refuses to write onto any of the
   given input paths: a writer never destroys the file it was read from.
   :func:`atomic_write_bytes` does the same for bytes, and :func:`atomic_path` yields a
   temporary path (same suffix) for writers that need a file name (``savefig``, video
   encoders), committing it by rename only when the block succeeds.
+
+Temporaries, and which files may ever be removed
+------------------------------------------------
+A temporary of ``walk.bvh`` is created exclusively (``O_EXCL``, mode 0600) beside it as
+``.walk.em<pid>-<token>-<tag>.bvh``: ``pid`` is the writing process, ``token`` 16 random hex
+digits and ``tag`` the first 32 hex digits of HMAC-SHA256, keyed with a per-user secret, of the
+host name and the rest of the name. The secret is 32 random bytes in
+``$XDG_CACHE_HOME/elastic_motion/temporaries.key`` (``~/.cache/...``; ``%LOCALAPPDATA%`` on
+Windows), made on first use (file 0600 in a folder 0700) and used only if it is a regular
+file of this user, not a link, not writable by others. A write that fails or is interrupted
+removes its own temporary; only a killed process (SIGKILL, power loss) leaves one behind.
+
+The only files this package ever removes outside its own run folders are such leftovers
+(:func:`remove_stale_temporaries`, run by :func:`atomic_path` once per folder and process): a
+file is removed only if its tag checks with this user's key on this host (which no name made
+by hand, by another program, user or machine, or by an earlier release of this package can
+pass), it is a regular file owned by this user, and the process named in it no longer runs.
+Whatever fails a check is left, whatever its name or age: a proof, not a look-alike pattern.
+Without a usable key (no home folder, read-only cache) temporaries get a key of the process
+only and nothing is ever removed. The key is not a secret against this user (who may delete
+their files anyway); it makes a match by chance or by another party impossible.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
+import hmac
 import os
+import platform
 import re
+import secrets
 import stat
-import tempfile
-import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 from elastic_motion import limits
 from elastic_motion.errors import ParseError
@@ -31,6 +57,8 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "check_not_input",
+    "is_our_temporary",
+    "open_regular",
     "read_bytes",
     "read_text",
     "remove_stale_temporaries",
@@ -45,22 +73,29 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
-def read_bytes(path: str | os.PathLike[str]) -> bytes:
-    """The bytes of the regular file ``path``; ``ParseError`` for anything else.
+def open_regular(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> BinaryIO:
+    """``path`` opened for reading (binary, blocking) if it is a regular file; ``ParseError`` else.
 
     The file is opened non-blocking and checked with ``fstat`` before a byte is read: a FIFO,
-    socket or device (``mkfifo x.bvh``) is refused instead of blocking forever, a folder, a
+    socket or device (``mkfifo x.bvh``) is refused instead of blocking forever; a folder, a
     dangling or looping symbolic link, a missing or unreadable file is a ``ParseError`` naming
-    the path, and a file larger than the ``max_file_bytes`` limit (:mod:`elastic_motion.limits`)
-    is refused before it is read.
+    the path. With ``follow_symlinks=False`` (``O_NOFOLLOW``) a symbolic link is refused too
+    (files a program wrote itself and reads back: a link there was put by someone else).
     """
     p = os.fspath(path)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
+    if not follow_symlinks:
+        flags |= getattr(os, "O_NOFOLLOW", 0)
     try:
-        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+        if not follow_symlinks and not hasattr(os, "O_NOFOLLOW") and os.path.islink(p):
+            raise OSError(errno.ELOOP, "a symbolic link", p)
+        fd = os.open(p, flags)
     except IsADirectoryError as exc:
         raise ParseError(p, None, "expected a file, found a directory") from exc
     except OSError as exc:
-        if exc.errno == errno.ELOOP:
+        if not follow_symlinks and os.path.islink(p):
+            reason = "a symbolic link, not followed here"
+        elif exc.errno == errno.ELOOP:
             reason = "a symbolic link that points to itself (a loop)"
         elif exc.errno == errno.ENOENT and os.path.islink(p):
             reason = "a symbolic link whose target does not exist"
@@ -74,19 +109,38 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
         if not stat.S_ISREG(st.st_mode):
             kind = "a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else "a socket or device"
             raise ParseError(p, None, f"expected a regular file, found {kind}")
-        lim = limits.current().max_file_bytes
-        if st.st_size > lim:
-            raise ParseError(
-                p, None, limits.limit_message("a file size (bytes) of", st.st_size, "max_file_bytes", lim)
-            )
         if hasattr(os, "set_blocking"):
             os.set_blocking(fd, True)
-        with os.fdopen(fd, "rb") as fh:
-            fd = -1
+        fh = os.fdopen(fd, "rb")
+        fh.raw.name = p  # type: ignore[attr-defined]  # the path in messages, not the descriptor
+        return fh
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def read_bytes(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> bytes:
+    """The bytes of the regular file ``path``; ``ParseError`` for anything else.
+
+    Opened by :func:`open_regular` (a FIFO, socket, device, folder, broken link or missing
+    file is a ``ParseError`` naming the path, never a wait; a symbolic link too with
+    ``follow_symlinks=False``); a file larger than the ``max_file_bytes`` limit
+    (:mod:`elastic_motion.limits`) is refused before it is read.
+    """
+    p = os.fspath(path)
+    fh = open_regular(p, follow_symlinks=follow_symlinks)
+    lim = limits.current().max_file_bytes
+    try:
+        with fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size > lim:
+                raise ParseError(
+                    p, None, limits.limit_message("a file size (bytes) of", size, "max_file_bytes", lim)
+                )
             # read(n) allocates n bytes up front: ask for the size fstat gave, then chunks if it grew
-            chunks = [fh.read(st.st_size + 1)]
+            chunks = [fh.read(size + 1)]
             total = len(chunks[0])
-            while total > st.st_size and total <= lim:
+            while total > size and total <= lim:
                 more = fh.read(1 << 20)
                 if not more:
                     break
@@ -95,9 +149,6 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
             data = b"".join(chunks)
     except OSError as exc:
         raise ParseError(p, None, f"cannot read the file ({exc.strerror or exc})") from exc
-    finally:
-        if fd >= 0:
-            os.close(fd)
     if len(data) > lim:  # grew while being read
         raise ParseError(
             p, None, limits.limit_message("a file size (bytes) of", len(data), "max_file_bytes", lim)
@@ -138,11 +189,6 @@ def check_not_input(path: str | os.PathLike[str], protected: Iterable[str | os.P
     return dest
 
 
-def _temp_prefix(dest: Path) -> str:
-    """``.<stem>.em<pid>-``: the temporaries of ``dest`` name the process that writes them."""
-    return f".{dest.stem}.em{os.getpid()}-"
-
-
 def _pid_alive(pid: int) -> bool:
     if pid == os.getpid():
         return True
@@ -150,50 +196,187 @@ def _pid_alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except (PermissionError, OSError):  # another user's process: alive
+    except (OSError, OverflowError, ValueError):  # another user's process, or no pid: taken as alive
         return True
     return True
 
 
-#: Temporaries of the earlier naming (``tempfile.mkstemp``, 8 random characters) older than this
-#: many seconds are taken as left by an interrupted run.
-STALE_SECONDS = 3600.0
+#: Name of a temporary: ``.<stem>.em<pid>-<token>-<tag><suffix>`` (``tag``: see the module docstring).
+_TEMP_RE = re.compile(
+    r"\.(?P<stem>.*)\.em(?P<pid>\d+)-(?P<token>[0-9a-f]{16})-(?P<tag>[0-9a-f]{32})(?P<suffix>\.[^.]*)",
+    re.DOTALL,
+)
+#: File of the per-user key, under the user's cache folder.
+KEY_FOLDER = "elastic_motion"
+KEY_FILE = "temporaries.key"
+_KEY_BYTES = 32
+#: The key of this process: ``(key, persistent)``; None until first needed.
+_key_state: tuple[bytes, bool] | None = None
+#: Folders (device, inode) whose stale temporaries this process already removed.
+_cleaned_folders: set[tuple[int, int]] = set()
+
+
+def _user_cache_folder() -> Path | None:
+    """``$XDG_CACHE_HOME`` (else ``~/.cache``; ``%LOCALAPPDATA%`` on Windows); None if unknown."""
+    if os.name == "nt":
+        base = os.environ.get("LOCALAPPDATA", "")
+    else:
+        base = os.environ.get("XDG_CACHE_HOME", "")
+        if not os.path.isabs(base):
+            home = os.path.expanduser("~")
+            base = os.path.join(home, ".cache") if os.path.isabs(home) else ""
+    return Path(base) if base else None
+
+
+def _owned(st: os.stat_result) -> bool:
+    """Owned by this user (always True where there are no uids)."""
+    return not hasattr(os, "getuid") or st.st_uid == os.getuid()
+
+
+def _private(st: os.stat_result) -> bool:
+    """Owned by this user and neither group- nor world-writable."""
+    return _owned(st) and not (hasattr(os, "getuid") and st.st_mode & 0o022)
+
+
+def _read_key(path: Path) -> bytes | None:
+    """The key in ``path``: a regular file of this user, not a link, 32 bytes; None otherwise."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return None
+    try:
+        st = os.fstat(fd)
+        if not (stat.S_ISREG(st.st_mode) and _private(st) and st.st_size == _KEY_BYTES):
+            return None
+        data = os.read(fd, _KEY_BYTES + 1)
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+    return data if len(data) == _KEY_BYTES else None
+
+
+def _load_or_create_key() -> bytes | None:
+    """The per-user key (created on first use, mode 0600 in a 0700 folder); None if unusable."""
+    base = _user_cache_folder()
+    if base is None:
+        return None
+    folder = base / KEY_FOLDER
+    path = folder / KEY_FILE
+    key = _read_key(path)
+    if key is not None or os.path.lexists(path):
+        return key
+    try:
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        st = os.lstat(folder)
+        if not (stat.S_ISDIR(st.st_mode) and _private(st)):
+            return None
+        tmp = folder / f".{KEY_FILE}.{os.getpid()}.{secrets.token_hex(8)}"
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
+        try:
+            os.write(fd, secrets.token_bytes(_KEY_BYTES))
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        try:
+            os.link(tmp, path)  # never replaces the key another process made meanwhile
+        except FileExistsError:
+            pass
+        finally:
+            os.unlink(tmp)
+    except OSError:
+        return None
+    return _read_key(path)
+
+
+def _temporary_key() -> tuple[bytes, bool]:
+    """``(key, persistent)``: the per-user key, else a key of this process only (its temporaries
+    can then never be proven ours by a later process, so they are never removed)."""
+    global _key_state
+    if _key_state is None:
+        key = _load_or_create_key()
+        _key_state = (key, True) if key is not None else (secrets.token_bytes(_KEY_BYTES), False)
+    return _key_state
+
+
+def _tag(key: bytes, head: str, suffix: str) -> str:
+    """The proof of a temporary's name: HMAC-SHA256 of host, name before the tag and suffix."""
+    msg = "\0".join((platform.node(), head, suffix)).encode("utf-8", "surrogateescape")
+    return hmac.new(key, msg, hashlib.sha256).hexdigest()[:32]
+
+
+def _new_temporary(dest: Path) -> Path:
+    """Create (exclusively, mode 0600) an empty temporary of ``dest`` beside it; return its path."""
+    folder = dest.parent if str(dest.parent) else Path(".")
+    suffix = dest.suffix if 0 < len(os.fsencode(dest.suffix)) <= 100 else ".tmp"
+    # the name stays within 255 bytes whatever the length of dest's (the tag proves the name as written)
+    stem = os.fsdecode(os.fsencode(dest.stem)[: 190 - len(os.fsencode(suffix))])
+    key, _ = _temporary_key()
+    for _attempt in range(100):
+        head = f".{stem}.em{os.getpid()}-{secrets.token_hex(8)}-"
+        tmp = folder / f"{head}{_tag(key, head, suffix)}{suffix}"
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary name", os.fspath(folder))
+
+
+def is_our_temporary(name: str) -> bool:
+    """Whether the file name ``name`` is one this program gave a temporary (its tag proves it
+    with this user's key on this host; see the module docstring)."""
+    m = _TEMP_RE.fullmatch(name)
+    if m is None:
+        return False
+    key, persistent = _temporary_key()
+    if not persistent and int(m.group("pid")) != os.getpid():
+        return False
+    return hmac.compare_digest(m.group("tag"), _tag(key, name[: m.start("tag")], m.group("suffix")))
 
 
 def remove_stale_temporaries(path: str | os.PathLike[str]) -> list[Path]:
-    """Remove the temporaries an interrupted write of ``path`` left beside it; return them.
+    """Remove the temporaries interrupted writes left in the folder of ``path``; return them.
 
-    A temporary of ``path`` is ``.<stem>.em<pid>-<random><suffix>`` in its folder
-    (:func:`atomic_path`); it is stale when process ``<pid>`` no longer runs (it was killed
-    mid-write). Temporaries of the earlier naming (``.<stem>.<8 random><suffix>``) are stale
-    after :data:`STALE_SECONDS`. Files that cannot be removed are left (never an error).
+    A file is removed only when it is provably a temporary this program made
+    (:func:`is_our_temporary`: the name's tag checks with this user's key on this host), it is
+    a regular file owned by this user (not a link, not a folder), and the process named in it
+    no longer runs (it was killed mid-write). Everything else is left, whatever its name or
+    age. Files that cannot be removed are left (never an error).
     """
     dest = Path(path)
     folder = dest.parent if str(dest.parent) else Path(".")
-    suffix = dest.suffix or ".tmp"
-    ours = re.compile(rf"^\.{re.escape(dest.stem)}\.em(\d+)-[A-Za-z0-9_]+{re.escape(suffix)}$")
-    old = re.compile(rf"^\.{re.escape(dest.stem)}\.[A-Za-z0-9_]{{8}}{re.escape(suffix)}$")
-    removed = []
+    removed: list[Path] = []
     try:
-        entries = list(os.scandir(folder))
+        entries = [e for e in os.scandir(folder) if e.name.startswith(".") and ".em" in e.name]
     except OSError:
         return removed
-    now = time.time()
     for e in entries:
-        m = ours.match(e.name)
+        m = _TEMP_RE.fullmatch(e.name)
+        if m is None or not is_our_temporary(e.name) or _pid_alive(int(m.group("pid"))):
+            continue
         try:
-            if m is not None:
-                stale = not _pid_alive(int(m.group(1)))
-            elif old.match(e.name):
-                stale = now - e.stat(follow_symlinks=False).st_mtime > STALE_SECONDS
-            else:
-                continue
-            if stale and e.is_file(follow_symlinks=False):
+            st = e.stat(follow_symlinks=False)
+            if stat.S_ISREG(st.st_mode) and _owned(st):
                 os.unlink(e.path)
                 removed.append(Path(e.path))
         except OSError:
             continue
     return removed
+
+
+def _remove_stale_once(folder: Path) -> None:
+    """:func:`remove_stale_temporaries` for ``folder``, once per process (a folder of many
+    files, ``tiles/``, is not listed again at every write)."""
+    try:
+        st = os.stat(folder)
+    except OSError:
+        return
+    ident = (st.st_dev, st.st_ino)
+    if ident not in _cleaned_folders:
+        _cleaned_folders.add(ident)
+        remove_stale_temporaries(folder / "x")
 
 
 @contextlib.contextmanager
@@ -211,11 +394,8 @@ def atomic_path(
         If ``path`` names one of the ``protected`` files.
     """
     dest = check_not_input(path, protected)
-    folder = dest.parent if str(dest.parent) else Path(".")
-    remove_stale_temporaries(dest)
-    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(dest), suffix=dest.suffix or ".tmp", dir=folder)
-    os.close(fd)
-    tmp_path = Path(tmp)
+    _remove_stale_once(dest.parent if str(dest.parent) else Path("."))
+    tmp_path = _new_temporary(dest)
     try:
         yield tmp_path
         # mkstemp creates the file 0600; give it the mode a plain open() would have.

@@ -7,9 +7,13 @@ Blender error reports with the command's message."""
 from __future__ import annotations
 
 import json
+import os
+import re
 import shutil
+import stat
 import subprocess
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -232,6 +236,12 @@ try:
     select(a, b)
     out["distance"] = run(bpy.ops.elastic_motion.distance)
     out["distance_status"] = settings.last_status
+    prefs.keep_files = True  # each run keeps its files in a new private folder it names
+    out["kept"] = []
+    for _ in range(2):
+        select(a, b)
+        out["kept"].append([run(bpy.ops.elastic_motion.distance), settings.last_status])
+    prefs.keep_files = False
 
     a.animation_data.action = bpy.data.actions[old]
     select(a)
@@ -263,7 +273,7 @@ def blender_run(tmp_path_factory, request):
     zip_path = pack_addon(tmp / "addon.zip")
     script = tmp / "run_addon.py"
     script.write_text(SCRIPT)
-    env = {k: v for k, v in __import__("os").environ.items()}
+    env = dict(os.environ)
     env["BLENDER_USER_SCRIPTS"] = str(tmp / "user_scripts")  # the add-on installs here, not in ~
     env["BLENDER_USER_CONFIG"] = str(tmp / "user_config")
     proc = subprocess.run(
@@ -338,3 +348,21 @@ def test_addon_reports_the_cli_errors(blender_run):
     status, message = blender_run["bad_path"]
     assert status == ["ERROR"] and "/nonexistent/bin/elastic-motion" in message
     assert "Preferences > Add-ons > elastic-motion" in message  # where to set it
+
+
+@pytest.mark.mocap
+def test_addon_keeps_files_in_a_new_private_folder_it_names(blender_run):
+    """Keep files: never a fixed folder of the system's temporary folder (another user could
+    create it first, or link it elsewhere), but a new mkdtemp folder per run, named."""
+    folders = []
+    for result, status in blender_run["kept"]:
+        assert result == [["FINISHED"], ""], result
+        m = re.search(r" \(files kept in (.+)\)$", status)
+        assert m is not None, status
+        folders.append(Path(m.group(1)))
+    assert folders[0] != folders[1] and Path(tempfile.gettempdir()) / "elastic_motion" not in folders
+    for f in folders:
+        st = os.lstat(f)
+        assert stat.S_ISDIR(st.st_mode) and stat.S_IMODE(st.st_mode) == 0o700 and st.st_uid == os.getuid()
+        assert sorted(p.name for p in f.iterdir()) == ["A.bvh", "B.bvh"]
+        shutil.rmtree(f)

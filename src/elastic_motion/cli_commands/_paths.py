@@ -134,8 +134,8 @@ _INPUT_ATTRS = (
 _OUTPUT_ATTRS = {"output": "-o", "json": "--json", "preview": "--preview", "plot": "--plot"}
 #: Commands whose ``-o`` is a folder that must neither hold nor lie inside an input (a rerun
 #: reads the folder again), and other commands whose ``-o`` is a folder they manage themselves.
-_FOLDER_OUTPUTS = {"matrix"}
-_OWN_FOLDER_OUTPUTS = {"demo", "index", "pca"}
+_FOLDER_OUTPUTS = {"matrix", "index"}
+_OWN_FOLDER_OUTPUTS = {"demo", "pca"}
 
 
 def check_paths(args: argparse.Namespace) -> None:
@@ -143,8 +143,8 @@ def check_paths(args: argparse.Namespace) -> None:
 
     Every path the command writes (``-o``, ``--json PATH``, ``--preview``, ``--plot``) is
     checked against every path it reads (with the ``.asf`` beside an ``.amc``) and against
-    the other outputs (:func:`check_output`); a folder output (``matrix -o``) must neither
-    hold nor lie inside an input. Refusals are :class:`CommandError` (exit code 2).
+    the other outputs (:func:`check_output`); a folder output (``matrix -o``, ``index -o``)
+    must neither hold nor lie inside an input. Refusals are :class:`CommandError` (exit code 2).
     """
     command = getattr(args, "command", None)
     inputs: list[str] = []

@@ -147,10 +147,12 @@ def run_matrix(args: argparse.Namespace) -> int:
         bar.close()
     rep = res.summary()
     t = rep.get("timings", {})
+    run = (rep.get("runs") or [{}])[-1]
     lines = [
         f"{rep['n_motions']} motions -> {res.out_dir} ({'complete' if res.complete else 'INCOMPLETE'})",
         f"engine {rep['engine']} ({rep['workers']} workers); {rep['comparison']}",
         f"pairs computed this run: {t.get('pairs_computed')} in {t.get('tiles_seconds')} s",
+        *(f"not trusted: {n}" for n in [*run.get("tiles_rejected", []), run.get("cache_note")] if n),
         *(f"skipped {sk['path']}: {sk['reason']}" for sk in rep["skipped"]),
     ]
     emit(args, "matrix", rep, args.inputs, [res.out_dir], lines)

@@ -17,17 +17,18 @@ groups, per-motion info, group joints and weights, skipped files, settings).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, BinaryIO, Protocol
 
 import numpy as np
 
-from elastic_motion._io import atomic_write_bytes
+from elastic_motion._io import atomic_write_bytes, open_regular
 from elastic_motion.apps.database.preparation import (
     PreparedMotion,
     balanced_pose_weight,
@@ -106,8 +107,8 @@ class SRVCache:
     def __len__(self) -> int:
         return len(self.names)
 
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the cache atomically as an ``.npz`` file (arrays ``q_<repr>_<k>`` + JSON meta)."""
+    def to_bytes(self) -> bytes:
+        """The cache as the bytes of an ``.npz`` file (arrays ``q_<repr>_<k>`` + JSON meta)."""
         arrays = {f"q_{r}_{k}": a for r, lst in self.q.items() for k, a in enumerate(lst)}
         meta = {
             "format": FORMAT_VERSION,
@@ -125,30 +126,51 @@ class SRVCache:
         }
         buf = io.BytesIO()
         np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
-        atomic_write_bytes(Path(path), buf.getvalue())
+        return buf.getvalue()
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the cache atomically as an ``.npz`` file (:meth:`to_bytes`)."""
+        atomic_write_bytes(Path(path), self.to_bytes())
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> SRVCache:
+    def load(cls, path: str | os.PathLike[str] | BinaryIO) -> SRVCache:
         """Read a cache written by :meth:`save` (this release's format or format 1).
+
+        Only a regular file is opened (:func:`elastic_motion._io.open_regular`: a FIFO is
+        refused, never waited on), no pickle is read, and every SRV array is checked: float64,
+        ``(n_samples, D)`` with one ``D`` per skeleton group, finite.
+
+        Parameters
+        ----------
+        path : path or binary file
+            The ``.npz`` file, or the file already opened (e.g. by
+            :func:`~elastic_motion.apps.database.verified.open_verified`).
 
         Raises
         ------
         OptionError
-            A cache of an unknown format (written by a newer release).
+            A cache of an unknown format (written by a newer release), or damaged.
+        ParseError
+            ``path`` is not a regular file.
         """
-        with np.load(path, allow_pickle=False) as z:
+        name = str(getattr(path, "name", "srv_cache.npz")) if hasattr(path, "read") else os.fspath(path)
+        with contextlib.ExitStack() as stack:
+            fh = path if hasattr(path, "read") else stack.enter_context(open_regular(path))
+            z = stack.enter_context(np.load(fh, allow_pickle=False))
             meta = json.loads(str(z["meta"]))
             fmt = meta.get("format")
             if fmt not in READABLE_FORMATS:
                 raise OptionError(
                     "srv_cache",
-                    f"{os.fspath(path)}: expected a cache of format {list(READABLE_FORMATS)}; got format "
+                    f"{name}: expected a cache of format {list(READABLE_FORMATS)}; got format "
                     f"{fmt!r} (written by another release: delete the folder's files or recompute with "
                     "overwrite=True / --overwrite)",
                 )
             settings = DatabaseSettings.from_json(meta["settings"])
             n = len(meta["names"])
             q = {r: [z[f"q_{r}_{k}"] for k in range(n)] for r in settings.representations}
+        groups = np.asarray(meta["groups"], dtype=np.int64)
+        _check_arrays(name, q, groups, len(meta["group_joints"]), settings)
         pose_weights = {r: [float(x) for x in v] for r, v in meta.get("pose_weights", {}).items()}
         n_groups = len(meta["group_joints"])
         if settings.pose_weight and any(
@@ -156,7 +178,7 @@ class SRVCache:
         ):
             raise OptionError(
                 "srv_cache",
-                f"{os.fspath(path)}: expected one pose weight per representation "
+                f"{name}: expected one pose weight per representation "
                 f"{list(settings.representations)} and skeleton group ({n_groups}) for pose_weight="
                 f"{settings.pose_weight!r}; got {pose_weights} (a damaged cache: recompute with "
                 "overwrite=True / --overwrite)",
@@ -164,7 +186,7 @@ class SRVCache:
         return cls(
             names=meta["names"],
             paths=meta["paths"],
-            groups=np.asarray(meta["groups"], dtype=np.int64),
+            groups=groups,
             q=q,
             info=meta["info"],
             group_joints=meta["group_joints"],
@@ -192,6 +214,35 @@ class SRVCache:
             np.asarray(r["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
         )
         return sk, r["name"]
+
+
+def _check_arrays(
+    name: str, q: dict[str, list[np.ndarray]], groups: np.ndarray, n_groups: int, settings: DatabaseSettings
+) -> None:
+    """``OptionError`` unless every SRV array of a loaded cache is what :func:`build_srv_cache`
+    makes: float64, ``(n_samples, D)`` with one ``D`` per representation and group, finite."""
+    n = len(groups)
+    problem = None
+    if n and not (groups.ndim == 1 and 0 <= groups.min() and groups.max() < n_groups):
+        problem = f"group ids {groups.tolist()[:10]} for {n_groups} groups"
+    for r, arrays in q.items():
+        if len(arrays) != n and problem is None:
+            problem = f"{len(arrays)} motions and {n} group ids"
+        dims: dict[int, int] = {}
+        for k, a in enumerate(arrays):
+            if problem is not None:
+                break
+            d = dims.setdefault(int(groups[k]), a.shape[-1] if a.ndim == 2 else -1)
+            if a.dtype != np.float64 or a.shape != (settings.n_samples, d):
+                problem = f"q_{r}_{k} is {a.shape} {a.dtype}, expected ({settings.n_samples}, {d}) float64"
+            elif not np.isfinite(a).all():
+                problem = f"q_{r}_{k} holds NaN or infinite values"
+    if problem is not None:
+        raise OptionError(
+            "srv_cache",
+            f"{name}: expected the SRV arrays of a cache; got {problem} (a damaged cache: recompute "
+            "with overwrite=True / --overwrite)",
+        )
 
 
 def _rest_json(sk: Skeleton, name: str) -> dict[str, Any]:

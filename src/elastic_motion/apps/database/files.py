@@ -1,13 +1,16 @@
-"""Finding the motion files of a database: files and folders in, motion files out."""
+"""Finding the motion files of a database: files and folders in, motion files out; and the
+check that an output folder (a matrix run's, an index's) stays clear of them."""
 
 from __future__ import annotations
 
 import os
 import stat
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
-__all__ = ["MOTION_EXTENSIONS", "find_motion_files"]
+from elastic_motion.errors import OptionError
+
+__all__ = ["MOTION_EXTENSIONS", "check_output_folder", "find_motion_files"]
 
 #: File extensions collected from a folder (``.txt`` / ``.json`` only when they look like a
 #: DeepMimic clip, i.e. start with ``{``).
@@ -96,3 +99,49 @@ def find_motion_files(
             else:
                 files.append(c)
     return files, ignored
+
+
+def check_output_folder(
+    out: Path,
+    inputs: Sequence[str | os.PathLike[str]],
+    files: Sequence[Path],
+    own_names: Collection[str],
+    argument: str,
+) -> None:
+    """Refuse an output folder that would overwrite an input, that holds or lies inside an input
+    folder (a rerun, or a recursive search, would read its own files), or that is a file.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder (need not exist).
+    inputs : sequence of paths
+        Files and folders as given.
+    files : sequence of Path
+        The motion files found in them (:func:`find_motion_files`, absolute).
+    own_names : collection of str
+        Names of the files the command writes at the top of ``out``.
+    argument : str
+        The argument named in the error (``"out_dir"``, ``"out"``).
+
+    Raises
+    ------
+    OptionError
+    """
+    o = out.resolve()
+    if any(o == f or (o in f.parents and f.name in own_names) for f in files):
+        raise OptionError(
+            argument,
+            f"expected a folder that holds no input; got {os.fspath(out)!r}, which would overwrite one",
+        )
+    for item in inputs:
+        if Path(item).is_dir():
+            folder = Path(item).resolve()
+            if o == folder or folder in o.parents or o in folder.parents:
+                raise OptionError(
+                    argument,
+                    f"expected a folder that neither holds nor lies inside an input folder; got "
+                    f"{os.fspath(out)!r} and the input folder {os.fspath(item)!r}",
+                )
+    if out.exists() and not out.is_dir():
+        raise OptionError(argument, f"expected a folder; got the file {os.fspath(out)!r}")

@@ -32,11 +32,11 @@ from typing import Any
 import numpy as np
 
 from elastic_motion import __version__
-from elastic_motion._io import atomic_write_bytes
+from elastic_motion._io import atomic_write_bytes, open_regular, read_text, remove_stale_temporaries
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.bounds import part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
-from elastic_motion.apps.database.files import find_motion_files
+from elastic_motion.apps.database.files import check_output_folder, find_motion_files
 from elastic_motion.apps.database.settings import DatabaseSettings
 from elastic_motion.apps.progress import Progress
 from elastic_motion.errors import OptionError
@@ -128,14 +128,16 @@ def build_index(
     Raises
     ------
     OptionError
-        ``out`` holding an index (without ``overwrite``) or any other file; no readable motion.
+        ``out`` holding an index (without ``overwrite``) or any other file, holding or lying
+        inside an input folder, or being an input or a file; no readable motion.
     """
     settings = settings or DatabaseSettings()
     dest = Path(out)
+    own = {INDEX_JSON, CACHE} | {f"norms_{r.key}.npy" for r in storage.REPRESENTATIONS}
+    files, ignored = find_motion_files(inputs, recursive=recursive)
+    check_output_folder(dest, inputs, files, own, "out")
     if dest.exists():
-        if not dest.is_dir():
-            raise OptionError("out", f"expected a folder for the index; got the file {os.fspath(dest)!r}")
-        own = {INDEX_JSON, CACHE} | {f"norms_{r.key}.npy" for r in storage.REPRESENTATIONS}
+        remove_stale_temporaries(dest / CACHE)  # those a killed build left (a live one's stay: refused)
         other = [p.name for p in dest.iterdir() if p.name not in own]
         if other:
             raise OptionError(
@@ -148,7 +150,6 @@ def build_index(
                 "(pass overwrite=True / --overwrite "
                 "to rebuild it)",
             )
-    files, ignored = find_motion_files(inputs, recursive=recursive)
     cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
     if len(cache) == 0:
         raise OptionError(
@@ -197,7 +198,7 @@ def load_index(path: str | os.PathLike[str]) -> MotionIndex:
     dest = Path(path)
     if not is_index(dest):
         raise OptionError("index", f"expected an index folder (with {INDEX_JSON}); got {os.fspath(dest)!r}")
-    meta = json.loads((dest / INDEX_JSON).read_text())
+    meta = json.loads(read_text(dest / INDEX_JSON))
     fmt, lib = meta.get("index_format"), meta.get("library")
     if fmt != INDEX_FORMAT or lib != _library_version():
         inputs = " ".join(meta.get("inputs") or ["DIR"])
@@ -212,6 +213,7 @@ def load_index(path: str | os.PathLike[str]) -> MotionIndex:
     for r in cache.settings.representations:
         f = dest / f"norms_{r}.npy"
         if f.exists():
-            memo[r] = np.load(f)
+            with open_regular(f) as fh:  # never a FIFO (it would block)
+                memo[r] = np.load(fh, allow_pickle=False)
     cache._norms = memo  # type: ignore[attr-defined]
     return MotionIndex(dest, cache, meta)

@@ -6,10 +6,16 @@ an engine (:mod:`.engines`) and writes each finished tile, the matrices and the 
 into the output folder (:mod:`.storage`).
 
 Resume: the identity of a run is its settings and its input files (``manifest.json``). A
-folder holding a run with the same identity is resumed: every tile file on disk is kept
-(never recomputed) and the matrices are rebuilt from them, so an interruption at any point
-loses at most the tiles in flight and duplicates none. A run of format 1 (settings with
-``"pair"``) is read as the same settings (:mod:`.settings`) and resumed alike.
+folder holding a run with the same identity is resumed: every tile on disk that proves to be
+the run's own (its record beside it, a regular file of the record's size, SHA-256, shape and
+dtype, values of a tile: :mod:`.verified`, :func:`.tiles.tile_problem`) is kept, never
+recomputed, and the matrices are rebuilt from them, so an interruption at any point loses at
+most the tiles in flight and duplicates none. Nothing there is trusted: a tile of another
+shape, dtype or content, NaN, negative, empty, a FIFO, a link or a folder in its place, or
+without its record, is computed again, and the run's entry in the manifest and the report
+says which and why (``tiles_rejected``); the SRV cache likewise (``cache_note``). A run of
+format 1 (settings with ``"pair"``) is read as the same settings (:mod:`.settings`) and
+resumed alike (tiles written before records existed are computed again).
 
 Numerical code here prints nothing; progress goes to an optional ``progress(stage, done,
 total)`` callback.
@@ -20,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import os
 import platform
+import stat
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -29,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion._options import with_overrides
-from elastic_motion.apps.database import storage
+from elastic_motion.apps.database import storage, verified
 from elastic_motion.apps.database.cache import FilesNotSeenError, SRVCache, build_srv_cache
 from elastic_motion.apps.database.engines import (
     ENGINES,
@@ -40,7 +47,7 @@ from elastic_motion.apps.database.engines import (
     open_engine,
     order_tiles,
 )
-from elastic_motion.apps.database.files import find_motion_files
+from elastic_motion.apps.database.files import check_output_folder, find_motion_files
 from elastic_motion.apps.database.settings import (
     FORMAT_VERSION,
     READABLE_FORMATS,
@@ -53,6 +60,7 @@ from elastic_motion.apps.database.tiles import (
     block,
     cluster_worth_it,
     tile_blocks,
+    tile_problem,
 )
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
@@ -227,7 +235,7 @@ def compute_matrix(
     settings = settings or DatabaseSettings()
     out = Path(out_dir)
     files, ignored = find_motion_files(inputs, recursive=opts.recursive)
-    _check_output_folder(out, inputs, files)
+    check_output_folder(out, inputs, files, storage.our_names(), "out_dir")
     ident = _identity(settings, files)
     _check_resumable(out, ident, opts.overwrite)
     # connect before writing anything: an unreachable scheduler leaves no output behind
@@ -239,29 +247,6 @@ def compute_matrix(
         return _run(out, files, ignored, settings, ident, eng, progress)
     finally:
         eng.close()
-
-
-def _check_output_folder(out: Path, inputs: Sequence[str | os.PathLike[str]], files: list[Path]) -> None:
-    """Refuse an output folder that would overwrite an input, or that holds or lies inside an
-    input folder (a rerun would read its own files), or that is a file."""
-    names = storage.our_names()
-    if any(out.resolve() == f or (out.resolve() in f.parents and f.name in names) for f in files):
-        raise OptionError(
-            "out_dir",
-            f"expected a folder that holds no input; got {os.fspath(out)!r}, which would overwrite one",
-        )
-    for item in inputs:
-        if Path(item).is_dir():
-            folder = Path(item).resolve()
-            o = out.resolve()
-            if o == folder or folder in o.parents or o in folder.parents:
-                raise OptionError(
-                    "out_dir",
-                    f"expected a folder that neither holds nor lies inside an input folder; got "
-                    f"{os.fspath(out)!r} and the input folder {os.fspath(item)!r}",
-                )
-    if out.exists() and not out.is_dir():
-        raise OptionError("out_dir", f"expected a folder; got the file {os.fspath(out)!r}")
 
 
 def _check_resumable(out: Path, ident: dict[str, Any], overwrite: bool) -> None:
@@ -315,10 +300,9 @@ def _load_or_build_cache(
     """The run's SRV cache (reused when resuming) and where it came from (for the report:
     ``cache_reused``, ``read_where``, ``read_note``, ``read_tasks_by_worker``)."""
     cache_path = out / storage.CACHE
-    cache = None
-    if resuming and cache_path.exists():
-        with contextlib.suppress(Exception):  # unreadable: rebuilt below (same inputs, same numbers)
-            cache = SRVCache.load(cache_path)
+    cache, cache_note = None, None
+    if resuming and os.path.lexists(cache_path):
+        cache, cache_note = _reused_cache(cache_path, settings, files)
     if cache is not None:
         return cache, {"cache_reused": True, "read_where": None}
     # a Dask engine whose workers see the files reads, prepares and computes the SRV there
@@ -337,11 +321,30 @@ def _load_or_build_cache(
             + ")",
         )
     out.mkdir(parents=True, exist_ok=True)
-    cache.save(cache_path)
+    verified.write_verified(cache_path, cache.to_bytes())
     info: dict[str, Any] = {"cache_reused": False, "read_where": where, "read_note": note}
+    if cache_note is not None:
+        info["cache_note"] = cache_note
     if where == "workers":
         info["read_tasks_by_worker"] = dict(getattr(stages, "tasks_by_worker", {}))
     return cache, info
+
+
+def _reused_cache(
+    cache_path: Path, settings: DatabaseSettings, files: list[Path]
+) -> tuple[SRVCache | None, str | None]:
+    """The SRV cache a resumed run left, if it proves to be its own (its record, a regular file
+    of the record's size and SHA-256, arrays :meth:`SRVCache.load` accepts, this run's settings
+    and inputs); else None and the note saying why it is built again (same inputs, same numbers)."""
+    try:
+        with verified.open_verified(cache_path) as fh:
+            cache = SRVCache.load(fh)
+    except Exception as exc:  # whatever it holds: built again, never trusted
+        return None, f"{exc} (built again)"
+    read = sorted([*cache.paths, *(s.get("path") for s in cache.skipped)])
+    if cache.settings.to_json() != settings.to_json() or read != sorted(os.fspath(f) for f in files):
+        return None, f"{storage.CACHE}: the SRV cache of other settings or inputs (built again)"
+    return cache, None
 
 
 def _run(
@@ -365,12 +368,12 @@ def _run(
     t_read = time.perf_counter() - t_read
     (out / storage.TILES).mkdir(parents=True, exist_ok=True)
     storage.write_names(out, cache)
-    run = _TileRun.start(out, manifest, ident, len(cache), settings, eng, started)
+    run = _TileRun.start(out, manifest, ident, cache.groups, settings, eng, started)
     report = _report(cache, settings, eng, files, complete=False)
     report["runs"] = run.manifest["runs"]
     storage.write_json(out / storage.REPORT, report)
 
-    mats = run.open_matrices()  # rebuilt from the tiles on disk
+    mats = run.mats  # rebuilt from the tiles on disk that proved to be the run's
     todo = run.todo()
     if progress is not None:
         progress("tiles", run.total - len(todo), run.total)
@@ -404,6 +407,7 @@ def _run(
     }
     storage.write_json(out / storage.REPORT, report)
     del mats
+    run.mats = {}
     dists = {r: np.load(out / storage.matrix_name(r), mmap_mode="r") for r in settings.representations}
     return MatrixResult(out, cache.names, dists, report)
 
@@ -411,19 +415,22 @@ def _run(
 @dataclass(eq=False)
 class _TileRun:
     """The tiles of one run in ``out``: its ``manifest`` (the tiles done, by key, and the runs;
-    written back as tiles finish) and this run's entry ``info`` in it.
+    written back as tiles finish), this run's entry ``info`` in it, and the matrices ``mats``.
 
-    Tile files are the ground truth (module docstring): :meth:`start` adopts every tile file on
-    disk, also those finished after the last manifest write, and forgets tiles listed whose
-    file is gone (they are computed again).
+    Nothing on disk is trusted (module docstring): :meth:`start` places every tile that proves
+    to be the run's own -- its record there, the file a regular one of the record's size and
+    SHA-256, shape and dtype, and values :func:`~elastic_motion.apps.database.tiles.tile_problem`
+    accepts (:mod:`~elastic_motion.apps.database.verified`) -- also those finished after the last
+    manifest write, and computes the others again, noting why in ``info["tiles_rejected"]``.
     """
 
     out: Path
     manifest: dict[str, Any]
     info: dict[str, Any]
     settings: DatabaseSettings
-    m: int
+    groups: np.ndarray
     blocks: list[tuple[int, int]]
+    mats: dict[str, np.ndarray]
 
     @classmethod
     def start(
@@ -431,44 +438,39 @@ class _TileRun:
         out: Path,
         manifest: dict[str, Any] | None,
         ident: dict[str, Any],
-        m: int,
+        groups: np.ndarray,
         settings: DatabaseSettings,
         eng: Engine,
         started: float,
     ) -> _TileRun:
-        """This run's entry in the manifest (new or resumed, with the tiles on disk adopted),
-        written."""
-        ts = settings.tile_size
+        """This run's entry in the manifest (new or resumed) and the matrices with the tiles on
+        disk verified and placed; the manifest written."""
+        ts, m = settings.tile_size, len(groups)
         if manifest is None:
             manifest = {"n_motions": m, "tile_size": ts, "n_blocks": -(-m // ts), "tiles": {}, "runs": []}
+        for k, kind in (("tiles", dict), ("runs", list)):  # bookkeeping only: the tiles prove themselves
+            if not isinstance(manifest.get(k), kind):
+                manifest[k] = kind()
         manifest["identity"] = ident  # a format-1 run resumed is written in this release's form
-        run_id = len(manifest["runs"]) + 1
-        tiles_dir = out / storage.TILES
-        on_disk = {f.name for f in tiles_dir.iterdir() if storage.TILE_RE.match(f.name)}
-        recovered = 0
-        for name in sorted(on_disk):
-            key = name[:-4]
-            if key not in manifest["tiles"]:
-                manifest["tiles"][key] = {"run": run_id, "recovered": True}
-                recovered += 1
-        for key in list(manifest["tiles"]):
-            if key + ".npy" not in on_disk:  # listed but file gone: recompute
-                del manifest["tiles"][key]
         info: dict[str, Any] = {
-            "run": run_id,
+            "run": len(manifest["runs"]) + 1,
             "engine": eng.name,
             "engine_note": getattr(eng, "note", None),
             "workers": eng.n_workers,
             "scheduler": getattr(eng, "scheduler", None),
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
-            "tiles_before": len(manifest["tiles"]),
-            "tiles_recovered": recovered,
-            "tiles_computed": 0,
-            "pairs_computed": 0,
         }
+        run = cls(out, manifest, info, settings, groups, tile_blocks(m, ts), {})
+        run.mats = run._open_matrices()
+        recovered, rejected = run._adopt()
+        info["tiles_before"] = len(manifest["tiles"])
+        info["tiles_recovered"] = recovered
+        info["tiles_rejected"] = rejected
+        info["tiles_computed"] = 0
+        info["pairs_computed"] = 0
         manifest["runs"].append(info)
         storage.write_json(out / storage.MANIFEST, manifest)
-        return cls(out, manifest, info, settings, m, tile_blocks(m, ts))
+        return run
 
     @property
     def total(self) -> int:
@@ -477,22 +479,52 @@ class _TileRun:
 
     def block(self, i: int) -> np.ndarray:
         """Motion indices of block ``i``."""
-        return block(i, self.settings.tile_size, self.m)
+        return block(i, self.settings.tile_size, len(self.groups))
 
-    def open_matrices(self) -> dict[str, np.ndarray]:
-        """The matrix files, memory-mapped: NaN, then every tile on disk placed."""
+    def tile_path(self, key: str) -> Path:
+        """``tiles/<key>.npy``."""
+        return self.out / storage.TILES / (key + ".npy")
+
+    def _open_matrices(self) -> dict[str, np.ndarray]:
+        """The matrix files, new and memory-mapped, all NaN (a link, FIFO or hard link found at
+        their name is replaced, never written through)."""
         mats = {}
+        m = len(self.groups)
         for r in self.settings.representations:
-            mm = np.lib.format.open_memmap(
-                self.out / storage.matrix_name(r), mode="w+", dtype=np.float64, shape=(self.m, self.m)
-            )
+            path = self.out / storage.matrix_name(r)
+            with contextlib.suppress(FileNotFoundError):
+                if not stat.S_ISDIR(os.lstat(path).st_mode):
+                    path.unlink()
+            mm = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=(m, m))
             mm[:] = np.nan
             mats[r] = mm
-        for key in self.manifest["tiles"]:
-            r, bi, bj = storage.parse_tile_key(key)
-            tile = np.load(self.out / storage.TILES / (key + ".npy"))
-            _place(mats[r], tile, self.block(bi), self.block(bj))
         return mats
+
+    def _adopt(self) -> tuple[int, list[str]]:
+        """Place every tile that proves to be the run's own, list it in the manifest (those not
+        listed yet as recovered) and forget the others; (tiles recovered, notes on the others)."""
+        listed = self.manifest["tiles"]
+        kept: dict[str, Any] = {}
+        recovered, rejected = 0, []
+        for r in self.settings.representations:
+            for bi, bj in self.blocks:
+                key = storage.tile_key(r, bi, bj)
+                rows, cols = self.block(bi), self.block(bj)
+                try:
+                    tile = verified.load_array(self.tile_path(key), (len(rows), len(cols)), tile=key)
+                    problem = tile_problem(tile, rows, cols, self.groups[rows], self.groups[cols])
+                    if problem is not None:
+                        raise verified.NotVerified(f"{key}.npy: {problem}")
+                except verified.NotVerified as exc:
+                    if not exc.missing:
+                        rejected.append(f"{storage.TILES}/{exc}: computed again")
+                    rejected += [f"{storage.TILES}/{n}" for n in verified.make_room(self.tile_path(key))]
+                    continue
+                _place(self.mats[r], tile, rows, cols)
+                recovered += key not in listed
+                kept[key] = listed.get(key) or {"run": self.info["run"], "recovered": True}
+        self.manifest["tiles"] = kept
+        return recovered, rejected
 
     def todo(self) -> list[Task]:
         """The tiles not on disk, by representation then block."""
@@ -544,7 +576,7 @@ class _TileRun:
         last_manifest = time.monotonic()
         manifest_path = self.out / storage.MANIFEST
         for task, res, secs in eng.run(todo, args_of):
-            storage.save_npy(self.out / storage.TILES / (task.key + ".npy"), res)
+            verified.save_array(self.tile_path(task.key), res, tile=task.key)
             _place(mats[task.rep], res, task.rows, task.cols)
             n_pairs = _pairs_in(task.rows, task.cols, groups)
             self.manifest["tiles"][task.key] = {

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from elastic_motion._io import open_regular
 from elastic_motion.apps.database import storage
 from elastic_motion.apps.database.matrix import MatrixResult
 from elastic_motion.errors import OptionError
@@ -102,7 +103,8 @@ def load_matrix(
             "the same matrix command first)",
         )
     rows = storage.read_names(out)
-    d = np.load(path)
+    with open_regular(path) as fh:  # never a FIFO (it would block)
+        d = np.load(fh, allow_pickle=False)
     return DistanceMatrix(
         distances=d,
         names=[r["name"] for r in rows],

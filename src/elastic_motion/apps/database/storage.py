@@ -6,13 +6,18 @@ Layout (every write atomic: temporary file + ``os.replace``)::
     distances_lie.npy      (M, M) float64, NaN = not computed yet (np.load(..., mmap_mode="r"))
     distances_euler.npy
     tiles/<repr>_<I>_<J>.npy   one finished tile (rows of block I x columns of block J)
+    tiles/<repr>_<I>_<J>.json  its record: file, bytes, SHA-256, shape, dtype, tile key
     srv_cache.npz          SRV arrays q_<repr>_<k> (n_samples, D), group ids, settings
+    srv_cache.json         its record
     manifest.json          settings + inputs (the identity of the run), tiles done, runs
     report.json            inputs, skipped files with reasons, skeleton groups, engine,
                            timings, "complete": true/false
 
-Tile files are the ground truth of a run: on resume every tile file already on disk is
-kept and the matrices are rebuilt from them.
+Tile files with their records are the ground truth of a run, and nothing on disk is trusted:
+on resume a tile is kept only if it proves to be the run's own
+(:mod:`~elastic_motion.apps.database.verified`, and its values by
+:func:`~elastic_motion.apps.database.tiles.tile_problem`); any other is computed again, and
+the run's entry in the manifest and report notes why (``tiles_rejected``).
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from elastic_motion._io import atomic_write_bytes
+from elastic_motion._io import atomic_write_bytes, is_our_temporary, read_text
 from elastic_motion.apps.report import jsonable
 from elastic_motion.motion.representations import EULER, LIE
 
@@ -35,6 +40,8 @@ if TYPE_CHECKING:
     from elastic_motion.apps.database.cache import SRVCache
 
 CACHE = "srv_cache.npz"
+#: The record of the cache (:func:`~elastic_motion.apps.database.verified.record_path`).
+CACHE_RECORD = "srv_cache.json"
 MANIFEST = "manifest.json"
 REPORT = "report.json"
 NAMES = "names.csv"
@@ -43,6 +50,8 @@ TILES = "tiles"
 #: tiles ``<key>_<I>_<J>.npy``).
 REPRESENTATIONS = (LIE, EULER)
 TILE_RE = re.compile(rf"^({'|'.join(r.key for r in REPRESENTATIONS)})_(\d+)_(\d+)\.npy$")
+#: A tile's record (``<repr>_<I>_<J>.json``).
+TILE_RECORD_RE = re.compile(rf"^({'|'.join(r.key for r in REPRESENTATIONS)})_(\d+)_(\d+)\.json$")
 
 
 def matrix_name(representation: str) -> str:
@@ -63,7 +72,7 @@ def parse_tile_key(key: str) -> tuple[str, int, int]:
 
 def our_names() -> set[str]:
     """Names of the files a run writes at the top of its folder."""
-    return {MANIFEST, REPORT, NAMES, CACHE, *[matrix_name(r.key) for r in REPRESENTATIONS]}
+    return {MANIFEST, REPORT, NAMES, CACHE, CACHE_RECORD, *[matrix_name(r.key) for r in REPRESENTATIONS]}
 
 
 def write_json(dest: Path, obj: Any) -> None:
@@ -72,8 +81,8 @@ def write_json(dest: Path, obj: Any) -> None:
 
 
 def read_json(path: Path) -> Any:
-    """The JSON content of ``path``."""
-    return json.loads(path.read_text())
+    """The JSON content of ``path`` (a regular file only: :func:`elastic_motion._io.read_text`)."""
+    return json.loads(read_text(path))
 
 
 def save_npy(dest: Path, arr: np.ndarray) -> None:
@@ -107,7 +116,8 @@ def clean_outputs(out: Path) -> None:
     tiles = out / TILES
     if tiles.is_dir():
         for f in tiles.iterdir():
-            if TILE_RE.match(f.name) or f.name.endswith(".tmp"):
+            ours = TILE_RE.match(f.name) or TILE_RECORD_RE.match(f.name) or is_our_temporary(f.name)
+            if ours and not f.is_dir():
                 f.unlink()
         with contextlib.suppress(OSError):
             tiles.rmdir()

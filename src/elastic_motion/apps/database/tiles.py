@@ -32,6 +32,7 @@ __all__ = [
     "pair_distances",
     "single_threaded_blas",
     "tile_blocks",
+    "tile_problem",
 ]
 
 
@@ -200,6 +201,45 @@ def compute_tile(
         with single_threaded_blas():
             out[todo[:, 0], todo[:, 1]] = pair_distances(q_rows, q_cols, todo, warp, cyclic=cyclic)
     return out
+
+
+def tile_problem(
+    tile: np.ndarray, rows: np.ndarray, cols: np.ndarray, g_rows: np.ndarray, g_cols: np.ndarray
+) -> str | None:
+    """Why ``tile`` cannot be what :func:`compute_tile` gives for ``rows`` x ``cols``; None if it can.
+
+    Checks the layout of :func:`compute_tile` on the entries a matrix takes from a tile
+    (``rows[r] <= cols[c]``): shape ``(a, b)`` float64, 0 on the diagonal, ``+inf`` across
+    groups, finite and non-negative within a group. (A finite wrong value is for the tile's
+    checksum to catch, :mod:`~elastic_motion.apps.database.verified`.)
+
+    Parameters
+    ----------
+    tile : ndarray, shape (a, b)
+    rows, cols, g_rows, g_cols : ndarray of int, shapes (a,), (b,), (a,), (b,)
+        As for :func:`compute_tile`.
+
+    Returns
+    -------
+    str or None
+    """
+    if tile.shape != (len(rows), len(cols)) or tile.dtype != np.float64:
+        return f"expected a ({len(rows)}, {len(cols)}) float64 tile; got {tile.shape} {tile.dtype}"
+    rows = np.asarray(rows)[:, None]
+    cols = np.asarray(cols)[None, :]
+    same = np.asarray(g_rows)[:, None] == np.asarray(g_cols)[None, :]
+    within = tile[(rows < cols) & same]
+    checks = [
+        (tile[rows == cols], lambda v: v == 0.0, "on the diagonal not 0"),
+        (within, np.isfinite, "distances not finite (NaN or infinite)"),
+        (within, lambda v: ~(v < 0.0), "negative distances"),
+        (tile[(rows < cols) & ~same], np.isposinf, "distances across skeleton groups not +inf"),
+    ]
+    for values, ok, what in checks:
+        bad = int(np.count_nonzero(~ok(values)))
+        if bad:
+            return f"{bad} {what}"
+    return None
 
 
 def distance_matrix(

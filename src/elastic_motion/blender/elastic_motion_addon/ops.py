@@ -44,7 +44,8 @@ class EMPreferences(bpy.types.AddonPreferences):
     )
     keep_files: BoolProperty(
         name="Keep files",
-        description="Keep the exported and written BVH files and the reports",
+        description="Keep the exported and written BVH files and the reports, in a new private "
+        "folder of the system's temporary folder for each run (named in the run's status)",
         default=False,
     )
 
@@ -263,16 +264,25 @@ class _Run:
     """Shared body of the operators: temp folder, the run, errors as reports."""
 
     def _work_dir(self, context):
-        prefs = _prefs(context)
-        if prefs.keep_files:
-            d = os.path.join(bpy.app.tempdir or tempfile.gettempdir(), "elastic_motion")
-            os.makedirs(d, exist_ok=True)
-            return d, False
-        return tempfile.mkdtemp(prefix="elastic_motion_"), True
+        """A new folder for this run's files and whether it is removed after the run.
 
-    def _fail(self, context, message):
-        context.scene.elastic_motion.last_status = "error: " + message
-        self.report({"ERROR"}, "elastic-motion: " + message)
+        Always a fresh ``mkdtemp`` (mode 0700, unpredictable name, created by this run, so no
+        other user can read it, plant a link in it or swap it), also when the preferences keep
+        the files: each run then keeps its own folder, named in the report (:meth:`_kept`).
+        """
+        keep = _prefs(context).keep_files
+        return tempfile.mkdtemp(prefix="elastic_motion_kept_" if keep else "elastic_motion_"), not keep
+
+    def _kept(self, work, temporary):
+        """Tell where the files are when they are kept; the note for the status line."""
+        if temporary:
+            return ""
+        self.report({"INFO"}, f"elastic-motion: files kept in {work}")
+        return f" (files kept in {work})"
+
+    def _fail(self, context, message, note=""):
+        context.scene.elastic_motion.last_status = "error: " + message + note
+        self.report({"ERROR"}, "elastic-motion: " + message + note)
         return {"CANCELLED"}
 
     def _run_and_import(self, context, command, build, target, action_name):
@@ -287,18 +297,18 @@ class _Run:
             args, warnings, out, rep = build(work, runner.command_help(prefs.executable, command))
             res = runner.run_cli(prefs.executable, args, report_path=rep, timeout=prefs.timeout)
             if not res.ok:
-                return self._fail(context, res.message)
+                return self._fail(context, res.message, self._kept(work, temporary))
             _, _, msg = _import_action(context, target, out, action_name)
         except runner.CliNotFound as exc:
-            return self._fail(context, str(exc))
+            return self._fail(context, str(exc), self._kept(work, temporary))
         except RuntimeError as exc:
-            return self._fail(context, str(exc))
+            return self._fail(context, str(exc), self._kept(work, temporary))
         finally:
             if temporary:
                 shutil.rmtree(work, ignore_errors=True)
         for w in warnings:
             self.report({"WARNING"}, w)
-        _show_report(context, res.report, msg)
+        _show_report(context, res.report, msg + self._kept(work, temporary))
         self.report({"INFO"}, msg)
         return {"FINISHED"}
 
@@ -389,16 +399,17 @@ class EM_OT_distance(bpy.types.Operator, _Run):
                 prefs.executable, runner.distance_args(a, b, warp=s.warp), timeout=prefs.timeout
             )
             if not res.ok:
-                return self._fail(context, res.message)
+                return self._fail(context, res.message, self._kept(work, temporary))
         except runner.CliNotFound as exc:
-            return self._fail(context, str(exc))
+            return self._fail(context, str(exc), self._kept(work, temporary))
         except RuntimeError as exc:
-            return self._fail(context, str(exc))
+            return self._fail(context, str(exc), self._kept(work, temporary))
         finally:
             if temporary:
                 shutil.rmtree(work, ignore_errors=True)
         lines = runner.report_lines(res.report)
-        _show_report(context, res.report, lines[0] if lines else "distance computed")
+        status = (lines[0] if lines else "distance computed") + self._kept(work, temporary)
+        _show_report(context, res.report, status)
         self.report({"INFO"}, lines[0] if lines else "distance computed")
         return {"FINISHED"}
 
