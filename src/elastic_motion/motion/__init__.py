@@ -17,7 +17,7 @@ from pathlib import Path
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.asfamc import read_amc, read_asf, read_asf_amc
 from elastic_motion.motion.axes import UpAxisEstimate, detect_up_axis, is_lying_down, up_axis_warning
-from elastic_motion.motion.bvh import guess_units, read_bvh, write_bvh
+from elastic_motion.motion.bvh import guess_units, read_bvh, rotation_channel_fit, write_bvh
 from elastic_motion.motion.deepmimic import deepmimic_skeleton, read_deepmimic, read_urdf_skeleton
 from elastic_motion.motion.edit import (
     align_heading,
@@ -108,6 +108,7 @@ __all__ = [
     "representation",
     "resample",
     "resample_at_times",
+    "rotation_channel_fit",
     "select_frames",
     "select_joints",
     "set_up_axis",
