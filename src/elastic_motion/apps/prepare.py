@@ -875,7 +875,9 @@ def _check_units_known(reports: list[MotionPreparation], names: list[str]) -> No
     if any(known) and not all(known):
         unknown = [lab for lab, kn in zip(names, known, strict=True) if not kn]
         raise OptionError(
-            "units", f"expected the length unit of every input; unknown for {unknown} (give units=...)"
+            "units",
+            f"expected the length unit of every input; unknown for {unknown} (give it: --units on the "
+            "command line, units= in Python)",
         )
 
 

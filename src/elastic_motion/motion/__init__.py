@@ -141,7 +141,7 @@ def find_asf(amc_path: str | os.PathLike[str]) -> Path:
     try:
         candidates = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".asf" and p.is_file())
     except OSError as exc:
-        raise ValueError(f"asf: cannot list {str(folder)!r} to find the skeleton file: {exc}") from exc
+        raise ValueError(f"{str(amc)!r}: cannot list its folder to find its .asf skeleton: {exc}") from exc
     stem = amc.stem.lower()
     prefixed = [p for p in candidates if stem.startswith(p.stem.lower())]
     if prefixed:
@@ -152,8 +152,9 @@ def find_asf(amc_path: str | os.PathLike[str]) -> Path:
     elif len(candidates) == 1:
         return candidates[0]
     raise ValueError(
-        f"asf: cannot tell which .asf file goes with {str(amc)!r} (found "
-        f"{[p.name for p in candidates] or 'none'}); pass asf=PATH"
+        f"{str(amc)!r}: expected one .asf skeleton file beside it, or one whose name starts its "
+        f"name (as 02.asf for 02_01.amc); found {[p.name for p in candidates] or 'none'} (in Python, "
+        "read_motion(amc, asf=PATH) names it)"
     )
 
 
