@@ -861,9 +861,9 @@ def write_bvh(
     reading the file back gives the same joints in depth-first order. End sites are
     written inside their joints' blocks, so they too come back in depth-first order.
 
-    Angles are continuous over time (no jump of 360 degrees, nor of the other Euler
-    solution, between frames; :func:`_output_angles`), so a file may hold angles beyond
-    +-180 degrees. A joint with one or two rotation channels (``Xrotation Zrotation``) is
+    Angles are continuous over time (no jump of 360 degrees, nor to the other Euler
+    solution of three channels, between frames), so a file may hold angles beyond +-180
+    degrees. A joint with one or two rotation channels (``Xrotation Zrotation``) is
     written with those channels at any angle; a rotation they cannot hold (a blend of such
     rotations, in general) is written as the nearest one they hold
     (:func:`.rotations.nearest_euler`): :func:`rotation_channel_fit` says which joints and
