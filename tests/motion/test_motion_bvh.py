@@ -19,6 +19,7 @@ from elastic_motion.motion import (
     read_asf_amc,
     read_bvh,
     read_deepmimic,
+    rotation_channel_fit,
     write_bvh,
 )
 from elastic_motion.motion.bvh import guess_units, snap_fps
@@ -250,7 +251,7 @@ def test_skeleton_not_depth_first_is_written_depth_first(tmp_path):
     np.testing.assert_allclose(forward_kinematics(r), forward_kinematics(m)[:, perm], atol=1e-7)
 
 
-def test_writer_refuses_to_drop_rotation_it_cannot_express(tmp_path):
+def test_writer_keeps_one_channel_and_writes_the_nearest_rotation_it_holds(tmp_path):
     text = (
         "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\nJOINT k\n{\n"
         "OFFSET 0 1 0\nCHANNELS 1 Zrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n}\nMOTION\nFrames: 2\n"
@@ -263,9 +264,10 @@ def test_writer_refuses_to_drop_rotation_it_cannot_express(tmp_path):
     tilted = m.rotations.copy()
     tilted[:, 1] = tilted[:, 1] @ euler_to_matrix(np.array([0.0, 0.3, 0.0]), "ZYX")
     bad = m.replace(rotations=tilted, source=())
-    with pytest.raises(ValueError, match="euler_orders"):
-        write_bvh(bad, tmp_path / "bad.bvh")
-    assert not (tmp_path / "bad.bvh").exists()
+    assert rotation_channel_fit(bad) == {"k": pytest.approx(np.degrees(0.3))}
+    r = read_bvh(write_bvh(bad, tmp_path / "near.bvh"))  # the Z rotation it holds, the tilt dropped
+    assert r.skeleton.channels[1] == ("Zrotation",)
+    np.testing.assert_allclose(r.rotations, m.rotations, atol=1e-9)
     r = read_bvh(write_bvh(bad, tmp_path / "ok.bvh", euler_orders="ZYX"))
     assert r.skeleton.channels[1] == ("Zrotation", "Yrotation", "Xrotation")
     assert geodesic_deg(bad.rotations, r.rotations).max() < 1e-6

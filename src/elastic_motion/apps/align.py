@@ -161,9 +161,10 @@ def motion_curves(
             m = smooth_motion(m, smoothing)
         if fps is not None and interpolation == "cubic" and not math.isclose(m.fps, fps):
             # (may sample above the clip's rate: bounded before it allocates, naming the option)
-            resampled_frames(m, fps, "sample_fps")
+            _check_samples(m, fps, prepared.labels[k])
             m = resample(m, fps, interpolation="cubic")
         elif fps is not None and m.fps > fps * (1 + 1e-9):
+            _check_samples(m, fps, prepared.labels[k])
             m = resample(m, fps)
         if method == "lie":
             out.append(
@@ -179,6 +180,18 @@ def motion_curves(
         vals[:, 3:] += 2 * math.pi * turns
         out.append(DiscreteCurve(vals, Euclidean(vals.shape[1]), c.t))
     return out
+
+
+def _check_samples(motion: Motion, fps: float, label: str) -> None:
+    """A curve needs two samples: ``OptionError("sample_fps", ...)`` naming the clip when its
+    resampling at ``fps`` would keep one (or more than the limits allow)."""
+    n = resampled_frames(motion, fps, "sample_fps")
+    if n < 2:
+        raise OptionError(
+            "sample_fps",
+            f"{label}: expected a rate giving at least 2 samples of the clip ({motion.duration:.3g} s); "
+            f"got {fps:g} fps (1 sample)",
+        )
 
 
 def check_method(method: str, argument: str = "method") -> str:

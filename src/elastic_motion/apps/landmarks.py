@@ -223,12 +223,13 @@ def find_leg_joints(skeleton: Skeleton) -> LegJoints:
     return LegJoints(**{f"{s}_{p}": found.get(f"{s}_{p}") for s in ("left", "right") for p in _PARTS})
 
 
-def _need(legs: LegJoints, fields: Sequence[str], skeleton: Skeleton, what: str) -> None:
+def _need(legs: LegJoints, fields: Sequence[str], motion: Motion, what: str) -> None:
     missing = [f for f in fields if getattr(legs, f) is None]
     if missing:
         raise ValueError(
-            f"motion: cannot detect {what}: no joint found for {', '.join(missing)} among "
-            f"{list(skeleton.names)}; pass legs=LegJoints(...) naming them"
+            f"{motion.name or 'the motion'}: cannot detect {what}: no joint found for {', '.join(missing)} "
+            f"among {list(motion.skeleton.names)} (joints are found by their names, e.g. LeftUpLeg, "
+            "LeftLeg, LeftFoot; in Python, legs=LegJoints(...) names them)"
         )
 
 
@@ -353,7 +354,7 @@ def _knee_events(
     """The knee crossings of ``kinds`` (module docstring), from the joint positions ``pos``
     ``(F, J, 3)`` in metres and the index ``up`` of the up axis."""
     sk = motion.skeleton
-    _need(legs, ("left_hip", "right_hip", "left_knee", "right_knee"), sk, "knee crossings")
+    _need(legs, ("left_hip", "right_hip", "left_knee", "right_knee"), motion, "knee crossings")
     lh, rh = sk.index(legs.left_hip), sk.index(legs.right_hip)
     lk, rk = sk.index(legs.left_knee), sk.index(legs.right_knee)
     leg = float(np.linalg.norm(pos[0, lk] - pos[0, lh]))
@@ -381,7 +382,7 @@ def _touching(
     parts = legs.side(side)
     joints = [sk.index(parts[p]) for p in ("ankle", "toe") if parts[p] is not None]
     if not joints:
-        _need(legs, (f"{side}_ankle",), sk, "foot contacts")
+        _need(legs, (f"{side}_ankle",), motion, "foot contacts")
     p = pos[:, joints]  # (F, k, 3)
     h = p[..., up]
     low = h < h.min(axis=0) + height

@@ -71,6 +71,7 @@ from elastic_motion.motion import (
     place_like,
     read_motion,
     resample,
+    rotation_channel_fit,
     select_frames,
     select_joints,
     set_up_axis,
@@ -86,6 +87,7 @@ __all__ = [
     "FINGERS_NOT_CURVES",
     "JOINTS_DROPPED",
     "JOINTS_REORDERED",
+    "OUTPUT_CHANNELS",
     "PLACED",
     "RESAMPLED",
     "REST_POSE_CHANGED",
@@ -102,6 +104,7 @@ __all__ = [
     "closed_joint_set",
     "load_motion",
     "output_motion",
+    "output_notes",
     "prepare_motions",
     "rest_pose_like",
     "unit_name",
@@ -146,6 +149,9 @@ PLACED = "prepare.placement"
 FACING_DIFFERS = "prepare.facing"
 #: Set: finger joints left out of the curves (data ``joints``).
 FINGERS_NOT_CURVES = "prepare.finger_joints"
+#: Output: joints whose rotation channels cannot hold the result's rotations, written as the
+#: nearest ones they hold (data ``joints``: name -> largest angle between them, degrees).
+OUTPUT_CHANNELS = "prepare.output_channels"
 
 
 # ------------------------------------------------------------------------------------------
@@ -871,7 +877,9 @@ def _check_units_known(reports: list[MotionPreparation], names: list[str]) -> No
     if any(known) and not all(known):
         unknown = [lab for lab, kn in zip(names, known, strict=True) if not kn]
         raise OptionError(
-            "units", f"expected the length unit of every input; unknown for {unknown} (give units=...)"
+            "units",
+            f"expected the length unit of every input; unknown for {unknown} (give it: --units on the "
+            "command line, units= in Python)",
         )
 
 
@@ -1054,6 +1062,32 @@ def _check_finite(m: Motion, name: str) -> None:
                 f"{name}.{what}: expected finite values; found {arr[idx]} at index {idx} (frame {idx[0]}; "
                 f"{int(bad.sum())} non-finite entries in all)",
             )
+
+
+def output_notes(motion: Motion) -> tuple[Note, ...]:
+    """What writing ``motion`` as BVH with its skeleton's channels changes, as notes.
+
+    A joint with one or two rotation channels (``Xrotation Zrotation``) holds only the
+    rotations of their family; a result (a blend, a loop) may leave it, and the writer
+    then keeps the joint's channels and writes the nearest rotation they hold
+    (:func:`elastic_motion.motion.rotation_channel_fit`). Empty when nothing changes (a
+    motion read from a BVH file, or any motion whose joints have three rotation channels).
+    """
+    fit = rotation_channel_fit(motion)
+    if not fit:
+        return ()
+    sk = motion.skeleton
+    listed = ", ".join(
+        f"{name} ({' '.join(c for c in sk.channels[sk.index(name)] if c.endswith('rotation')) or 'none'}) "
+        f"{deg:.3g} deg"
+        for name, deg in fit.items()
+    )
+    text = (
+        f"{len(fit)} joint(s) with fewer than three rotation channels cannot hold the result's "
+        f"rotations exactly; written with their own channels as the nearest rotations those hold, "
+        f"at most this far from the result: {listed}"
+    )
+    return (Note(OUTPUT_CHANNELS, text, {"joints": dict(fit)}),)
 
 
 def output_motion(motion: Motion, metres_per_unit: float | None) -> Motion:

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from elastic_motion.apps.landmark_files import LandmarkFile, parse_landmarks
-from elastic_motion.apps.prepare import PrepareOptions, output_motion, prepare_motions
+from elastic_motion.apps.prepare import PrepareOptions, output_motion, output_notes, prepare_motions
 from elastic_motion.apps.report import report_json, write_report
 from elastic_motion.cli_commands._common import CommandError, check_output, joints_arg
 from elastic_motion.cli_commands._errors import option_message
@@ -86,10 +86,13 @@ def prepare_inputs(args: argparse.Namespace, paths: Sequence[str]) -> Any:
     return prepare_motions(list(paths), prepare_options(args, len(paths)))
 
 
-def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], inputs: Sequence[str]) -> None:
-    """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`)."""
+def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], inputs: Sequence[str]) -> tuple:
+    """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`);
+    the notes of the writing (:func:`elastic_motion.apps.prepare.output_notes`)."""
 
-    write_bvh(output_motion(motion, prepared.units_out), path, protected=list(inputs))
+    out = output_motion(motion, prepared.units_out)
+    write_bvh(out, path, protected=list(inputs))
+    return output_notes(out)
 
 
 def _parse_range(text: str) -> tuple[float | None, float | None] | None:

@@ -190,10 +190,10 @@ def run(args: argparse.Namespace) -> int:
         res = blend_motions(prep, weights, options, progress=bar)
     finally:
         bar.close()
-    write_motion(res.motion, res.prepared, out, inputs)
-    report = report_header("blend", inputs, [str(out)], [str(n) for n in res.notes])
-    report.update(res.summary())
-    emit_report(args, report, [*inputs, str(out)], _summary(res, out, list(res.notes)))
+    notes = [*res.notes, *write_motion(res.motion, res.prepared, out, inputs)]
+    report = report_header("blend", inputs, [str(out)], [str(n) for n in notes])
+    report.update({**res.summary(), "notes": [str(n) for n in notes]})
+    emit_report(args, report, [*inputs, str(out)], _summary(res, out, notes))
     return 0
 
 

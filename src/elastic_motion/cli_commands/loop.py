@@ -265,17 +265,17 @@ def run(args: argparse.Namespace) -> int:
         res = loop_motion(prepared, options, progress=bar)
     finally:
         bar.close()
-    write_motion(res.motion, res.prepared, out, inputs)
+    notes = [*res.notes, *write_motion(res.motion, res.prepared, out, inputs)]
     outputs = [str(out)]
     if preview is not None:
         write_motion(repeat_loop(res, args.repeat, args.root), res.prepared, preview, inputs)
         outputs.append(str(preview))
-    report = report_header("loop", inputs, outputs, res.notes)
-    report.update(res.summary())
+    report = report_header("loop", inputs, outputs, notes)
+    report.update({**res.summary(), "notes": [str(n) for n in notes]})
     lines = _lines(res, out, WINDOW_CHOICE)
     if preview is not None:
         lines.append(f"wrote {preview}: the loop played {args.repeat} times")
-    lines += [f"note: {n}" for n in res.notes if n.kind != WINDOW_CHOICE]
+    lines += [f"note: {n}" for n in notes if n.kind != WINDOW_CHOICE]
     emit_report(args, report, [*inputs, *outputs], "\n".join(lines))
     return 0
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from elastic_motion.errors import ParseError
 from elastic_motion.motion.asfamc import read_amc, read_asf, read_asf_amc
 from elastic_motion.motion.axes import UpAxisEstimate, detect_up_axis, is_lying_down, up_axis_warning
-from elastic_motion.motion.bvh import guess_units, read_bvh, write_bvh
+from elastic_motion.motion.bvh import guess_units, read_bvh, rotation_channel_fit, write_bvh
 from elastic_motion.motion.deepmimic import deepmimic_skeleton, read_deepmimic, read_urdf_skeleton
 from elastic_motion.motion.edit import (
     align_heading,
@@ -108,6 +108,7 @@ __all__ = [
     "representation",
     "resample",
     "resample_at_times",
+    "rotation_channel_fit",
     "select_frames",
     "select_joints",
     "set_up_axis",
@@ -140,7 +141,7 @@ def find_asf(amc_path: str | os.PathLike[str]) -> Path:
     try:
         candidates = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".asf" and p.is_file())
     except OSError as exc:
-        raise ValueError(f"asf: cannot list {str(folder)!r} to find the skeleton file: {exc}") from exc
+        raise ValueError(f"{str(amc)!r}: cannot list its folder to find its .asf skeleton: {exc}") from exc
     stem = amc.stem.lower()
     prefixed = [p for p in candidates if stem.startswith(p.stem.lower())]
     if prefixed:
@@ -151,8 +152,9 @@ def find_asf(amc_path: str | os.PathLike[str]) -> Path:
     elif len(candidates) == 1:
         return candidates[0]
     raise ValueError(
-        f"asf: cannot tell which .asf file goes with {str(amc)!r} (found "
-        f"{[p.name for p in candidates] or 'none'}); pass asf=PATH"
+        f"{str(amc)!r}: expected one .asf skeleton file beside it, or one whose name starts its "
+        f"name (as 02.asf for 02_01.amc); found {[p.name for p in candidates] or 'none'} (in Python, "
+        "read_motion(amc, asf=PATH) names it)"
     )
 
 

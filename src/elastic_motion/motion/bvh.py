@@ -47,8 +47,10 @@ from numba import njit
 from elastic_motion import limits
 from elastic_motion._io import atomic_write_text, read_text
 from elastic_motion.errors import ParseError
+from elastic_motion.groups import SO3
 from elastic_motion.motion.axes import detect_up_axis
-from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler, valid_euler_order
+from elastic_motion.motion.representations import unwrap_euler
+from elastic_motion.motion.rotations import euler_to_matrix, matrix_to_euler, nearest_euler, valid_euler_order
 from elastic_motion.motion.skeleton import (
     POSITION_CHANNELS,
     ROTATION_CHANNELS,
@@ -57,10 +59,15 @@ from elastic_motion.motion.skeleton import (
     Skeleton,
 )
 
-__all__ = ["guess_units", "read_bvh", "snap_fps", "write_bvh"]
+__all__ = ["guess_units", "read_bvh", "rotation_channel_fit", "snap_fps", "write_bvh"]
 
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _MAX_CHANNELS = 6
+# A translation within this (relative) distance of a joint's offset on an axis without a position
+# channel is the offset written back (blending equal values can move them by an ulp).
+_SAME_LENGTH = 1e-12
+# Rotation channels that miss a rotation by less than this are said to hold it (rounding).
+_FIT_TOLERANCE_DEG = 1e-7
 _TYPICAL_HEIGHT_M = 1.7
 
 
@@ -763,6 +770,31 @@ def _fmt(x: float) -> str:
     return "0" if r in ("0.0", "-0.0") else r
 
 
+def _position_channels(sk: Skeleton, jj: int, chans: list[str], translations: np.ndarray) -> list[str]:
+    """Joint ``jj``'s channels ``chans``, with the position channels it lacks added when its
+    translations ``(F, 3)`` move along their axes (further than rounding from its offset).
+
+    A root without position channels gets all three in front; a joint with some position
+    channels gets the missing ones after its last one. A joint without position channels
+    (other than the root) has no translation but its offset: nothing to add.
+    """
+    have = [POSITION_CHANNELS[c] for c in chans if c in POSITION_CHANNELS]
+    if jj != 0 and not have:
+        return chans
+    missing = [a for a in range(3) if a not in have]
+    if not missing:
+        return chans
+    offset = sk.offsets[jj, missing]
+    dev = np.abs(translations[:, missing] - offset).max(initial=0.0)
+    if not dev > _SAME_LENGTH * (1.0 + np.abs(offset).max()):
+        return chans
+    names = ["Xposition", "Yposition", "Zposition"]
+    if not have:
+        return [*names, *chans]
+    last = max(k for k, c in enumerate(chans) if c in POSITION_CHANNELS)
+    return [*chans[: last + 1], *(names[a] for a in missing), *chans[last + 1 :]]
+
+
 def _output_channels(
     skeleton: Skeleton, euler_orders: str | Sequence[str] | None, translations: np.ndarray
 ) -> list[tuple[str, ...]]:
@@ -777,11 +809,7 @@ def _output_channels(
             raise ValueError(f"euler_orders: expected {j} orders (one per joint); got {len(orders)}")
     out = []
     for jj, chans in enumerate(skeleton.channels):
-        chans = list(chans)
-        if jj == 0 and not any(c in POSITION_CHANNELS for c in chans):
-            # A root without position channels can only hold a constant translation.
-            if np.abs(translations[:, 0] - skeleton.offsets[0]).max(initial=0.0) > 0:
-                chans = ["Xposition", "Yposition", "Zposition", *chans]
+        chans = _position_channels(skeleton, jj, list(chans), translations[:, jj])
         order = orders[jj]
         if order is not None:
             order = order.upper()
@@ -812,7 +840,7 @@ def write_bvh(
     euler_orders : str or sequence of str, optional
         Rotation channel order to write, for all joints (``"ZYX"``) or per joint.
         Default: each joint's channels as in ``motion.skeleton`` (a lossless round trip
-        for a motion read from a BVH file).
+        for a motion read from a BVH file: same channels, same rotations).
     decimals : int, default 8
         Digits after the decimal point of the frame values (degrees and length units),
         trailing zeros dropped (``5.23``, not ``5.23000000``). With 8, re-read rotations
@@ -833,12 +861,21 @@ def write_bvh(
     reading the file back gives the same joints in depth-first order. End sites are
     written inside their joints' blocks, so they too come back in depth-first order.
 
+    Angles are continuous over time (no jump of 360 degrees, nor to the other Euler
+    solution of three channels, between frames), so a file may hold angles beyond +-180
+    degrees. A joint with one or two rotation channels (``Xrotation Zrotation``) is
+    written with those channels at any angle; a rotation they cannot hold (a blend of such
+    rotations, in general) is written as the nearest one they hold
+    (:func:`.rotations.nearest_euler`): :func:`rotation_channel_fit` says which joints and
+    by how much, and ``euler_orders`` writes three channels instead. Position channels are
+    never dropped: a joint that moves along an axis without one (the root of a computed
+    motion, for one) is written with the missing position channels added.
+
     Raises
     ------
     ValueError
-        If a joint with fewer than three rotation channels holds a rotation those
-        channels cannot express (pass ``euler_orders`` to write three channels), or if
-        ``path`` is an input file of the motion.
+        If ``path`` is an input file of the motion, or for a bad ``euler_orders`` or
+        ``decimals``.
     """
     if not (isinstance(decimals, int) and 0 <= decimals <= 15):
         raise ValueError(f"decimals: expected an integer in [0, 15]; got {decimals!r}")
@@ -858,7 +895,7 @@ def write_bvh(
         todo.extend(reversed(children[k]))
     columns = []
     for jj in dfs:
-        columns += _joint_columns(sk, jj, channels[jj], angles[:, jj], translations[:, jj])
+        columns += _joint_columns(channels[jj], angles[:, jj], translations[:, jj])
     data = np.stack(columns, axis=1) if columns else np.zeros((motion.n_frames, 0))
     parts = ["HIERARCHY\n", *_hierarchy_text(sk, channels, children)]
     parts.append(f"MOTION\nFrames: {motion.n_frames}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
@@ -866,39 +903,83 @@ def write_bvh(
     return atomic_write_text(path, "".join(parts), protected=[*motion.source, *protected])
 
 
+def _rotation_axes(chans: Sequence[str]) -> str:
+    """The axes of a joint's rotation channels, in channel order (``"XZ"``, ``""``)."""
+    return "".join(ROTATION_CHANNELS[c] for c in chans if c in ROTATION_CHANNELS)
+
+
 def _output_angles(motion: Motion, channels: list[tuple[str, ...]]) -> np.ndarray:
-    """Euler angles ``(F, J, 3)`` in degrees of the rotations in each joint's output order
-    (its rotation channels, completed to three axes)."""
-    sk = motion.skeleton
-    out_sk = Skeleton(sk.names, sk.parents, sk.offsets, channels, sk.end_site_parents, sk.end_site_offsets)
-    orders = out_sk.euler_orders
-    f, j = motion.n_frames, motion.n_joints
-    angles = np.empty((f, j, 3))
-    for order in sorted(set(orders)):
-        idx = [k for k in range(j) if orders[k] == order]
-        angles[:, idx] = np.rad2deg(matrix_to_euler(motion.rotations[:, idx], order))
-    return angles
+    """Euler angles ``(F, J, 3)`` in degrees: per joint, the angles of its rotation channels
+    in channel order (zeros after them), continuous over time.
 
-
-def _joint_columns(
-    sk: Skeleton, jj: int, chans: tuple[str, ...], angles: np.ndarray, translations: np.ndarray
-) -> list[np.ndarray]:
-    """The frame columns ``(F,)`` of joint ``jj``'s channels ``chans``, from its angles
-    ``(F, 3)`` (degrees, output order) and translations ``(F, 3)``.
-
-    Raises ``ValueError`` when the channels cannot hold the motion: a rotation about an axis
-    without a rotation channel, or a move along an axis without a position channel.
+    Three channels: :func:`.rotations.matrix_to_euler`, made continuous by
+    :func:`.representations.unwrap_euler` (branch and ``2 pi`` shifts). One or two: the
+    angles of the nearest rotation those channels hold (:func:`.rotations.nearest_euler`:
+    exact for a rotation they hold, at any angle), unwrapped (``np.unwrap``).
     """
-    n_rot = sum(c in ROTATION_CHANNELS for c in chans)
-    if n_rot < 3:
-        dropped = np.abs(angles[:, n_rot:]).max(initial=0.0)
-        if dropped > 1e-7:
-            raise ValueError(
-                f"motion: joint {sk.names[jj]!r} has {n_rot} rotation channel(s) "
-                f"{[c for c in chans if c in ROTATION_CHANNELS]} but rotates about other axes "
-                f"too (up to {dropped:.3g} degrees); pass euler_orders='ZYX' (or another "
-                "order) to write three rotation channels"
-            )
+    axes = [_rotation_axes(ch) for ch in channels]
+    f, j = motion.n_frames, motion.n_joints
+    angles = np.zeros((f, j, 3))
+    full = [k for k in range(j) if len(axes[k]) == 3]
+    for order in sorted({axes[k] for k in full}):
+        idx = [k for k in full if axes[k] == order]
+        angles[:, idx] = matrix_to_euler(motion.rotations[:, idx], order)
+    if full:
+        angles[:, full] = unwrap_euler(angles[:, full])
+    for k in range(j):
+        n = len(axes[k])
+        if 0 < n < 3:
+            angles[:, k, :n] = np.unwrap(nearest_euler(motion.rotations[:, k], axes[k]), axis=0)
+    return np.rad2deg(angles)
+
+
+def rotation_channel_fit(motion: Motion, euler_orders: str | Sequence[str] | None = None) -> dict[str, float]:
+    """The joints whose rotation channels cannot hold their rotations, and by how much.
+
+    A joint with fewer than three rotation channels holds only the rotations of their
+    family (``Xrotation Zrotation``: ``Rx(a) @ Rz(b)``; none: the identity). A motion read
+    from a BVH file always fits its own channels; a computed one (a blend, a loop) may
+    leave the family, and :func:`write_bvh` then writes the nearest rotation the channels
+    hold. This gives the largest angle between a rotation and the one written.
+
+    Parameters
+    ----------
+    motion : Motion
+    euler_orders : str or sequence of str, optional
+        As in :func:`write_bvh` (three channels on every joint: nothing to report).
+
+    Returns
+    -------
+    dict of str to float
+        Joint name -> largest rotation angle (degrees, over the frames) between the motion's
+        rotation and the one its channels hold, for the joints where it exceeds 1e-7 degrees;
+        in joint order. Empty when every rotation is written exactly.
+    """
+    sk = motion.skeleton
+    channels = _output_channels(sk, euler_orders, motion.local_translations())
+    out: dict[str, float] = {}
+    so3 = SO3()
+    for k, chans in enumerate(channels):
+        axes = _rotation_axes(chans)
+        if len(axes) == 3:
+            continue
+        rot = motion.rotations[:, k]
+        if axes:
+            t = np.zeros(rot.shape[:-2] + (3,))
+            t[..., : len(axes)] = nearest_euler(rot, axes)
+            held = euler_to_matrix(t, axes + "".join(a for a in "XYZ" if a not in axes))
+        else:
+            held = np.broadcast_to(np.eye(3), rot.shape)
+        gap = np.degrees(np.linalg.norm(so3.log(np.swapaxes(held, -1, -2) @ rot), axis=-1))
+        worst = float(gap.max(initial=0.0))
+        if worst > _FIT_TOLERANCE_DEG:
+            out[sk.names[k]] = worst
+    return out
+
+
+def _joint_columns(chans: tuple[str, ...], angles: np.ndarray, translations: np.ndarray) -> list[np.ndarray]:
+    """The frame columns ``(F,)`` of a joint's channels ``chans``, from its angles ``(F, 3)``
+    (degrees, channel order) and translations ``(F, 3)``."""
     columns = []
     slot = 0
     for c in chans:
@@ -907,14 +988,6 @@ def _joint_columns(
         else:
             columns.append(angles[:, slot])
             slot += 1
-    missing = [a for a in range(3) if not any(POSITION_CHANNELS.get(c) == a for c in chans)]
-    if 0 < len(missing) < 3:  # some position channels: the other axes must stay put
-        dev = np.abs(translations[:, missing] - sk.offsets[jj, missing]).max(initial=0.0)
-        if dev > 0:
-            raise ValueError(
-                f"motion: joint {sk.names[jj]!r} moves along axes without a position channel "
-                f"(up to {dev:.3g} units from its offset)"
-            )
     return columns
 
 

@@ -20,6 +20,14 @@ joints of the URDF, not in the frames) are joints of the skeleton with the ident
 rotation, so that a hand on the floor is a contact like a foot; end sites: the centres of
 the head and foot collision shapes.
 
+Reading: the JSON text is read left to right and its structure checked as it comes (no
+``json.loads`` of the whole): the ``Frames`` list frame by frame, each a list of 44 plain
+JSON numbers kept as float64, so a malformed file fails at its first bad frame with memory
+of the order of its text (30 MB of empty frames: 0.1 s, where a Python object per frame took
+870 MB and 10 s). The other entries (``"Loop"``, ``"RightJoints"``, ...) are settings: checked
+as JSON (at most 100,000 values, nested at most 1,000 deep) and dropped. Every error names
+the file and a line, what was expected and what came.
+
 Frame timing: ``fps`` is ``1 / dt`` of the frames (snapped to an integer when within
 0.01 %). When the durations are not all equal (``humanoid3d_roll.txt`` has one frame of
 0.0327 s among 0.0167 s ones), the clip is resampled onto a uniform grid at that rate by
@@ -31,9 +39,10 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
+from array import array
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -215,72 +224,266 @@ def read_urdf_skeleton(path: str | os.PathLike[str], *, scale: float = URDF_SCAL
     return _build_skeleton(offsets, end_sites, scale)
 
 
-def _frame_line(text: str, k: int) -> int | None:
-    """1-based line of the opening bracket of frame ``k`` in the ``Frames`` array."""
-    start = text.find('"Frames"')
-    if start < 0:
-        return None
-    depth = 0
-    count = -1
-    for pos in range(start, len(text)):
-        ch = text[pos]
-        if ch == "[":
-            depth += 1
-            if depth == 2:
-                count += 1
-                if count == k:
-                    return text.count("\n", 0, pos) + 1
-        elif ch == "]":
-            depth -= 1
-            if depth <= 0:
-                return None
-    return None
+# ------------------------------------------------------------------------------------------
+# The clip's text, read left to right: structure checked while streaming
+# ------------------------------------------------------------------------------------------
+_JSON_NUMBER = r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?"
+_BLANK = "[ \t\n\r]*"
+_WS = re.compile(_BLANK)
+_NUMBER = re.compile(_JSON_NUMBER)
+_LITERAL = re.compile(r"true|false|null|NaN|-?Infinity")
+#: A frame of plain values: no nested list, object or string between its brackets.
+_FLAT_FRAME = re.compile(r"\[([^\[\]{}\"]*)\]")
+_NUMBER_LIST = re.compile(f"{_BLANK}{_JSON_NUMBER}{_BLANK}(?:,{_BLANK}{_JSON_NUMBER}{_BLANK})*")
+_FRAME_WHAT = "duration, root position, root quaternion, 8 joint quaternions, 4 joint angles"
+#: Frames converted to numbers at a time (bounded temporary text).
+_BATCH = 4096
+#: The other entries of a clip are settings (``"Loop": "wrap"``, ``"RightJoints": [3, 4, 5, 6, 7, 8]``):
+#: at most this many values and this deep, checked as JSON without being kept.
+_MAX_SETTING_VALUES = 100_000
+_MAX_SETTING_DEPTH = 1_000
 
 
-def _check_frames(p: str, text: str, frames: object) -> np.ndarray:
-    if not isinstance(frames, list) or not frames:
-        raise ParseError(p, _frame_line(text, 0) or 1, "expected 'Frames' to be a non-empty list of frames")
-    out = np.empty((len(frames), _FRAME_SIZE))
-    for k, fr in enumerate(frames):
-        if not isinstance(fr, list) or len(fr) != _FRAME_SIZE:
-            found = f"{len(fr)} values" if isinstance(fr, list) else type(fr).__name__
-            raise ParseError(
-                p,
-                _frame_line(text, k),
-                f"expected {_FRAME_SIZE} numbers in frame {k} (duration, root position, root "
-                f"quaternion, 8 joint quaternions, 4 joint angles), found {found}",
-            )
-        for c, v in enumerate(fr):
-            ok = isinstance(v, (int, float)) and not isinstance(v, bool)
-            if ok:
-                try:
-                    out[k, c] = float(v)
-                except OverflowError:  # an integer beyond the float range
-                    ok = False
-                ok = ok and math.isfinite(out[k, c])
-            if not ok:
-                shown = repr(v) if len(repr(v)) < 40 else repr(v)[:37] + "..."
-                raise ParseError(
-                    p,
-                    _frame_line(text, k),
-                    f"expected a finite number at position {c} of frame {k}, found {shown}",
-                )
+class _ClipText:
+    """A DeepMimic file's text with the positions of its frames, for errors that name lines."""
+
+    def __init__(self, path: str, text: str) -> None:
+        self.path = path
+        self.text = text
+        self.frame_starts = array("q")  # offset of each frame's '['
+
+    def line_at(self, pos: int) -> int:
+        """1-based line of the character at offset ``pos``."""
+        return self.text.count("\n", 0, pos) + 1
+
+    def frame_line(self, k: int) -> int:
+        """1-based line of the opening bracket of frame ``k``."""
+        return self.line_at(self.frame_starts[k])
+
+    def error(self, pos: int, message: str) -> ParseError:
+        return ParseError(self.path, self.line_at(pos), message)
+
+    def ws(self, pos: int) -> int:
+        """The offset of the first non-blank character from ``pos``."""
+        return _WS.match(self.text, pos).end()
+
+    def found(self, pos: int) -> str:
+        """What is at ``pos``, for a message: a few characters, or the end of the file."""
+        if pos >= len(self.text):
+            return "the end of the file"
+        shown = self.text[pos : pos + 20]
+        return repr(shown if len(self.text) <= pos + 20 else shown + "...")
+
+    def string(self, pos: int, what: str) -> tuple[str, int]:
+        """The JSON string at ``pos`` (``what`` names it in an error) and the offset after it."""
+        if not self.text.startswith('"', pos):
+            raise self.error(pos, f"expected JSON ({what} in double quotes), found {self.found(pos)}")
+        try:
+            return json.decoder.scanstring(self.text, pos + 1)
+        except json.JSONDecodeError as exc:
+            raise self.error(exc.pos, f"expected JSON ({exc.msg})") from None
+
+    def expect(self, pos: int, char: str, what: str) -> int:
+        """The offset after ``char`` at ``pos`` (blanks skipped before and after)."""
+        pos = self.ws(pos)
+        if not self.text.startswith(char, pos):
+            raise self.error(pos, f"expected JSON ({char!r} {what}), found {self.found(pos)}")
+        return self.ws(pos + 1)
+
+
+def _parse_clip(clip: _ClipText) -> np.ndarray:
+    """The frames ``(F, 44)`` of the clip's JSON object, read in one pass.
+
+    The ``Frames`` list is read frame by frame and checked as it comes, so a malformed file
+    fails at its first bad frame, with its line, before anything is built for the others
+    (``json.loads`` first made a Python object of every frame: 870 MB for 30 MB of empty
+    frames). The other entries are checked as JSON and dropped.
+    """
+    text = clip.text
+    pos = clip.ws(1 if text.startswith("\ufeff") else 0)
+    if not text.startswith("{", pos):
+        raise clip.error(
+            pos, f"expected a JSON object with a 'Frames' list (a DeepMimic clip), found {clip.found(pos)}"
+        )
+    values = None
+    pos = clip.ws(pos + 1)
+    closed = text.startswith("}", pos)
+    while not closed:
+        key, pos = clip.string(pos, "a key")
+        pos = clip.expect(pos, ":", f"after the key {key!r}")
+        if key == "Frames":
+            values, pos = _parse_frames(clip, pos)
+        else:
+            pos = _skip_value(clip, pos, f"the value of {key!r}")
+        pos = clip.ws(pos)
+        closed = text.startswith("}", pos)
+        if not closed:
+            pos = clip.expect(pos, ",", f"or '}}' after the value of {key!r}")
+    pos = clip.ws(pos + 1)
+    if pos < len(text):
+        raise clip.error(pos, f"expected JSON (nothing after the clip's last '}}'), found {clip.found(pos)}")
+    if values is None:
+        raise clip.error(0, "expected a JSON object with a 'Frames' list (a DeepMimic clip), found none")
+    return values
+
+
+def _parse_frames(clip: _ClipText, pos: int) -> tuple[np.ndarray, int]:
+    """The ``Frames`` list at ``pos``: its values ``(F, 44)`` and the offset after it."""
+    text = clip.text
+    if not text.startswith("[", pos) or text.startswith("]", clip.ws(pos + 1)):
+        found = "[]" if text.startswith("[", pos) else clip.found(pos)
+        raise clip.error(pos, f"expected 'Frames' to be a non-empty list of frames, found {found}")
+    clip.frame_starts = starts = array("q")
+    max_frames = limits.current().max_frames
+    chunks: list[np.ndarray] = []
+    batch: list[str] = []
+    pos = clip.ws(pos + 1)
+    while True:
+        k = len(starts)
+        if k >= max_frames:  # before a frame more is kept
+            limits.check_clip(clip.path, clip.line_at(pos), frames=k + 1)
+        starts.append(pos)
+        m = _FLAT_FRAME.match(text, pos)
+        if m is None or not _NUMBER_LIST.fullmatch(m.group(1)):
+            raise _frame_error(clip, k, pos)
+        content = m.group(1)
+        if content.count(",") + 1 != _FRAME_SIZE:
+            raise _count_error(clip, k, content.count(",") + 1)
+        batch.append(content)
+        if len(batch) == _BATCH:
+            chunks.append(_frame_numbers(clip, batch, k + 1 - len(batch)))
+            batch = []
+        pos = clip.ws(m.end())
+        if text.startswith("]", pos):
+            break
+        pos = clip.expect(pos, ",", f"or ']' after frame {k}")
+    if batch:
+        chunks.append(_frame_numbers(clip, batch, len(starts) - len(batch)))
+    values = chunks[0] if len(chunks) == 1 else np.concatenate(chunks)
+    return values, pos + 1
+
+
+def _frame_numbers(clip: _ClipText, contents: list[str], first: int) -> np.ndarray:
+    """The values ``(len(contents), 44)`` of frames ``first, first + 1, ...``, whose text between
+    the brackets (``contents``) holds 44 JSON numbers each; finite, else an error naming the frame."""
+    joined = ",".join(contents)
+    try:
+        flat = np.fromstring(joined, sep=",")
+    except ValueError:  # not expected for JSON numbers; Python's float() reads them too
+        flat = np.array([float(v) for v in joined.split(",")])
+    out = flat.reshape(len(contents), _FRAME_SIZE)
+    bad = ~np.isfinite(out)
+    if bad.any():
+        r, c = (int(v) for v in np.argwhere(bad)[0])
+        token = contents[r].split(",")[c].strip()
+        raise _value_error(clip, first + r, c, token)
     return out
 
 
-def _load_clip(p: str, text: str) -> dict[str, Any]:
-    """The clip's JSON object, which must hold ``Frames``."""
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ParseError(p, exc.lineno, f"expected JSON ({exc.msg})") from exc
-    except RecursionError as exc:
-        raise ParseError(p, None, "expected JSON (nesting too deep)") from exc
-    except ValueError as exc:  # e.g. an integer of more than 4300 digits
-        raise ParseError(p, None, f"expected JSON numbers of usual size ({exc})") from exc
-    if not isinstance(data, dict) or "Frames" not in data:
-        raise ParseError(p, 1, "expected a JSON object with a 'Frames' list (a DeepMimic clip)")
-    return data
+def _count_error(clip: _ClipText, k: int, n: int) -> ParseError:
+    return ParseError(
+        clip.path,
+        clip.frame_line(k),
+        f"expected {_FRAME_SIZE} numbers in frame {k} ({_FRAME_WHAT}), found {n} value{'s' * (n != 1)}",
+    )
+
+
+def _value_error(clip: _ClipText, k: int, c: int, shown: str) -> ParseError:
+    shown = shown if len(shown) < 40 else shown[:37] + "..."
+    return ParseError(
+        clip.path, clip.frame_line(k), f"expected a finite number at position {c} of frame {k}, found {shown}"
+    )
+
+
+def _json_kind(clip: _ClipText, pos: int) -> str:
+    """What kind of JSON value starts at ``pos``, for a message ("a string", "an object")."""
+    c = clip.text[pos : pos + 1]
+    kinds = {"[": "a list", "{": "an object", '"': "a string", "t": "true", "f": "false", "n": "null"}
+    if c in kinds:
+        return kinds[c]
+    return "a number" if _NUMBER.match(clip.text, pos) else clip.found(pos)
+
+
+def _frame_error(clip: _ClipText, k: int, pos: int) -> ParseError:
+    """The error for frame ``k`` at ``pos``, which is not a list of plain JSON numbers: the
+    wrong count of values if so, else the first value that is not a finite number."""
+    text = clip.text
+    if not text.startswith("[", pos):
+        return clip.error(
+            pos, f"expected {_FRAME_SIZE} numbers in frame {k} ({_FRAME_WHAT}), found {_json_kind(clip, pos)}"
+        )
+    n, first_bad = 0, None
+    pos = clip.ws(pos + 1)
+    if not text.startswith("]", pos):
+        while True:
+            m = _NUMBER.match(text, pos)
+            if m is None and first_bad is None:
+                lit = _LITERAL.match(text, pos)
+                shown = lit.group() if lit is not None else _json_kind(clip, pos)
+                first_bad = (n, shown)
+            pos = m.end() if m is not None else _skip_value(clip, pos, f"frame {k}")
+            n += 1
+            pos = clip.ws(pos)
+            if text.startswith("]", pos):
+                break
+            pos = clip.expect(pos, ",", f"or ']' after value {n - 1} of frame {k}")
+    if n != _FRAME_SIZE:
+        return _count_error(clip, k, n)
+    if first_bad is not None:
+        return _value_error(clip, k, *first_bad)
+    return clip.error(pos, f"expected {_FRAME_SIZE} JSON numbers in frame {k}")  # pragma: no cover
+
+
+def _skip_value(clip: _ClipText, pos: int, where: str) -> int:
+    """The offset after the JSON value at ``pos`` (``where`` names its place in errors),
+    checked as JSON without building it: at most ``_MAX_SETTING_VALUES`` values nested
+    at most ``_MAX_SETTING_DEPTH`` deep (an explicit stack: no recursion)."""
+    text = clip.text
+    stack = bytearray()  # the open containers: ord("[") or ord("{")
+    for _ in range(_MAX_SETTING_VALUES):
+        pos = clip.ws(pos)
+        if text.startswith(("[", "{"), pos):
+            if len(stack) >= _MAX_SETTING_DEPTH:
+                raise clip.error(pos, f"expected JSON nested at most {_MAX_SETTING_DEPTH} deep in {where}")
+            stack.append(ord(text[pos]))
+            pos = clip.ws(pos + 1)
+            if text.startswith("]" if stack[-1] == ord("[") else "}", pos):
+                stack.pop()
+                pos += 1
+            elif stack[-1] == ord("{"):
+                pos = clip.expect(clip.string(pos, "a key")[1], ":", "after a key")
+                continue
+            else:
+                continue
+        elif text.startswith('"', pos):
+            pos = clip.string(pos, "a string")[1]
+        else:
+            m = _NUMBER.match(text, pos) or _LITERAL.match(text, pos)
+            if m is None:
+                raise clip.error(pos, f"expected JSON (a value in {where}), found {clip.found(pos)}")
+            pos = m.end()
+        pos, more = _close_containers(clip, pos, stack, where)
+        if not more:
+            return pos
+    raise clip.error(pos, f"expected at most {_MAX_SETTING_VALUES} values in {where} (a clip setting)")
+
+
+def _close_containers(clip: _ClipText, pos: int, stack: bytearray, where: str) -> tuple[int, bool]:
+    """After a value: close the containers it ends; ``(offset, True)`` when another value of an
+    open container follows (its key read, for an object), ``(offset, False)`` when none is open."""
+    text = clip.text
+    while stack:
+        closer = "]" if stack[-1] == ord("[") else "}"
+        pos = clip.ws(pos)
+        if text.startswith(closer, pos):
+            stack.pop()
+            pos += 1
+            continue
+        pos = clip.expect(pos, ",", f"or {closer!r} in {where}")
+        if stack[-1] == ord("{"):
+            pos = clip.expect(clip.string(pos, "a key")[1], ":", "after a key")
+        return pos, True
+    return pos, False
 
 
 def _frame_slots(skeleton: Skeleton) -> list[int]:
@@ -298,7 +501,7 @@ def _frame_slots(skeleton: Skeleton) -> list[int]:
     return slot
 
 
-def _frame_timing(p: str, text: str, values: np.ndarray, n_joints: int) -> tuple[np.ndarray, float, float]:
+def _frame_timing(clip: _ClipText, values: np.ndarray, n_joints: int) -> tuple[np.ndarray, float, float]:
     """The frames' durations checked: ``(steps, dt, fps)`` with ``steps`` the durations
     between frames (s; the only one of a one-frame clip), ``dt`` their median (positive ones)
     and ``fps`` its rate (:func:`.bvh.snap_fps`); the clip checked against the limits."""
@@ -306,8 +509,8 @@ def _frame_timing(p: str, text: str, values: np.ndarray, n_joints: int) -> tuple
     if (durations < 0).any():
         k = int(np.argmax(durations < 0))
         raise ParseError(
-            p,
-            _frame_line(text, k),
+            clip.path,
+            clip.frame_line(k),
             f"expected a non-negative frame duration in frame {k}, found {durations[k]}",
         )
     f = values.shape[0]
@@ -317,24 +520,24 @@ def _frame_timing(p: str, text: str, values: np.ndarray, n_joints: int) -> tuple
         positive = durations[durations > 0]
     if positive.size == 0:
         raise ParseError(
-            p, _frame_line(text, 0), "expected a positive frame duration in some frame, found none"
+            clip.path, clip.frame_line(0), "expected a positive frame duration in some frame, found none"
         )
     if f > 1 and not (steps > 0).all():
         k = int(np.argmax(~(steps > 0)))
         raise ParseError(
-            p,
-            _frame_line(text, k),
+            clip.path,
+            clip.frame_line(k),
             f"expected a positive duration in frame {k} (not the last), found {steps[k]}",
         )
     dt = float(np.median(positive))
     fps = snap_fps(dt)
     with np.errstate(over="ignore"):  # an overflowing sum is inf, refused by the duration limit
         duration = float(np.sum(steps)) if f > 1 else dt
-    limits.check_clip(p, _frame_line(text, 0), frames=f, fps=fps, duration=duration, joints=n_joints)
+    limits.check_clip(clip.path, clip.frame_line(0), frames=f, fps=fps, duration=duration, joints=n_joints)
     return steps, dt, fps
 
 
-def _rotations(p: str, text: str, values: np.ndarray, skeleton: Skeleton, slot: list[int]) -> np.ndarray:
+def _rotations(clip: _ClipText, values: np.ndarray, skeleton: Skeleton, slot: list[int]) -> np.ndarray:
     """Local rotations ``(F, J, 3, 3)``: the frames' quaternions (normalised) and revolute
     angles (about ``z``) at ``slot``, the identity at the fixed wrists."""
     rotations = np.empty((values.shape[0], skeleton.n_joints, 3, 3))
@@ -353,14 +556,14 @@ def _rotations(p: str, text: str, values: np.ndarray, skeleton: Skeleton, slot: 
         if not (norms > 1e-12).all():
             k = int(np.argmax(~(norms > 1e-12)))
             raise ParseError(
-                p, _frame_line(text, k), f"expected a non-zero quaternion for {name!r} in frame {k}"
+                clip.path, clip.frame_line(k), f"expected a non-zero quaternion for {name!r} in frame {k}"
             )
         rotations[:, j] = quaternion_to_matrix(q)
         col += 4
     return rotations
 
 
-def _resample_uniform(p: str, text: str, motion: Motion, steps: np.ndarray, fps: float) -> Motion:
+def _resample_uniform(clip: _ClipText, motion: Motion, steps: np.ndarray, fps: float) -> Motion:
     """``motion`` (frames ``steps`` seconds apart) on a uniform grid at ``fps``, its size
     checked against the limits before it is allocated."""
     f = motion.n_frames
@@ -368,8 +571,8 @@ def _resample_uniform(p: str, text: str, motion: Motion, steps: np.ndarray, fps:
     if not (np.diff(times) > 0).all():  # a duration too small to advance the clock (1e-320 after 2 s)
         k = int(np.argmax(~(np.diff(times) > 0)))
         raise ParseError(
-            p,
-            _frame_line(text, k),
+            clip.path,
+            clip.frame_line(k),
             f"expected a duration that advances the time in frame {k}, found {steps[k]}",
         )
     n_out = math.floor(times[-1] * fps + 1e-6) + 1  # finite: duration and fps within the limits
@@ -378,8 +581,8 @@ def _resample_uniform(p: str, text: str, motion: Motion, steps: np.ndarray, fps:
     if n_out > grown:
         k = int(np.argmax(steps))
         raise ParseError(
-            p,
-            _frame_line(text, k),
+            clip.path,
+            clip.frame_line(k),
             limits.limit_message(
                 f"a uniform resampling at {fps:g} fps of {f} frames (frame {k} lasts {steps[k]:g} s) "
                 "to give a number of frames",
@@ -388,7 +591,7 @@ def _resample_uniform(p: str, text: str, motion: Motion, steps: np.ndarray, fps:
                 f"{lim.max_resample_growth:g} x {f} + 1000 = {grown:g}",
             ),
         )
-    limits.check_clip(p, _frame_line(text, 0), frames=n_out, joints=motion.n_joints)
+    limits.check_clip(clip.path, clip.frame_line(0), frames=n_out, joints=motion.n_joints)
     return resample_at_times(motion, times, np.arange(n_out) / fps, fps=fps)
 
 
@@ -427,22 +630,22 @@ def read_deepmimic(
         before the resampled clip is allocated.
     """
     p = os.fspath(path)
-    text = read_text(path)
-    values = _check_frames(p, text, _load_clip(p, text)["Frames"])
+    clip = _ClipText(p, read_text(path))
+    values = _parse_clip(clip)
     if skeleton is None:
         skeleton = read_urdf_skeleton(urdf) if urdf is not None else deepmimic_skeleton()
     slot = _frame_slots(skeleton)
-    steps, dt, fps = _frame_timing(p, text, values, skeleton.n_joints)
+    steps, dt, fps = _frame_timing(clip, values, skeleton.n_joints)
     motion = Motion(
         skeleton=skeleton,
         fps=fps,
         root_translation=values[:, 1:4],
-        rotations=_rotations(p, text, values, skeleton, slot),
+        rotations=_rotations(clip, values, skeleton, slot),
         metres_per_unit=1.0,
         up_axis="y",
         source=(p,) if urdf is None else (p, os.fspath(urdf)),
         name=Path(p).stem,
     )
     if resample_uniform and values.shape[0] > 2 and np.abs(steps - dt).max() > 1e-3 * dt:
-        motion = _resample_uniform(p, text, motion, steps, fps)
+        motion = _resample_uniform(clip, motion, steps, fps)
     return motion

@@ -191,9 +191,40 @@ def group_weights(motions: Sequence[Motion]) -> tuple[np.ndarray, float]:
     motions = list(motions)
     if not motions:
         raise ValueError("motions: expected at least one motion to take weights from; got none")
+    for m in motions:
+        _check_weighable(m)
     return mean_weights(
         [default_joint_weights(m.skeleton) for m in motions],
         [default_translation_weight(m.skeleton) for m in motions],
+    )
+
+
+def _motion_label(motion: Motion) -> str:
+    """How a message names a motion: its name (the file's stem), else its file, else "a motion"."""
+    return motion.name or (motion.source[0] if motion.source else "a motion")
+
+
+def _check_weighable(motion: Motion) -> None:
+    """Refuse, naming the motion, a skeleton whose size squared over- or underflows (bones
+    of 1e160 length units): its weights (:func:`default_translation_weight` is ``J / L^2``)
+    would be 0, infinite or NaN."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = skeleton_diameter(motion.skeleton)
+        tw = default_translation_weight(motion.skeleton)
+    if math.isfinite(d) and 0 < tw < math.inf:
+        return
+    sk = motion.skeleton
+    reach = max(np.abs(sk.offsets).max(), np.abs(sk.end_site_offsets).max(initial=0.0))
+    size = (
+        f"{reach:.3g} length units"
+        if motion.metres_per_unit is None
+        else f"{reach * motion.metres_per_unit:.3g} m"
+    )
+    how = "large" if tw < math.inf else "small"
+    raise ValueError(
+        f"{_motion_label(motion)}: expected a skeleton of usual size; its offsets reach {size}, too "
+        f"{how} for the weights of its curve (the size squared must be a normal floating-point "
+        "number: check the file's offsets)"
     )
 
 
@@ -238,10 +269,11 @@ def _check_joint_translations(motion: Motion) -> None:
     if (dev > tol).any():
         k = np.flatnonzero(mask)[int(np.argmax(dev))]
         raise ValueError(
-            f"motion: joint {sk.names[k]!r} moves through its position channels (up to "
-            f"{dev.max():.4g} units from its offset), but a curve carries only the root's "
-            "translation; if the root is a fixed reference joint (as in the Bandai files), "
-            "use elastic_motion.motion.merge_root(motion) first"
+            f"{_motion_label(motion)}: joint {sk.names[k]!r} moves through its position channels "
+            f"(up to {dev.max():.4g} units from its offset), but a curve carries only the root's "
+            "translation, so this motion cannot be made a curve (compared, blended, looped); in "
+            "Python, if its root is a fixed reference joint (as in the Bandai files), "
+            "elastic_motion.motion.merge_root(motion) first (the command line does that itself)"
         )
 
 

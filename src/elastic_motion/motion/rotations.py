@@ -26,6 +26,7 @@ __all__ = [
     "axis_rotation",
     "euler_to_matrix",
     "matrix_to_euler",
+    "nearest_euler",
     "quaternion_to_matrix",
     "valid_euler_order",
 ]
@@ -196,6 +197,65 @@ def matrix_to_euler(m: np.ndarray, order: str) -> np.ndarray:
     out[..., 1] = b
     out[..., 2] = np.arctan2(sin_c, cos_c)
     return out
+
+
+def _nearest_about(m: np.ndarray, k: int) -> np.ndarray:
+    """Angle of the rotation about axis ``k`` nearest to ``m`` (..., 3, 3): the maximiser of
+    ``trace(R_k(t)^T m) = m_kk + cos t (m_pp + m_qq) + sin t (m_qp - m_pq)``."""
+    p, q = (k + 1) % 3, (k + 2) % 3
+    return np.arctan2(m[..., q, p] - m[..., p, q], m[..., p, p] + m[..., q, q])
+
+
+def nearest_euler(m: np.ndarray, axes: str) -> np.ndarray:
+    """Angles of the rotation ``R_axes[0](t0) @ R_axes[1](t1) ...`` nearest to ``m``.
+
+    The rotations one or two rotation channels can hold (a BVH joint with ``Xrotation
+    Zrotation`` holds ``Rx(t0) @ Rz(t1)``): for a rotation of that family, the angles that
+    reproduce it exactly (to rounding error, at any angle: no gimbal lock, no branch to
+    choose: they are unique modulo ``2 pi``); for any other rotation, the angles of the
+    family member nearest to it (smallest rotation angle between the two). Three axes:
+    :func:`matrix_to_euler`, which reproduces every rotation.
+
+    Two axes ``i, j``: the row ``i`` of ``R_i(t0) R_j(t1)`` is that of ``R_j(t1)`` (``R_i``
+    keeps ``e_i``), which gives ``t1`` from the row ``i`` of ``m``; ``t0`` is then the nearest
+    rotation about ``i`` to ``m R_j(t1)^T``, and one more round of the two one-axis fits
+    (``t1`` given ``t0``, ``t0`` given ``t1``) settles the pair (the tests check the result
+    against a numerical minimisation).
+
+    Parameters
+    ----------
+    m : array_like, shape (..., 3, 3)
+        Rotation matrices.
+    axes : str
+        One to three distinct axes from ``"XYZ"``, in the order the rotations are
+        multiplied (e.g. ``"XZ"``).
+
+    Returns
+    -------
+    ndarray, shape (..., len(axes))
+        Radians in ``[-pi, pi]`` (three axes: as :func:`matrix_to_euler`).
+    """
+    if not (isinstance(axes, str) and 1 <= len(axes) <= 3 and len(set(axes)) == len(axes)):
+        raise ValueError(f"axes: expected one to three distinct axes from 'XYZ' (e.g. 'XZ'); got {axes!r}")
+    if any(a not in _AXIS for a in axes):
+        raise ValueError(f"axes: expected one to three distinct axes from 'XYZ' (e.g. 'XZ'); got {axes!r}")
+    r = np.asarray(m, dtype=np.float64)
+    if r.shape[-2:] != (3, 3):
+        raise ValueError(f"m: expected shape (..., 3, 3); got {r.shape}")
+    if len(axes) == 3:
+        return matrix_to_euler(r, axes)
+    i = _AXIS[axes[0]]
+    if len(axes) == 1:
+        return _nearest_about(r, i)[..., None]
+    j = _AXIS[axes[1]]
+    # row i of R_i(t0) R_j(t1) is e_i^T R_j(t1), i.e. v = R_j(-t1) e_i: the angle from e_i
+    # to v about e_j is -t1
+    v = r[..., i, :]
+    t1 = np.arctan2(np.cross(v, _basis(i, ()))[..., j], v[..., i])
+    t0 = _nearest_about(r @ np.swapaxes(axis_rotation(t1, axes[1]), -1, -2), i)
+    t1 = _nearest_about(np.swapaxes(axis_rotation(t0, axes[0]), -1, -2) @ r, j)
+    t0 = _nearest_about(r @ np.swapaxes(axis_rotation(t1, axes[1]), -1, -2), i)
+    return np.stack([t0, t1], axis=-1)
 
 
 def quaternion_to_matrix(q: np.ndarray, *, normalise: bool = True) -> np.ndarray:
