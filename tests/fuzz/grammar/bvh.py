@@ -16,6 +16,7 @@ from .core import (
     Item,
     chance,
     copy_item,
+    fmt_num,
     number_writer,
     pick,
     random_layout,
@@ -153,7 +154,8 @@ def _bvh_items(
             items.append(Item("open", d, ["{"]))
             body = [Item("offset", d + 1, ["OFFSET", *map(num, jt.offset)], 1, {"splittable": True})]
             if jt.channels or chance(rng, 0.5):  # "CHANNELS 0" or no line at all
-                toks = ["CHANNELS", str(len(jt.channels)), *jt.channels]
+                count = str(len(jt.channels)) if chance(rng, 0.95) else f"0{len(jt.channels)}"
+                toks = ["CHANNELS", count, *jt.channels]
                 body.insert(
                     0 if chance(rng, 0.1) else 1, Item("channels", d + 1, toks, 1, {"splittable": True})
                 )
@@ -165,7 +167,10 @@ def _bvh_items(
             stack.extend(reversed(kids))
     frames = pick(rng, ["Frames:", "Frames:", "FRAMES :", "frames:"])
     ft = pick(rng, ["Frame Time:", "Frame Time:", "Frame\tTime:", "frame time :"])
-    items += [Item("motion", 0, ["MOTION"], 1), Item("frames", 0, [frames, str(len(values))])]
+    items += [
+        Item("motion", 0, ["MOTION"], 1),
+        Item("frames", 0, [frames, pick(rng, ["", "", "", "00"]) + str(len(values))]),
+    ]
     items.append(Item("frame_time", 0, [ft, frame_time]))
     items += [Item("row", 0, [num(v) for v in row]) for row in values]
     return items
@@ -173,7 +178,9 @@ def _bvh_items(
 
 def _bvh_frame_time(rng: np.random.Generator) -> str:
     fps = float(rng.choice([24.0, 25.0, 30.0, 30.0, 60.0, 120.0, 29.97, 7.5, 1000.0, 0.5]))
-    return pick(rng, [f"{1 / fps:.7f}", repr(1 / fps), f"{1 / fps:.6e}", f"{1 / fps:.8f}".rstrip("0")])
+    if chance(rng, 0.5):
+        return pick(rng, [f"{1 / fps:.7f}", f"{1 / fps:.8f}".rstrip("0")])  # as exporters write it
+    return fmt_num(1 / fps, pick(rng, [s for s in TEXT_STYLES if s != "int"]))
 
 
 def _bvh_perturb(rng: np.random.Generator, items: list[Item], n_ch: int) -> tuple[str, str]:
@@ -325,7 +332,7 @@ def _bvh_deep(rng, items, n_ch):
 
 BVH_RULES: dict[str, Callable] = {
     "drop:offset": _bvh_drop("offset", "error"),
-    "drop:channels": _bvh_drop("channels", lambda it, n: "ok" if it.toks[1] == "0" else "error"),
+    "drop:channels": _bvh_drop("channels", lambda it, n: "ok" if int(it.toks[1]) == 0 else "error"),
     "drop:open": _bvh_drop("open", "error"),
     "drop:close": _bvh_drop(("close", "es_close"), "error"),
     "drop:end_site_offset": _bvh_drop("es_offset", "error"),
