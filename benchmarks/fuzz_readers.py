@@ -157,9 +157,8 @@ def _examples(tallies: dict[str, contract.Tally]) -> list[str]:
         for key in sorted(tallies):
             for e in tallies[key].examples.get(kind, [])[:3]:
                 what = e["warning"] if kind == "warning" else e["detail"]
-                out.append(
-                    f"{kind.upper()} {key} case {e['case']} ({e.get('seed', '')}{e['rule']}): {what[:300]}"
-                )
+                rule = f"{e['seed']}: {e['rule']}" if "seed" in e else e["rule"]
+                out.append(f"{kind.upper()} {key} case {e['case']} ({rule}): {what[:300]}")
     return out
 
 

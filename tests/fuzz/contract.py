@@ -27,6 +27,7 @@ import os
 import re
 import tempfile
 import time
+import traceback
 import warnings
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -189,14 +190,12 @@ def run_checked(folder: Path, name: str, data: bytes, asf: bytes | None, tag: st
         asf_path = folder / f"{tag}_skeleton.asf"
         asf_path.write_bytes(asf)
     try:
-        with warnings.catch_warnings(record=True) as caught:
+        caught: list[str] = []
+        with warnings.catch_warnings():
             warnings.simplefilter("always")
+            warnings.showwarning = _first_warning(caught)
             out = _read_and_write_back(path, asf_path, folder, tag)
-        if caught:
-            w = caught[0]
-            shown = f"{w.category.__name__}: {str(w.message)[:150]} ({Path(w.filename).name}:{w.lineno})"
-            out = Outcome(out.status, out.detail, shown)
-        return out
+        return Outcome(out.status, out.detail, caught[0]) if caught else out
     finally:
         for p in (path, asf_path):
             if p is not None:
@@ -204,6 +203,21 @@ def run_checked(folder: Path, name: str, data: bytes, asf: bytes | None, tag: st
                     os.unlink(p)
                 except OSError:
                     pass
+
+
+def _first_warning(caught: list[str]) -> Callable[..., None]:
+    """A ``warnings.showwarning`` that keeps the first warning in ``caught``, with the package
+    functions it came through (``read_bvh > _motion_from_values > ... > guess_units (bvh.py:113)``)."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if caught:
+            return
+        ours = [f for f in traceback.extract_stack()[:-1] if f"{os.sep}elastic_motion{os.sep}" in f.filename]
+        path = " > ".join(f.name for f in ours)
+        where = f" in {path} ({Path(ours[-1].filename).name}:{ours[-1].lineno})" if ours else ""
+        caught.append(f"{category.__name__}: {str(message)[:150]}{where}")
+
+    return show
 
 
 def _read_and_write_back(path: Path, asf_path: Path | None, folder: Path, tag: str) -> Outcome:

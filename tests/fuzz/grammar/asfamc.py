@@ -15,6 +15,7 @@ from .core import (
     TEXT_STYLES,
     Case,
     Item,
+    apply_rules,
     chance,
     copy_item,
     fmt_num,
@@ -412,17 +413,15 @@ ASF_RULES: dict[str, Callable] = {
 }
 
 
-def asfamc_case(rng: np.random.Generator, *, perturb: float = 0.5) -> Case:
+def asfamc_case(rng: np.random.Generator, *, perturb: float = 0.5, rule: str | None = None) -> Case:
     """An ASF/AMC pair (the AMC is the case's file, the ASF its skeleton): valid, or (with
-    probability ``perturb``) one grammar rule broken in either file."""
+    probability ``perturb``) grammar rules broken in either file (:func:`.core.apply_rules`);
+    ``rule``: that rule, always."""
     model = _asf_model(rng)
     files = [_asf_items(rng, model), _amc_items(rng, model)]
-    rule, expect = "valid", "ok"
-    if chance(rng, perturb):
-        rule = pick(rng, list(ASF_RULES))
-        expect = ASF_RULES[rule](rng, files, model)
-        if expect is None:
-            rule, expect = "valid", "ok"
+    only, (rule, expect) = rule, ("valid", "ok")
+    if only or chance(rng, perturb):
+        rule, expect = apply_rules(rng, ASF_RULES, files, model, only=only)
     layout = random_layout(rng)
     asf = render(files[0], layout, rng).encode("utf-8")
     amc = render(files[1], layout if chance(rng, 0.5) else random_layout(rng), rng).encode("utf-8")

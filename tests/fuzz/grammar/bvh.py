@@ -14,6 +14,7 @@ from .core import (
     TEXT_STYLES,
     Case,
     Item,
+    apply_rules,
     chance,
     copy_item,
     fmt_num,
@@ -183,15 +184,6 @@ def _bvh_frame_time(rng: np.random.Generator) -> str:
     return fmt_num(1 / fps, pick(rng, [s for s in TEXT_STYLES if s != "int"]))
 
 
-def _bvh_perturb(rng: np.random.Generator, items: list[Item], n_ch: int) -> tuple[str, str]:
-    """One grammar-level change of a valid file's items: ``(rule, expect)``."""
-    rule = pick(rng, list(BVH_RULES))
-    expect = BVH_RULES[rule](rng, items, n_ch)
-    if expect is None:  # not applicable to this file: it stays valid
-        return "valid", "ok"
-    return rule, expect
-
-
 def _bvh_drop(kind: str, expect: str | Callable[[Item, int], str]):
     def rule(rng, items, n_ch):
         idx = where(items, kind)
@@ -227,6 +219,8 @@ def _bvh_dup_name(rng, items, n_ch):
 
 def _bvh_empty_name(rng, items, n_ch):
     idx = where(items, ("root", "joint"))
+    if not idx:
+        return None
     items[pick(rng, idx)].toks[1:] = []
     return "error"
 
@@ -253,7 +247,10 @@ def _bvh_channel_name(rng, items, n_ch):
 
 
 def _bvh_frames(rng, items, n_ch):
-    it = items[where(items, "frames")[0]]
+    idx = where(items, "frames")
+    if not idx:
+        return None
+    it = items[idx[0]]
     f = int(it.toks[1])
     new = pick(rng, ["0", str(f + 1), str(f - 1), "1000000000000", "1" + "0" * 40, "-1", "1e3", "5.0", ""])
     if new == "":
@@ -264,7 +261,10 @@ def _bvh_frames(rng, items, n_ch):
 
 
 def _bvh_frame_time_range(rng, items, n_ch):
-    it = items[where(items, "frame_time")[0]]
+    idx = where(items, "frame_time")
+    if not idx:
+        return None
+    it = items[idx[0]]
     it.toks[1] = pick(
         rng, ["0", "-0.0333", "1e-9", "1e-5", "20", "nan", "inf", "1e-320", "1e400", "0x1", "-0"]
     )
@@ -305,6 +305,8 @@ def _bvh_keyword(rng, items, n_ch):
 
 def _bvh_row_width(rng, items, n_ch):
     idx = where(items, "row")
+    if not idx:
+        return None
     it = items[pick(rng, idx)]
     if it.toks and chance(rng, 0.5):
         it.toks.pop(int(rng.integers(len(it.toks))))
@@ -326,7 +328,7 @@ def _bvh_deep(rng, items, n_ch):
             Item("open", 1, ["{"]),
             Item("offset", 1, ["OFFSET", "0", "1", "0"], 1),
         ]
-    items[k:k] = chain + [Item("close", 1, ["}"])] * n
+    items[k:k] = chain + [Item("close", 1, ["}"]) for _ in range(n)]
     return "error"
 
 
@@ -362,14 +364,15 @@ BVH_RULES: dict[str, Callable] = {
 }
 
 
-def bvh_case(rng: np.random.Generator, *, perturb: float = 0.5) -> Case:
-    """A BVH file: valid, or (with probability ``perturb``) one grammar rule broken."""
+def bvh_case(rng: np.random.Generator, *, perturb: float = 0.5, rule: str | None = None) -> Case:
+    """A BVH file: valid, or (with probability ``perturb``) grammar rules broken
+    (:func:`.core.apply_rules`); ``rule``: that rule, always."""
     joints = _bvh_tree(rng)
     n_frames = int(rng.choice([1, 2, 3, 5, 10, 10, 30, 100]))
     values = _bvh_values(rng, joints, n_frames)
     items = _bvh_items(rng, joints, values, _bvh_frame_time(rng))
-    rule, expect = ("valid", "ok")
-    if chance(rng, perturb):
-        rule, expect = _bvh_perturb(rng, items, values.shape[1])
+    only, (rule, expect) = rule, ("valid", "ok")
+    if only or chance(rng, perturb):
+        rule, expect = apply_rules(rng, BVH_RULES, items, values.shape[1], only=only)
     text = render(items, random_layout(rng), rng, inline_kinds=("open", "es_open"))
     return Case("grammar.bvh", text.encode("utf-8"), None, "bvh", rule, expect)

@@ -245,3 +245,30 @@ def replace_token(items: list[Item], kind: str | tuple[str, ...], rng, new: str,
 BAD_TOKENS = ["1,5", "0x10", "1_000", "--1", "1e", ".", "1.2.3", "e5", "+-1", "١٢", "１", "1e+", "NaN0"]
 NON_FINITE = ["nan", "inf", "-inf", "NaN", "1e309", "-1e400", "Infinity"]
 HUGE_OK = ["1e300", "-1e300", "5e-324", "1e-310", "1e20", "-2.5e15"]
+
+
+def apply_rules(
+    rng: np.random.Generator, rules: dict[str, Callable], *args, only: str | None = None
+) -> tuple[str, str]:
+    """Break the file ``args`` describe with one rule of ``rules`` (four times in five) or two
+    to three: ``(rule, expect)``, the names joined by ``+``. A rule returns what the reader
+    must do, or None when it does not apply (the file has no such item): it is dropped, and
+    no rule left is ``("valid", "ok")``. Several rules may undo one another (a row dropped,
+    another duplicated): their ``expect`` is ``"any"``; a second rule may also find the items
+    in a state it was not written for (an exception): it is dropped too. ``only`` applies
+    that one rule."""
+    names, expects = [], []
+    for k in range(1 if only or chance(rng, 0.8) else int(rng.integers(2, 4))):
+        name = only or pick(rng, list(rules))
+        try:
+            expect = rules[name](rng, *args)
+        except (IndexError, ValueError, TypeError, AttributeError):
+            if k == 0:
+                raise
+            continue
+        if expect is not None:
+            names.append(name)
+            expects.append(expect)
+    if not names:
+        return "valid", "ok"
+    return "+".join(names), expects[0] if len(names) == 1 else "any"

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core import JSON_STYLES, Case, chance, number_writer, pick
+from .core import JSON_STYLES, Case, apply_rules, chance, number_writer, pick
 
 
 def _dm_joints() -> list[bool]:
@@ -184,18 +184,19 @@ DM_TEXT_RULES: dict[str, Callable[[str, np.random.Generator], tuple[str, str]]] 
 }
 
 
-def deepmimic_case(rng: np.random.Generator, *, perturb: float = 0.5) -> Case:
-    """A DeepMimic clip: valid, or (with probability ``perturb``) one rule broken."""
+def deepmimic_case(rng: np.random.Generator, *, perturb: float = 0.5, rule: str | None = None) -> Case:
+    """A DeepMimic clip: valid, or (with probability ``perturb``) rules broken (one on the
+    text, or :func:`.core.apply_rules` on the clip); ``rule``: that rule, always."""
     dm = _dm_model(rng)
-    rule, expect = "valid", "ok"
+    only, (rule, expect) = rule, ("valid", "ok")
     text_rule = None
-    if chance(rng, perturb):
-        names = [*DM_RULES, *DM_TEXT_RULES]
-        rule = pick(rng, names)
-        if rule in DM_RULES:
-            expect = DM_RULES[rule](rng, dm)
-        else:
-            text_rule = DM_TEXT_RULES[rule]
+    if only is None and chance(rng, perturb):  # "": rules on the clip, drawn by apply_rules
+        n_text = len(DM_TEXT_RULES)
+        only = pick(rng, list(DM_TEXT_RULES)) if chance(rng, n_text / (n_text + len(DM_RULES))) else ""
+    if only in DM_TEXT_RULES:
+        rule, text_rule = only, DM_TEXT_RULES[only]
+    elif only is not None:
+        rule, expect = apply_rules(rng, DM_RULES, dm, only=only or None)
     text = _dm_render(rng, dm)
     if text_rule is not None:
         text, expect = text_rule(text, rng)
