@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -55,6 +56,8 @@ _ROT_DOF = {"rx": "X", "ry": "Y", "rz": "Z"}
 _ROOT_ORDER = {"TX", "TY", "TZ", "RX", "RY", "RZ"}
 _BVH_ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
 _BVH_JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
+#: Smallest ``:units length`` L whose unit, 1/L inch, is a finite number of metres.
+_MIN_LENGTH_UNIT = 0.0254 / sys.float_info.max
 
 
 @dataclass(frozen=True, eq=False)
@@ -187,6 +190,13 @@ def _asf_units(p: str, items: _Items) -> tuple[str, float | None]:
             if length <= 0:
                 raise ParseError(p, ln, f"expected a positive length unit, found {toks[1]!r}")
             metres_per_unit = 0.0254 / length
+            if not math.isfinite(metres_per_unit):  # 1e-320: 1/L inch overflows
+                raise ParseError(
+                    p,
+                    ln,
+                    f"expected a length unit of at least {_MIN_LENGTH_UNIT:.3g} "
+                    f"(1/L inch must be a finite length), found {toks[1]!r}",
+                )
     return angle_unit, metres_per_unit
 
 
