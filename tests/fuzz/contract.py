@@ -11,8 +11,7 @@ A case is a file (and, for an AMC, its ASF). :func:`run_checked` reads it and cl
   frame count, frame rate, joint names and parents, the same channel layout for a BVH
   source, the same End Sites per joint, and forward-kinematics joint positions equal to
   :data:`POSITION_RTOL` of the skeleton's size. ``"ok"`` when it is; ``"writeback_failed"``
-  when ``write_bvh`` refuses it, the written file does not read, or the motion differs;
-  ``"writeback_refused"`` for the one known refusal in flight (:data:`KNOWN_REFUSAL`).
+  when ``write_bvh`` refuses it, the written file does not read, or the motion differs.
 
 Memory: :func:`reset_peak_rss` / :func:`peak_rss_mb` measure one case's peak resident set
 growth on Linux (``/proc/self/clear_refs`` and ``VmHWM``); :func:`can_measure_rss` says
@@ -24,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import re
 import tempfile
 import time
 import traceback
@@ -46,16 +44,10 @@ WRITE_DECIMALS = 12
 #: skeleton's size (its rest-pose span or posed extent, at least 1e-3 units).
 POSITION_RTOL = 1e-9
 
-#: The one write-back refusal known and in flight (issue 32): ``write_bvh`` refuses a joint
-#: with 2 rotation channels whose second angle passes +-90 degrees. While this is set, such
-#: a refusal counts as ``"writeback_refused"`` (reported, not a failure). When the fix of
-#: ``write_bvh`` is merged, set it to ``None``: every refusal is then a failure.
-KNOWN_REFUSAL: re.Pattern[str] | None = re.compile(r"has 2 rotation channel\(s\)")
-
-STATUSES = ("ok", "parse_error", "escaped", "writeback_refused", "writeback_failed")
+STATUSES = ("ok", "parse_error", "escaped", "writeback_failed")
 #: What a grammar case adds: a valid file refused, an invalid one accepted.
 VERDICTS = (*STATUSES, "valid_refused", "invalid_accepted")
-#: The verdicts that break the contract (``writeback_refused`` is known, reported apart).
+#: The verdicts that break the contract.
 FAILURES = ("escaped", "writeback_failed", "valid_refused", "invalid_accepted")
 
 
@@ -164,8 +156,6 @@ def write_back(motion, folder: Path, tag: str, *, same_channels: bool) -> Outcom
         try:
             write_bvh(motion, out, decimals=WRITE_DECIMALS)
         except Exception as exc:
-            if isinstance(exc, ValueError) and KNOWN_REFUSAL is not None and KNOWN_REFUSAL.search(str(exc)):
-                return Outcome("writeback_refused", str(exc)[:300])
             return Outcome("writeback_failed", f"write_bvh: {type(exc).__name__}: {str(exc)[:300]}")
         try:
             back = read_bvh(out)

@@ -8,17 +8,6 @@ the grammar makes invalid refused; and every accepted file is written back with
 ``write_bvh`` and read back as the same motion (frames, fps, joints, the channel layout of a
 BVH source, End Sites, joint positions to 1e-9 of the skeleton's size). The long run, with
 the mutation generator beside it, is ``benchmarks/fuzz_readers.py``.
-
-Known and in flight (issue 32, write_bvh's part), each a strict xfail that fails the run
-once write_bvh is fixed, with what to change then in its reason:
-
-* a joint with 2 rotation channels whose second angle passes +-90 degrees is refused on
-  writing: ``contract.KNOWN_REFUSAL`` counts those as ``writeback_refused`` (tolerated
-  here) -- once fixed, set it to ``None`` and delete the marker of
-  :func:`test_two_rotation_channels_past_90_degrees_write_back`;
-* an ASF bone named ``{`` is written as ``JOINT {``, which does not read back: the grammar
-  does not name bones so (``grammar/asfamc.py``, ``_asf_name_ok``) --
-  :func:`test_asf_bone_named_brace_writes_back`.
 """
 
 from __future__ import annotations
@@ -72,8 +61,6 @@ def test_generated_files_keep_the_contract(fmt: str, scratch: Path) -> None:
     assert not tally.failures(), tally.failures()
     assert tally.slowest["cpu_seconds"] < CPU_BUDGET_S, tally.slowest
     assert tally.largest["peak_mb"] < MEMORY_BUDGET_MB, tally.largest
-    if contract.KNOWN_REFUSAL is None:
-        assert not tally.counts["writeback_refused"]
     # the generator reaches both sides, and most rules (each one alone: the next test)
     assert tally.counts["ok"] > N_CASES[fmt] // 4, tally.counts
     assert tally.counts["parse_error"] > N_CASES[fmt] // 5, tally.counts
@@ -196,23 +183,11 @@ Frame Time: 0.0333333
 """
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 32, in flight (readers helper): write_bvh refuses a joint with 2 rotation channels "
-    "whose second angle passes +-90 degrees. When the fix is merged this passes: delete this marker "
-    "and set contract.KNOWN_REFUSAL = None.",
-)
 def test_two_rotation_channels_past_90_degrees_write_back(tmp_path: Path) -> None:
     out = contract.run_checked(tmp_path, "two.bvh", TWO_CHANNELS.encode(), None, "t")
     assert out.status == "ok", out.detail
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="found by the grammar (issue 32), write_bvh's part: an ASF bone named '{' reads, but write_bvh "
-    "writes 'JOINT {', which read_bvh cannot read back (no joint name). When write_bvh handles such "
-    "names, delete this marker and the exclusion in grammar/asfamc.py _asf_name_ok.",
-)
 def test_asf_bone_named_brace_writes_back(tmp_path: Path) -> None:
     asf = ASF.format(length="0.45").replace("femur", "{")
     out = contract.run_checked(tmp_path, "m.amc", AMC.replace("femur", "{").encode(), asf.encode(), "t")

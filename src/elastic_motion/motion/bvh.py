@@ -182,6 +182,20 @@ class _Tokens:
             raise self.error(line, f"expected {what} (a finite number), found {tok!r}")
         return value
 
+    def named_brace(self, line: int) -> bool:
+        """``{`` ending ``line`` and another ``{`` opening a later line: the first is a name.
+
+        ``JOINT {`` then ``{`` can only be a joint named ``{`` (an ASF bone may be, and
+        :func:`write_bvh` writes it so); ``JOINT {`` then ``OFFSET`` has no name.
+        """
+        i = self.pos
+        return (
+            i + 1 < len(self.items)
+            and self.items[i] == ("{", line)
+            and self.items[i + 1][0] == "{"
+            and self.items[i + 1][1] != line
+        )
+
     def rest_of_line(self, line: int) -> list[str]:
         out = []
         while self.pos < len(self.items) and self.items[self.pos][1] == line:
@@ -270,6 +284,8 @@ class _Hierarchy:
         """The name after ``ROOT``/``JOINT`` on ``kind_line`` and its ``{``; the new joint's index."""
         tokens = self.tokens
         name_toks = tokens.rest_of_line(kind_line)
+        if not name_toks and tokens.named_brace(kind_line):
+            name_toks = [tokens.next("a joint name")[0]]
         if not name_toks:
             raise tokens.error(kind_line, "expected a joint name after ROOT/JOINT")
         name = " ".join(name_toks)

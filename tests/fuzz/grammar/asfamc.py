@@ -40,7 +40,6 @@ def _asf_name_ok(name: str) -> bool:
         and name.lower() not in ("begin", "end")
         and not (name.isascii() and name.isdigit())
         and not name.startswith((":", "#"))  # a section, a comment
-        and name != "{"  # known: write_bvh writes 'JOINT {' (test_asf_bone_named_brace_writes_back)
     )
 
 
