@@ -78,7 +78,7 @@ def test_names_csv_of_a_matrix_run_is_guarded_and_reads_back(tmp_path: Path):
     assert len(rows) == 1 + len(NAMES)
     for row in rows[1:]:  # what a spreadsheet sees: no formula in any cell
         assert not any(c.startswith(FORMULA) and not _is_number(c) for c in row), row
-    assert {r[1] for r in rows[1:]} >= {"'=HYPERLINK(\"x.example\",\"click\")", "''quoted", "-1"}
+    assert {r[1] for r in rows[1:]} >= {'\'=HYPERLINK("x.example","click")', "''quoted", "-1"}
     m = load_matrix(out)  # the database still works, with the names as they were
     assert m.names == list(res.names) and sorted(m.names) == sorted(NAMES)
     assert [Path(p).name for p in m.paths] == [f"{n}.bvh" for n in m.names]
