@@ -8,6 +8,8 @@ below the threshold, an upside-down file) without the shared data.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from motion_testlib import ASF_AMC, CMU_BVH, bandai_files, deepmimic_files
@@ -112,6 +114,33 @@ def test_synthetic_human_is_detected_in_every_orientation(want):
     assert want in est.reason
     assert est.up_axis == (want[1] if want[0] == "+" else "y")
     assert est.fallback == (want[0] == "-")
+
+
+@pytest.mark.parametrize("where", ["offsets", "root", "one frame"])
+def test_a_body_too_large_to_judge_is_ambiguous_without_a_numpy_warning(where):
+    """Numbers near 1e300 (valid in a file) overflow the cues' sums: the estimate is ambiguous,
+    and no RuntimeWarning escapes (the fuzzing found them on reading such files)."""
+    m = human()
+    if where == "offsets":
+        sk = m.skeleton
+        m = m.replace(
+            skeleton=Skeleton(
+                sk.names,
+                sk.parents,
+                sk.offsets * 1e250,
+                sk.channels,
+                sk.end_site_parents,
+                sk.end_site_offsets * 1e250,
+            )
+        )
+    else:
+        root = m.root_translation.copy()
+        root[(slice(None) if where == "root" else 31), 1] = 1e300
+        m = m.replace(root_translation=root)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        est = detect_up_axis(m)
+    assert est.ambiguous and est.up_axis == "y"
 
 
 def test_ambiguous_or_upside_down_falls_back_to_y():

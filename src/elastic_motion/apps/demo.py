@@ -21,9 +21,7 @@ kernels (the first run on a fresh machine also compiles them).
 
 from __future__ import annotations
 
-import csv
 import html
-import io
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -34,6 +32,7 @@ from typing import Any
 from elastic_motion._io import atomic_write_text
 from elastic_motion.apps.align import AlignResult, align_motions
 from elastic_motion.apps.blend import BlendResult, blend_motions
+from elastic_motion.apps.csv_files import csv_text
 from elastic_motion.apps.distance import DistanceTable, distance_table
 from elastic_motion.apps.loop import LoopResult, loop_motion
 from elastic_motion.apps.metrics import SeamMetrics, seam_metrics
@@ -346,12 +345,9 @@ def _distances(run: _Run) -> DistanceTable:
     clips = [run.read(f).replace(name=k) for k, f in _DISTANCE_INPUTS]
     table = distance_table(clips, labels=[k for k, _ in _DISTANCE_INPUTS], progress=run.progress)
     csv_path = run.out / "distances.csv"
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["", *table.labels])
-    for lab, row in zip(table.labels, table.matrix, strict=True):
-        w.writerow([lab, *(f"{x:.4f}" for x in row)])
-    atomic_write_text(csv_path, buf.getvalue())
+    rows = [["", *table.labels]]
+    rows += [[lab, *(f"{x:.4f}" for x in row)] for lab, row in zip(table.labels, table.matrix, strict=True)]
+    atomic_write_text(csv_path, csv_text(rows))
     png = plot_distance_matrix(
         table.matrix, list(table.labels), run.out / "distances.png", title="Lie elastic distances"
     )

@@ -19,6 +19,8 @@ Conventions
      BVH file (default: guessed from the skeleton's size), ``up`` forces the up axis of any
      input (default: a BVH file's is detected from the motion, :func:`elastic_motion.motion.
      detect_up_axis`; a label that looks wrong or a body lying down under it is warned about);
+     a motion with an offset or a position farther than :data:`MAX_EXTENT_M` (1000 km) from
+     the origin is refused here, before anything measures it;
   2. drop frame 0 when it is a T-pose (:func:`elastic_motion.motion.has_tpose_first_frame`),
      unless ``drop_tpose=False``;
   3. trim to ``trim = (start, stop)`` seconds, counted from the first frame kept by step 2;
@@ -87,6 +89,7 @@ __all__ = [
     "FINGERS_NOT_CURVES",
     "JOINTS_DROPPED",
     "JOINTS_REORDERED",
+    "MAX_EXTENT_M",
     "OUTPUT_CHANNELS",
     "PLACED",
     "RESAMPLED",
@@ -410,10 +413,14 @@ def _label_of(source: Source, label: str | None, k: int | None = None) -> str:
     return Path(source).stem
 
 
-def _read(source: Source, options: PrepareOptions) -> tuple[Motion, str | None, UpAxisEstimate | None]:
+def _read(
+    source: Source, options: PrepareOptions, name: str
+) -> tuple[Motion, str | None, UpAxisEstimate | None]:
     """The motion, its path (None for a Motion) and, for a BVH file labelled by detection,
-    the up-axis estimate that labelled it (computed once, reused by the check)."""
+    the up-axis estimate that labelled it (computed once, reused by the check); a motion
+    beyond :data:`MAX_EXTENT_M` refused before anything measures it."""
     if isinstance(source, Motion):
+        _check_extent(source, name)
         m = source
         if options.up is not None and m.up_axis != options.up:
             m = m.replace(up_axis=options.up)
@@ -434,6 +441,7 @@ def _read(source: Source, options: PrepareOptions) -> tuple[Motion, str | None, 
         # the up axis given, or detected here as read_bvh would (once: the check reuses it)
         kw["up_axis"] = options.up or "y"
     m = read_motion(path, **kw)
+    _check_extent(m, name)
     if ext == ".bvh" and options.up is None:
         estimate = detect_up_axis(m)
         if estimate.up_axis != m.up_axis:
@@ -473,7 +481,8 @@ def load_motion(
     Raises
     ------
     OptionError
-        Missing file, a trim range holding no frame, fewer than 3 frames left.
+        Missing file, a trim range holding no frame, fewer than 3 frames left, an offset or
+        a position beyond :data:`MAX_EXTENT_M`.
     ParseError
         A malformed file (from the reader).
     """
@@ -485,8 +494,8 @@ def _load(
     source: Source, opts: PrepareOptions, label: str | None, trim: TimeRange | None
 ) -> tuple[Motion, MotionPreparation, list[Note]]:
     """:func:`load_motion`, with the notes of its steps."""
-    m, path, estimate = _read(source, opts)  # 1. read
     name = _label_of(source, label)
+    m, path, estimate = _read(source, opts, name)  # 1. read
     notes: list[Note] = []
     if opts.check_up_axis:
         _check_up_axis(m, name, estimate, notes)
@@ -523,6 +532,40 @@ def _load(
         notes=tuple(notes),
     )
     return m, report, notes
+
+
+#: The farthest a joint offset or a position may be from the origin (metres; the file's own
+#: unit when unknown): a thousand kilometres is no capture volume, and numbers far beyond it
+#: overflow the squares of the distances and velocities every command measures (a root at
+#: 1e300 made a loop's seam ratios NaN).
+MAX_EXTENT_M = 1e6
+
+
+def _check_extent(m: Motion, name: str) -> None:
+    """Refuse a motion with an offset, root position or joint translation beyond
+    :data:`MAX_EXTENT_M` (an OptionError naming the input, what and where)."""
+    sk = m.skeleton
+    ends = [f"{sk.names[p]} end site" for p in sk.end_site_parents]
+    parts = [  # what, (frames, points, 3), the points' names, whether per frame
+        ("a joint offset", sk.offsets[None], sk.names, False),
+        ("an end site offset", sk.end_site_offsets[None], ends, False),
+        ("the root position", m.root_translation[:, None], [sk.names[0]], True),
+    ]
+    if m.joint_translations is not None:
+        parts.append(("a joint translation", m.joint_translations, sk.names, True))
+    scale = m.metres_per_unit or 1.0
+    unit = "m" if m.metres_per_unit is not None else "units"
+    for what, raw, names, per_frame in parts:
+        a = np.abs(raw)
+        big = a.max(axis=-1) > MAX_EXTENT_M / scale
+        if big.any():
+            f, k = np.argwhere(big)[0]
+            at = f"{names[k]}, frame {f}" if per_frame else names[k]
+            raise OptionError(
+                "motions",
+                f"{name}: expected offsets and positions within {MAX_EXTENT_M:g} {unit} of the origin; "
+                f"got {what} {float(a[f, k].max()) * scale:.3g} {unit} away ({at})",
+            )
 
 
 def _check_up_axis(m: Motion, name: str, estimate: UpAxisEstimate | None, notes: list[Note]) -> None:

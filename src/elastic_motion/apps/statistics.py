@@ -49,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from elastic_motion.apps.csv_files import csv_cell
 from elastic_motion.apps.progress import Progress
 from elastic_motion.curves import (
     DiscreteCurve,
@@ -137,7 +138,9 @@ def motion_labels(names: Sequence[str], rule: str | os.PathLike[str]) -> list[st
     names : sequence of str
         Motion names (e.g. :attr:`elastic_motion.apps.database.DistanceMatrix.names`).
     rule : {"bandai-content", "bandai-style", "cmu"} or path
-        A rule, or a CSV file of rows ``name,label`` (rows of fewer fields are ignored).
+        A rule, or a CSV file of rows ``name,label`` (rows of fewer fields are ignored; a
+        name may also be written as ``names.csv`` writes it, e.g. ``'=x`` for ``=x``:
+        :func:`elastic_motion.apps.csv_files.csv_cell`).
 
     Returns
     -------
@@ -160,7 +163,8 @@ def motion_labels(names: Sequence[str], rule: str | os.PathLike[str]) -> list[st
         )
     with open(rule, newline="") as fh:
         table = {row[0]: row[1] for row in csv.reader(fh) if len(row) >= 2}
-    return [table.get(n) for n in names]
+    # a name as written, or as names.csv writes it (a name copied from there keeps its guard)
+    return [table.get(n, table.get(csv_cell(n))) for n in names]
 
 
 # --------------------------------------------------------------------------------------------

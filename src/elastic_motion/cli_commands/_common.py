@@ -40,6 +40,7 @@ from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.vocabulary import DEFAULT_PAIR_KINDS, EVENT_KINDS, TIME_UNITS, UP_AXES, WARP_METHODS
 
 __all__ = [  # CommandError and check_output are re-exported: every command module uses them
+    "NO_FEET",
     "CommandError",
     "add_contact_height_option",
     "add_input_options",
@@ -337,8 +338,16 @@ def positive_float(value: str) -> float:
     return _number(value, lambda x: x > 0, "a number > 0")
 
 
+#: What a summary says of the feet of a skeleton that has none
+#: (:func:`~elastic_motion.apps.metrics.foot_joints`).
+NO_FEET = "n/a, no joint named foot, toe or ankle to measure"
+
+
 def fmt_float(x: Any, digits: int = 3) -> str:
+    """``x`` with ``digits`` significant digits; ``"n/a"`` for NaN (a figure that had nothing
+    to measure), never ``"nan"``."""
     try:
-        return f"{float(x):.{digits}g}"
+        v = float(x)
     except (TypeError, ValueError):
         return str(x)
+    return "n/a" if math.isnan(v) else f"{v:.{digits}g}"

@@ -10,6 +10,7 @@ import argparse
 
 from elastic_motion._options import choices
 from elastic_motion.cli_commands._common import (
+    NO_FEET,
     CommandError,
     add_contact_height_option,
     add_input_options,
@@ -225,13 +226,16 @@ def _summary(res, out, notes) -> str:
     met = res.metrics.summary() if res.metrics is not None else None
     if met:
         fs = met["foot_sliding"]
-        lines.append(
-            "foot sliding (m/s): result "
-            + fmt_float(fs["result"]["mean_speed_m_s"])
-            + ", inputs "
-            + ", ".join(fmt_float(x["mean_speed_m_s"]) for x in fs["inputs"])
-        )
-        if met.get("feet"):
+        if not fs["result"]["joints"]:
+            lines.append(f"foot sliding and feet: {NO_FEET}")
+        else:
+            lines.append(
+                "foot sliding (m/s): result "
+                + fmt_float(fs["result"]["mean_speed_m_s"])
+                + ", inputs "
+                + ", ".join(fmt_float(x["mean_speed_m_s"]) for x in fs["inputs"])
+            )
+        if met.get("feet") and fs["result"]["joints"]:
             ft = met["feet"]
             lines.append(
                 "feet, measured like the inputs (own contacts): skating "

@@ -16,6 +16,7 @@ from typing import Any
 from elastic_motion._options import choices
 from elastic_motion.cli_commands._argparse import add_alias
 from elastic_motion.cli_commands._common import (
+    NO_FEET,
     CommandError,
     add_contact_height_option,
     add_input_options,
@@ -294,9 +295,7 @@ def _lines(res, out: Path, choice_kind: str) -> list[str]:
         f"{fmt_float(after.seam_angle_max_deg)} deg, largest position jump "
         f"{fmt_float(before.seam_position_max_m)} -> {fmt_float(after.seam_position_max_m)} m, "
         f"velocity jump {fmt_float(after.seam_velocity_jump_ratio)}x the clip's quickest changes; "
-        f"around the seam (0.3 s each side) acceleration {fmt_float(after.seam_acceleration_ratio)}x "
-        "and speed "
-        f"{fmt_float(after.seam_speed_ratio)}x the clip's own (worst at {after.seam_acceleration_point})",
+        + _around_the_seam(after),
         f"changed the clip by at most {fmt_float(res.change_m)} m relative to the root "
         f"(positions: at most {fmt_float(after.deviation_max_m or 0.0)} m, mean "
         f"{fmt_float(after.deviation_mean_m or 0.0)} m)",
@@ -323,6 +322,18 @@ def _lines(res, out: Path, choice_kind: str) -> list[str]:
     return lines
 
 
+def _around_the_seam(after) -> str:
+    """The seam's whip (:class:`~elastic_motion.apps.metrics.SeamMetrics`), or that nothing moves
+    around it (both ratios 0: no ratio and no worst point to name)."""
+    if after.seam_acceleration_ratio == 0 and after.seam_speed_ratio == 0:
+        return "around the seam (0.3 s each side): n/a, no point moves there"
+    return (
+        f"around the seam (0.3 s each side) acceleration {fmt_float(after.seam_acceleration_ratio)}x "
+        f"and speed {fmt_float(after.seam_speed_ratio)}x the clip's own (worst at "
+        f"{after.seam_acceleration_point})"
+    )
+
+
 def _contact_lines(res) -> list[str]:
     """The contacts' and feet's lines, and the joint limits'."""
     lines = []
@@ -335,7 +346,9 @@ def _contact_lines(res) -> list[str]:
             f"{fmt_float(res.skating_before.below_floor)} -> {fmt_float(res.skating_after.below_floor)} m"
             + belt
         )
-    if res.feet_before is not None and res.feet_after is not None:
+    if res.feet_before is not None and not res.feet_before.has_feet:
+        lines.append(f"feet: {NO_FEET}")
+    elif res.feet_before is not None and res.feet_after is not None:
         lines.append(
             f"feet, measured on each: skids {res.feet_before.skid_count} -> {res.feet_after.skid_count}, "
             f"skating over their own contacts {fmt_float(res.feet_before.skating.mean_speed)} -> "

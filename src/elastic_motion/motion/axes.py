@@ -244,6 +244,12 @@ def _hull_distance(points: np.ndarray, mask: np.ndarray, q: np.ndarray, dirs: np
     return np.maximum(gap.max(axis=1), 0.0)
 
 
+#: Coordinates (file units) beyond which the sums and squares of the cues overflow (a file's
+#: numbers may reach 1e308): such a body cannot be judged (the up axis is then ambiguous,
+#: and preparing it for an application refuses it: ``apps.prepare.MAX_EXTENT_M``).
+_MAX_COORD = 1e100
+
+
 class _Degenerate(Exception):
     """The body has zero size (feet at the torso centroid)."""
 
@@ -253,6 +259,8 @@ def _cues(motion: Motion, body: _Body, frames: np.ndarray) -> dict[str, Any]:
     sk = motion.skeleton
     pos, sites = _posed_points(motion, frames)
     pts = np.concatenate([pos, sites], axis=1)  # (F, N, 3)
+    if not np.all(np.abs(pts) < _MAX_COORD):
+        raise _Degenerate
     v = pos[:, body.torso].mean(axis=1) - _feet(body, pos, sites).mean(axis=1)
     length = np.linalg.norm(v, axis=1)
     size = float(np.median(length))
@@ -264,6 +272,8 @@ def _cues(motion: Motion, body: _Body, frames: np.ndarray) -> dict[str, Any]:
     after, before = np.minimum(frames + 1, last), np.maximum(frames - 1, 0)
     pa, sa = _posed_points(motion, after)
     pb, sb = _posed_points(motion, before)
+    if not all(np.all(np.abs(a) < _MAX_COORD) for a in (pa, sa, pb, sb)):
+        raise _Degenerate
     step = np.maximum(after - before, 1)[:, None] / motion.fps
     speed = np.linalg.norm(np.concatenate([pa - pb, sa - sb], axis=1), axis=-1) / (step * size)
     still = speed < _CONTACT_SPEED
@@ -296,6 +306,11 @@ def _cues(motion: Motion, body: _Body, frames: np.ndarray) -> dict[str, Any]:
 def _rest_pose_axis(skeleton: Skeleton, body: _Body) -> dict[str, float] | None:
     """Feet-to-torso unit vector of the rest pose (identity rotations), or None."""
     n = skeleton.n_joints
+    if not (
+        np.all(np.abs(skeleton.offsets) < _MAX_COORD)
+        and np.all(np.abs(skeleton.end_site_offsets) < _MAX_COORD)
+    ):
+        return None
     pos = np.zeros((n, 3))
     for j in range(1, n):
         pos[j] = pos[skeleton.parents[j]] + skeleton.offsets[j]

@@ -23,7 +23,6 @@ the run's entry in the manifest and report notes why (``tiles_rejected``).
 from __future__ import annotations
 
 import contextlib
-import csv
 import io
 import json
 import re
@@ -33,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from elastic_motion._io import atomic_write_bytes, is_our_temporary, read_text
+from elastic_motion.apps.csv_files import csv_text, read_csv_dicts
 from elastic_motion.apps.report import jsonable
 from elastic_motion.motion.representations import EULER, LIE
 
@@ -93,19 +93,18 @@ def save_npy(dest: Path, arr: np.ndarray) -> None:
 
 
 def write_names(out: Path, cache: SRVCache) -> None:
-    """Write ``names.csv`` (one row per motion of the cache, in matrix order)."""
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["index", "name", "path", "group", "frames", "fps", "duration", "joints"])
+    """Write ``names.csv`` (one row per motion of the cache, in matrix order; names and paths
+    guarded against spreadsheet formulas by :func:`~elastic_motion.apps.csv_files.csv_cell`)."""
+    rows: list[list[Any]] = [["index", "name", "path", "group", "frames", "fps", "duration", "joints"]]
     for k, (n, p, g, inf) in enumerate(zip(cache.names, cache.paths, cache.groups, cache.info, strict=True)):
-        w.writerow([k, n, p, int(g), inf["frames"], inf["fps"], f"{inf['duration']:.6g}", inf["joints"]])
-    atomic_write_bytes(out / NAMES, buf.getvalue().encode())
+        rows.append([k, n, p, int(g), inf["frames"], inf["fps"], f"{inf['duration']:.6g}", inf["joints"]])
+    atomic_write_bytes(out / NAMES, csv_text(rows).encode("utf-8", "surrogateescape"))
 
 
 def read_names(out: Path) -> list[dict[str, str]]:
-    """Rows of ``names.csv`` as dicts."""
-    with open(out / NAMES, newline="") as fh:
-        return list(csv.DictReader(fh))
+    """Rows of ``names.csv`` as dicts, the names and paths as they were before
+    :func:`write_names` guarded them."""
+    return read_csv_dicts(out / NAMES)
 
 
 def clean_outputs(out: Path) -> None:

@@ -77,7 +77,8 @@ def _worse(c0: LoopResult, c1: LoopResult) -> list[str]:
     if c0.skating_after is not None and c1.skating_after is not None:
         k0, k1 = c0.skating_after.mean_speed, c1.skating_after.mean_speed
         if k1 > 1.1 * k0 + 1e-9:
-            why.append(f"it skates {k1 / k0:.2f}x as fast ({k1:.3g} against {k0:.3g} m/s)")
+            faster = f"{k1 / k0:.2f}x as fast" if k0 > 0 else "where the C0 loop does not"
+            why.append(f"it skates {faster} ({k1:.3g} against {k0:.3g} m/s)")
     d0, d1 = s0.deviation_mean_m or 0.0, s1.deviation_mean_m or 0.0
     if d1 > 1.5 * d0 + 0.005:
         why.append(f"it changes the clip more (mean {d1:.3g} against {d0:.3g} m)")

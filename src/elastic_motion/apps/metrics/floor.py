@@ -112,6 +112,12 @@ class Skid:
         }
 
 
+#: Why a swing clearance is null in a report (NaN in :attr:`FootQuality.swing_clearance_m`).
+_NO_SWING = (
+    "a foot point whose clearance is null never swings (no 4 frames or more in the air between contacts)"
+)
+
+
 @dataclass(frozen=True, eq=False)
 class FootQuality:
     """A motion's feet and floor, measured on the motion itself (:func:`foot_quality`).
@@ -127,7 +133,8 @@ class FootQuality:
     below_floor_m : float
         How far the lowest joint or end site goes below the floor (m, >= 0).
     swing_clearance_m : dict of str to float
-        Per foot joint, its lowest mid-swing height (m; NaN without a complete swing).
+        Per foot joint, its lowest mid-swing height (m; NaN without a complete swing: None in
+        :meth:`summary`, whose ``swing_clearance_null`` then says why).
     leg_length_m : float
     floor_m : float
         The floor height used (its mean over the frames when not level).
@@ -142,6 +149,12 @@ class FootQuality:
     leg_length_m: float
     floor_m: float
     fps: float
+
+    @property
+    def has_feet(self) -> bool:
+        """Whether the motion has foot points to measure (:func:`foot_points`); without, the
+        skating, skids and clearances are empty or 0 and say nothing about its feet."""
+        return bool(self.swing_clearance_m)
 
     @property
     def skid_count(self) -> int:
@@ -163,6 +176,11 @@ class FootQuality:
             "leg_length_m": self.leg_length_m,
             "floor_m": self.floor_m,
             "swing_clearance_m": {k: (None if np.isnan(v) else v) for k, v in self.swing_clearance_m.items()},
+            **(
+                {"swing_clearance_null": _NO_SWING}
+                if any(map(np.isnan, self.swing_clearance_m.values()))
+                else {}
+            ),
             "skids": [s.summary() for s in self.skids],
             "contacts": self.contacts.all_intervals(),
         }

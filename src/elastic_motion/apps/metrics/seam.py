@@ -24,6 +24,13 @@ _SO3 = SO3()
 #: (:attr:`SeamMetrics.seam_acceleration_ratio`): a closing spreads its change over the frames
 #: next to the seam, a limb's whip there lasts a few frames.
 SEAM_WINDOW = 0.3
+#: Below these a point counts as still (m/s for speeds and velocity jumps, m/s^2 for
+#: accelerations; the motion's length unit when unknown), far above the rounding noise of
+#: forward kinematics (about 1e-15 m a frame): a seam ratio divides by at least this, and is 0
+#: where the seam's own value is below it. Dividing by the smallest float instead made a clip
+#: that does not move report its noise as a whip of 3.6e+295x its own.
+_STILL_SPEED = 1e-6
+_STILL_ACCELERATION = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,7 +59,9 @@ class SeamMetrics:
         least a tenth of the largest such value over the points, so a point that barely moves
         does not count a millimetre as a hitch); the largest over the points. At most about 1:
         no worse than the clip's own quick moves (C1 loops of CMU and DeepMimic clips:
-        0.1-1.2); well above: a visible hitch (C0 loops of the same clips up to 5.5).
+        0.1-1.2); well above: a visible hitch (C0 loops of the same clips up to 5.5). 0 when
+        no point's velocity jumps by more than 1e-6 m/s at the seam (a clip that does not
+        move); the clip's own changes count as at least that much.
     seam_velocity_jump_point : str
         The point where that ratio is largest (a joint name, or ``"<joint> end site"``).
     seam_acceleration_ratio : float
@@ -62,7 +71,8 @@ class SeamMetrics:
         (``original``'s when given; floored like the velocity jump's), the largest over the
         points. A closing that puts its change into the frames next to the seam whips a limb
         there that the jump at the seam frame does not show (DeepMimic long walk closed whole:
-        an ankle at 25.7x its own). At most about 2: no quicker than the clip itself.
+        an ankle at 25.7x its own). At most about 2: no quicker than the clip itself. 0 when
+        no point accelerates by more than 1e-4 m/s^2 around the seam.
     seam_acceleration_point : str
         The point where that ratio is largest.
     seam_speed_ratio : float
@@ -188,7 +198,7 @@ def seam_metrics(
     ref = pos if pos_original is None else pos_original
     inner = np.percentile(np.linalg.norm(np.diff(ref, 2, axis=0), axis=-1), 99, axis=0) * fps * scale
     inner = np.maximum(inner, 0.1 * inner.max(initial=0.0))
-    ratio = dv / np.maximum(inner, np.finfo(float).tiny)
+    ratio = _ratio(dv, inner, _STILL_SPEED)
     names = [*sk.names, *(f"{sk.names[p]} end site" for p in sk.end_site_parents)]
     out: dict = {
         "seam_angle_max_deg": float(seam[sel].max()),
@@ -239,15 +249,20 @@ def _around_the_seam(
     own_acc = np.maximum(own_acc, 0.1 * own_acc.max(initial=0.0))
     own_vel = np.linalg.norm(np.diff(ref, axis=0), axis=-1).max(axis=0) * fps * scale
     own_vel = np.maximum(own_vel, 0.1 * own_vel.max(initial=0.0))
-    tiny = np.finfo(float).tiny
-    acc_ratio = acc.max(axis=0) / np.maximum(own_acc, tiny)
-    vel_ratio = vel.max(axis=0) / np.maximum(own_vel, tiny)
+    acc_ratio = _ratio(acc.max(axis=0), own_acc, _STILL_ACCELERATION)
+    vel_ratio = _ratio(vel.max(axis=0), own_vel, _STILL_SPEED)
     return {
         "seam_acceleration_ratio": float(acc_ratio.max()),
         "seam_acceleration_point": names[int(points[int(acc_ratio.argmax())])],
         "seam_speed_ratio": float(vel_ratio.max()),
         "seam_speed_max_m_s": float(vel.max()),
     }
+
+
+def _ratio(at_seam: np.ndarray, own: np.ndarray, still: float) -> np.ndarray:
+    """Per point, ``at_seam / own`` with ``own`` at least ``still``; 0 where ``at_seam`` is
+    below ``still`` (nothing to see there, and a clip that does not move has no own value)."""
+    return np.where(at_seam > still, at_seam / np.maximum(own, still), 0.0)
 
 
 def _foot_sliding(motion: Motion, root: str, contact_height: float) -> dict:

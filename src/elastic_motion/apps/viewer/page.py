@@ -22,7 +22,7 @@ from typing import Any
 
 from elastic_motion.apps.palette import LEFT, PLANTED, RIGHT
 
-__all__ = ["CSS", "page_html", "plotly_js", "viewer_fragment"]
+__all__ = ["CSS", "html_text", "json_for_script", "page_html", "plotly_js", "viewer_fragment"]
 
 #: The viewer's style sheet (a page holding viewers includes it once).
 CSS = """
@@ -45,6 +45,9 @@ _JS = r"""
   var root = document.getElementById(ID);
   var spec = JSON.parse(document.getElementById(ID + "-data").textContent);
   function q(sel) { return root.querySelector(sel); }
+  // plotly reads its text as a little HTML ("<b>", "<br>", "&amp;"): names are escaped so
+  // that they show as written
+  function txt(s) { return String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;"); }
   function bytes(b64) {
     var s = atob(b64), u = new Uint8Array(s.length);
     for (var i = 0; i < s.length; i++) u[i] = s.charCodeAt(i);
@@ -52,6 +55,7 @@ _JS = r"""
   }
   var clips = spec.clips;
   clips.forEach(function (c) {
+    c.text = txt(c.label);
     c.p = new Float32Array(bytes(c.pos).buffer);
     if (c.contacts) c.mask = bytes(c.contacts.mask);
   });
@@ -94,16 +98,16 @@ _JS = r"""
   traces.push(floorTrace());
   clips.forEach(function (c, k) {
     c.tr = traces.length;
-    [["C", c.colour, c.label], ["L", LEFT, c.label + ": left"], ["R", RIGHT, c.label + ": right"]].forEach(function (s) {
+    [["C", c.colour, c.text], ["L", LEFT, c.text + ": left"], ["R", RIGHT, c.text + ": right"]].forEach(function (s) {
       traces.push({ type: "scatter3d", mode: "lines", x: [], y: [], z: [], name: s[2], legendgroup: "clip" + k,
                     showlegend: s[0] === "C", line: { color: s[1], width: 6 }, hoverinfo: "skip" });
     });
-    traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.label + ": planted",
+    traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.text + ": planted",
                   legendgroup: "clip" + k, showlegend: !!c.contacts,
                   marker: { color: PLANTED, size: 6, symbol: "diamond" }, hoverinfo: "skip" });
-    traces.push({ type: "scatter3d", mode: "text", x: [], y: [], z: [], text: [c.label], name: c.label,
+    traces.push({ type: "scatter3d", mode: "text", x: [], y: [], z: [], text: [c.text], name: c.text,
                   showlegend: false, textfont: { color: c.colour, size: 13 }, hoverinfo: "skip" });
-    traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.label + ": contact starts",
+    traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.text + ": contact starts",
                   legendgroup: "clip" + k, showlegend: c.footprints.length > 0,
                   marker: { color: PLANTED, size: 3, symbol: "x", opacity: 0.6 }, hoverinfo: "skip" });
     for (var t = 0; t < 6; t++) dynamic.push(c.tr + t);
@@ -157,12 +161,12 @@ _JS = r"""
   // ---- the timeline and the warp plot --------------------------------------------------
   var rows = [], tl = [], shapes = [], annotations = [];
   clips.forEach(function (c, k) {
-    rows.push(c.label);
-    tl.push({ type: "scatter", mode: "lines", x: [0, c.duration], y: [c.label, c.label], line: { color: c.colour, width: 6 },
-              name: c.label, showlegend: false, hoverinfo: "x+y" });
+    rows.push(c.text);
+    tl.push({ type: "scatter", mode: "lines", x: [0, c.duration], y: [c.text, c.text], line: { color: c.colour, width: 6 },
+              name: c.text, showlegend: false, hoverinfo: "x+y" });
     if (c.contacts) {
       c.contacts.joints.forEach(function (jn) {
-        var row = c.label + ": " + jn, x = [], y = [];
+        var row = c.text + ": " + txt(jn), x = [], y = [];
         rows.push(row);
         c.contacts.intervals[jn].forEach(function (r) {
           x.push(r[0] / c.fileFps, (r[1] - 1) / c.fileFps, null); y.push(row, row, null);
@@ -171,7 +175,7 @@ _JS = r"""
                   showlegend: false, hoverinfo: "x+y" });
       });
     }
-    c.firstRow = rows.indexOf(c.label); c.lastRow = rows.length - 1;
+    c.firstRow = rows.indexOf(c.text); c.lastRow = rows.length - 1;
   });
   clips.forEach(function (c) {  // a seam spans its clip's rows (category k sits at position n - 1 - k)
     var n = rows.length;
@@ -195,7 +199,7 @@ _JS = r"""
   warpClips.forEach(function (c) {
     var x = []; for (var i = 0; i < c.n; i++) x.push(i / c.fps);
     c.warp.curves.forEach(function (y, k) {
-      wtr.push({ type: "scatter", mode: "lines", x: x, y: y, name: c.label + " <- " + c.warp.inputs[k] });
+      wtr.push({ type: "scatter", mode: "lines", x: x, y: y, name: c.text + " &lt;- " + txt(c.warp.inputs[k]) });
     });
   });
   if (warpClips.length) {
@@ -243,7 +247,7 @@ _JS = r"""
         var j = c.names.indexOf(name); if (j < 0) return;
         var off = offset(c), x = [], y = [], z = [];
         for (var f = 0; f < c.n; f++) { var v = pt(c, f, j, off); x.push(v[0]); y.push(v[1]); z.push(v[2]); }
-        out.push({ type: "scatter3d", mode: "lines", x: x, y: y, z: z, name: c.label + ": " + name + " path",
+        out.push({ type: "scatter3d", mode: "lines", x: x, y: y, z: z, name: c.text + ": " + txt(name) + " path",
                    line: { color: c.colour, width: 2, dash: "dot" }, hoverinfo: "skip" });
       });
     });
@@ -315,8 +319,41 @@ _JS = r"""
 """
 
 
-def _json_for_script(data: Any) -> str:
-    return json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+#: ``<``, ``>`` and ``&`` as JSON ``\\uXXXX`` escapes (:func:`json_for_script`).
+_SCRIPT_ESCAPES = str.maketrans({c: f"\\u{ord(c):04x}" for c in "<>&"})
+
+
+def json_for_script(data: Any) -> str:
+    """``data`` as JSON that is safe inside an HTML ``<script>`` element, whatever its strings.
+
+    ``<``, ``>`` and ``&`` are written as ``\\u003c``, ``\\u003e``, ``\\u0026`` and every
+    non-ASCII character as its ``\\uXXXX`` escape: the same value to ``JSON.parse`` and to a
+    JavaScript parser, and nothing the HTML parser reacts to. (Replacing only ``</`` is not
+    enough: in a ``<script>`` element the parser reads ``<!--<script>`` as the start of an
+    escaped section, after which ``</script>`` no longer ends the element and the page never
+    starts. U+2028 / U+2029 end a line for older JavaScript parsers; a lone surrogate, as
+    ``os.fsdecode`` makes of a file name that is not UTF-8, cannot be written as UTF-8.)
+
+    Parameters
+    ----------
+    data : JSON-ready value
+        No NaN or infinity (``ValueError``).
+
+    Returns
+    -------
+    str
+        Compact ASCII JSON.
+    """
+    return json.dumps(data, separators=(",", ":"), allow_nan=False).translate(_SCRIPT_ESCAPES)
+
+
+def html_text(s: str) -> str:
+    """``s`` escaped for HTML text and attribute values (quotes included).
+
+    A lone surrogate (``os.fsdecode`` of a file name that is not UTF-8) becomes a character
+    reference, which the browser shows as U+FFFD, so that the page can be written as UTF-8.
+    """
+    return html.escape(s).encode("utf-8", "xmlcharrefreplace").decode("utf-8")
 
 
 def viewer_fragment(spec: dict[str, Any]) -> str:
@@ -332,7 +369,7 @@ def viewer_fragment(spec: dict[str, Any]) -> str:
     -------
     str
     """
-    e = html.escape
+    e = html_text
     vid = spec["id"]
     names: list[str] = []
     for c in spec["clips"]:
@@ -372,9 +409,9 @@ def viewer_fragment(spec: dict[str, Any]) -> str:
         "<div class='emv-warp' style='height:280px'></div>" if has_warp else "",
         f"<ul class='emv-notes'><li>{clips}</li>{notes}</ul>",
         "</div>",
-        f"<script type='application/json' id='{e(vid)}-data'>{_json_for_script(spec)}</script>",
+        f"<script type='application/json' id='{e(vid)}-data'>{json_for_script(spec)}</script>",
         "<script>"
-        + _JS.replace("__ID__", json.dumps(vid))
+        + _JS.replace("__ID__", json_for_script(vid))
         .replace("__LEFT__", LEFT)
         .replace("__RIGHT__", RIGHT)
         .replace("__PLANTED__", PLANTED)
@@ -388,10 +425,10 @@ def page_html(title: str, fragments: str, *, plotly_src: str | None = None) -> s
     if plotly_src is None:
         lib = "<script>" + plotly_js().replace("</script", "<\\/script") + "</script>"
     else:
-        lib = f"<script src='{html.escape(plotly_src)}'></script>"
+        lib = f"<script src='{html_text(plotly_src)}'></script>"
     return (
         "<!doctype html>\n<html><head><meta charset='utf-8'>"
-        f"<title>{html.escape(title)}</title>\n{lib}\n<style>{CSS}</style></head>\n<body>\n"
+        f"<title>{html_text(title)}</title>\n{lib}\n<style>{CSS}</style></head>\n<body>\n"
         f"{fragments}\n</body></html>\n"
     )
 
