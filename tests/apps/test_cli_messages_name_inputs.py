@@ -88,7 +88,8 @@ def test_a_skeleton_too_large_to_weigh_names_the_file_not_a_weight(files, capsys
         ["loop", files["huge"], "-o", out, "-q"],
     ):
         err = _error(capsys, *argv)
-        assert "error: huge: expected a skeleton of usual size; its offsets reach 4.2e+156 m" in err, err
+        # refused right after reading (prepare's extent check), named by its file
+        assert "error: huge: expected offsets and positions within 1e+06 m of the origin" in err, err
         assert "weight:" not in err and "weights:" not in err
 
 
@@ -104,3 +105,16 @@ def test_a_skeleton_too_large_to_weigh_names_the_file_not_a_weight(files, capsys
 def test_file_errors_name_the_file(files, capsys, argv, named, internal):
     err = _error(capsys, *(a.format(**files) for a in argv))
     assert named in err and internal not in err, err
+
+
+def test_weights_of_a_skeleton_too_large_name_the_motion():
+    """In Python, without the CLI's extent check, the weights refuse it naming the motion."""
+    from elastic_motion.motion.representations import group_weights
+
+    a = walker(duration=1.0, name="a")
+    sk = a.skeleton
+    huge = Skeleton(
+        sk.names, sk.parents, sk.offsets * 1e160, sk.channels, sk.end_site_parents, sk.end_site_offsets
+    )
+    with pytest.raises(ValueError, match=r"^huge: expected a skeleton of usual size; its offsets reach"):
+        group_weights([a.replace(skeleton=huge, name="huge")])
