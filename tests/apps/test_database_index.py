@@ -274,6 +274,11 @@ def test_a_row_changed_after_loading_is_refused_when_read(db: Path, index: Path)
         assert idx.cache.q["lie"][4].shape[0] == 10
         with pytest.raises(OptionError, match=f"srv_lie.npy: row 5: its SHA-256.*{REBUILD}"):
             idx.cache.q["lie"][5]
+        os.truncate(index / "srv_lie.npy", _row_offset(index, 11) + 8)  # a short read: an error, no SIGBUS
+        with pytest.raises(OptionError, match=r"srv_lie.npy: row 11: the file ends after 8 of its \d+ bytes"):
+            idx.cache.q["lie"][11]
+    with pytest.raises(ValueError, match="the index was closed"):
+        idx.cache.q["lie"][3]
 
 
 # --------------------------------------------------------------------------------------------

@@ -91,9 +91,10 @@ def write_rows(dest: Path, rows: Sequence[np.ndarray], **fields: Any) -> dict[st
     """Write the arrays ``rows`` one after another (C order, :data:`ROW_DTYPE`) as one flat
     ``.npy`` atomically, streamed, then its record; the record.
 
-    The record holds, besides ``file``, ``bytes``, ``sha256``, ``shape`` ``[total]`` and
-    ``dtype``: ``data_offset`` (bytes before the first row), ``row_elements`` (the length of
-    each row) and ``row_sha256`` (each row's SHA-256), then ``fields``.
+    The record holds, besides ``file``, ``bytes``, ``sha256`` (of the whole file, as any
+    record: :func:`open_verified` checks it when the file is read whole), ``shape`` ``[total]``
+    and ``dtype``: ``data_offset`` (bytes before the first row), ``row_elements`` (the length
+    of each row) and ``row_sha256`` (each row's SHA-256: :func:`open_rows`), then ``fields``.
     """
     sizes = [int(np.size(r)) for r in rows]
     head = io.BytesIO()
