@@ -303,7 +303,7 @@ def test_cli_index_search_within_pca(many_dir: Path, tmp_path: Path, capsys) -> 
     common = ["--samples", "10", "--neighbourhood", "3", "--quiet"]
     assert main(["index", str(many_dir), "-o", str(idx), *common, "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
-    assert rep["command"] == "index" and rep["n_motions"] == 24 and rep["index_format"] == 1
+    assert rep["command"] == "index" and rep["n_motions"] == 24 and rep["index_format"] == 2
     query = str(many_dir / "k2_v4.bvh")
     assert main(["search", query, str(idx), "-k", "3", "--json", "--quiet"]) == 0
     rep = json.loads(capsys.readouterr().out)

@@ -21,6 +21,8 @@ Exit codes: 0 success, 1 incomplete/interrupted run, 2 bad input, 3 cluster unre
 from __future__ import annotations
 
 import argparse
+import os
+from pathlib import Path
 from typing import Any
 
 from elastic_motion.cli_commands._argparse import (
@@ -291,7 +293,9 @@ def run_search(args: argparse.Namespace) -> int:
             f"exact {min(args.k, s['candidates'])} nearest: full DP on {s['computed']} of "
             f"{s['candidates']} motions ({100 * s['fraction_pruned']:.0f}% pruned by the bounds)"
         )
-    lines += [f"note: {n}" for n in ignored]
+    # and what reading a stored database said (an index of an earlier format: rebuild it)
+    said = [n for n in res.notes if stored and n.startswith(f"{os.fspath(Path(db))}: ")]
+    lines += [f"note: {n}" for n in [*ignored, *said]]
     body = {
         "query": args.query,
         "representation": method.key,

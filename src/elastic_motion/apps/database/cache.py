@@ -71,8 +71,9 @@ class SRVCache:
     paths : list of str
     groups : ndarray of int, shape (M,)
         Skeleton group of each motion (motions are sorted by group, then input order).
-    q : dict of str -> list of ndarray
-        ``q[repr][k]`` of shape ``(n_samples, D_group)``.
+    q : dict of str -> sequence of ndarray
+        ``q[repr][k]`` of shape ``(n_samples, D_group)``: lists in memory, or the rows of an
+        index read when used (:func:`~elastic_motion.apps.database.load_index`).
     info : list of dict
         Per motion: frames, fps, duration (s), joints, notes.
     group_joints : list of list of str
@@ -89,12 +90,17 @@ class SRVCache:
     ignored : list of str
         Folder entries that are not motion files.
     settings : DatabaseSettings
+    real_paths : list of str
+        Each motion's file with links and ``..`` resolved (``os.path.realpath``) when the cache
+        was built: whether an entry is a query's own file is one comparison (the query's path
+        resolved once), never a resolution per entry; empty in a cache written before they were
+        stored.
     """
 
     names: list[str]
     paths: list[str]
     groups: np.ndarray
-    q: dict[str, list[np.ndarray]]
+    q: dict[str, Sequence[np.ndarray]]
     info: list[dict[str, Any]]
     group_joints: list[list[str]]
     group_weights: list[tuple[list[float], float]]
@@ -103,14 +109,15 @@ class SRVCache:
     settings: DatabaseSettings
     pose_weights: dict[str, list[float]] = field(default_factory=dict)
     group_rest: list[dict[str, Any]] = field(default_factory=list)
+    real_paths: list[str] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.names)
 
-    def to_bytes(self) -> bytes:
-        """The cache as the bytes of an ``.npz`` file (arrays ``q_<repr>_<k>`` + JSON meta)."""
-        arrays = {f"q_{r}_{k}": a for r, lst in self.q.items() for k, a in enumerate(lst)}
-        meta = {
+    def meta(self) -> dict[str, Any]:
+        """Everything but the SRV arrays, JSON-ready (the ``meta`` entry of :meth:`to_bytes`;
+        :meth:`from_meta` reads it back)."""
+        return {
             "format": FORMAT_VERSION,
             "names": self.names,
             "paths": self.paths,
@@ -123,9 +130,14 @@ class SRVCache:
             "settings": self.settings.to_json(),
             **({"pose_weights": self.pose_weights} if self.pose_weights else {}),
             **({"group_rest": self.group_rest} if self.group_rest else {}),
+            **({"real_paths": self.real_paths} if self.real_paths else {}),
         }
+
+    def to_bytes(self) -> bytes:
+        """The cache as the bytes of an ``.npz`` file (arrays ``q_<repr>_<k>`` + JSON :meth:`meta`)."""
+        arrays = {f"q_{r}_{k}": a for r, lst in self.q.items() for k, a in enumerate(lst)}
         buf = io.BytesIO()
-        np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
+        np.savez(buf, meta=np.array(json.dumps(self.meta())), **arrays)
         return buf.getvalue()
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -169,8 +181,25 @@ class SRVCache:
             settings = DatabaseSettings.from_json(meta["settings"])
             n = len(meta["names"])
             q = {r: [z[f"q_{r}_{k}"] for k in range(n)] for r in settings.representations}
+        _check_arrays(
+            name, q, np.asarray(meta["groups"], dtype=np.int64), len(meta["group_joints"]), settings
+        )
+        return cls.from_meta(name, meta, q)
+
+    @classmethod
+    def from_meta(cls, name: str, meta: dict[str, Any], q: dict[str, Sequence[np.ndarray]]) -> SRVCache:
+        """The cache of the JSON ``meta`` of :meth:`meta` and the SRV arrays ``q`` (checked by
+        the caller: :meth:`load` checks every array, an index each row it reads).
+
+        Raises
+        ------
+        OptionError
+            Pose weights missing for ``settings.pose_weight`` (a damaged cache; ``name`` in the message).
+        KeyError, TypeError, ValueError
+            ``meta`` lacking an entry or holding one of another type.
+        """
+        settings = DatabaseSettings.from_json(meta["settings"])
         groups = np.asarray(meta["groups"], dtype=np.int64)
-        _check_arrays(name, q, groups, len(meta["group_joints"]), settings)
         pose_weights = {r: [float(x) for x in v] for r, v in meta.get("pose_weights", {}).items()}
         n_groups = len(meta["group_joints"])
         if settings.pose_weight and any(
@@ -196,6 +225,7 @@ class SRVCache:
             settings=settings,
             pose_weights=pose_weights,
             group_rest=list(meta.get("group_rest", [])),
+            real_paths=[str(p) for p in meta.get("real_paths", [])],
         )
 
     def group_rest_skeleton(self, group: int, like: Skeleton) -> tuple[Skeleton, str] | None:
@@ -712,6 +742,7 @@ def _assembled_cache(
         }
     paths = [files[k] for k in order]
     return SRVCache(
+        real_paths=[os.path.realpath(p) for p in paths],
         names=_unique_names(paths),
         paths=paths,
         groups=group_ids,

@@ -4,10 +4,11 @@ bounds of :mod:`.bounds`)."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.motion import group_weights
 from elastic_motion.motion.representations import representation
 
-__all__ = ["QueryResult", "SearchResult", "is_stored_database", "knn_search", "query_distances"]
+__all__ = ["QueryResult", "SearchResult", "is_stored_database", "knn_search", "query_distances", "query_srv"]
 
 #: Pairs of a query solved in one call of the batched DP (progress is reported between calls).
 QUERY_BATCH = 64
@@ -114,14 +115,16 @@ def is_stored_database(database: str | os.PathLike[str] | Sequence[str | os.Path
     return len(db) == 1 and (is_index(db[0]) or (Path(db[0]) / storage.CACHE).exists())
 
 
+@contextlib.contextmanager
 def _open_database(
     database: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     key: str,
     settings: DatabaseSettings | None,
     progress: Progress | None,
-) -> tuple[SRVCache, tuple[str, ...]]:
-    """The SRV cache of a matrix folder, an index (:mod:`.index`) or files read now, and the
-    note naming the ``settings`` a stored database does not use (none when it uses them)."""
+) -> Iterator[tuple[SRVCache, tuple[str, ...]]]:
+    """The SRV cache of a matrix folder, an index (:mod:`.index`: its files closed on exit) or
+    files read now, and the notes: the ``settings`` a stored database does not use (none when it
+    uses them), what reading an index said."""
     db = [database] if isinstance(database, str | os.PathLike) else list(database)
     stored = [os.fspath(d) for d in db if is_stored_database(d)]
     if len(db) > 1 and stored:
@@ -131,23 +134,39 @@ def _open_database(
             f"{len(db)} entries, of which stored: {stored} (search them one at a time)",
         )
     notes: tuple[str, ...] = ()
-    if is_stored_database(db):
-        cache = load_index(db[0]).cache if is_index(db[0]) else SRVCache.load(Path(db[0]) / storage.CACHE)
-        note = None if settings is None else ignored_settings_note(settings, cache.settings, QUERY_FIELDS)
-        notes = () if note is None else (note,)
-    else:
-        if settings is None:
-            settings = DatabaseSettings(representations=(key,))
-        files, ignored = find_motion_files(db)
-        cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
-    if key not in cache.settings.representations:
-        raise OptionError(
-            "method",
-            "expected one of the representations of the database "
-            f"{[representation(r).name for r in cache.settings.representations]}; "
-            f"got {representation(key).name!r}",
-        )
-    return cache, notes
+    with contextlib.ExitStack() as stack:
+        if is_stored_database(db):
+            if is_index(db[0]):
+                idx = stack.enter_context(load_index(db[0]))
+                cache, notes = idx.cache, idx.notes
+            else:
+                cache = SRVCache.load(Path(db[0]) / storage.CACHE)
+            note = None if settings is None else ignored_settings_note(settings, cache.settings, QUERY_FIELDS)
+            notes = (*notes, *([] if note is None else [note]))
+        else:
+            if settings is None:
+                settings = DatabaseSettings(representations=(key,))
+            files, ignored = find_motion_files(db)
+            cache = build_srv_cache(files, settings, ignored=ignored, progress=progress)
+        if key not in cache.settings.representations:
+            raise OptionError(
+                "method",
+                "expected one of the representations of the database "
+                f"{[representation(r).name for r in cache.settings.representations]}; "
+                f"got {representation(key).name!r}",
+            )
+        yield cache, notes
+
+
+def _own_file(query: str | os.PathLike[str], cache: SRVCache) -> np.ndarray:
+    """Whether each entry of ``cache`` is the file ``query`` itself, shape ``(M,)`` bool: the
+    query's path resolved once against the entries' paths resolved when the cache was built
+    (``cache.real_paths``; resolved now for a cache that does not hold them)."""
+    real = cache.real_paths
+    if len(real) != len(cache):
+        real = [os.path.realpath(p) for p in cache.paths]
+    qpath = os.path.realpath(query)
+    return np.fromiter((p == qpath for p in real), dtype=bool, count=len(real))
 
 
 def _query_srv(
@@ -186,6 +205,34 @@ def _query_srv(
     if settings.pose_weight and g >= 0:  # the database's pose weight (balanced over its motions)
         qq = with_pose_term(qq, arrays["pose"], cache.pose_weights[key][g])
     return qq, g, p.notes, p.joint_names
+
+
+def query_srv(query: str | os.PathLike[str], cache: SRVCache, method: str = "lie") -> np.ndarray:
+    """The SRV array of the motion file ``query`` as a search against ``cache`` compares it:
+    prepared with the database's settings, in the rest pose and the metric of its skeleton
+    group (e.g. to run a baseline on the features :func:`knn_search` compares).
+
+    Parameters
+    ----------
+    query : path
+    cache : SRVCache
+        A database's (``load_index(path).cache``, :func:`build_srv_cache`, ``SRVCache.load``).
+    method : {"lie", "euler-elastic"}, default "lie"
+
+    Returns
+    -------
+    ndarray, shape (n_samples, D)
+
+    Raises
+    ------
+    OptionError
+        The database holds no motion of the query's skeleton (the message says which joints
+        differ).
+    """
+    qq, g, _, joints = _query_srv(query, cache, representation(method).key)
+    if g < 0:
+        raise OptionError("query", f"{os.fspath(query)}: {_skeleton_difference(joints, cache)}")
+    return qq
 
 
 def _method_key(method: str, legacy: str | None) -> str:
@@ -239,19 +286,19 @@ def query_distances(
         A representation the database does not hold; a query missing the joints asked for.
     """
     key = _method_key(method, representation)
-    cache, ignored = _open_database(database, key, settings, progress)
-    qq, g, notes, _ = _query_srv(query, cache, key)
-    members = np.array([k for k in range(len(cache)) if cache.groups[k] == g], dtype=np.int64)
-    out = np.full(len(cache), np.inf)
-    with single_threaded_blas():  # in batches: one compiled call per QUERY_BATCH pairs
-        for n0 in range(0, len(members), QUERY_BATCH):
-            chunk = members[n0 : n0 + QUERY_BATCH]
-            pairs = np.column_stack([np.zeros(len(chunk), dtype=np.int64), chunk])
-            out[chunk] = pair_distances(
-                [qq], cache.q[key], pairs, cache.settings.warp, cyclic=cache.settings.cyclic
-            )
-            if progress is not None:
-                progress("query", n0 + len(chunk), len(members))
+    with _open_database(database, key, settings, progress) as (cache, ignored):
+        qq, g, notes, _ = _query_srv(query, cache, key)
+        members = np.flatnonzero(cache.groups == g)
+        out = np.full(len(cache), np.inf)
+        with single_threaded_blas():  # in batches: one compiled call per QUERY_BATCH pairs
+            for n0 in range(0, len(members), QUERY_BATCH):
+                chunk = members[n0 : n0 + QUERY_BATCH]
+                pairs = np.column_stack([np.zeros(len(chunk), dtype=np.int64), chunk])
+                out[chunk] = pair_distances(
+                    [qq], cache.q[key], pairs, cache.settings.warp, cyclic=cache.settings.cyclic
+                )
+                if progress is not None:
+                    progress("query", n0 + len(chunk), len(members))
     return QueryResult(
         query=os.fspath(query),
         representation=key,
@@ -414,29 +461,24 @@ def knn_search(
     if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
         raise OptionError("k", f"expected an integer >= 1; got {k!r}")
     key = representation(method).key
-    cache, ignored = _open_database(database, key, settings, progress)
-    qq, g, notes, joints = _query_srv(query, cache, key)
-    notes = (*ignored, *notes)
-    t0 = time.perf_counter()
-    m = len(cache)
-    lb = np.full(m, np.inf)
-    computed = np.zeros(m, dtype=bool)
-    qpath = os.path.realpath(query)
-    members = np.array(
-        [
-            i
-            for i in range(m)
-            if cache.groups[i] == g and not (exclude_query and os.path.realpath(cache.paths[i]) == qpath)
-        ],
-        dtype=np.int64,
-    )
-    found: list[tuple[float, int]] = []
-    if g < 0:
-        notes = (*notes, _skeleton_difference(joints, cache, is_stored_database(database)))
-    elif len(members):
-        norms = cache_norms(cache, key)
-        lb[members] = lower_bounds(part_norms(qq), norms[members][:, :, : qq.shape[1]])  # one group: one D
-        found = _exact_nearest(qq, cache.q[key], cache.settings, members, lb, k, computed)
+    with _open_database(database, key, settings, progress) as (cache, ignored):
+        qq, g, notes, joints = _query_srv(query, cache, key)
+        notes = (*ignored, *notes)
+        t0 = time.perf_counter()
+        m = len(cache)
+        lb = np.full(m, np.inf)
+        computed = np.zeros(m, dtype=bool)
+        in_group = cache.groups == g
+        members = np.flatnonzero(in_group & ~_own_file(query, cache) if exclude_query else in_group)
+        found: list[tuple[float, int]] = []
+        if g < 0:
+            notes = (*notes, _skeleton_difference(joints, cache, is_stored_database(database)))
+        elif len(members):
+            norms = cache_norms(cache, key)
+            lb[members] = lower_bounds(
+                part_norms(qq), norms[members][:, :, : qq.shape[1]]
+            )  # one group: one D
+            found = _exact_nearest(qq, cache.q[key], cache.settings, members, lb, k, computed)
     top = found[:k]
     return SearchResult(
         query=os.fspath(query),

@@ -15,6 +15,13 @@ SHA-256 are the record's; :func:`load_array` also checks the ``.npy`` it holds (
 the record's shape and dtype). Anything else is :class:`NotVerified`, with the reason: the
 caller computes the file again and says why. A file whose record is missing (a run stopped
 between the two writes) is not verified either: at most the file in flight is lost.
+
+A file too large to be read whole at every use (the SRV arrays of an index) is written by
+:func:`write_rows`: its arrays ("rows") one after another as one flat ``.npy``, and a record
+that holds, besides the file's size and SHA-256, the length and the SHA-256 of every row.
+:func:`open_rows` checks the record, the file's size and ``.npy`` header (cheap, nothing of the
+data read); :meth:`VerifiedRows.read` then reads one row at its offset and checks its
+SHA-256: every byte used is verified, and only the rows used are read.
 """
 
 from __future__ import annotations
@@ -23,21 +30,27 @@ import hashlib
 import io
 import json
 import os
+import threading
+import weakref
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, BinaryIO
 
 import numpy as np
 
-from elastic_motion._io import atomic_write_bytes, open_regular, read_bytes
+from elastic_motion._io import atomic_path, atomic_write_bytes, open_regular, read_bytes
 from elastic_motion.errors import ParseError
 
 __all__ = [
     "NotVerified",
+    "VerifiedRows",
     "load_array",
     "make_room",
+    "open_rows",
     "open_verified",
     "record_path",
     "save_array",
+    "write_rows",
     "write_verified",
 ]
 
@@ -66,6 +79,51 @@ def write_verified(dest: Path, data: bytes, **fields: Any) -> dict[str, Any]:
     """Write ``data`` to ``dest`` atomically, then its record (``fields`` added); the record."""
     atomic_write_bytes(dest, data)
     record = {"file": dest.name, "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(), **fields}
+    atomic_write_bytes(record_path(dest), (json.dumps(record) + "\n").encode())
+    return record
+
+
+#: The dtype of the rows of :func:`write_rows` (float64, little-endian, whatever the machine).
+ROW_DTYPE = np.dtype("<f8")
+
+
+def write_rows(dest: Path, rows: Sequence[np.ndarray], **fields: Any) -> dict[str, Any]:
+    """Write the arrays ``rows`` one after another (C order, :data:`ROW_DTYPE`) as one flat
+    ``.npy`` atomically, streamed, then its record; the record.
+
+    The record holds, besides ``file``, ``bytes``, ``sha256`` (of the whole file, as any
+    record: :func:`open_verified` checks it when the file is read whole), ``shape`` ``[total]``
+    and ``dtype``: ``data_offset`` (bytes before the first row), ``row_elements`` (the length
+    of each row) and ``row_sha256`` (each row's SHA-256: :func:`open_rows`), then ``fields``.
+    """
+    sizes = [int(np.size(r)) for r in rows]
+    head = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        head, {"descr": ROW_DTYPE.str, "fortran_order": False, "shape": (sum(sizes),)}
+    )
+    header = head.getvalue()
+    whole = hashlib.sha256(header)
+    digests = []
+    with atomic_path(dest) as tmp, open(tmp, "wb") as fh:
+        fh.write(header)
+        for r in rows:
+            data = np.ascontiguousarray(r, dtype=ROW_DTYPE).tobytes()
+            digests.append(hashlib.sha256(data).hexdigest())
+            whole.update(data)
+            fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    record = {
+        "file": dest.name,
+        "bytes": len(header) + ROW_DTYPE.itemsize * sum(sizes),
+        "sha256": whole.hexdigest(),
+        "shape": [sum(sizes)],
+        "dtype": ROW_DTYPE.str,
+        "data_offset": len(header),
+        "row_elements": sizes,
+        "row_sha256": digests,
+        **fields,
+    }
     atomic_write_bytes(record_path(dest), (json.dumps(record) + "\n").encode())
     return record
 
@@ -139,6 +197,139 @@ def open_verified(path: Path, **expected: Any) -> BinaryIO:
         fh.close()
         raise
     return fh
+
+
+class VerifiedRows:
+    """The rows of a file of :func:`write_rows` (:func:`open_rows`), each read only when asked
+    and only if its SHA-256 is its record's.
+
+    The file stays open (the one checked by :func:`open_rows`: replacing it on disk changes
+    nothing here) until :meth:`close` or until the object is collected.
+    """
+
+    def __init__(self, path: Path, record: dict[str, Any], fh: BinaryIO) -> None:
+        self.path = path
+        self.row_elements: list[int] = list(record["row_elements"])
+        self._sha = list(record["row_sha256"])
+        self._starts = np.concatenate([[0], np.cumsum(self.row_elements, dtype=np.int64)])
+        self._offset = int(record["data_offset"])
+        self._fh = fh
+        self._lock = threading.Lock()
+        self._finalizer = weakref.finalize(self, fh.close)
+
+    def __len__(self) -> int:
+        return len(self.row_elements)
+
+    def read(self, k: int) -> np.ndarray:
+        """Row ``k`` (0 <= k < len), shape ``(row_elements[k],)``, read-only; :class:`NotVerified`
+        when the file no longer holds the bytes its record describes."""
+        n = self.row_elements[k] * ROW_DTYPE.itemsize
+        with self._lock:
+            try:
+                self._fh.seek(self._offset + int(self._starts[k]) * ROW_DTYPE.itemsize)
+                data = self._fh.read(n)
+            except (OSError, ValueError) as exc:  # ValueError: read after close
+                raise NotVerified(f"{self.path.name}: row {k}: cannot read the file ({exc})") from None
+        if len(data) != n:
+            raise NotVerified(
+                f"{self.path.name}: row {k}: the file ends after {len(data)} of its {n} bytes (the file "
+                "changed)"
+            )
+        if hashlib.sha256(data).hexdigest() != self._sha[k]:
+            raise NotVerified(
+                f"{self.path.name}: row {k}: its SHA-256 is not the one of its record (the file changed)"
+            )
+        return np.frombuffer(data, dtype=ROW_DTYPE)
+
+    def close(self) -> None:
+        """Close the file (rows can no longer be read)."""
+        self._finalizer()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return not self._finalizer.alive
+
+
+def _check_rows_record(path: Path, record: dict[str, Any], row_elements: Sequence[int]) -> None:
+    """:class:`NotVerified` unless the record of ``path`` describes rows of these lengths."""
+    name = record_path(path).name
+    total = int(sum(row_elements))
+    want = {
+        "file": path.name,
+        "dtype": ROW_DTYPE.str,
+        "shape": [total],
+        "row_elements": [int(n) for n in row_elements],
+    }
+    for k, v in want.items():
+        got = record.get(k)
+        if got == v:
+            continue
+        if k == "row_elements":  # thousands of numbers: say how they differ
+            n = len(got) if isinstance(got, list) else None
+            what = f"{n} rows" + (" of other lengths" if n == len(v) else "") if n is not None else repr(got)
+            raise NotVerified(
+                f"{name}: expected row_elements of {len(v)} rows of the entries' lengths; got {what}"
+            )
+        raise NotVerified(f"{name}: expected {k} {v!r}; got {got!r}")
+    sha, offset = record.get("row_sha256"), record.get("data_offset")
+    if not (
+        isinstance(sha, list)
+        and len(sha) == len(row_elements)
+        and all(isinstance(h, str) and len(h) == 64 for h in sha)
+    ):
+        raise NotVerified(f"{name}: expected {len(row_elements)} row SHA-256 digests; got another list")
+    if not isinstance(offset, int) or record["bytes"] != offset + ROW_DTYPE.itemsize * total:
+        raise NotVerified(
+            f"{name}: expected bytes = data_offset + {ROW_DTYPE.itemsize} x {total}; got bytes "
+            f"{record['bytes']!r}, data_offset {offset!r}"
+        )
+
+
+def open_rows(path: Path, row_elements: Sequence[int], **expected: Any) -> VerifiedRows:
+    """The rows of ``path`` (written by :func:`write_rows`) if its record says rows of these
+    lengths (and the ``expected`` fields), and the file is a regular file of the record's size
+    whose ``.npy`` header is the record's; no row is read here (:meth:`VerifiedRows.read`).
+
+    Raises
+    ------
+    NotVerified
+        As :func:`open_verified`, but the whole file's SHA-256 is not computed (each row's is,
+        when it is read).
+    """
+    record = _read_record(path)
+    _check_rows_record(path, record, row_elements)
+    for k, v in expected.items():
+        if record.get(k) != v:
+            raise NotVerified(f"{record_path(path).name}: expected {k} {v!r}; got {record.get(k)!r}")
+    try:
+        fh = open_regular(path, follow_symlinks=False)
+    except ParseError as exc:
+        raise NotVerified(f"{path.name}: {exc.message}") from None
+    try:
+        size = os.fstat(fh.fileno()).st_size
+        if size != record["bytes"]:
+            raise NotVerified(f"{path.name}: {size} bytes; its record says {record['bytes']}")
+        try:
+            version = np.lib.format.read_magic(fh)
+            read_header = {
+                (1, 0): np.lib.format.read_array_header_1_0,
+                (2, 0): np.lib.format.read_array_header_2_0,
+            }[version]
+            header = read_header(fh)
+        except (ValueError, KeyError, OSError, EOFError) as exc:
+            raise NotVerified(f"{path.name}: not a .npy array ({exc})") from None
+        want = ((int(sum(row_elements)),), False, ROW_DTYPE)
+        if header != want or fh.tell() != record["data_offset"]:
+            raise NotVerified(
+                f"{path.name}: expected a .npy header of a flat C-order {ROW_DTYPE.str} array of "
+                f"{want[0][0]} values ending at byte {record['data_offset']}; got {header} ending at "
+                f"{fh.tell()}"
+            )
+    except BaseException:
+        fh.close()
+        raise
+    return VerifiedRows(path, record, fh)
 
 
 def load_array(path: Path, shape: tuple[int, ...], dtype: Any = np.float64, **expected: Any) -> np.ndarray:
