@@ -67,7 +67,7 @@ class RefineOptions:
         ``window * tol`` times its value (relative tolerance per iteration). Non-negative.
     max_iter : int, default 1000
         Maximal number of iterations.
-    memory : int, default 10
+    memory : int, default 20
         Number of L-BFGS pairs kept (>= 1).
     window : int, default 20
         Iterations over which the relative decrease is measured (>= 1).
@@ -82,7 +82,7 @@ class RefineOptions:
 
     tol: float = DEFAULT_REFINE_TOL
     max_iter: int = DEFAULT_REFINE_MAX_ITER
-    memory: int = 10
+    memory: int = 20
     window: int = DEFAULT_REFINE_WINDOW
     jitter: float = 1e-3
     nodes: Literal["both", "q0"] = "both"
