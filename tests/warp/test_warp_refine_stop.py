@@ -1,6 +1,7 @@
 """The refinement's stopping rule (issue 34): it stops when the energy decreased by less than
-``tol`` (relative) per iteration over the last ``window`` iterations, and that window is long
-enough that a stall at a kink near the start does not end the descent on real walks."""
+``tol`` (relative) per iteration over the last ``window`` iterations; on real walks it stops
+on that rule (not on ``max_iter``, as it did before on some of them) after a descent that
+gains about 1 % over the DP (0.3 % before on CMU 131)."""
 
 from __future__ import annotations
 
@@ -90,8 +91,8 @@ def cmu_pair_srv(mocap_dir, names: tuple[str, str], n: int) -> tuple[np.ndarray,
 @pytest.mark.parametrize(
     ("names", "gain"),
     [
-        (("07_01.bvh", "08_02.bvh"), 0.012),  # measured 1.39 %; a 5-iteration window stopped at 0.0 %
-        (("131_01.bvh", "131_02.bvh"), 0.008),  # measured 0.99 %; before issue 34 0.29 %
+        (("07_01.bvh", "08_02.bvh"), 0.012),  # measured 1.44 %; before issue 34 1.07 %
+        (("131_01.bvh", "131_02.bvh"), 0.008),  # measured 1.03 %; before issue 34 0.29 %
     ],
 )
 def test_the_descent_does_not_stop_in_a_stall_on_real_walks(mocap_dir, names, gain):

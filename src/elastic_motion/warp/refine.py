@@ -31,8 +31,9 @@ default 1e-7) per iteration on average over the last ``window`` iterations (defa
 i.e. ``E[k - window] - E[k] < window * tol * |E[k]|``; or after ``max_iter`` iterations
 (default 1000); or when no step decreases the energy.  The window is long because single
 L-BFGS steps on a piecewise smooth energy are erratic: a few short steps at a kink must not
-stop the descent (measured on the CMU pairs of ``benchmarks/warp.py``: with 5 iterations
-one descent in ten stopped near its start).
+stop the descent (measured on the CMU pairs of ``benchmarks/warp.py`` at N = 100 to 800,
+six jitter seeds each: with 5 iterations 3 of 48 descents ended on the DP's energy, with 20
+one).
 
 The energy is only piecewise smooth (it has kinks where a vertex value crosses a q1 break
 point): the method is a local descent, meant to polish a DP warp, not to replace it.
