@@ -42,11 +42,20 @@ Issue 13 extras (``--steep``, ``--closed``; written to the same JSON under ``"st
   descent, closed geodesic) on the hand outlines of ``examples/warp_2d.py`` at 100 / 200 /
   400 points, three rows as paper 001's Table 1, timed beside the paper's seconds.
 
+Issue 34 (the cost of the default): every row also times ``ours-dp`` and ``ours-dp+refine``
+interleaved (``--repeat`` rounds, the median; wall clock and the process's CPU time, which the
+other jobs of a shared machine disturb less) and prints a second table, dp+refine against dp
+(the targets: at most 3x at N = 100, at most 1.5x from N = 400) and against fdasrsf, with the
+energies, the refinement's gain over the DP, and with ``--baseline OLD.json`` (this script's
+JSON from an earlier version of the solver) the energy of dp+refine over the old one per
+pair. The load average (``uptime``) at the start and the end is printed and written.
+
 Usage::
 
     python benchmarks/warp.py --steep --closed --cases    # only the issue-13 tables
     python benchmarks/warp.py                      # full: N = 100 ... 1600, all cases
     python benchmarks/warp.py --n 100 200 --cases synth3 cmu131 --fd-max-n 200   # quick
+    python benchmarks/warp.py --fd-max-n 800 --baseline old.json   # issue 34: against today
 
 Writes ``benchmarks/results/warp.json`` and prints a markdown table.
 """
@@ -54,6 +63,8 @@ Writes ``benchmarks/results/warp.json`` and prints a markdown table.
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import platform
 import sys
 import time
@@ -62,11 +73,10 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import write_json
+from _common import MOCAP, write_json
 from elastic_motion.warp import optimal_warp, warp_energy
 
 ROOT = Path(__file__).resolve().parents[1]
-MOCAP = ROOT.parent / "shared" / "mocap"
 CASES = ("synth3", "synth93", "cmu07-08", "cmu131")
 REAL = {
     "cmu07-08": ("cmu/bvh/07_01.bvh", "cmu/bvh/08_02.bvh"),
@@ -133,6 +143,45 @@ def run_ours(q0, q1, repeat: int, **kw) -> tuple[float, np.ndarray, dict]:
         "time_refine": d.time_refine,
     }
     return best, res.vertices, info
+
+
+#: Our methods of a row, timed interleaved: name, keywords of optimal_warp.
+OURS = (
+    ("ours-dp", {"method": "dp"}),
+    ("ours-dp+refine", {"method": "dp+refine"}),
+    ("ours-c2f", {"coarse_to_fine": True, "method": "dp"}),
+)
+
+
+def run_ours_interleaved(q0, q1, repeat: int) -> dict[str, dict]:
+    """Our methods in turn, ``repeat`` rounds (after one warm-up round): the median wall and
+    CPU seconds of each, its last warp's vertices and diagnostics."""
+    wall: dict[str, list[float]] = {name: [] for name, _ in OURS}
+    cpu: dict[str, list[float]] = {name: [] for name, _ in OURS}
+    last = {}
+    for rnd in range(repeat + 1):
+        for name, kw in OURS:
+            t, c = time.perf_counter(), time.process_time()
+            last[name] = optimal_warp(q0, q1, **kw)
+            if rnd:
+                wall[name].append(time.perf_counter() - t)
+                cpu[name].append(time.process_time() - c)
+    out = {}
+    for name, _ in OURS:
+        d = last[name].diagnostics
+        out[name] = {
+            "time": float(np.median(wall[name])),
+            "cpu": float(np.median(cpu[name])),
+            "time_min": min(wall[name]),
+            "vertices": last[name].vertices,
+            "nodes_evaluated": d.nodes_evaluated,
+            "levels": d.levels,
+            "iterations": d.iterations,
+            "refine_stop": d.refine_stop,
+            "time_dp": d.time_dp,
+            "time_refine": d.time_refine,
+        }
+    return out
 
 
 def run_fdasrsf(q0, q1, method: str, repeat: int) -> tuple[float, np.ndarray]:
@@ -285,7 +334,13 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
     )
     ap.add_argument("--rbfgs-max-n", type=int, default=1600, help="skip fdasrsf RBFGS above this N")
     ap.add_argument("--no-fdasrsf", action="store_true")
-    ap.add_argument("--repeat", type=int, default=3, help="runs of our solver (minimum time)")
+    ap.add_argument("--repeat", type=int, default=5, help="interleaved rounds of our solvers (median time)")
+    ap.add_argument(
+        "--baseline",
+        type=Path,
+        default=None,
+        help="JSON of an earlier run: dp+refine's energy against it, pair by pair",
+    )
     ap.add_argument("--fd-repeat", type=int, default=1)
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "warp.json")
     ap.add_argument("--steep", action="store_true", help="default method vs dp on steep warps (issue 13)")
@@ -321,14 +376,7 @@ def _measure(case: str, n: int, args: argparse.Namespace, have_fd: bool) -> dict
         return None
     else:
         q0, q1, gamma = real_pair(case, n)
-    res: dict[str, dict] = {}
-    for name, kw in (
-        ("ours-dp", {"method": "dp"}),
-        ("ours-dp+refine", {"method": "dp+refine"}),
-        ("ours-c2f", {"coarse_to_fine": True, "method": "dp"}),
-    ):
-        sec, verts, info = run_ours(q0, q1, args.repeat, **kw)
-        res[name] = {"time": sec, "vertices": verts, **info}
+    res = run_ours_interleaved(q0, q1, args.repeat)
     if have_fd and n <= args.fd_max_n:
         sec, verts = run_fdasrsf(q0, q1, "DP", args.fd_repeat)
         res["fdasrsf-DP"] = {"time": sec, "vertices": verts}
@@ -349,6 +397,7 @@ def main(argv: list[str] | None = None) -> int:
     fd_version = None if args.no_fdasrsf else _fdasrsf_version()
     if not args.no_fdasrsf and fd_version is None:
         print("fdasrsf not installed (pip install -e '.[benchmark]'): comparing nothing", file=sys.stderr)
+    load_start = os.getloadavg()
     compile_s = _warm_up()
     extra: dict[str, list] = {}
     if args.steep:
@@ -371,12 +420,20 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "fd_max_n": args.fd_max_n,
         "rbfgs_max_n": args.rbfgs_max_n,
+        "load_average_start": load_start,
+        "load_average_end": os.getloadavg(),
+        "baseline": args.baseline,
     }
     if fd_version is not None:
         meta["fdasrsf"] = fd_version
-    write_json(args.out, {"meta": meta, "rows": rows, **extra})
+    baseline = _baseline_energies(args.baseline)
+    write_json(args.out, {"meta": meta, "rows": rows, "refine": refine_rows(rows, baseline), **extra})
     if rows:
         print(markdown(rows))
+        print()
+        print(refine_markdown(refine_rows(rows, baseline)))
+        print(refine_summary(refine_rows(rows, baseline)))
+    print(f"load average (1, 5, 15 min): start {_load(load_start)}, end {_load(meta['load_average_end'])}")
     if "steep" in extra:
         print(steep_markdown(extra["steep"]))
     if "closed" in extra:
@@ -437,6 +494,106 @@ def markdown(rows: list[dict]) -> str:
             + " |"
         )
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- issue 34
+
+#: Targets of issue 34: dp+refine time over dp time, at most this at N (the first key <= N).
+REFINE_TARGETS = {100: 3.0, 400: 1.5}
+
+
+def _target(n: int) -> float | None:
+    keys = [k for k in REFINE_TARGETS if k <= n]
+    return REFINE_TARGETS[max(keys)] if keys else None
+
+
+def _load(load: tuple[float, float, float]) -> str:
+    return " ".join(f"{x:.2f}" for x in load)
+
+
+def _baseline_energies(path: Path | None) -> dict[tuple[str, int], float]:
+    """dp+refine's energy per (case, N) in an earlier run's JSON (empty without one)."""
+    if path is None:
+        return {}
+    data = json.loads(path.read_text())
+    return {(r["case"], r["N"]): r["methods"]["ours-dp+refine"]["energy"] for r in data["rows"]}
+
+
+def refine_rows(rows: list[dict], baseline: dict[tuple[str, int], float]) -> list[dict]:
+    """One row per pair: dp+refine against dp (time ratios wall and CPU, energies, gain),
+    against fdasrsf (time, energy) and against the baseline's energy."""
+    out = []
+    for row in rows:
+        m = row["methods"]
+        dp, ref = m["ours-dp"], m["ours-dp+refine"]
+        fd, rb = m.get("fdasrsf-DP"), m.get("fdasrsf-RBFGS")
+        old = baseline.get((row["case"], row["N"]))
+        out.append(
+            {
+                "case": row["case"],
+                "N": row["N"],
+                "dp_s": dp["time"],
+                "ref_s": ref["time"],
+                "ratio": ref["time"] / dp["time"],
+                "ratio_cpu": ref["cpu"] / dp["cpu"],
+                "target": _target(row["N"]),
+                "iterations": ref["iterations"],
+                "stop": ref["refine_stop"],
+                "E_dp": dp["energy"],
+                "E_ref": ref["energy"],
+                "gain_pct": 100.0 * (1.0 - ref["energy"] / dp["energy"]),
+                "E_ref_baseline": old,
+                "E_over_baseline": None if old is None else ref["energy"] / old,
+                "fd_dp_s": fd and fd["time"],
+                "fd_dp_E": fd and fd["energy"],
+                "rbfgs_s": rb and rb["time"],
+                "rbfgs_E": rb and rb["energy"],
+            }
+        )
+    return out
+
+
+def refine_markdown(rows: list[dict]) -> str:
+    head = (
+        "| case | N | dp s | dp+refine s | ratio | ratio CPU | target | iterations | E dp | E dp+refine "
+        "| gain | E / baseline | fd DP s | fd DP E | RBFGS s | RBFGS E |"
+    )
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        cells = [
+            r["case"],
+            str(r["N"]),
+            _fmt(r["dp_s"], ".4f"),
+            _fmt(r["ref_s"], ".4f"),
+            _fmt(r["ratio"], ".2f") + "x",
+            _fmt(r["ratio_cpu"], ".2f") + "x",
+            "-" if r["target"] is None else f"<= {r['target']}x",
+            f"{r['iterations']} ({r['stop']})",
+            _fmt(r["E_dp"], ".6g"),
+            _fmt(r["E_ref"], ".6g"),
+            _fmt(r["gain_pct"], ".2f") + "%",
+            _fmt(r["E_over_baseline"], ".5f"),
+            _fmt(r["fd_dp_s"], ".2f"),
+            _fmt(r["fd_dp_E"], ".4g"),
+            _fmt(r["rbfgs_s"], ".2f"),
+            _fmt(r["rbfgs_E"], ".4g"),
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def refine_summary(rows: list[dict]) -> str:
+    """The worst ratio per N against its target, and the worst energy against the baseline."""
+    parts = []
+    for n in sorted({r["N"] for r in rows}):
+        at = [r for r in rows if r["N"] == n]
+        worst, worst_cpu, target = max(r["ratio"] for r in at), max(r["ratio_cpu"] for r in at), _target(n)
+        verdict = "" if target is None else (" met" if worst <= target else " NOT met") + f" (<= {target}x)"
+        parts.append(f"N={n}: worst dp+refine/dp {worst:.2f}x wall, {worst_cpu:.2f}x CPU{verdict}")
+    over = [r["E_over_baseline"] for r in rows if r["E_over_baseline"] is not None]
+    if over:
+        parts.append(f"dp+refine energy / baseline: worst {max(over):.5f}, best {min(over):.5f}")
+    return "\n".join(parts)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,9 @@ __all__ = [
     "DEFAULT_LANDMARK_WEIGHT",
     "DEFAULT_MAX_STEP",
     "DEFAULT_METHOD",
+    "DEFAULT_REFINE_MAX_ITER",
+    "DEFAULT_REFINE_TOL",
+    "DEFAULT_REFINE_WINDOW",
     "DEFAULT_SAMPLE_FPS",
     "DEFAULT_SAMPLE_SMOOTHING",
     "LOOP_CHANGE_BOUND",
@@ -56,6 +59,13 @@ DEFAULT_SAMPLE_SMOOTHING = 1.0 / 60.0
 #: flatter, whatever the grid; the refinement off the grid does (``docs/warp.md``, "Default
 #: method").
 DEFAULT_METHOD = "dp+refine"
+#: The refinement's stopping rule (``WarpSolverOptions.tol``, ``max_iter``;
+#: ``warp.refine.RefineOptions``): it stops when the energy decreased by less than
+#: ``DEFAULT_REFINE_TOL`` (relative) per iteration over the last ``DEFAULT_REFINE_WINDOW``
+#: iterations, or after ``DEFAULT_REFINE_MAX_ITER`` iterations.
+DEFAULT_REFINE_TOL = 1e-7
+DEFAULT_REFINE_WINDOW = 20
+DEFAULT_REFINE_MAX_ITER = 1000
 #: The warp method of a Karcher mean and of a database (``apps.statistics.MEAN_WARP``,
 #: ``apps.database.DEFAULT_WARP``): the DP alone on the grid, under which each iteration's
 #: energy is non-increasing (the previous warp is a path of the next DP; the refinement off

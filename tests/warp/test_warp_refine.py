@@ -7,7 +7,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from elastic_motion.warp import Landmarks, dp_kernels, landmark_cost, optimal_warp, warp_energy
+from elastic_motion.warp import (
+    Landmarks,
+    dp_kernels,
+    landmark_cost,
+    optimal_warp,
+    refine_kernels,
+    warp_energy,
+)
 from elastic_motion.warp import refine as warp_refine
 from elastic_motion.warp.dp import LandmarkTables
 from elastic_motion.warp.landmarks import make_penalty
@@ -85,19 +92,20 @@ def test_refinement_never_increases_the_energy():
 
 
 def test_refinement_lowers_the_energy_and_stays_on_the_truth():
-    """A known warp gamma on 200 cells: the DP recovers it to a few hundredths of a cell and
-    the refinement lowers the energy without leaving it. (Closer than the DP it need not be:
-    the discrete optimum is itself that far from gamma; measured 2.17e-4 for both, the
-    refinement 0.2 % further on one machine and nearer on others.)"""
+    """A known warp gamma on 200 cells: the DP recovers it to about a tenth of a cell, the
+    refinement (the default method) lowers the energy well below the DP's and stays on gamma
+    (measured: the DP 0.101 of a cell rms, the refinement 0.051, energy -43 %). Before issue 34
+    this test compared the default with a tighter tolerance, both refinements (the default had
+    become ``dp+refine``): once the refinement converges, the two agree."""
     n = 200
     _, q0, q1, gamma = known_pair(n, 3, 14)
-    dp = optimal_warp(q0, q1)
-    ref = optimal_warp(q0, q1, method="dp+refine", tol=1e-9, max_iter=500)
+    dp = optimal_warp(q0, q1, method="dp")
+    ref = optimal_warp(q0, q1)
     err_dp = np.sqrt(np.mean((dp.phi - gamma) ** 2))
     err_ref = np.sqrt(np.mean((ref.phi - gamma) ** 2))
     assert ref.energy < dp.energy * (1 - 1e-3)
-    assert err_dp < 0.1 / n  # the DP recovers gamma within a tenth of a cell
-    assert err_ref < 0.1 / n and abs(err_ref - err_dp) < 0.01 / n
+    assert err_dp < 0.15 / n  # the DP recovers gamma within a tenth of a cell or so
+    assert err_ref < 0.1 / n and err_ref < err_dp + 0.01 / n
     assert ref.diagnostics.iterations > 0
 
 
@@ -108,10 +116,9 @@ def test_energy_walk_terminates_when_rounding_pushes_values_past_one():
     t = np.linspace(0, 1, n + 1)
     q0, q1 = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
     G = q0 @ q1.T
-    dG = np.zeros_like(G)
-    dG[:, 1:] = G[:, 1:] - G[:, :-1]
     y = t.copy()
     y[-2] = 1.0 + 2e-16
-    e, g = dp_kernels.energy_and_grad(t, t, G, dG, 1.0, 1.0, t, y)
+    g = np.empty(n + 1)
+    e = refine_kernels.energy_and_grad(t, t, G, 1.0, 1.0, t, y, g)
     assert np.isfinite(e) and np.isfinite(g).all()
     assert np.isfinite(dp_kernels.energy_direct(q0, t, q1, t, t, y))

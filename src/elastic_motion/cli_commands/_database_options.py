@@ -107,7 +107,8 @@ def joints_option(value: str) -> str | tuple[str, ...]:
 
 def add_warp(p: argparse.ArgumentParser) -> None:
     """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults."""
-    # the database's defaults: DP only (refinement costs about 17x a DP pair at 64 samples)
+    # the database's defaults: DP only (the batched DP; with the refinement an all-pairs matrix
+    # at 64 samples takes 4.7x as long: apps.database.settings.DEFAULT_WARP)
     add_warp_options(p, method=MEAN_WARP_METHOD, sampling=False, coarse_to_fine=True)
 
 

@@ -239,12 +239,14 @@ class LandmarkTables:
 @dataclass
 class DPSolution:
     """The DP's warp (vertices ``(K, 2)``, empty when no path reaches ``(1, 1)``), its value
-    (energy on the grid, ``+inf`` without a path), the nodes filled and the pyramid levels."""
+    (energy on the grid, ``+inf`` without a path), the nodes filled and the pyramid levels;
+    ``problem``: the arrays of the finest level (its Gram matrix serves the refinement)."""
 
     vertices: np.ndarray
     value: float
     nodes: int
     levels: int
+    problem: DPProblem | None = None
 
 
 def _band(vertices: np.ndarray, u: np.ndarray, v: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
@@ -419,11 +421,12 @@ def solve_dp(
         if coarse.vertices.shape[0]:
             refined = _within_band(pb, lmd, plan, coarse)
             if refined is not None:
+                refined.problem = pb
                 return refined
     lo = np.zeros(nu + 1, dtype=np.int64)
     hi = np.full(nu + 1, nv, dtype=np.int64)
     verts, value, nodes = _run_dp(pb, steps, lmd, lo, hi)
-    return DPSolution(verts, value, nodes, 1)
+    return DPSolution(verts, value, nodes, 1, pb)
 
 
 def _within_band(pb: DPProblem, lmd: LandmarkTables, plan: DPPlan, coarse: DPSolution) -> DPSolution | None:

@@ -84,7 +84,7 @@ def _pen(r, lam, kind):  # pragma: no cover - numba
 
 
 @njit(cache=True, inline="always")
-def _table(tab, m, x):  # pragma: no cover - numba
+def table_value(tab, m, x):  # pragma: no cover - numba
     """Linear interpolation of row ``m`` of a penalty table sampled on [0, 1]."""
     nt = tab.shape[1] - 1
     p = x * nt
@@ -116,7 +116,7 @@ def _landmark_edge(u, v, k, l, i, j, lmk):  # pragma: no cover - numba
             if abs(r) > fd[m]:
                 return np.inf
             if kind == 3:
-                cost += lam * _table(tab0, m, y)
+                cost += lam * table_value(tab0, m, y)
             else:
                 cost += _pen(r, lam, kind)
     if symmetric:
@@ -130,7 +130,7 @@ def _landmark_edge(u, v, k, l, i, j, lmk):  # pragma: no cover - numba
                 if abs(r) > sd[m]:
                     return np.inf
                 if kind == 3:
-                    cost += lam * _table(tab1, m, x)
+                    cost += lam * table_value(tab1, m, x)
                 else:
                     cost += _pen(r, lam, kind)
     return cost
@@ -753,74 +753,3 @@ def energy_direct(q0, t0, q1, t1, x, y):  # pragma: no cover - numba
             if nb <= nx and b < n1 - 1:
                 b += 1
     return total
-
-
-@njit(cache=True)
-def energy_and_grad(t0, t1, G, dG, A_tot, B_tot, x, y):  # pragma: no cover - numba
-    """Exact elastic energy of a piecewise linear ``phi`` and its gradient in the vertex values.
-
-    ``E = A_tot + B_tot - 2 sum_p sqrt(s_p) C_p`` with ``C_p`` the cross integral of piece p
-    (Gram form).  Differentiating ``F_p = sqrt(s) int_0^L <q0(x_p + t), q1(y_p + s t)> dt``
-    in the end values (``L`` the piece length, ``s = (y_{p+1} - y_p) / L``):
-
-        dF/dy_{p+1} =  C/(2 sqrt(s) L) + sum_b <q0(x_b), J_b> (t_b / L) / sqrt(s)
-        dF/dy_p     = -C/(2 sqrt(s) L) + sum_b <q0(x_b), J_b> (1 - t_b / L) / sqrt(s)
-
-    where ``J_b = q1[b] - q1[b-1]`` is the jump of q1 at the break ``t1[b]`` inside the
-    range and ``t_b`` its pre-image offset (q1' is a sum of Dirac masses: this is the
-    discrete form of the ``q1' * phi`` term in Lemma 12 / 14 of paper 001).
-    ``<q0[a], J_b> = dG[a, b] = G[a, b] - G[a, b-1]``.
-
-    Returns ``(E, grad)`` with ``grad`` of shape ``(K+1,)`` (d E / d y_p).
-    """
-    n0 = t0.shape[0] - 1
-    n1 = t1.shape[0] - 1
-    K = x.shape[0] - 1
-    grad = np.zeros(K + 1)
-    total = 0.0
-    a = 0
-    b = 0
-    for p in range(K):
-        xs = x[p]
-        xe = x[p + 1]
-        ys = y[p]
-        ye = y[p + 1]
-        L = xe - xs
-        s = (ye - ys) / L
-        while a < n0 - 1 and t0[a + 1] <= xs:
-            a += 1
-        while b < n1 - 1 and t1[b + 1] <= ys:
-            b += 1
-        if s <= 0.0:
-            continue  # flat piece: no cross term (its gradient is infinite; psi-form avoids it)
-        rs = np.sqrt(s)
-        C = 0.0
-        J = 0.0  # sum_b <q0, J_b> t_b / L
-        Jc = 0.0  # sum_b <q0, J_b> (1 - t_b / L)
-        xc = xs
-        while True:
-            na = t0[a + 1] if (t0[a + 1] < xe and a < n0 - 1) else xe
-            if t1[b + 1] < ye and b < n1 - 1:
-                nb = xs + (t1[b + 1] - ys) / s
-                if nb > xe:
-                    nb = xe
-            else:
-                nb = xe
-            nx = na if na < nb else nb
-            C += G[a, b] * (nx - xc)
-            if nx >= xe:
-                break
-            xc = nx
-            if na <= nx and a < n0 - 1:
-                a += 1
-            if nb <= nx and b < n1 - 1:
-                b += 1
-                w = (nx - xs) / L
-                g = dG[a, b]
-                J += g * w
-                Jc += g * (1.0 - w)
-        total += rs * C
-        c2 = C / (2.0 * rs * L)
-        grad[p + 1] += -2.0 * (c2 + J / rs)
-        grad[p] += -2.0 * (-c2 + Jc / rs)
-    return A_tot + B_tot - 2.0 * total, grad

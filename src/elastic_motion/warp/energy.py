@@ -28,7 +28,7 @@ from elastic_motion.curves import as_warp_vertices
 from elastic_motion.warp import dp_kernels
 
 # break points closer than this (in parameter units) are merged by the exact action
-_MERGE_TOL = 1e-13
+MERGE_TOL = 1e-13
 
 
 def kernel_array(x: Any, dtype: Any = np.float64) -> np.ndarray:
@@ -161,7 +161,7 @@ def compose_warps(phi_a: Any, phi_b: Any) -> np.ndarray:
     a = check_vertices(phi_a, "phi_a")
     b = check_vertices(phi_b, "phi_b")
     # break points of the composition: vertices of phi_b and pre-images of phi_a's vertices
-    pre = _preimages(b, a[:, 0])
+    pre = preimages(b, a[:, 0])
     x = np.union1d(b[:, 0], pre)
     x = _merge_close(x)
     y = np.interp(np.interp(x, b[:, 0], b[:, 1]), a[:, 0], a[:, 1])
@@ -170,7 +170,7 @@ def compose_warps(phi_a: Any, phi_b: Any) -> np.ndarray:
     return np.column_stack([x, y])
 
 
-def _preimages(v: np.ndarray, levels: np.ndarray) -> np.ndarray:
+def preimages(v: np.ndarray, levels: np.ndarray) -> np.ndarray:
     """Parameters ``x`` with ``phi(x) = level`` (first one on flat pieces)."""
     x, y = v[:, 0], v[:, 1]
     idx = np.clip(np.searchsorted(y, levels, side="left"), 1, len(y) - 1)
@@ -181,13 +181,13 @@ def _preimages(v: np.ndarray, levels: np.ndarray) -> np.ndarray:
 
 
 def _merge_close(x: np.ndarray) -> np.ndarray:
-    """Sorted unique break points, dropping those within ``_MERGE_TOL`` of the previous."""
+    """Sorted unique break points, dropping those within ``MERGE_TOL`` of the previous."""
     x = np.unique(np.clip(x, 0.0, 1.0))
     keep = np.ones(x.shape[0], dtype=bool)
-    keep[1:] = np.diff(x) > _MERGE_TOL
+    keep[1:] = np.diff(x) > MERGE_TOL
     x = x[keep]
     x[0] = 0.0
-    if x[-1] < 1.0 - _MERGE_TOL:
+    if x[-1] < 1.0 - MERGE_TOL:
         x = np.append(x, 1.0)
     x[-1] = 1.0
     return x

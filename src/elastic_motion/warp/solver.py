@@ -210,7 +210,7 @@ def optimal_warp(
     dp = _dp_stage(pair, opts, steps)
     el, lc = pair.score(dp.vertices)
     energy_dp = el + lc if opts.method in ("dp", "dp+refine") else float("nan")
-    ref = _refine_stage(pair, dp.vertices, (el, lc), opts)
+    ref = _refine_stage(pair, dp, (el, lc), opts)
     vertices, el, lc = ref.vertices, ref.elastic, ref.landmark
     seed_from = "q1" if opts.closed else ""
     if opts.closed and opts.seeds == "both":
@@ -290,6 +290,7 @@ class _DPStage:
     nodes: int
     levels: int
     seconds: float
+    problem: DPProblem | None = None
 
 
 def _dp_stage(pair: _Pair, opts: WarpSolverOptions, steps: np.ndarray) -> _DPStage:
@@ -328,7 +329,7 @@ def _dp_stage(pair: _Pair, opts: WarpSolverOptions, steps: np.ndarray) -> _DPSta
             "landmarks: no warp on the DP grid meets the hard windows; widen `windows`, "
             "use a finer grid or a richer neighbourhood"
         )
-    return _DPStage(out.vertices, (nu + 1, nv + 1), out.nodes, out.levels, seconds)
+    return _DPStage(out.vertices, (nu + 1, nv + 1), out.nodes, out.levels, seconds, out.problem)
 
 
 @dataclass(frozen=True)
@@ -342,15 +343,19 @@ class _RefineStage:
 
 
 def _refine_stage(
-    pair: _Pair, vertices: np.ndarray, scored: tuple[float, float], opts: WarpSolverOptions
+    pair: _Pair, dp: _DPStage, scored: tuple[float, float], opts: WarpSolverOptions
 ) -> _RefineStage:
-    """The refinement off the grid (``"dp+refine"``, ``"refine"``), kept only when its exact
-    energy is not higher than the start's (``scored``: elastic energy, landmark cost)."""
+    """The refinement off the grid (``"dp+refine"``, ``"refine"``) from the DP's warp, kept only
+    when its exact energy is not higher than the start's (``scored``: elastic energy, landmark
+    cost). The Gram matrix of the pair is the DP's when it has one (same curves)."""
     el, lc = scored
+    vertices = dp.vertices
     if opts.method not in ("dp+refine", "refine"):
         return _RefineStage(vertices, el, lc)
     t = time.perf_counter()
-    pb = DPProblem(pair.q0, pair.t0, pair.q1, pair.t1, pair.t0, pair.t1)
+    pb = dp.problem
+    if pb is None:
+        pb = DPProblem(pair.q0, pair.t0, pair.q1, pair.t1, pair.t0, pair.t1)
     ref = refine_warp(pb, vertices, pair.lmd, tol=opts.tol, max_iter=opts.max_iter)
     el_r, lc_r = pair.score(ref.vertices)
     # by construction: keep the refined warp only if its exact energy is not higher

@@ -316,7 +316,8 @@ def estimated_serial_seconds(n_pairs: int, n_samples: int, warp: WarpOptions = D
     ``SECONDS_PER_PAIR_64 * (n / 64)^2 * K(m) / K(6)`` per DP pair (``K(m)``: the number of
     coprime steps up to ``m``; the batched DP fills the whole ``n x n`` grid, and its measured
     cost grows like ``K(m)``: 0.175 ms at ``m = 6``, 0.48 ms at ``m = 10``); the refinement
-    (``dp+refine``) about 15 times that, the coarse-to-fine DP (one ``optimal_warp`` call per
+    (``dp+refine``, one compiled refinement per pair) about 5 times that (4.7 measured on the
+    benchmark's CMU windows at ``n = 64``), the coarse-to-fine DP (one ``optimal_warp`` call per
     pair) about 2.3 times; the no-warp distance ``1e-6 * n / 64`` s.
     """
     if warp.method == "none":
@@ -324,7 +325,7 @@ def estimated_serial_seconds(n_pairs: int, n_samples: int, warp: WarpOptions = D
     steps = len(coprime_steps(int(warp.neighbourhood))) / len(coprime_steps(6))
     per_pair = SECONDS_PER_PAIR_64 * (n_samples / 64) ** 2 * steps
     if warp.method != "dp":
-        per_pair *= 15.0
+        per_pair *= 5.0
     elif warp.coarse_to_fine:
         per_pair *= 2.3  # one optimal_warp call per pair (not batched)
     return n_pairs * per_pair
