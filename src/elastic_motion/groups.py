@@ -48,6 +48,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
+from elastic_motion._numba_cache import load_kernels_lightly
 from elastic_motion._validation import as_float_array, check_finite, check_trailing_shape
 
 __all__ = [
@@ -60,6 +61,10 @@ __all__ = [
     "hat",
     "vee",
 ]
+
+# Before any kernel of the package runs (every module with a kernel imports this one): load the
+# kernels from numba's cache without its compiler's registries (elastic_motion._numba_cache).
+load_kernels_lightly()
 
 # Thresholds below which series expansions replace closed forms (chosen so the truncation
 # error of the series is below 1e-17 relative, see the kernels' comments).

@@ -119,7 +119,8 @@ def blend_metrics(
     table = distance_table(
         [*ms, result],
         labels=[*prepared.labels, "result"],
-        prepare=PrepareOptions(joints="common", drop_tpose=False),
+        # motions prepared already (metres, Y-up): no up-axis check, whose notes nobody reads
+        prepare=PrepareOptions(joints="common", drop_tpose=False, check_up_axis=False),
     )
     d = table.matrix
     k = len(ms)
