@@ -115,7 +115,7 @@ def counted(self):
 BaseContext.refresh = counted
 from elastic_motion.cli import main
 code = main(sys.argv[1:])
-misses, hits = {}, 0
+misses, hits, signatures = {}, 0, {}
 for name, mod in list(sys.modules.items()):
     if not name.startswith("elastic_motion"):
         continue
@@ -124,8 +124,10 @@ for name, mod in list(sys.modules.items()):
             hits += sum(obj.stats.cache_hits.values())
             if sum(obj.stats.cache_misses.values()):
                 misses[f"{name}.{obj.__name__}"] = dict(obj.stats.cache_misses)
+            if obj.signatures:
+                signatures[f"{name}.{obj.__name__}"] = [str(s) for s in obj.signatures]
 print(json.dumps({"code": code, "refreshes": len(refreshes), "misses": {k: str(v) for k, v in misses.items()},
-                  "hits": hits, "modules": sorted(sys.modules)}))
+                  "hits": hits, "signatures": signatures, "modules": sorted(sys.modules)}))
 """
 
 
@@ -151,6 +153,13 @@ def test_a_blend_imports_no_other_app(warm_blend: dict):
 
 def test_a_warm_blend_loads_every_kernel_from_the_cache(warm_blend: dict):
     assert warm_blend["hits"] >= 10 and warm_blend["misses"] == {}
+
+
+def test_a_warm_blend_loads_each_kernel_once(warm_blend: dict):
+    """One type signature per kernel (each load of a cached kernel costs start-up time): a
+    read-only and a writable array are two numba types (elastic_motion.groups passes its
+    kernels read-only arrays)."""
+    assert {k: v for k, v in warm_blend["signatures"].items() if len(v) > 1} == {}
 
 
 def test_a_warm_blend_never_loads_numbas_compiler_registries(warm_blend: dict):
