@@ -17,7 +17,10 @@ the numba kernels are in their cache and the modules' bytecode is written (the b
 drops ``PYTHONDONTWRITEBYTECODE`` for its runs: an installed package has its ``.pyc``
 files); then ``--repeat`` rounds, every row once per round, interleaved (a busy moment of a
 shared machine hits all rows alike), and each row's **median**. The ratio is each row's
-median over the bare Python's median, of the same run. The load (``os.getloadavg``, as
+median over the bare Python's median, of the same run; the CPU columns give the same for the
+processes' CPU time (user + system, ``getrusage`` of the children), which a busy machine
+inflates less than the wall clock (on an idle one the two agree: a command runs on one core).
+The load (``os.getloadavg``, as
 ``uptime`` prints it) before and after is printed and recorded: the ratios are meaningful on
 a busy machine, the seconds only on an idle one.
 
@@ -32,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -66,17 +70,25 @@ def rows_for(out_dir: Path) -> dict[str, list[str]]:
     }
 
 
-def run_once(args: list[str], src: Path) -> float:
-    """Wall time of one ``python ARGS`` with ``src`` on ``sys.path``; raises if it fails."""
+def _children_cpu() -> float:
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
+def run_once(args: list[str], src: Path) -> tuple[float, float]:
+    """Wall time and CPU time (user + system) of one ``python ARGS`` with ``src`` on
+    ``sys.path``; raises if it fails."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env["PYTHONPATH"] = str(src)
+    cpu = _children_cpu()
     t = time.perf_counter()
     proc = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True, check=False)
     seconds = time.perf_counter() - t
+    cpu = _children_cpu() - cpu
     if proc.returncode != 0:
         tail = (proc.stderr.strip().splitlines() or ["no message"])[-1]
         raise RuntimeError(f"{' '.join(args[2:4])}: exit code {proc.returncode}: {tail}")
-    return seconds
+    return seconds, cpu
 
 
 def measure(codes: dict[str, Path], rows: dict[str, list[str]], repeat: int) -> list[dict]:
@@ -85,10 +97,14 @@ def measure(codes: dict[str, Path], rows: dict[str, list[str]], repeat: int) -> 
     for code, name in cells:  # warm: numba cache, bytecode
         run_once(rows[name], codes[code])
     times: dict[tuple[str, str], list[float]] = {cell: [] for cell in cells}
+    cpus: dict[tuple[str, str], list[float]] = {cell: [] for cell in cells}
     for _ in range(repeat):
         for code, name in cells:
-            times[code, name].append(run_once(rows[name], codes[code]))
+            wall, cpu = run_once(rows[name], codes[code])
+            times[code, name].append(wall)
+            cpus[code, name].append(cpu)
     bare = statistics.median(times["this", "bare python"])
+    bare_cpu = statistics.median(cpus["this", "bare python"])
     return [
         {
             "code": code,
@@ -97,7 +113,10 @@ def measure(codes: dict[str, Path], rows: dict[str, list[str]], repeat: int) -> 
             "min_s": min(times[code, name]),
             "max_s": max(times[code, name]),
             "ratio_to_bare": statistics.median(times[code, name]) / bare,
+            "cpu_median_s": statistics.median(cpus[code, name]),
+            "cpu_ratio_to_bare": statistics.median(cpus[code, name]) / bare_cpu,
             "times_s": times[code, name],
+            "cpu_s": cpus[code, name],
         }
         for code, name in cells
     ]
@@ -137,12 +156,12 @@ def main() -> None:
     load_after = os.getloadavg()
     print(f"after:  {load()}")
     print(f"\nwarm runs, median of {args.repeat} interleaved rounds (wall clock, s)\n")
-    print("| code | row | median s | min s | max s | x bare python |")
-    print("|---|---|---|---|---|---|")
+    print("| code | row | median s | min s | max s | x bare python | CPU s | CPU x bare |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in records:
         print(
             f"| {r['code']} | {r['row']} | {r['median_s']:.3f} | {r['min_s']:.3f} | {r['max_s']:.3f} "
-            f"| {r['ratio_to_bare']:.2f} |"
+            f"| {r['ratio_to_bare']:.2f} | {r['cpu_median_s']:.3f} | {r['cpu_ratio_to_bare']:.2f} |"
         )
     goal = targets(records)
     print(f"\nissue 34 targets (blend under {TARGET_SECONDS} s idle, at most {TARGET_RATIO}x bare): {goal}")
