@@ -41,3 +41,28 @@ def test_the_metrics_distances_are_those_of_the_full_preparation(blended):
     ).matrix
     assert np.array_equal(met.distances_between_inputs, full[:2, :2])
     assert np.array_equal(met.distances_to_inputs, full[2, :2])
+
+
+def test_no_motion_is_measured_twice(mocap_dir: Path, monkeypatch):
+    """The contacts stage measures the inputs' feet and the cleaned blend's (foot_quality); the
+    metrics take those measures instead of measuring the same motions again."""
+    import elastic_motion.apps.blend.contacts as contacts_stage
+    import elastic_motion.apps.metrics.blend as metrics_module
+
+    measured = []
+    real = metrics_module.foot_quality
+
+    def counted(motion, *args, **kwargs):
+        measured.append(id(motion))
+        return real(motion, *args, **kwargs)
+
+    monkeypatch.setattr(contacts_stage, "foot_quality", counted)
+    monkeypatch.setattr(metrics_module, "foot_quality", counted)
+    bvh = mocap_dir / "cmu" / "bvh"
+    prep = prepare_motions([bvh / "07_01.bvh", bvh / "08_02.bvh"], PrepareOptions(trim=(0.0, 1.2)))
+    res = blend_motions(prep, metrics=True)
+    assert res.cleanup is not None and res.cleanup.applied  # the clean-up's measure is reused too
+    assert len(measured) == len(set(measured))
+    monkeypatch.undo()
+    fresh = blend_metrics(res.motion, res.prepared, res.weights, res.options.contact_options)
+    assert fresh.summary() == res.metrics.summary()

@@ -245,7 +245,15 @@ def blend_motions(
     metrics = None
     if opts.metrics:
         report("metrics", 3, stages)
-        metrics = blend_metrics(blend, inputs.prepared, inputs.weights, opts.contact_options)
+        metrics = blend_metrics(
+            blend,
+            inputs.prepared,
+            inputs.weights,
+            opts.contact_options,
+            # the contacts stage measured the inputs' feet, and the cleaned blend's unless looped since
+            feet_inputs=contacts.inputs_feet,
+            feet=contacts.result_feet if contacts.applied and looped is None else None,
+        )
     report("done", stages, stages)
     return BlendResult(
         motion=blend,
