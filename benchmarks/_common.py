@@ -9,8 +9,11 @@ from __future__ import annotations
 import json
 import os
 import platform
+import subprocess
+import tarfile
 import time
 from collections.abc import Callable
+from io import BytesIO
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -21,6 +24,8 @@ from elastic_motion._io import atomic_write_text
 T = TypeVar("T")
 
 RESULTS = Path(__file__).resolve().parent / "results"
+#: This repository (the benchmarks' parent folder).
+REPO = Path(__file__).resolve().parents[1]
 #: The real data: ``$ELASTIC_MOTION_MOCAP`` or ``../shared/mocap`` beside the repository.
 MOCAP = Path(os.environ.get("ELASTIC_MOTION_MOCAP", Path(__file__).resolve().parents[2] / "shared" / "mocap"))
 #: CMU clips of one skeleton (the IsaacGymEnvs / una-dinosauria conversions share joint names;
@@ -85,3 +90,14 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     return atomic_write_text(out, json.dumps(obj, indent=1, default=default) + "\n")
+
+
+def baseline_src(rev: str, into: Path) -> Path:
+    """``src/`` of revision ``rev`` of this repository, extracted into ``into`` (``git archive``):
+    put it first on ``sys.path`` of a fresh process to time that revision in the same run."""
+    blob = subprocess.run(
+        ["git", "-C", str(REPO), "archive", "--format=tar", rev, "src"], capture_output=True, check=True
+    ).stdout
+    with tarfile.open(fileobj=BytesIO(blob)) as tar:
+        tar.extractall(into, filter="data")
+    return into / "src"

@@ -26,14 +26,11 @@ import json
 import os
 import subprocess
 import sys
-import tarfile
 import tempfile
-from io import BytesIO
 from pathlib import Path
 
-from _common import MOCAP, RESULTS, machine_info, write_json
+from _common import MOCAP, REPO, RESULTS, baseline_src, machine_info, write_json
 
-REPO = Path(__file__).resolve().parents[1]
 CLIPS = {"55_01": "cmu/bvh/55_01.bvh", "49_08": "cmu/bvh/49_08.bvh"}
 #: mode: keyword arguments of the loop (``None``: read the clip only, the memory floor)
 MODES = {
@@ -85,16 +82,6 @@ def run(src: Path, path: Path, kwargs: dict | None) -> dict:
     if proc.returncode != 0:
         return {"error": (proc.stderr.strip().splitlines() or ["failed"])[-1]}
     return json.loads(proc.stdout.strip().splitlines()[-1])
-
-
-def baseline_src(rev: str, into: Path) -> Path:
-    """``src/`` of revision ``rev`` of this repository, extracted into ``into``."""
-    blob = subprocess.run(
-        ["git", "-C", str(REPO), "archive", "--format=tar", rev, "src"], capture_output=True, check=True
-    ).stdout
-    with tarfile.open(fileobj=BytesIO(blob)) as tar:
-        tar.extractall(into, filter="data")
-    return into / "src"
 
 
 def fmt(v: object, spec: str = ".3g") -> str:

@@ -105,6 +105,7 @@ def test_the_light_homes_import_nothing_but_typing():
     new = set(out.stdout.split())
     assert {m for m in new if m.startswith("elastic_motion")} == {
         "elastic_motion",
+        "elastic_motion._version",
         "elastic_motion.vocabulary",
         "elastic_motion.defaults",
     }

@@ -11,13 +11,9 @@ See ``docs/architecture.md``.
 
 import importlib
 import importlib.util
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
-try:
-    __version__ = version("elastic-motion")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
+from elastic_motion._version import __version__
 
 __all__ = ["__version__"]  # the API's names are listed once, in elastic_motion.api.__all__
 

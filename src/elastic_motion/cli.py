@@ -14,28 +14,13 @@ command quietly with exit code 0.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import select
 import sys
 from collections.abc import Sequence
 
 from elastic_motion import __version__
-from elastic_motion.cli_commands import (
-    align,
-    blend,
-    blender_addon,
-    blendspace,
-    database,
-    demo,
-    distance,
-    index,
-    info,
-    landmarks,
-    loop,
-    pca,
-    render,
-    view,
-)
 from elastic_motion.cli_commands._argparse import (
     EXIT_CODES_HELP,
     EXIT_OK,
@@ -44,12 +29,41 @@ from elastic_motion.cli_commands._argparse import (
 )
 from elastic_motion.cli_commands._paths import check_report_target
 
+#: The command modules (``elastic_motion.cli_commands.<module>``), in the order of ``--help``, with
+#: the sub-commands each registers: the README's first command first; then the motion commands;
+#: then the database ones, the database index and statistical model (issue 15), blend spaces
+#: (issue 16), the viewer and the Blender add-on.
+COMMAND_MODULES: dict[str, tuple[str, ...]] = {
+    "demo": ("demo",),
+    "info": ("info",),
+    "blend": ("blend",),
+    "landmarks": ("landmarks",),
+    "loop": ("loop",),
+    "align": ("align",),
+    "distance": ("distance",),
+    "render": ("render",),
+    "database": ("matrix", "search", "classify", "mean", "cluster"),
+    "index": ("index",),
+    "pca": ("pca",),
+    "blendspace": ("blendspace",),
+    "view": ("view",),
+    "blender_addon": ("blender-addon",),
+}
 
-def build_parser() -> argparse.ArgumentParser:
-    """Return the top-level argument parser with all sub-commands registered.
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """Return the top-level argument parser with the sub-commands registered.
 
     Every parser is a :class:`~elastic_motion.cli_commands._argparse.CliParser`: its help
     shows each option's default, its errors use the package's error format.
+
+    Parameters
+    ----------
+    command : str, optional
+        A sub-command's name: only its module (:data:`COMMAND_MODULES`) is imported and
+        registered (:func:`main` passes the first word of a command line that starts with a
+        command, so that a command imports no other). Default, or a name that is no
+        command: all of them.
     """
     parser = CliParser(
         prog="elastic-motion",
@@ -62,12 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CliParser)
 
-    # The README's first command first; then the motion commands; then the database ones, the
-    # database index and statistical model (issue 15), blend spaces (issue 16), the viewer and
-    # the Blender add-on.
-    commands = (demo, info, blend, landmarks, loop, align, distance, render, database, index, pca)
-    for module in (*commands, blendspace, view, blender_addon):
-        module.register(subparsers)
+    chosen = [name for name, commands in COMMAND_MODULES.items() if command in commands]
+    for name in chosen or COMMAND_MODULES:
+        importlib.import_module(f"elastic_motion.cli_commands.{name}").register(subparsers)
     return parser
 
 
@@ -132,8 +143,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         exits with 2 itself for a malformed command line, 0 for ``--help``).
     """
     command: str | None = None
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        parser = build_parser()
+        # a command line that starts with a command needs that command's parser alone
+        parser = build_parser(argv[0] if argv else None)
         args, extras = parser.parse_known_args(argv)
         command = getattr(args, "command", None)
         if extras:

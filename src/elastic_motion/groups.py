@@ -48,6 +48,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
+from elastic_motion._numba_cache import load_kernels_lightly
 from elastic_motion._validation import as_float_array, check_finite, check_trailing_shape
 
 __all__ = [
@@ -60,6 +61,10 @@ __all__ = [
     "hat",
     "vee",
 ]
+
+# Before any kernel of the package runs (every module with a kernel imports this one): load the
+# kernels from numba's cache without its compiler's registries (elastic_motion._numba_cache).
+load_kernels_lightly()
 
 # Thresholds below which series expansions replace closed forms (chosen so the truncation
 # error of the series is below 1e-17 relative, see the kernels' comments).
@@ -262,9 +267,23 @@ def _accumulate33_kernel(steps: np.ndarray, start: np.ndarray, out: np.ndarray) 
 
 
 def _flat(arr: np.ndarray, trailing: int) -> tuple[np.ndarray, tuple[int, ...]]:
-    """C-contiguous ``(N, *trailing_shape)`` view/copy of ``arr`` and its leading shape."""
+    """C-contiguous ``(N, *trailing_shape)`` view/copy of ``arr`` and its leading shape.
+
+    Always read-only (a view of a copy): numba types a read-only array apart from a writable
+    one, so each kernel is compiled, cached and loaded once, not once per flag (a motion's
+    arrays are read-only, their copies not; issue 34: every load costs start-up time).
+    """
     lead = arr.shape[: arr.ndim - trailing]
-    return np.ascontiguousarray(arr.reshape((-1,) + arr.shape[arr.ndim - trailing :])), lead
+    return _read_only(np.ascontiguousarray(arr.reshape((-1,) + arr.shape[arr.ndim - trailing :]))), lead
+
+
+def _read_only(arr: np.ndarray) -> np.ndarray:
+    """``arr`` itself when read-only, else a read-only view of it (a kernel's input: see :func:`_flat`)."""
+    if not arr.flags.writeable:
+        return arr
+    view = arr.view()
+    view.flags.writeable = False
+    return view
 
 
 def _series_or(a: np.ndarray, small: np.ndarray, series, closed) -> np.ndarray:
@@ -582,7 +601,7 @@ class SO3(LieGroup):
         prod = np.empty_like(a)
         _matmul33t_kernel(a, b, prod)
         out = np.empty((a.shape[0], 3))
-        _so3_log_kernel(prod, out)
+        _so3_log_kernel(_read_only(prod), out)
         return out.reshape(lead + (3,))
 
     def adjoint(self, g: np.ndarray, v: np.ndarray) -> np.ndarray:

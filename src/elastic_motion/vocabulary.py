@@ -34,6 +34,7 @@ __all__ = [
     "LINKAGES",
     "METHODS",
     "METHOD_ALIASES",
+    "MOTION_EXTENSIONS",
     "RENDER_KINDS",
     "ROOT_MODES",
     "ROTATION_FRAMES",
@@ -236,3 +237,13 @@ CONTACT_MARKS: tuple[str, ...] = get_args(ContactMarks)
 #: Other names accepted for :data:`ContactMarks`: ``"none"`` (the viewer's word before the
 #: vocabulary was shared) for ``"off"``.
 CONTACT_MARK_ALIASES = {"none": "off"}
+
+# ------------------------------------------------------------------------------------------
+# Files
+# ------------------------------------------------------------------------------------------
+
+#: The extensions of motion files, lower case: BVH, AMC (its skeleton the ``.asf`` beside
+#: it) and DeepMimic ``.txt`` / ``.json`` (:func:`elastic_motion.motion.read_motion` chooses its
+#: reader by them; a database collects ``.txt`` / ``.json`` from a folder only when they look
+#: like a DeepMimic clip, :func:`elastic_motion.apps.database.find_motion_files`).
+MOTION_EXTENSIONS: tuple[str, ...] = (".bvh", ".amc", ".txt", ".json")

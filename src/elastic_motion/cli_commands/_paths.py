@@ -23,6 +23,7 @@ from elastic_motion import limits
 from elastic_motion._io import same_file
 from elastic_motion.cli_commands._errors import CommandError, option_message
 from elastic_motion.errors import OptionError
+from elastic_motion.vocabulary import MOTION_EXTENSIONS
 
 __all__ = [
     "check_option_limits",
@@ -206,13 +207,11 @@ def check_report_target(args: argparse.Namespace) -> None:
     """Refuse a ``--json PATH`` that names a motion file or an existing file that is not an
     earlier report, before any work (``--json`` before the inputs takes the first of them as
     its PATH; the report written at the end replaced that motion). Raises :class:`CommandError`."""
-    # local: the database app loads numba, the report module numpy (module docstring)
-    from elastic_motion.apps.database.files import MOTION_EXTENSIONS
-    from elastic_motion.apps.report import is_report
-
     value = getattr(args, "json", None)
     if not isinstance(value, str) or value == "-":
         return
+    from elastic_motion.apps.report import is_report  # local: it loads numpy (module docstring)
+
     hint = "(--json takes the next word as its PATH: put it after the inputs)"
     suffix = Path(value).suffix.lower()
     # a motion file's name is never a report path (.json is a report's too: checked below)

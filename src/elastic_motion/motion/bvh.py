@@ -732,7 +732,9 @@ def _format_fixed_kernel(data: np.ndarray, decimals: int, buf: np.ndarray) -> in
             v = data[r, k]
             if not (abs(v) < limit):
                 return -1
-            q = np.int64(np.round(abs(v) * scale))
+            # rint is np.round to 0 decimals (ties to even) without the environment that makes
+            # loading this kernel import numba's array-math registry (elastic_motion._numba_cache)
+            q = np.int64(np.rint(abs(v) * scale))
             if q != 0 and v < 0:
                 buf[pos] = 45  # '-'
                 pos += 1

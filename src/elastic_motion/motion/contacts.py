@@ -58,6 +58,7 @@ import numpy as np
 
 from elastic_motion.defaults import CONTACT_HEIGHT_ENTER, CONTACT_SPEED_ENTER
 from elastic_motion.errors import OptionError
+from elastic_motion.motion.filters import gaussian_frames, percentile_frames
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.skeleton import Motion, Skeleton
 from elastic_motion.notes import Note, note_texts
@@ -332,9 +333,6 @@ def floor_profile(motion: Motion, positions: np.ndarray, floor: float, rise: flo
         None for a clip shorter than ``1.5 * FLOOR_WINDOW``, a floor that moves less than
         ``rise``, faster than :data:`FLOOR_MAX_RATE`, or up and down.
     """
-    # local: scipy.ndimage takes 0.3 s to import, which `import elastic_motion.motion` does not pay
-    from scipy.ndimage import gaussian_filter1d, percentile_filter
-
     f = motion.n_frames
     width = round(FLOOR_WINDOW * motion.fps)
     if 2 * f < 3 * width or width < 3:
@@ -342,8 +340,7 @@ def floor_profile(motion: Motion, positions: np.ndarray, floor: float, rise: flo
     lowest = positions[..., _AXES.index(motion.up_axis)].min(axis=1)
     # a window holds a stance of each foot in a walk: its low percentile is the floor there,
     # whatever the feet do in between (flight, a raised foot); smoothed over a third of it
-    low = percentile_filter(lowest, 10.0, size=width | 1, mode="nearest")
-    low = gaussian_filter1d(low, width / 3.0, mode="nearest")
+    low = gaussian_frames(percentile_frames(lowest, 10.0, width | 1), width / 3.0)
     # a floor that slopes under a walk, or a capture that drifts, moves slowly and one way
     # (CMU 07_01, 08_02: 2.5-3 cm/s, all the way up); faster, or up and down, it is the body
     # (a foot held up, a toe that dips in a turn: CMU 131_01 went 5 cm down and up again in

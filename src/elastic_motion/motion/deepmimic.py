@@ -40,7 +40,6 @@ import json
 import math
 import os
 import re
-import xml.etree.ElementTree as ET
 from array import array
 from pathlib import Path
 
@@ -188,6 +187,8 @@ def read_urdf_skeleton(path: str | os.PathLike[str], *, scale: float = URDF_SCAL
     ParseError
         Malformed XML, or a DeepMimic joint missing from the file.
     """
+    import xml.etree.ElementTree as ET  # local: only a URDF needs it (CLI start-up)
+
     p = os.fspath(path)
     # pybullet's humanoid.urdf ends with a NUL byte after </robot>: trim trailing NULs.
     text = read_text(path).rstrip("\x00 \t\r\n")

@@ -25,6 +25,7 @@ import numpy as np
 from elastic_motion import limits
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
+from elastic_motion.motion.filters import gaussian_frames
 from elastic_motion.motion.kinematics import forward_kinematics
 from elastic_motion.motion.rotations import axis_rotation
 from elastic_motion.motion.skeleton import Motion, Skeleton
@@ -699,22 +700,6 @@ def fixed_frames_weight(n_frames: int, fixed: Sequence[int], width: int) -> np.n
         raise ValueError(f"fixed: expected frames in [-{n_frames}, {n_frames}); got {list(fixed)}")
     dist = np.min(np.abs(idx[:, None] - (frames % n_frames)[None, :]), axis=1)
     return smoothstep(dist / (width + 1.0))
-
-
-def gaussian_frames(x: np.ndarray, sigma_frames: float) -> np.ndarray:
-    """``x`` ``(F, ...)`` through a Gaussian along its frames (axis 0) of ``sigma_frames``
-    standard deviation (frames; ends held, ``mode="nearest"``); ``x`` itself for
-    ``sigma_frames <= 0`` or fewer than 2 frames."""
-    # (scipy.ndimage on first use: its import takes about half a second cold, and most runs never need it)
-    from scipy.ndimage import (
-        gaussian_filter1d,
-    )  # local: 0.3 s to import, not on `import elastic_motion.motion`
-
-    if not math.isfinite(sigma_frames):
-        raise ValueError(f"sigma_frames: expected a finite number of frames; got {sigma_frames!r}")
-    if sigma_frames <= 0 or x.shape[0] < 2:
-        return x
-    return gaussian_filter1d(x, sigma_frames, axis=0, mode="nearest")
 
 
 def smooth_change(before: Motion, after: Motion, sigma_frames: float) -> Motion:

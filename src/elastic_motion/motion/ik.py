@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion.groups import SO3
-from elastic_motion.motion.edit import gaussian_frames
+from elastic_motion.motion.filters import gaussian_frames, max_frames, min_frames
 from elastic_motion.motion.kinematics import joint_positions_and_rotations
 from elastic_motion.motion.skeleton import Motion, Skeleton
 
@@ -310,15 +310,10 @@ def turn_joint(motion: Motion, joint: int, turns: np.ndarray) -> Motion:
 
 
 def _dilate(x: np.ndarray, half_width: float) -> np.ndarray:
-    # (scipy.ndimage on first use: its import takes about half a second cold, and most runs never need it)
-    from scipy.ndimage import maximum_filter1d, minimum_filter1d
-
     size = 2 * int(np.ceil(half_width)) + 1
     if size <= 1:
         return x
-    return maximum_filter1d(np.maximum(x, 0.0), size, axis=0) + minimum_filter1d(
-        np.minimum(x, 0.0), size, axis=0
-    )
+    return max_frames(np.maximum(x, 0.0), size) + min_frames(np.minimum(x, 0.0), size)
 
 
 def root_correction(

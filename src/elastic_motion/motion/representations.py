@@ -418,7 +418,8 @@ def _unwrap_euler_kernel(a: np.ndarray) -> None:  # pragma: no cover - numba
                 d = 0.0
                 for k in range(3):
                     prev = a[i - 1, j, k]
-                    cand[k] += two_pi * np.round((prev - cand[k]) / two_pi)
+                    # rint: np.round (ties to even) without numba's array-math registry at load
+                    cand[k] += two_pi * np.rint((prev - cand[k]) / two_pi)
                     d += (cand[k] - prev) ** 2
                 if d < best_d:
                     best_d = d

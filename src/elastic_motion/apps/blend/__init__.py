@@ -143,18 +143,19 @@ import numpy as np
 from elastic_motion._options import with_overrides
 from elastic_motion.apps.blend.anchor import NOTE_ANCHOR, anchor_blend
 from elastic_motion.apps.blend.assemble import assemble_motion
-from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, blend_contacts
+from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, BlendContacts, blend_contacts
 from elastic_motion.apps.blend.curves import blend_curves
-from elastic_motion.apps.blend.inputs import NOTE_CYCLES, prepare_inputs
+from elastic_motion.apps.blend.inputs import NOTE_CYCLES, BlendInputs, prepare_inputs
 from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, close_again, close_cycle
 from elastic_motion.apps.blend.result import BlendResult
 from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
 from elastic_motion.apps.blend.transitions import NOTE_WEIGHT_CURVE
 from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, find_warps
 from elastic_motion.apps.blend_options import BlendOptions, parse_weight_curve
-from elastic_motion.apps.metrics import blend_metrics
+from elastic_motion.apps.metrics import BlendMetrics, blend_metrics
 from elastic_motion.apps.prepare import PreparedMotions, Source
 from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.motion import Motion
 
 __all__ = [
     "NOTE_ANCHOR",
@@ -245,7 +246,7 @@ def blend_motions(
     metrics = None
     if opts.metrics:
         report("metrics", 3, stages)
-        metrics = blend_metrics(blend, inputs.prepared, inputs.weights, opts.contact_options)
+        metrics = _metrics(blend, inputs, opts, contacts, looped is not None)
     report("done", stages, stages)
     return BlendResult(
         motion=blend,
@@ -269,4 +270,20 @@ def blend_motions(
         weight_curve=inputs.knots,
         options=opts,
         trimmed=clock.trimmed,
+    )
+
+
+def _metrics(
+    blend: Motion, inputs: BlendInputs, opts: BlendOptions, contacts: BlendContacts, looped: bool
+) -> BlendMetrics:
+    """Stage 9: the metrics, with the feet the contacts stage measured (the inputs', and the
+    cleaned blend's unless a loop was closed since): no motion is measured twice."""
+    feet = contacts.result_feet if contacts.applied and not looped else None
+    return blend_metrics(
+        blend,
+        inputs.prepared,
+        inputs.weights,
+        opts.contact_options,
+        feet_inputs=contacts.inputs_feet,
+        feet=feet,
     )

@@ -78,10 +78,18 @@ class BlendContacts:
         The clean-up (``applied``), or the skating measured (``"report"``: ``applied``
         False, the motion unchanged); None when skipped.
     notes : tuple of Note
+    inputs_feet : tuple of FootQuality
+        The prepared inputs measured on themselves (:func:`~elastic_motion.apps.metrics.floor.foot_quality`
+        with the blend's contact options); empty when the stage measured nothing. The blend's
+        metrics take them instead of measuring again.
+    result_feet : FootQuality or None
+        The clean-up's motion (``cleanup.motion``, when ``applied``) measured likewise.
     """
 
     cleanup: CleanupResult | None
     notes: tuple[Note, ...]
+    inputs_feet: tuple[FootQuality, ...] = ()
+    result_feet: FootQuality | None = None
 
     @property
     def applied(self) -> bool:
@@ -108,40 +116,43 @@ def blend_contacts(
         if n.kind == MISSED_STANCES
     ]
     if not any(c.any for c in found):
-        return _skipped("clean-up: skipped, no contacts found in the inputs", notes)
+        return _skipped("clean-up: skipped, no contacts found in the inputs", notes, measured)
     own = [q.skating.mean_speed for q in measured if q.contacts.any]
     plan = plan_contacts(result, prep.motions, found, clock, options.contact_options, min(own))
     if options.contacts == "report":
-        return _measured(result, plan.contacts, own, notes)
-    res = plant_plan(result, plan, measured, options.contact_options)
+        return _measured(result, plan.contacts, own, notes, measured)
+    res, feet = plant_plan(result, plan, measured, options.contact_options)
     if res.applied:
         notes.append(_planted_note(res, own))
     else:
         notes += [Note(NOTE_CLEANUP, f"clean-up: {n}") for n in res.notes]
-    return BlendContacts(res, tuple(notes))
+    return BlendContacts(res, tuple(notes), tuple(measured), feet if res.applied else None)
 
 
 def plant_plan(
     result: Motion, plan: ContactPlan, inputs: Sequence[FootQuality], contact_options: ContactOptions
-) -> CleanupResult:
+) -> tuple[CleanupResult, FootQuality | None]:
     """The plan planted with the smoothest change whose blend, measured like its inputs, skids
     no more than they do and skates at most :data:`SKATE_GOAL` times the lesser (module
-    docstring); the exact plants when no smoothing does."""
+    docstring); the exact plants when no smoothing does. With it, the planted blend measured
+    like its inputs (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the
+    plan planted nothing)."""
     legs, _ = find_legs(result)  # once, for every trial below
     goal = SKATE_GOAL * min(q.skating.mean_speed for q in inputs if q.contacts.any)
     skids = max(q.skid_count for q in inputs)
     slid = max(q.slid_m for q in inputs)
+    q = None
     for smooth in SMOOTHING:
         res = cleanup_footskate(
             result, plan.contacts, PLANT, legs=legs, plants=plan.plants, swing_heights=plan.swing_heights,
             smooth=smooth,
         )  # fmt: skip
         if not res.applied:
-            return res
+            return res, None
         q = foot_quality(res.motion, contact_options)
         if q.skid_count <= skids and q.slid_m <= slid + 1e-9 and q.skating.mean_speed <= goal:
-            return res
-    return res
+            return res, q
+    return res, q
 
 
 def _planted_note(res: CleanupResult, own: Sequence[float]) -> Note:
@@ -161,7 +172,9 @@ def _planted_note(res: CleanupResult, own: Sequence[float]) -> Note:
     return Note(NOTE_CLEANUP, text, data)
 
 
-def _measured(result: Motion, carried: Contacts, own: Sequence[float], notes: list[Note]) -> BlendContacts:
+def _measured(
+    result: Motion, carried: Contacts, own: Sequence[float], notes: list[Note], inputs: Sequence[FootQuality]
+) -> BlendContacts:
     """``contacts="report"``: the blend's skating against the carried contacts, nothing changed."""
     skating = contact_skating(result, carried)
     text = (
@@ -177,8 +190,8 @@ def _measured(result: Motion, carried: Contacts, own: Sequence[float], notes: li
     measured = CleanupResult(
         result, carried, skating, skating, 0.0, 0.0, 0.0, (), False, (), smooth=0.0, strength=0.0
     )
-    return BlendContacts(measured, (*notes, Note(NOTE_CLEANUP, text, data)))
+    return BlendContacts(measured, (*notes, Note(NOTE_CLEANUP, text, data)), tuple(inputs))
 
 
-def _skipped(text: str, notes: Sequence[Note] = ()) -> BlendContacts:
-    return BlendContacts(None, (*notes, Note(NOTE_CLEANUP, text)))
+def _skipped(text: str, notes: Sequence[Note] = (), inputs: Sequence[FootQuality] = ()) -> BlendContacts:
+    return BlendContacts(None, (*notes, Note(NOTE_CLEANUP, text)), tuple(inputs))

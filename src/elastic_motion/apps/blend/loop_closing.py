@@ -13,14 +13,17 @@ The notes give the seam and the skating after each step.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from elastic_motion.apps.cleanup import CleanupResult, cleanup_footskate
 from elastic_motion.apps.cycles import CycleMatch
-from elastic_motion.apps.loop import LoopOptions, LoopResult, loop_motion
 from elastic_motion.apps.metrics import contact_skating, seam_metrics
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.motion import Motion
 from elastic_motion.notes import Note
+
+if TYPE_CHECKING:  # the loop app (scipy.sparse, the closing solvers) is imported by close_loop
+    from elastic_motion.apps.loop import LoopResult
 
 __all__ = [
     "LOOP_FLOOR_ROUNDS",
@@ -66,6 +69,9 @@ def close_loop(cycle: Motion) -> LoopResult:
     quickest changes inside the cycle (DeepMimic walk x run 2.3, CMU 07_01 x 09_11 2.8, Bandai
     normal x tired 1.7), C1 0.8-2.1 (what is left is the root's floor velocity, which travel
     keeps), at the same skating and change."""
+    # local: a blend imports the loop app only when it closes a loop (CLI start-up)
+    from elastic_motion.apps.loop import LoopOptions, loop_motion
+
     return loop_motion(
         cycle,
         # the blended cycle is the loop, whatever it changes: its own whole clip, never refused

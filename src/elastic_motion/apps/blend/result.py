@@ -9,19 +9,21 @@ result lists them in the order the stages ran, and its JSON summary their texts.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cleanup import CleanupResult
 from elastic_motion.apps.cycles import CycleMatch
-from elastic_motion.apps.loop import LoopResult
 from elastic_motion.apps.metrics import BlendMetrics
 from elastic_motion.apps.prepare import PreparedMotions
 from elastic_motion.motion import Motion
 from elastic_motion.notes import Note, note_texts
 from elastic_motion.warp import WarpOptions
+
+if TYPE_CHECKING:  # the loop app is imported only by a blend that closes a loop
+    from elastic_motion.apps.loop import LoopResult
 
 __all__ = ["BlendResult"]
 

@@ -9,12 +9,12 @@ from collections.abc import Collection, Sequence
 from pathlib import Path
 
 from elastic_motion.errors import OptionError
+from elastic_motion.vocabulary import MOTION_EXTENSIONS
 
 __all__ = ["MOTION_EXTENSIONS", "check_output_folder", "find_motion_files"]
 
-#: File extensions collected from a folder (``.txt`` / ``.json`` only when they look like a
-#: DeepMimic clip, i.e. start with ``{``).
-MOTION_EXTENSIONS = (".bvh", ".amc", ".txt", ".json")
+# MOTION_EXTENSIONS (elastic_motion.vocabulary): the file extensions collected from a folder
+# (``.txt`` / ``.json`` only when they look like a DeepMimic clip, i.e. start with ``{``).
 
 
 def _is_regular(path: Path) -> bool:

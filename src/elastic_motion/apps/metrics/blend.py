@@ -3,6 +3,7 @@ distances of the result and its inputs."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -98,6 +99,9 @@ def blend_metrics(
     prepared: PreparedMotions,
     weights: np.ndarray,
     contact_options: ContactOptions | None = None,
+    *,
+    feet_inputs: Sequence[FootQuality] | None = None,
+    feet: FootQuality | None = None,
 ) -> BlendMetrics:
     """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
 
@@ -110,6 +114,11 @@ def blend_metrics(
     weights : ndarray, shape (K,)
     contact_options : ContactOptions, optional
         Of the feet measure (the blend's, default ``ContactOptions()``).
+    feet_inputs : sequence of FootQuality, optional
+        ``prepared.motions`` measured already, each ``foot_quality(m, contact_options)`` (the
+        blend's contacts stage measures them): taken as they are, not measured again.
+    feet : FootQuality, optional
+        ``foot_quality(result, contact_options)``, when measured already (the clean-up's).
 
     Returns
     -------
@@ -119,11 +128,14 @@ def blend_metrics(
     table = distance_table(
         [*ms, result],
         labels=[*prepared.labels, "result"],
-        prepare=PrepareOptions(joints="common", drop_tpose=False),
+        # motions prepared already (metres, Y-up): no up-axis check, whose notes nobody reads
+        prepare=PrepareOptions(joints="common", drop_tpose=False, check_up_axis=False),
     )
     d = table.matrix
     k = len(ms)
     expected = np.array([weights[1] * d[0, 1], weights[0] * d[0, 1]]) if k == 2 else np.zeros(0)
+    if not feet_inputs:
+        feet_inputs = [foot_quality(m, contact_options) for m in ms]
     return BlendMetrics(
         labels=tuple(prepared.labels),
         foot_sliding=foot_sliding(result),
@@ -133,6 +145,6 @@ def blend_metrics(
         distances_between_inputs=d[:k, :k].copy(),
         distances_to_inputs=d[k, :k].copy(),
         geodesic_expected=expected,
-        feet=foot_quality(result, contact_options),
-        feet_inputs=tuple(foot_quality(m, contact_options) for m in ms),
+        feet=foot_quality(result, contact_options) if feet is None else feet,
+        feet_inputs=tuple(feet_inputs),
     )

@@ -1,0 +1,59 @@
+"""Loading the package's numba kernels from numba's cache without numba's compiler set-up.
+
+Every kernel of the package is compiled with ``cache=True``: a process loads its machine code
+from the ``__pycache__`` folder beside the source in a few milliseconds. But numba's cache
+loader (``numba.core.caching.Cache.load_overload``) first calls ``target_context.refresh()``,
+which imports and installs every typing and lowering registry numba has (array math, linear
+algebra, strings, random numbers, typed containers, cffi, ...): about 0.7 s on a busy 2-core
+machine, as much as half of ``import numpy, scipy.linalg, numba``, paid by the first kernel
+call of every process (``elastic-motion blend`` spent 23 % of its time there, issue 34).
+Running machine code that is already compiled needs none of those registries; it needs
+numba's runtime (NRT: the allocator of the arrays a kernel creates), which
+``rtsys.initialize`` sets up, and which the refresh would have initialised first.
+
+:func:`load_kernels_lightly` replaces the loader with one that initialises the runtime and
+loads, nothing more. Nothing else changes: numba refreshes its contexts itself whenever it
+compiles (``CompilerBase.__init__``: a cache miss, a new type signature, a user's own
+``@njit``) and whenever lowering looks up an implementation it lacks
+(``BaseContext.get_function``), so the registries are there whenever something needs them.
+It is installed by :mod:`elastic_motion.groups`, the bottom layer every module with a kernel
+imports, so it is in place before the first kernel runs. If numba lacks a piece it uses
+(another numba than the tested 0.59-0.68), numba's own loader stays.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["load_kernels_lightly"]
+
+
+def load_kernels_lightly() -> bool:
+    """Make numba's cache loader skip the registry refresh (module docstring); idempotent.
+
+    Returns
+    -------
+    bool
+        Whether the light loader is in place.
+    """
+    try:
+        from numba.core.caching import Cache
+        from numba.core.runtime import rtsys
+    except ImportError:  # pragma: no cover - another numba layout: keep its loader
+        return False
+    original = Cache.load_overload
+    if getattr(original, "_elastic_motion_light", False):
+        return True
+    if not all(hasattr(Cache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors")):
+        return False  # pragma: no cover - another numba: keep its loader
+
+    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        # numba's loader without target_context.refresh(): the runtime is all a loaded kernel needs
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    load_overload._elastic_motion_light = True  # type: ignore[attr-defined]
+    load_overload.__doc__ = original.__doc__
+    Cache.load_overload = load_overload
+    return True
