@@ -104,3 +104,14 @@ def test_the_descent_does_not_stop_in_a_stall_on_real_walks(mocap_dir, names, ga
     assert ref.diagnostics.refine_stop == "tol"
     assert ref.diagnostics.iterations < 0.9 * DEFAULT_REFINE_MAX_ITER
     assert ref.energy < (1.0 - gain) * dp.energy
+
+
+def test_the_kernels_binary_search_is_numpys_searchsorted():
+    """The refinement's landmark term finds pieces with its own loop (no array-math import)."""
+    from elastic_motion.warp.refine_kernels import _search_left
+
+    rng = np.random.default_rng(3)
+    y = np.concatenate([[0.0], np.sort(rng.random(40)), [1.0]])
+    y[10] = y[11]  # a flat piece: the first index wins, as in numpy
+    for v in [*rng.random(200), *y, -0.5, 1.5]:
+        assert _search_left(y, v) == np.searchsorted(y, v), v

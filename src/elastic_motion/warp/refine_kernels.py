@@ -130,6 +130,21 @@ def _penalty(kind, tab, m, r, x):  # pragma: no cover - numba
     return 0.0, 0.0
 
 
+@njit(cache=True, inline="always")
+def _search_left(y: np.ndarray, v: float) -> int:
+    """``np.searchsorted(y, v)`` (side "left": the first ``i`` with ``y[i] >= v``) for an
+    increasing ``y``, as a plain loop: numba's ``searchsorted`` makes loading this module's
+    cached kernels import its array-math module and scipy.linalg (0.15-0.2 s per process)."""
+    lo, hi = 0, y.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if y[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @njit(cache=True)
 def landmark_term(y, u, lmk, grad):  # pragma: no cover - numba
     """Landmark term of the warp with vertex values ``y`` on ``u``; adds its gradient in
@@ -150,7 +165,7 @@ def landmark_term(y, u, lmk, grad):  # pragma: no cover - numba
             return np.inf
     if symmetric:  # phi^{-1}(theta1_m): the first piece whose range reaches it
         for m in range(M):
-            k = min(max(np.searchsorted(y, theta1[m]) - 1, 0), K - 1)
+            k = min(max(_search_left(y, theta1[m]) - 1, 0), K - 1)
             p[m] = k
             dy = y[k + 1] - y[k]
             xi[m] = u[k] + ((theta1[m] - y[k]) / dy if dy > 0.0 else 0.0) * (u[k + 1] - u[k])
