@@ -157,6 +157,27 @@ def _read_record(path: Path) -> dict[str, Any]:
     return record
 
 
+def _open_as_recorded(path: Path, record: dict[str, Any], expected: dict[str, Any]) -> BinaryIO:
+    """``path`` opened (a regular file, no link) if ``record`` holds the ``expected`` fields and
+    the file has the record's size; :class:`NotVerified` (the file closed) otherwise."""
+    for k, v in expected.items():
+        if record.get(k) != v:
+            raise NotVerified(f"{record_path(path).name}: expected {k} {v!r}; got {record.get(k)!r}")
+    try:
+        fh = open_regular(path, follow_symlinks=False)
+    except ParseError as exc:
+        raise NotVerified(f"{path.name}: {exc.message}") from None
+    try:
+        size = os.fstat(fh.fileno()).st_size
+    except OSError as exc:
+        fh.close()
+        raise NotVerified(f"{path.name}: cannot read the file ({exc.strerror or exc})") from None
+    if size != record["bytes"]:
+        fh.close()
+        raise NotVerified(f"{path.name}: {size} bytes; its record says {record['bytes']}")
+    return fh
+
+
 def open_verified(path: Path, **expected: Any) -> BinaryIO:
     """``path`` opened for reading, positioned at 0, if it and its record are what was written.
 
@@ -173,17 +194,8 @@ def open_verified(path: Path, **expected: Any) -> BinaryIO:
         file (link, FIFO, folder, ...), or of another size or SHA-256 than its record's.
     """
     record = _read_record(path)
-    for k, v in {"file": path.name, **expected}.items():
-        if record.get(k) != v:
-            raise NotVerified(f"{record_path(path).name}: expected {k} {v!r}; got {record.get(k)!r}")
+    fh = _open_as_recorded(path, record, {"file": path.name, **expected})
     try:
-        fh = open_regular(path, follow_symlinks=False)
-    except ParseError as exc:
-        raise NotVerified(f"{path.name}: {exc.message}") from None
-    try:
-        size = os.fstat(fh.fileno()).st_size
-        if size != record["bytes"]:
-            raise NotVerified(f"{path.name}: {size} bytes; its record says {record['bytes']}")
         h = hashlib.sha256()
         while chunk := fh.read(_CHUNK):
             h.update(chunk)
@@ -299,17 +311,8 @@ def open_rows(path: Path, row_elements: Sequence[int], **expected: Any) -> Verif
     """
     record = _read_record(path)
     _check_rows_record(path, record, row_elements)
-    for k, v in expected.items():
-        if record.get(k) != v:
-            raise NotVerified(f"{record_path(path).name}: expected {k} {v!r}; got {record.get(k)!r}")
+    fh = _open_as_recorded(path, record, expected)
     try:
-        fh = open_regular(path, follow_symlinks=False)
-    except ParseError as exc:
-        raise NotVerified(f"{path.name}: {exc.message}") from None
-    try:
-        size = os.fstat(fh.fileno()).st_size
-        if size != record["bytes"]:
-            raise NotVerified(f"{path.name}: {size} bytes; its record says {record['bytes']}")
         try:
             version = np.lib.format.read_magic(fh)
             read_header = {
