@@ -122,3 +122,24 @@ def test_energy_walk_terminates_when_rounding_pushes_values_past_one():
     e = refine_kernels.energy_and_grad(t, t, G, 1.0, 1.0, t, y, g)
     assert np.isfinite(e) and np.isfinite(g).all()
     assert np.isfinite(dp_kernels.energy_direct(q0, t, q1, t, t, y))
+
+
+def test_gram_form_energy_equals_the_direct_energy_on_random_warps():
+    """The compiled refinement's energy (Gram form, ``refine_kernels.energy_and_grad``) is the
+    DP's direct energy (``dp_kernels.energy_direct``, an independent implementation) on random
+    monotone warps over nodes finer than q0's grid: a wrong factor or sign in either differs."""
+    rng = np.random.default_rng(21)
+    n0, n1 = 17, 23
+    t0 = np.concatenate([[0.0], np.sort(rng.random(n0 - 1)), [1.0]])
+    t1 = np.concatenate([[0.0], np.sort(rng.random(n1 - 1)), [1.0]])
+    q0, q1 = rng.normal(size=(n0, 3)), rng.normal(size=(n1, 3))
+    G = q0 @ q1.T
+    a_tot = float(np.sum(np.sum(q0**2, axis=1) * np.diff(t0)))
+    b_tot = float(np.sum(np.sum(q1**2, axis=1) * np.diff(t1)))
+    for _ in range(5):
+        x = np.unique(np.concatenate([t0, rng.random(10)]))
+        y = np.concatenate([[0.0], np.sort(rng.random(x.size - 2)), [1.0]])
+        g = np.empty(x.size)
+        e_gram = refine_kernels.energy_and_grad(t0, t1, G, a_tot, b_tot, x, y, g)
+        e_direct = dp_kernels.energy_direct(q0, t0, q1, t1, x, y)
+        assert e_gram == pytest.approx(e_direct, rel=1e-10, abs=1e-12)
