@@ -4,6 +4,7 @@ cluster is the serial run bit for bit."""
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -89,3 +90,18 @@ def write_clips(folder: Path, *, kinds: tuple[int, ...], variants: int, frames: 
     for kind in kinds:
         for v in range(variants):
             write_bvh(synthetic_motion(kind, v, frames=frames + step * v), folder / f"k{kind}_v{v}.bvh")
+
+
+@pytest.fixture
+def fail_on_blocking_read():
+    """A read that blocks (a FIFO opened) fails the test after 60 s instead of hanging the
+    suite; a test module makes it autouse with ``pytestmark``."""
+
+    def fail(signum, frame):
+        raise TimeoutError("blocked: a FIFO was opened")
+
+    old = signal.signal(signal.SIGALRM, fail)
+    signal.alarm(60)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)

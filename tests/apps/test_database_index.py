@@ -11,14 +11,13 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import synthetic_motion, write_clips
+from database_testlib import fail_on_blocking_read, synthetic_motion, write_clips  # noqa: F401
 
 from elastic_motion.apps.database import (
     DatabaseSettings,
@@ -37,18 +36,8 @@ SETTINGS = DatabaseSettings(n_samples=10, warp=WarpOptions(method="dp", neighbou
 REBUILD = "Rebuild it: elastic-motion index"
 
 
-@pytest.fixture(autouse=True)
-def _no_hang():
-    """A read that blocks (a FIFO) fails the test after 60 s instead of hanging the suite."""
-
-    def fail(signum, frame):
-        raise TimeoutError("blocked: a FIFO was opened")
-
-    old = signal.signal(signal.SIGALRM, fail)
-    signal.alarm(60)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, old)
+#: Every test: a read that blocks fails it after 60 s (database_testlib).
+pytestmark = pytest.mark.usefixtures("fail_on_blocking_read")
 
 
 @pytest.fixture(scope="module")

@@ -14,14 +14,13 @@ import io
 import json
 import os
 import shutil
-import signal
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
-from database_testlib import synthetic_motion, write_clips
+from database_testlib import fail_on_blocking_read, synthetic_motion, write_clips  # noqa: F401
 
 from elastic_motion.apps.database import DatabaseSettings, compute_matrix
 from elastic_motion.cli import main
@@ -34,18 +33,8 @@ SETTINGS = DatabaseSettings(n_samples=8, tile_size=2, warp=WarpOptions(method="d
 TILE = "lie_0_1"
 
 
-@pytest.fixture(autouse=True)
-def _no_hang():
-    """A read that blocks (a FIFO opened on the old code) fails the test after 60 s."""
-
-    def fail(signum, frame):
-        raise TimeoutError("blocked: a FIFO was opened")
-
-    old = signal.signal(signal.SIGALRM, fail)
-    signal.alarm(60)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, old)
+#: Every test: a read that blocks fails it after 60 s (database_testlib).
+pytestmark = pytest.mark.usefixtures("fail_on_blocking_read")
 
 
 @pytest.fixture(scope="module")
