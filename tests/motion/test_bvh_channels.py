@@ -317,3 +317,19 @@ def test_blend_and_loop_of_valid_files_with_two_channel_joints_exit_0(tmp_path, 
     notes = json.loads((tmp_path / "ab.json").read_text())["notes"]
     fit = [n for n in notes if "nearest rotations" in n]
     assert len(fit) == 1 and "LeftHand (Xrotation Zrotation)" in fit[0]
+
+
+def test_the_mean_command_says_when_it_writes_nearest_rotations(tmp_path, capsys):
+    """``mean`` writes with write_bvh like blend and loop: it keeps the 2-channel layout and
+    its report says which joints got the nearest rotation they hold."""
+    from elastic_motion.cli import main
+
+    a, b = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    _biped_file(a, 2.0, 1.0, 0.0, 1.0)
+    _biped_file(b, 2.4, 1.25, 0.3, 1.3)
+    out, report = tmp_path / "mean.bvh", tmp_path / "mean.json"
+    code = main([str(x) for x in ("mean", a, b, "-o", out, "--json", report, "-q")])
+    assert code == 0, capsys.readouterr().err
+    assert read_bvh(out).skeleton.channels == read_bvh(a).skeleton.channels
+    notes = json.loads(report.read_text())["output_notes"]
+    assert len(notes) == 1 and "LeftHand (Xrotation Zrotation)" in notes[0]

@@ -404,6 +404,7 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
 
 def run_mean(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import MeanOptions, mean_motion
+    from elastic_motion.apps.prepare import output_notes
     from elastic_motion.cli_commands._database_running import emit, methods
     from elastic_motion.motion import write_bvh
     from elastic_motion.warp import WarpOptions
@@ -442,6 +443,10 @@ def run_mean(args: argparse.Namespace) -> int:
     lines = [f"iteration {i:3d}  energy {e:.6g}" for i, e in enumerate(body["energies"], 1)]
     frames = f"{body['frames']} frames at {body['fps']:g} fps"
     lines.append(f"{state}; mean of {len(args.files)} motions -> {path} ({frames})")
+    # a joint with 1-2 rotation channels is written as the nearest rotation it holds: say so
+    channel_notes = output_notes(res.motion)
+    body["output_notes"] = [str(n) for n in channel_notes]
+    lines += [f"note: {n}" for n in channel_notes]
     emit(args, "mean", body, args.files, outputs, lines)
     return 0
 
