@@ -143,11 +143,11 @@ def _export(context, obj, path, floor_m=None):
     start, end = (round(v) for v in obj.animation_data.action.frame_range)
     info = transfer.export_bvh(context, obj, path, start, end, floor_m=floor_m)
     k = transfer.metres_per_unit(context.scene)
-    h = info["height_m"]
+    h = info["size_m"]
     warnings = []
-    if not runner.PLAUSIBLE_HEIGHT_M[0] <= h <= runner.PLAUSIBLE_HEIGHT_M[1]:
+    if not runner.PLAUSIBLE_SIZE_M[0] <= h <= runner.PLAUSIBLE_SIZE_M[1]:
         warnings.append(
-            f"{obj.name} is {h:.3g} m tall at this scene's Unit Scale ({k:g} m per unit): elastic-motion "
+            f"{obj.name} is {h:.3g} m across at this scene's Unit Scale ({k:g} m per unit): elastic-motion "
             "measures contacts and seams in metres; import the clip at its real size (BVH import Scale "
             "0.01 for a file in centimetres)"
         )

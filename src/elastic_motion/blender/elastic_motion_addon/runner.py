@@ -230,9 +230,10 @@ def loop_args(inp, out, report, settings=None, *, help_text, extra=(), **overrid
     return args, warnings
 
 
-#: Rest-pose heights (m) of a character at its real size; outside, the add-on warns that the
-#: command measures contacts and seams in metres (a clip imported at the wrong scale).
-PLAUSIBLE_HEIGHT_M = (0.3, 4.0)
+#: Rest-pose sizes (largest extent, m) of a character at its real size; outside, the add-on
+#: warns that the command measures contacts and seams in metres (a clip imported at the
+#: wrong scale).
+PLAUSIBLE_SIZE_M = (0.3, 4.0)
 
 #: B moved vertically onto A's floor by more than this (m) is said in a warning.
 FLOOR_NOTE_M = 0.01

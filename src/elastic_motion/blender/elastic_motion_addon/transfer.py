@@ -2,15 +2,17 @@
 with its ``'rU'`` bug worked around, and the result carried back onto the same armature
 (needs ``bpy`` and ``mathutils``; no numpy).
 
-World space, metres. :func:`export_bvh` writes the armature's action as the world sees it
-(the object's placement, rotation and scale included), lengths in metres (Blender units
-times the scene's Unit Scale), Z-up (Blender's world), one rotation triple per bone and
-position channels on the root and on **every bone that carries a translation** (the hips
-under a static root, as in the Bandai rigs; Blender's own exporter with
-``root_transform_only`` drops them, without it writes noisy positions on every bone). The
-command is told so explicitly (``--up z --units m``, :func:`elastic_motion_addon.runner.
-input_args`). Its Y-up result comes back through Blender's importer (``-Z`` forward, ``Y``
-up: the exact inverse of the command's ``z -> y`` quarter turn), scaled to scene units, and
+:func:`export_bvh` writes the armature's action as the world sees it, lengths in metres
+(Blender units times the scene's Unit Scale), Z-up (Blender's world): the rest pose in the
+armature's own axes (scaled by the object's scale, so that two armatures of one rig give
+the same skeleton wherever they stand), the object's placement and turn in the root's
+channels, one rotation triple per bone and position channels on the root and on **every
+bone that carries a translation** (the hips under a static root, as in the Bandai rigs;
+Blender's own exporter with ``root_transform_only`` drops them, without it writes noisy
+positions on every bone). The command is told so explicitly (``--up z --units m``,
+:func:`elastic_motion_addon.runner.input_args`). It keeps the skeleton and turns the root
+to Y-up; its result comes back through Blender's importer (``-Z`` forward, ``Y`` up: the
+exact inverse of the command's ``z -> y`` quarter turn), scaled to scene units, and
 :func:`bake_onto` carries it bone by bone onto the armature: every bone's head where the
 result puts it, its rotation the result's rotation from the rest pose applied to the
 armature's own rest orientation (so a rig whose bones have other rolls than Blender's
@@ -125,7 +127,7 @@ def _hierarchy(bone, offsets, moving, tail, depth=0):
 
 def export_bvh(context, obj, path, frame_start, frame_end, floor_m=None):
     """Write ``obj``'s animation over ``frame_start..frame_end`` to ``path`` as a Z-up BVH in
-    metres, in world space (see the module docstring).
+    metres, as the world sees it (see the module docstring).
 
     ``floor_m``: lift (or lower) the motion so that its lowest point (a bone's head or tail
     over the frames) is at this world height (m); default: as it is.
@@ -133,7 +135,8 @@ def export_bvh(context, obj, path, frame_start, frame_end, floor_m=None):
     Returns
     -------
     dict
-        ``height_m`` (the rest pose's extent along world up, m), ``floor_m`` (the lowest point
+        ``size_m`` (the rest pose's largest extent, m: a standing or T-pose rest's height or
+        span; Bandai's rest lies along x), ``floor_m`` (the lowest point
         of the motion, m, as written), ``lift_m`` (the shift ``floor_m`` asked for),
         ``translated`` (the bones written with position channels), ``frames``.
     """
@@ -191,9 +194,8 @@ def export_bvh(context, obj, path, frame_start, frame_end, floor_m=None):
         lines.append(_numbers(values))
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("\n".join(lines) + "\n")
-    zs = [p.z for p in world]
     return {
-        "height_m": max(zs) - min(zs),
+        "size_m": size,
         "floor_m": lowest + lift,
         "lift_m": lift,
         "translated": [b.name for b in bones if b.name in moving],
