@@ -18,9 +18,11 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from blender_testlib import check_stands_where_the_input_stood
 
-from elastic_motion.blender import ADDON_NAME, addon_files, pack_addon
+from elastic_motion.blender import ADDON_NAME, COMMAND_FILE, addon_files, pack_addon
 from elastic_motion.cli import main
+from elastic_motion.cli_commands.blender_addon import running_command
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "src" / "elastic_motion" / "blender"))
 from elastic_motion_addon import runner
@@ -32,16 +34,43 @@ CLI = shutil.which("elastic-motion")
 def test_pack_addon_zip(tmp_path, capsys):
     code = main(["blender-addon", "-o", str(tmp_path / "addon.zip")])
     assert code == 0
-    assert "elastic-motion command" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    exe = running_command()
+    assert exe is not None and os.path.isabs(exe)  # the console script beside this interpreter
+    assert f"'elastic-motion command' preference is set to: {exe}" in printed
     with zipfile.ZipFile(tmp_path / "addon.zip") as zf:
         names = sorted(zf.namelist())
-        assert names == sorted(f"{ADDON_NAME}/{p.name}" for p in addon_files())
+        assert names == sorted(
+            [f"{ADDON_NAME}/{p.name}" for p in addon_files()] + [f"{ADDON_NAME}/{COMMAND_FILE}"]
+        )
         init = zf.read(f"{ADDON_NAME}/__init__.py").decode()
+        assert json.loads(zf.read(f"{ADDON_NAME}/{COMMAND_FILE}")) == {"command": exe}
     assert "bl_info" in init and "def register" in init
     # the same bytes twice (fixed dates): reproducible
-    pack_addon(tmp_path / "again.zip")
+    pack_addon(tmp_path / "again.zip", command=exe)
     assert (tmp_path / "again.zip").read_bytes() == (tmp_path / "addon.zip").read_bytes()
     assert main(["blender-addon", "-o", str(tmp_path / "addon.tar")]) == 2
+
+
+def test_running_command_is_an_absolute_path(tmp_path, monkeypatch):
+    """The add-on's default command: the console script that runs (``sys.argv[0]``, made
+    absolute: started as ``./venv/bin/elastic-motion``), else the one beside the interpreter
+    (``python -m``, or a test runner), else the one on PATH; never a bare name."""
+    venv = tmp_path / "venv" / "bin"
+    venv.mkdir(parents=True)
+    script = venv / "elastic-motion"
+    script.write_text("#!/bin/sh\n")
+    script.chmod(0o755)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert running_command("venv/bin/elastic-motion", "/usr/bin/python3") == str(script)
+    # not the command (pytest, python -m): the script beside the venv's interpreter (a link
+    # to the system's python, kept as it is: resolving it would leave the venv)
+    (venv / "python").symlink_to(sys.executable)
+    assert running_command("/usr/lib/python3/pytest", str(venv / "python")) == str(script)
+    assert running_command("/usr/lib/python3/pytest", "/nonexistent/python") is None
+    monkeypatch.setenv("PATH", str(venv))
+    assert running_command("/usr/lib/python3/pytest", "/nonexistent/python") == str(script)
 
 
 def test_addon_uses_no_numpy():
@@ -138,6 +167,26 @@ def test_runner_reads_options_from_help():
         runner.blend_args("a", "b", "o", "r", wieght=0.3, help_text=HELP)
 
 
+def test_runner_says_what_the_exported_files_are():
+    """Blender's world is Z-up and the add-on writes metres: said to the command (before the
+    panel's More options, which still override), not left to its guesses; an older command
+    without the options gets a warning."""
+    help_text = "usage: elastic-motion loop [--units UNIT] [--up {x,y,z}] [--units-out UNIT]"
+    assert runner.input_args(help_text) == (["--up", "z", "--units", "m", "--units-out", "m"], [])
+    assert runner.input_args(help_text, writes=False) == (["--up", "z", "--units", "m"], [])
+    args, warnings = runner.input_args("usage: elastic-motion loop [--units-out UNIT]")
+    assert args == ["--units-out", "m"] and "--up, --units" in warnings[0]
+    line = runner.insert_options(["loop", "in.bvh", "-o", "o.bvh", "--up", "y"], ["--up", "z"])
+    assert line == ["loop", "--up", "z", "in.bvh", "-o", "o.bvh", "--up", "y"]
+    report = {"command": "loop", "frames": 91, "fps": 30.0, "notes": ["window: the whole clip"]}
+    report["seam_after"] = {"seam_angle_max_deg": 1e-9, "seam_position_max_m": 2e-12}
+    status = runner.status_line("loop", "new action 'walk loop' on walk", report)
+    assert status == (
+        "elastic-motion loop: new action 'walk loop' on walk; loop: 91 frames at 30.0 fps; "
+        "seam after: 1e-09 deg, 2e-12 m"
+    )
+
+
 def test_runner_errors():
     err = "usage: ...\nelastic-motion loop: error: --max-iter: expected an integer; got 'abc'\n"
     assert runner.error_message(err, 2) == "--max-iter: expected an integer; got 'abc'"
@@ -160,7 +209,10 @@ import builtins, json, sys, traceback
 import addon_utils, bpy
 
 argv = sys.argv[sys.argv.index("--") + 1 :]
-zip_path, exe, a_path, b_path = argv
+zip_path, exe, a_path, b_path, tests_dir = argv
+sys.path.insert(0, tests_dir)
+from blender_addon_rigs import measure  # hips start and travel, tilt, floor (m, deg)
+
 out = {}
 _open = builtins.open
 
@@ -175,7 +227,8 @@ def load(path):
     builtins.open = _open_without_u
     try:
         before = set(bpy.data.objects)
-        bpy.ops.import_anim.bvh(filepath=path, global_scale=1.0, update_scene_fps=True)
+        # at the character's real size (CMU units to metres): the add-on passes --units m
+        bpy.ops.import_anim.bvh(filepath=path, global_scale=0.056444, update_scene_fps=True)
     finally:
         builtins.open = _open
     return [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"][0]
@@ -211,6 +264,7 @@ try:
     settings = bpy.context.scene.elastic_motion
     a, b = load(a_path), load(b_path)
     out["input_frames"] = [frames(a.animation_data.action), frames(b.animation_data.action)]
+    out["input_measures"] = [measure(a, "Hips", "Head"), measure(b, "Hips", "Head")]
     old = a.animation_data.action.name
 
     select(a, b)
@@ -219,6 +273,7 @@ try:
     rep = json.loads(bpy.data.texts["elastic-motion report"].as_string())
     out["blend_action"] = [a.animation_data.action.name, frames(a.animation_data.action), rep["frames"], old]
     out["blend_status"] = settings.last_status
+    out["blend_measure"] = measure(a, "Hips", "Head")
     out["panel_lines"] = settings.last_report.splitlines()
 
     a.animation_data.action = bpy.data.actions[old]
@@ -232,6 +287,7 @@ try:
     rep = json.loads(bpy.data.texts["elastic-motion report"].as_string())
     out["loop_action"] = [a.animation_data.action.name, frames(a.animation_data.action), rep["frames"]]
     out["loop_status"] = settings.last_status
+    out["loop_measure"] = measure(a, "Hips", "Head")
 
     select(a, b)
     out["distance"] = run(bpy.ops.elastic_motion.distance)
@@ -288,6 +344,7 @@ def blender_run(tmp_path_factory, request):
             CLI,
             str(pa),
             str(pb),
+            str(Path(__file__).parent),
         ],
         capture_output=True,
         text=True,
@@ -331,6 +388,15 @@ def test_addon_loop_makes_a_new_action(blender_run):
     name, n, report_frames = out["loop_action"]
     assert name.endswith(" loop") and n == report_frames == out["input_frames"][0], out["loop_status"]
     assert "new action" in out["loop_status"]
+
+
+@pytest.mark.mocap
+@pytest.mark.parametrize("op", ["blend", "loop"])
+def test_addon_result_stands_where_the_input_stood(blender_run, op):
+    """CMU walks (the hips are the top bone), at their real size: the result starts where A
+    did, travels as far, stands upright on A's floor (the bounds of
+    ``test_blender_addon_rigs.py``, which checks the Bandai and DeepMimic rigs)."""
+    check_stands_where_the_input_stood(blender_run[f"{op}_measure"], blender_run["input_measures"], op)
 
 
 @pytest.mark.mocap

@@ -9,13 +9,14 @@ Edit > Preferences > Add-ons > Install takes (``elastic-motion blender-addon -o 
 from __future__ import annotations
 
 import io
+import json
 import os
 import zipfile
 from pathlib import Path
 
 from elastic_motion._io import atomic_write_bytes
 
-__all__ = ["ADDON_NAME", "addon_files", "pack_addon"]
+__all__ = ["ADDON_NAME", "COMMAND_FILE", "addon_files", "pack_addon"]
 
 #: The add-on's module name inside Blender (the folder in the zip).
 ADDON_NAME = "elastic_motion_addon"
@@ -27,7 +28,12 @@ def addon_files() -> list[Path]:
     return sorted(p for p in folder.glob("*.py") if p.is_file())
 
 
-def pack_addon(path: str | os.PathLike[str], *, protected=()) -> Path:
+#: The file in the zip that records the command the add-on runs by default (read by
+#: ``ops._default_executable``).
+COMMAND_FILE = "command.json"
+
+
+def pack_addon(path: str | os.PathLike[str], *, protected=(), command: str | None = None) -> Path:
     """Write the add-on zip (``elastic_motion_addon/*.py``) to ``path`` atomically.
 
     Parameters
@@ -36,6 +42,10 @@ def pack_addon(path: str | os.PathLike[str], *, protected=()) -> Path:
         Destination ``.zip``; its folder must exist.
     protected : iterable of paths
         Files never to overwrite.
+    command : str, optional
+        The ``elastic-motion`` command the add-on runs by default (its preference's default),
+        recorded as ``elastic_motion_addon/command.json``; without it the add-on looks for
+        ``elastic-motion`` on Blender's PATH.
 
     Returns
     -------
@@ -48,4 +58,9 @@ def pack_addon(path: str | os.PathLike[str], *, protected=()) -> Path:
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
             zf.writestr(info, f.read_bytes())
+        if command is not None:
+            info = zipfile.ZipInfo(f"{ADDON_NAME}/{COMMAND_FILE}", date_time=(2024, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            zf.writestr(info, json.dumps({"command": command}, indent=1) + "\n")
     return atomic_write_bytes(path, buf.getvalue(), protected=protected)

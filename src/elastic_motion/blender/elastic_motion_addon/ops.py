@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import builtins
-import contextlib
 import json
 import os
 import shutil
@@ -12,8 +10,9 @@ import textwrap
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy_extras.io_utils import ImportHelper, orientation_helper
 
-from . import runner
+from . import runner, transfer
 
 ADDON = __package__
 REPORT_TEXT = "elastic-motion report"
@@ -25,8 +24,22 @@ _WARPS = [
 ]
 
 
+# Written into the zip by ``elastic-motion blender-addon``: the absolute path of the command
+# that packed it (Blender often runs without the user's environment on its PATH).
+COMMAND_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "command.json")
+
+
 def _default_executable():
-    return shutil.which("elastic-motion") or "elastic-motion"
+    """The command recorded in the zip, else the one on Blender's PATH, else the bare name."""
+    try:
+        with open(COMMAND_FILE, encoding="utf-8") as fh:
+            recorded = json.load(fh).get("command")
+        if isinstance(recorded, str) and recorded:
+            return recorded
+    except (OSError, ValueError, AttributeError):
+        pass
+    found = shutil.which("elastic-motion")
+    return os.path.abspath(found) if found else "elastic-motion"
 
 
 class EMPreferences(bpy.types.AddonPreferences):
@@ -102,23 +115,6 @@ def _prefs(context):
     return context.preferences.addons[ADDON].preferences
 
 
-@contextlib.contextmanager
-def _open_without_u():
-    """Blender 3.4's BVH importer opens files with mode 'rU', which Python 3.11 removed."""
-    original = builtins.open
-
-    def patched(file, mode="r", *args, **kwargs):
-        if isinstance(mode, str):
-            mode = mode.replace("U", "")
-        return original(file, mode, *args, **kwargs)
-
-    builtins.open = patched
-    try:
-        yield
-    finally:
-        builtins.open = original
-
-
 def _armatures(context):
     """Active armature first, then the other selected ones (each with an action)."""
     act = context.active_object
@@ -128,108 +124,88 @@ def _armatures(context):
     return [o for o in sel if o.animation_data is not None and o.animation_data.action is not None]
 
 
-def _select_only(context, obj):
+def _selection(context):
+    """The selected objects and the active one, to restore after a run."""
+    return list(context.selected_objects), context.view_layer.objects.active
+
+
+def _restore(context, selection):
+    selected, active = selection
     for o in context.view_layer.objects:
-        o.select_set(False)
-    obj.select_set(True)
-    context.view_layer.objects.active = obj
+        o.select_set(o in selected)
+    context.view_layer.objects.active = active
 
 
-def _export(context, obj, path):
-    act = obj.animation_data.action
-    start, end = (round(v) for v in act.frame_range)
-    _select_only(context, obj)
-    res = bpy.ops.export_anim.bvh(
-        filepath=path, frame_start=start, frame_end=end, global_scale=1.0, root_transform_only=True
-    )
-    if "FINISHED" not in res:
-        raise RuntimeError(f"could not export the action of {obj.name} to BVH")
-    return start, end
+def _export(context, obj, path, floor_m=None):
+    """Export ``obj``'s action (world space, metres, Z-up: :func:`transfer.export_bvh`, on the
+    floor ``floor_m`` when given). Returns the export's figures and warnings (its size, a
+    lift)."""
+    start, end = (round(v) for v in obj.animation_data.action.frame_range)
+    info = transfer.export_bvh(context, obj, path, start, end, floor_m=floor_m)
+    k = transfer.metres_per_unit(context.scene)
+    h = info["size_m"]
+    warnings = []
+    if not runner.PLAUSIBLE_SIZE_M[0] <= h <= runner.PLAUSIBLE_SIZE_M[1]:
+        warnings.append(
+            f"{obj.name} is {h:.3g} m across at this scene's Unit Scale ({k:g} m per unit): elastic-motion "
+            "measures contacts and seams in metres; import the clip at its real size (BVH import Scale "
+            "0.01 for a file in centimetres)"
+        )
+    if abs(info["lift_m"]) > runner.FLOOR_NOTE_M:
+        warnings.append(
+            f"{obj.name}'s motion was moved {info['lift_m']:+.3g} m vertically onto the first armature's "
+            "floor for the command (it places B like A across the floor, heights kept)"
+        )
+    return info, warnings
 
 
-def _bake_onto(context, target, source, name):
-    """A new action on ``target`` that puts each bone where ``source``'s bone of the same name is
-    (world space), frame by frame: the result's rest pose may differ from the target's (the
-    command writes Y-up files), the pose is carried by the bones' world matrices."""
-    scene = context.scene
-    start, end = (round(v) for v in source.animation_data.action.frame_range)
-    action = bpy.data.actions.new(name)
-    target.animation_data.action = action
-    to_target = target.matrix_world.inverted() @ source.matrix_world
-    bones = [pb for pb in target.pose.bones if source.pose.bones.get(pb.name) is not None]
-    prev = {}
-    for f in range(start, end + 1):
-        scene.frame_set(f)
-        pose = {pb.name: to_target @ source.pose.bones[pb.name].matrix for pb in bones}
-        for pb in bones:  # parents before children (pose.bones is in hierarchy order)
-            rest = pb.bone.matrix_local
-            m = pose[pb.name]
-            if pb.parent is not None and pb.parent.name in pose:
-                rest = pb.parent.bone.matrix_local.inverted() @ rest
-                m = pose[pb.parent.name].inverted() @ m
-            loc, rot, _ = (rest.inverted() @ m).decompose()
-            pb.location = loc
-            if pb.rotation_mode == "QUATERNION":
-                if pb.name in prev:
-                    rot.make_compatible(prev[pb.name])
-                prev[pb.name] = rot
-                pb.rotation_quaternion = rot
-                pb.keyframe_insert("rotation_quaternion", frame=f, group=pb.name)
-            elif pb.rotation_mode == "AXIS_ANGLE":
-                axis, angle = rot.to_axis_angle()
-                pb.rotation_axis_angle = (angle, *axis)
-                pb.keyframe_insert("rotation_axis_angle", frame=f, group=pb.name)
-            else:
-                e = (
-                    rot.to_euler(pb.rotation_mode, prev[pb.name])
-                    if pb.name in prev
-                    else rot.to_euler(pb.rotation_mode)
-                )
-                prev[pb.name] = e
-                pb.rotation_euler = e
-                pb.keyframe_insert("rotation_euler", frame=f, group=pb.name)
-            pb.keyframe_insert("location", frame=f, group=pb.name)
-    return action
+def _export_pair(context, arms, work):
+    """Export A and B (B on A's floor); their paths and the warnings."""
+    a, b = (os.path.join(work, f"{k}.bvh") for k in ("A", "B"))
+    info, warnings = _export(context, arms[0], a)
+    _, more = _export(context, arms[1], b, floor_m=info["floor_m"])
+    return a, b, warnings + more
 
 
 def _import_action(context, target, path, name):
-    """Import ``path`` and carry its motion onto ``target`` as a new action (when every bone
-    lands where the result puts it), else keep the imported armature.
-    Returns (action, object holding it, message)."""
-    before = set(bpy.data.objects)
-    with _open_without_u():
-        res = bpy.ops.import_anim.bvh(
-            filepath=path,
-            global_scale=1.0,
-            axis_forward="-Z",
-            axis_up="Y",
-            frame_start=1,
-            update_scene_fps=False,
-            update_scene_duration=False,
-            use_fps_scale=False,
-        )
-    new = [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"]
-    if "FINISHED" not in res or not new:
-        raise RuntimeError(f"Blender could not import the result {path}")
-    imported = new[0]
-    imported_action = imported.animation_data.action
-    old = target.animation_data.action
+    """Import the result ``path`` (Y-up, metres) and carry its motion onto ``target`` as a new
+    action from the first frame of its current one (when every bone lands where the result
+    puts it), else keep the imported armature. Returns (action, object holding it, message)."""
     scene = context.scene
+    old = target.animation_data.action
+    start = round(old.frame_range[0]) if old is not None else 1
+    result, imported = transfer.load_bvh(
+        context,
+        path,
+        global_scale=1.0 / transfer.metres_per_unit(scene),
+        frame_start=max(start, 1),
+        update_scene_fps=False,
+        update_scene_duration=False,
+        use_fps_scale=False,
+    )
+    if "FINISHED" not in result or imported is None:
+        raise RuntimeError(f"Blender could not import the result {path}")
+    imported_action = imported.animation_data.action
     frame = scene.frame_current
-    action = _bake_onto(context, target, imported, name)
-    start, end = (round(v) for v in action.frame_range)
+    saved = transfer.save_pose(target)
+    try:
+        action = transfer.bake_onto(context, target, imported, name, start)
+    except Exception:
+        target.animation_data.action = old
+        transfer.restore_pose(target, saved)
+        bpy.data.objects.remove(imported, do_unlink=True)
+        raise
+    a_start, a_end = (round(v) for v in action.frame_range)
     size = max(max(imported.dimensions), 1e-6)
     worst = 0.0
-    for f in sorted({start, (start + end) // 2, end}):
+    for f in sorted({a_start, (a_start + a_end) // 2, a_end}):
         scene.frame_set(f)
         for pb in target.pose.bones:
             other = imported.pose.bones.get(pb.name)
-            if other is None:
-                worst = float("inf")
-                break
-            a = target.matrix_world @ pb.head
-            b = imported.matrix_world @ other.head
-            worst = max(worst, (a - b).length)
+            if other is not None:
+                worst = max(
+                    worst, ((target.matrix_world @ pb.head) - (imported.matrix_world @ other.head)).length
+                )
     scene.frame_set(frame)
     if worst <= 1e-3 * size:
         action.use_fake_user = True
@@ -237,6 +213,7 @@ def _import_action(context, target, path, name):
         bpy.data.actions.remove(imported_action)
         return action, target, f"new action {action.name!r} on {target.name}"
     target.animation_data.action = old
+    transfer.restore_pose(target, saved)
     bpy.data.actions.remove(action)
     imported.name = name
     imported_action.name = name
@@ -289,12 +266,17 @@ class _Run:
         """Run ``elastic-motion COMMAND`` and import its result as a new action on ``target``.
 
         ``build(work, help_text) -> (args, warnings, out_path, report_path)`` exports what the
-        command reads into the folder ``work`` and makes its command line.
+        command reads into the folder ``work`` and makes its command line (the options that
+        say what the exported files are, :func:`runner.input_args`, are added here).
         """
         prefs = _prefs(context)
         work, temporary = self._work_dir(context)
+        selection = _selection(context)
         try:
-            args, warnings, out, rep = build(work, runner.command_help(prefs.executable, command))
+            help_text = runner.command_help(prefs.executable, command)
+            args, warnings, out, rep = build(work, help_text)
+            extra, more = runner.input_args(help_text)
+            args = runner.insert_options(args, extra)
             res = runner.run_cli(prefs.executable, args, report_path=rep, timeout=prefs.timeout)
             if not res.ok:
                 return self._fail(context, res.message, self._kept(work, temporary))
@@ -304,12 +286,13 @@ class _Run:
         except RuntimeError as exc:
             return self._fail(context, str(exc), self._kept(work, temporary))
         finally:
+            _restore(context, selection)
             if temporary:
                 shutil.rmtree(work, ignore_errors=True)
-        for w in warnings:
+        for w in [*warnings, *more]:
             self.report({"WARNING"}, w)
         _show_report(context, res.report, msg + self._kept(work, temporary))
-        self.report({"INFO"}, msg)
+        self.report({"INFO"}, runner.status_line(command, msg, res.report))
         return {"FINISHED"}
 
 
@@ -327,17 +310,15 @@ class EM_OT_blend(bpy.types.Operator, _Run):
         s = context.scene.elastic_motion
 
         def build(work, help_text):
-            a, b = (os.path.join(work, f"{k}.bvh") for k in ("A", "B"))
-            _export(context, arms[0], a)
-            _export(context, arms[1], b)
+            a, b, warnings = _export_pair(context, arms, work)
             out, rep = os.path.join(work, "blend.bvh"), os.path.join(work, "blend.json")
             settings = runner.BlendSettings(
                 weight=s.weight, warp=s.warp, landmarks=s.landmarks, cleanup=s.cleanup
             )
-            args, warnings = runner.blend_args(
+            args, more = runner.blend_args(
                 a, b, out, rep, settings, help_text=help_text, extra=s.extra.split()
             )
-            return args, warnings, out, rep
+            return args, warnings + more, out, rep
 
         name = f"{arms[0].animation_data.action.name} x {arms[1].animation_data.action.name} {s.weight:g}"
         return self._run_and_import(context, "blend", build, arms[0], name)
@@ -358,20 +339,11 @@ class EM_OT_loop(bpy.types.Operator, _Run):
 
         def build(work, help_text):
             inp = os.path.join(work, "input.bvh")
-            _export(context, arms[0], inp)
+            warnings = _export(context, arms[0], inp)[1]
             out, rep = os.path.join(work, "loop.bvh"), os.path.join(work, "loop.json")
-            args, warnings = runner.loop_args(
-                inp,
-                out,
-                rep,
-                root=s.root,
-                window=s.window,
-                contacts=s.contacts,
-                help_text=help_text,
-                force=s.force,
-                extra=s.extra.split(),
-            )
-            return args, warnings, out, rep
+            settings = runner.LoopSettings(root=s.root, window=s.window, contacts=s.contacts, force=s.force)
+            args, more = runner.loop_args(inp, out, rep, settings, help_text=help_text, extra=s.extra.split())
+            return args, warnings + more, out, rep
 
         return self._run_and_import(
             context, "loop", build, arms[0], f"{arms[0].animation_data.action.name} loop"
@@ -391,13 +363,12 @@ class EM_OT_distance(bpy.types.Operator, _Run):
         s = context.scene.elastic_motion
         prefs = _prefs(context)
         work, temporary = self._work_dir(context)
+        selection = _selection(context)
         try:
-            a, b = (os.path.join(work, f"{k}.bvh") for k in ("A", "B"))
-            _export(context, arms[0], a)
-            _export(context, arms[1], b)
-            res = runner.run_cli(
-                prefs.executable, runner.distance_args(a, b, warp=s.warp), timeout=prefs.timeout
-            )
+            a, b, warnings = _export_pair(context, arms, work)
+            extra, more = runner.input_args(runner.command_help(prefs.executable, "distance"), writes=False)
+            args = runner.insert_options(runner.distance_args(a, b, warp=s.warp), extra)
+            res = runner.run_cli(prefs.executable, args, timeout=prefs.timeout)
             if not res.ok:
                 return self._fail(context, res.message, self._kept(work, temporary))
         except runner.CliNotFound as exc:
@@ -405,13 +376,79 @@ class EM_OT_distance(bpy.types.Operator, _Run):
         except RuntimeError as exc:
             return self._fail(context, str(exc), self._kept(work, temporary))
         finally:
+            _restore(context, selection)
             if temporary:
                 shutil.rmtree(work, ignore_errors=True)
+        for w in [*warnings, *more]:
+            self.report({"WARNING"}, w)
         lines = runner.report_lines(res.report)
         status = (lines[0] if lines else "distance computed") + self._kept(work, temporary)
         _show_report(context, res.report, status)
-        self.report({"INFO"}, lines[0] if lines else "distance computed")
+        self.report({"INFO"}, "elastic-motion " + (lines[0] if lines else "distance computed"))
         return {"FINISHED"}
+
+
+@orientation_helper(axis_forward="-Z", axis_up="Y")
+class EM_OT_import_bvh(bpy.types.Operator, ImportHelper):
+    """Import a BVH file as an armature with its action (Blender's importer; works on Blender
+    builds whose own BVH import fails with "invalid mode: 'rU'", such as Debian's 3.4.1)"""
+
+    bl_idname = "elastic_motion.import_bvh"
+    bl_label = "Import BVH (elastic-motion)"
+    bl_options = {"REGISTER", "UNDO"}  # noqa: RUF012 - Blender reads a set
+
+    filename_ext = ".bvh"
+    filter_glob: StringProperty(default="*.bvh", options={"HIDDEN"})
+    global_scale: FloatProperty(
+        name="Scale",
+        description="Scale the BVH by this value (0.01 for a file in centimetres, 0.056444 for CMU units)",
+        min=1e-6,
+        max=1e6,
+        soft_min=0.001,
+        soft_max=100.0,
+        default=1.0,
+    )
+    frame_start: IntProperty(name="Start Frame", description="Starting frame for the animation", default=1)
+    update_scene_fps: BoolProperty(
+        name="Update Scene FPS", description="Set the scene's frame rate to the file's", default=True
+    )
+    update_scene_duration: BoolProperty(
+        name="Update Scene Duration", description="Extend the scene's duration to the file's", default=True
+    )
+    rotate_mode: EnumProperty(
+        name="Rotation",
+        items=[
+            ("NATIVE", "Euler (Native)", "the rotation order of the file"),
+            ("QUATERNION", "Quaternion", "convert rotations to quaternions"),
+            ("XYZ", "Euler (XYZ)", "convert rotations to Euler XYZ"),
+        ],
+        default="NATIVE",
+    )
+
+    def execute(self, context):
+        try:
+            result, arm = transfer.load_bvh(
+                context,
+                self.filepath,
+                report=self.report,
+                axis_forward=self.axis_forward,
+                axis_up=self.axis_up,
+                global_scale=self.global_scale,
+                frame_start=self.frame_start,
+                update_scene_fps=self.update_scene_fps,
+                update_scene_duration=self.update_scene_duration,
+                rotate_mode=self.rotate_mode,
+            )
+        except (OSError, ValueError, IndexError, RuntimeError) as exc:
+            self.report({"ERROR"}, f"elastic-motion: could not import {self.filepath}: {exc}")
+            return {"CANCELLED"}
+        if arm is not None:
+            self.report({"INFO"}, f"elastic-motion: imported {arm.name} ({len(arm.data.bones)} bones)")
+        return result
+
+
+def _import_menu(self, context):
+    self.layout.operator(EM_OT_import_bvh.bl_idname, text="Motion Capture (.bvh, elastic-motion)")
 
 
 class EM_PT_panel(bpy.types.Panel):
@@ -424,6 +461,7 @@ class EM_PT_panel(bpy.types.Panel):
     def draw(self, context):
         s = context.scene.elastic_motion
         layout = self.layout
+        layout.operator(EM_OT_import_bvh.bl_idname, text="Import BVH", icon="IMPORT")
         box = layout.box()
         box.label(text="Blend: A active, B selected")
         box.prop(s, "weight")
@@ -452,16 +490,26 @@ class EM_PT_panel(bpy.types.Panel):
                     box.label(text=part)
 
 
-_CLASSES = (EMPreferences, EMSettings, EM_OT_blend, EM_OT_loop, EM_OT_distance, EM_PT_panel)
+_CLASSES = (
+    EMPreferences,
+    EMSettings,
+    EM_OT_blend,
+    EM_OT_loop,
+    EM_OT_distance,
+    EM_OT_import_bvh,
+    EM_PT_panel,
+)
 
 
 def register():
     for cls in _CLASSES:
         bpy.utils.register_class(cls)
     bpy.types.Scene.elastic_motion = PointerProperty(type=EMSettings)
+    bpy.types.TOPBAR_MT_file_import.append(_import_menu)
 
 
 def unregister():
+    bpy.types.TOPBAR_MT_file_import.remove(_import_menu)
     del bpy.types.Scene.elastic_motion
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)

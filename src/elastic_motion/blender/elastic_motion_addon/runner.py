@@ -230,6 +230,55 @@ def loop_args(inp, out, report, settings=None, *, help_text, extra=(), **overrid
     return args, warnings
 
 
+#: Rest-pose sizes (largest extent, m) of a character at its real size; outside, the add-on
+#: warns that the command measures contacts and seams in metres (a clip imported at the
+#: wrong scale).
+PLAUSIBLE_SIZE_M = (0.3, 4.0)
+
+#: B moved vertically onto A's floor by more than this (m) is said in a warning.
+FLOOR_NOTE_M = 0.01
+
+#: What the add-on's exported files are (``transfer.export_bvh``): Blender's world is Z-up,
+#: lengths are written in metres.
+EXPORT_UP, EXPORT_UNITS = "z", "m"
+
+
+def input_args(help_text, *, writes=True):
+    """The options that say what the exported files are (``--up z --units m``) and, for a
+    command that writes a BVH (``writes``), that its result is in metres too (``--units-out
+    m``): nothing is left to the command's guesses. Options the command lacks (an older
+    release) are skipped with a warning. Returns (options, warnings)."""
+    wanted = [("--up", EXPORT_UP), ("--units", EXPORT_UNITS)]
+    if writes:
+        wanted.append(("--units-out", EXPORT_UNITS))
+    args, missing = [], []
+    for flag, value in wanted:
+        if option_choices(help_text, flag) is None:
+            missing.append(flag)
+        else:
+            args += [flag, value]
+    warnings = []
+    if missing:
+        warnings.append(
+            f"this elastic-motion has no {', '.join(missing)}: it guesses the up axis or units of Blender's "
+            "files (update it)"
+        )
+    return args, warnings
+
+
+def insert_options(args, options):
+    """``args`` (``[command, ...]``) with ``options`` right after the command: the panel's
+    *More options*, at the end, still override them."""
+    return [args[0], *options, *args[1:]]
+
+
+def status_line(command, message, report):
+    """The status-bar line of a run: what was made and the report's key figures (its first
+    lines, without the notes)."""
+    figures = [ln for ln in report_lines(report) if not ln.startswith("note: ")][:3]
+    return "; ".join([f"elastic-motion {command}: {message}", *figures])
+
+
 def distance_args(a, b, *, warp):
     return ["distance", a, b, "--warp", warp, "--json", "-"]
 
