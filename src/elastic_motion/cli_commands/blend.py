@@ -25,7 +25,13 @@ from elastic_motion.cli_commands._common import (
     progress_for,
     run_guarded,
 )
-from elastic_motion.vocabulary import CONTACT_POLICY_ALIASES, ContactPolicy, CurveMethod, SkeletonMode
+from elastic_motion.vocabulary import (
+    CONTACT_POLICY_ALIASES,
+    OUTPUT_MOTION_EXTENSIONS,
+    ContactPolicy,
+    CurveMethod,
+    SkeletonMode,
+)
 
 _METHOD_HELP = (
     "euler-linear: frame-by-frame linear interpolation of Euler angles (paper 001 Fig. 5a); "
@@ -48,9 +54,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument(
-        "inputs", nargs="+", metavar="FILE", help="motion files (.bvh, .amc, DeepMimic .txt); A first"
+        "inputs",
+        nargs="+",
+        metavar="FILE",
+        help="motion files (.bvh, .amc, DeepMimic .txt, .gltf/.glb); A first",
     )
-    p.add_argument("-o", "--output", required=True, help="output .bvh file (never one of the inputs)")
+    p.add_argument(
+        "-o", "--output", required=True, help="output .bvh, .gltf or .glb file (never one of the inputs)"
+    )
     p.add_argument(
         "--weight",
         type=float,
@@ -156,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = list(args.inputs)
     if len(inputs) < 2:
         raise CommandError(f"FILE: expected at least two input motions; got {len(inputs)}")
-    out = check_output(args.output, inputs, suffixes=(".bvh",))
+    out = check_output(args.output, inputs, suffixes=OUTPUT_MOTION_EXTENSIONS)
     if args.weight is not None and args.weights is not None:
         raise CommandError("--weight: expected --weight (two motions) or --weights, not both")
     if args.weight_curve is not None and (args.weight is not None or args.weights is not None):
