@@ -33,6 +33,8 @@ from elastic_motion.vocabulary import (
     SkeletonMode,
 )
 
+_INPUTS_HELP = "motion files (.bvh, .amc, DeepMimic .txt, .gltf/.glb); A first"
+_OUTPUT_HELP = "output .bvh, .gltf or .glb file (never one of the inputs)"
 _METHOD_HELP = (
     "euler-linear: frame-by-frame linear interpolation of Euler angles (paper 001 Fig. 5a); "
     "euler-elastic: SRV geodesic of the Euler-angle curves (Fig. 5b-d); "
@@ -53,15 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "plays on the blended clock (1-s) tA + s tB of the matched times, at A's frame rate."
         ),
     )
-    p.add_argument(
-        "inputs",
-        nargs="+",
-        metavar="FILE",
-        help="motion files (.bvh, .amc, DeepMimic .txt, .gltf/.glb); A first",
-    )
-    p.add_argument(
-        "-o", "--output", required=True, help="output .bvh, .gltf or .glb file (never one of the inputs)"
-    )
+    p.add_argument("inputs", nargs="+", metavar="FILE", help=_INPUTS_HELP)
+    p.add_argument("-o", "--output", required=True, help=_OUTPUT_HELP)
     p.add_argument(
         "--weight",
         type=float,
