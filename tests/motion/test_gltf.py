@@ -329,3 +329,13 @@ def test_external_buffer_is_read_and_protected(tmp_path, synth):
     assert np.abs(m.rotations - to_metres(synth).rotations).max() < 1e-12
     with pytest.raises(ValueError, match="refusing to overwrite"):
         write_motion(m, path)
+
+
+def test_python_api_write_chooses_gltf_by_extension(tmp_path, synth):
+    import elastic_motion as em
+
+    out = em.write(synth, tmp_path / "w.glb")
+    assert out.read_bytes()[:4] == b"glTF"
+    _same(read_motion(out), to_metres(synth))
+    with pytest.raises(ValueError, match=r"expected a \.bvh, \.gltf or \.glb"):
+        em.write(synth, tmp_path / "w.fbx")
