@@ -132,7 +132,7 @@ def test_step_and_cubic_spline_samplers(tmp_path, synth):
     q = Rotation.from_matrix(to_metres(synth).rotations[:, 2]).as_quat()
     for f in range(1, len(q)):  # continuous signs, as a writer would store them
         q[f] *= np.sign(np.dot(q[f], q[f - 1])) or 1.0
-    tangents = np.gradient(q, axis=0) * synth.fps
+    tangents = np.gradient(q, axis=0) * synth.fps * 3 + np.random.default_rng(5).normal(0, 2, q.shape)
     triples = np.stack([tangents, q, tangents], axis=1).reshape(-1, 4).astype("<f4")
     doc["bufferViews"].append({"buffer": 0, "byteOffset": len(data), "byteLength": triples.nbytes})
     data += triples.tobytes()
@@ -150,14 +150,19 @@ def test_step_and_cubic_spline_samplers(tmp_path, synth):
     back = read_gltf(save_json(doc, tmp_path / "b.gltf"), fps=2 * synth.fps)
     metres = to_metres(synth)
     assert back.n_frames == 2 * synth.n_frames - 1
-    # STEP: the root holds each key's position until the next key
+    # STEP: the root is at each key's position (a float32 key time just after the sample's
+    # time included) and holds it until the next key
+    assert np.abs(back.root_translation[0::2] - metres.root_translation).max() < 1e-6
     assert np.abs(back.root_translation[1::2] - metres.root_translation[:-1]).max() < 1e-6
     # CUBICSPLINE: Hermite between the keys, the specification's formula at the half step
     dt = 1 / synth.fps
     mid = 0.5 * q[:-1] + 0.125 * dt * tangents[:-1] + 0.5 * q[1:] - 0.125 * dt * tangents[1:]
-    got = Rotation.from_matrix(back.rotations[1::2, 2]).as_quat()
-    mid /= np.linalg.norm(mid, axis=1, keepdims=True)
-    assert np.abs(np.abs(np.sum(got * mid, axis=1)) - 1).max() < 1e-6
+    got = Rotation.from_matrix(back.rotations[1::2, 2])
+    angle = (got.inv() * Rotation.from_quat(mid)).magnitude()  # radians
+    assert angle.max() < 1e-6
+    assert (
+        Rotation.from_matrix(back.rotations[0::2, 2]).inv() * Rotation.from_quat(q)
+    ).magnitude().max() < 1e-6
 
 
 def test_uneven_keys_are_resampled_to_a_uniform_rate(tmp_path, synth):

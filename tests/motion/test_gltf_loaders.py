@@ -21,7 +21,7 @@ import pytest
 
 pytest.importorskip("pygltflib")
 
-from elastic_motion.motion import forward_kinematics, read_motion, select_frames, write_gltf
+from elastic_motion.motion import forward_kinematics, read_motion, select_frames, to_metres, write_gltf
 
 sys.path.insert(0, str(Path(__file__).parent))
 from gltf_testlib import size_of, synthetic_motion
@@ -79,7 +79,7 @@ process.stdout.write(JSON.stringify(results));
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory, request):
-    """Our .glb files and the motions as we read them: a synthetic figure (a joint sliding on
+    """Our .glb files and the motions written: a synthetic figure (a joint sliding on
     position channels) and, when the shared data is there, a CMU walk."""
     folder = tmp_path_factory.mktemp("gltf_loaders")
     motions = [synthetic_motion(frames=30, fps=30.0)]
@@ -89,11 +89,8 @@ def written(tmp_path_factory, request):
         cmu = None
     if cmu is not None and cmu.is_file():
         motions.append(select_frames(read_motion(cmu), slice(100, 160)))
-    out = []
-    for k, m in enumerate(motions):
-        path = write_gltf(m, folder / f"clip{k}.glb")
-        out.append((path, read_motion(path)))
-    return out
+    # compared with our forward kinematics of the motion written (in metres, as glTF is)
+    return [(write_gltf(m, folder / f"clip{k}.glb"), to_metres(m)) for k, m in enumerate(motions)]
 
 
 def _compare(motion, names, frames, positions, to_y_up=lambda p: p):
