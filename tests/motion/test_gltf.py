@@ -195,6 +195,13 @@ def test_cli_blend_reads_and_writes_gltf(tmp_path, synth, capsys):
     b = write_bvh(synthetic_motion(seed=1, slide=False), tmp_path / "b.bvh")
     out = tmp_path / "ab.glb"
     assert main(["blend", str(a), str(b), "-o", str(out), "--warp", "none", "--units", "cm"]) == 0
+    # the head's two BVH rotation channels cannot hold the blend; glTF's quaternions can
+    assert "fewer than three rotation channels" not in "".join(capsys.readouterr())
+    assert (
+        main(["blend", str(a), str(b), "-o", str(tmp_path / "ab.bvh"), "--warp", "none", "--units", "cm"])
+        == 0
+    )
+    assert "fewer than three rotation channels" in "".join(capsys.readouterr())
     m = read_motion(out)
     assert m.n_joints == synth.n_joints and m.metres_per_unit == 1.0 and m.n_frames > 30
     assert main(["info", str(out)]) == 0
