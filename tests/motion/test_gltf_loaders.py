@@ -1,6 +1,8 @@
 """Our glTF files in other programs' loaders: Blender's importer (headless) and three.js'
 ``GLTFLoader`` (node). Joint world positions at a few frames equal our forward kinematics to
-1e-5 of the skeleton size. One launch of each program for the module (module fixtures).
+1e-5 of the skeleton size. And Blender's export of what it imported (a foreign layout: bones
+with rest rotations, a translation key on every bone) reads back here as the same motion.
+One launch of each program for the module (module fixtures).
 
 Skipped without ``blender`` on PATH; without ``node`` or three.js. three.js is looked for in
 ``$ELASTIC_MOTION_THREE_DIR`` (default ``~/.cache/elastic-motion-test-node``), outside the
@@ -21,7 +23,14 @@ import pytest
 
 pytest.importorskip("pygltflib")
 
-from elastic_motion.motion import forward_kinematics, read_motion, select_frames, to_metres, write_gltf
+from elastic_motion.motion import (
+    forward_kinematics,
+    read_gltf,
+    read_motion,
+    select_frames,
+    to_metres,
+    write_gltf,
+)
 
 sys.path.insert(0, str(Path(__file__).parent))
 from gltf_testlib import size_of, synthetic_motion
@@ -47,6 +56,8 @@ for path, fps, frames in jobs:
     for f in frames:
         bpy.context.scene.frame_set(f)
         res["frames"].append([list(arm.matrix_world @ b.head) for b in arm.pose.bones])
+    # and Blender's own export of it: bones with rest rotations, keys on every bone
+    bpy.ops.export_scene.gltf(filepath=path + ".blender.glb", export_format="GLB", export_animations=True)
     results.append(res)
 json.dump(results, open(out, "w"))
 """
@@ -162,6 +173,21 @@ def test_blender_imports_our_gltf_with_our_joint_positions(written, blender_resu
     for (_, motion), res in zip(written, blender_results, strict=True):
         assert sorted(res["names"]) == sorted(motion.skeleton.names)
         _compare(motion, res["names"], CHECK_FRAMES, res["frames"], z_up_to_y_up)
+
+
+def test_blender_export_reads_back_as_the_motion(written, blender_results):
+    for path, motion in written:
+        back = read_gltf(f"{path}.blender.glb")
+        assert back.fps == motion.fps and back.n_frames == motion.n_frames
+        idx = [back.skeleton.index(n) for n in motion.skeleton.names]
+        err = np.abs(forward_kinematics(back)[:, idx] - forward_kinematics(motion)).max()
+        assert err <= 1e-5 * size_of(motion), f"{motion.name}: {err:.3g} m"
+        # position channels only where the motion has them (Blender keys every bone's translation)
+        moving = {
+            n for n, h in zip(back.skeleton.names, back.skeleton.has_position_channels, strict=True) if h
+        }
+        sliding = {"Hips"} | ({"LShin"} if "LShin" in motion.skeleton.names else set())
+        assert moving == sliding
 
 
 def test_three_js_loads_our_gltf_with_our_joint_positions(written, three_results):

@@ -740,7 +740,8 @@ def read_gltf(
     par, local, trans, offsets = _to_motion_frame(
         order, parent, frames, _ancestor_transform(src, parent, root)
     )
-    moved = frames[4] & (np.abs(trans - offsets[None]).max(axis=(0, 2)) > 1e-9 * (1 + np.abs(offsets).max()))
+    # translated away from the rest value by more than float32 rounding (Blender keys every bone's)
+    moved = frames[4] & (np.abs(trans - offsets[None]).max(axis=(0, 2)) > 1e-6 * (1 + np.abs(offsets).max()))
     moved[0] = False
     animated = [0, *[int(i) for i in np.flatnonzero(frames[4]) if i > 0]]
     plain = np.array_equal(frames[3], np.broadcast_to(np.eye(3), frames[3].shape)) and parent[root] == -1
