@@ -278,6 +278,19 @@ def _glTF1(doc):
     doc["asset"]["version"] = "1.0"
 
 
+def _asset_not_an_object(doc):
+    doc["asset"] = 5
+
+
+def _boolean_target_nodes(doc):
+    for ch in doc["animations"][0]["channels"]:
+        ch["target"]["node"] = True  # JSON true, not the node 1
+
+
+def _joints_not_a_list(doc):
+    doc["skins"][0]["joints"] = 5
+
+
 BAD = [
     (_no_skin, "expected a skin"),
     (_two_skins, "expected one skin; found 2"),
@@ -291,6 +304,9 @@ BAD = [
     (_sparse, "sparse"),
     (_interpolation, "LINEAR, STEP or CUBICSPLINE"),
     (_glTF1, "glTF 2.0"),
+    (_asset_not_an_object, "glTF 2.0"),
+    (_boolean_target_nodes, "expected an animation with rotation or translation channels"),
+    (_joints_not_a_list, "specification's types"),
 ]
 
 

@@ -59,6 +59,7 @@ import math
 import os
 import struct
 import urllib.parse
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -153,12 +154,15 @@ def _load_document(path: str) -> tuple[Any, bytes | None]:
     except (json.JSONDecodeError, RecursionError) as exc:
         line = getattr(exc, "lineno", None)
         raise ParseError(path, line, f"expected glTF 2.0 JSON ({exc})") from None
-    if not isinstance(raw, dict) or not str((raw.get("asset") or {}).get("version", "")).startswith("2"):
+    asset = raw.get("asset") if isinstance(raw, dict) else None
+    if not isinstance(asset, dict) or not str(asset.get("version", "")).startswith("2"):
         raise ParseError(
             path, None, 'expected a glTF 2.0 document (an object with "asset": {"version": "2.0"})'
         )
     try:
-        doc = pygltflib.GLTF2.from_dict(raw, infer_missing=True)
+        with warnings.catch_warnings():  # dataclasses-json warns of each missing field: checked on use
+            warnings.simplefilter("ignore")
+            doc = pygltflib.GLTF2.from_dict(raw, infer_missing=True)
     except Exception as exc:  # dataclasses-json raises whatever the types make it raise
         raise ParseError(
             path, None, f"expected glTF 2.0 JSON with the specification's types ({exc})"
@@ -439,6 +443,12 @@ class _Channel:
     interpolation: str
 
 
+def _target_node(target: Any) -> int | None:
+    """The node a channel's target names, None when it names none (or not as an integer)."""
+    node = getattr(target, "node", None)
+    return node if isinstance(node, int) and not isinstance(node, bool) else None
+
+
 def _choose_animation(src: _Source, included: set[int], wanted: Any) -> int:
     """The animation to read: ``wanted``, else the first that moves the skeleton's nodes."""
     anims = src.doc.animations
@@ -450,7 +460,7 @@ def _choose_animation(src: _Source, included: set[int], wanted: Any) -> int:
     for a, anim in enumerate(anims):
         for ch in anim.channels or []:
             target = ch.target
-            if target is not None and target.node in included and target.path in ("rotation", "translation"):
+            if _target_node(target) in included and target.path in ("rotation", "translation"):
                 return a
             paths.add(str(getattr(target, "path", None)))
     if paths == {"weights"}:
@@ -471,11 +481,7 @@ def _channels(src: _Source, a: int, included: set[int]) -> list[_Channel]:
     out = []
     for c, ch in enumerate(anim.channels or []):
         target = ch.target
-        if (
-            target is None
-            or target.node not in included
-            or target.path not in ("rotation", "translation", "scale")
-        ):
+        if _target_node(target) not in included or target.path not in ("rotation", "translation", "scale"):
             continue
         where = f"animations[{a}].channels[{c}]"
         sampler = samplers[_int(src.path, ch.sampler, f"{where}.sampler", len(samplers))]
@@ -715,6 +721,17 @@ def read_gltf(
     p = os.fspath(path)
     doc, binary = _load_document(p)
     src = _Source(p, doc, binary)
+    try:
+        return _read(src, skin, animation, fps)
+    except (TypeError, AttributeError, KeyError, IndexError) as exc:  # a value of the wrong JSON type
+        raise src.error(
+            f"expected glTF 2.0 objects with the specification's types ({type(exc).__name__}: {exc})"
+        ) from None
+
+
+def _read(src: _Source, skin: int | str | None, animation: int | str | None, fps: float | None) -> Motion:
+    """:func:`read_gltf` on the parsed document."""
+    p, doc = src.path, src.doc
     if not doc.skins:
         raise src.error(
             "expected a skin (a skeleton: skins[].joints); found none (meshes without a skeleton?)"
