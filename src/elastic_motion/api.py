@@ -75,7 +75,7 @@ from elastic_motion.apps.render_files import RenderResult, render_motions
 from elastic_motion.apps.report import jsonable, report_json
 from elastic_motion.apps.viewer import ViewerOptions, ViewerPage, build_viewer
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import UNITS, Motion, read_motion, write_bvh
+from elastic_motion.motion import UNITS, Motion, read_motion, write_motion
 from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.motion.looping import repeat_motion
 from elastic_motion.notes import Note
@@ -259,7 +259,7 @@ def write(
     units: str | None = None,
     protected: Sequence[str | os.PathLike[str]] = (),
 ) -> Path:
-    """Write a motion or an app's result as BVH, atomically, in the documented unit.
+    """Write a motion or an app's result as BVH or glTF, atomically, in the documented unit.
 
     Parameters
     ----------
@@ -267,7 +267,8 @@ def write(
         A result is written in its first input's length unit (the command line's rule,
         :attr:`PreparedMotions.units_out`); a Motion in its own unit.
     path : path
-        ``.bvh`` destination; never one of the inputs (refused).
+        ``.bvh``, ``.gltf`` or ``.glb`` destination (:func:`elastic_motion.motion.write_motion`;
+        glTF is always metres); never one of the inputs (refused).
     units : str, optional
         Force the output unit (``"m"``, ``"cm"``, ``"mm"``, ``"inch"``, ``"cmu"``).
     protected : sequence of paths
@@ -289,7 +290,7 @@ def write(
         raise OptionError(
             "result", f"expected a Motion, BlendResult or LoopResult; got {type(result).__name__}"
         )
-    return write_bvh(output_motion(motion, target), path, protected=[*sources, *protected])
+    return write_motion(output_motion(motion, target), path, protected=[*sources, *protected])
 
 
 def to_json(result: Any) -> str:

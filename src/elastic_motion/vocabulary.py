@@ -35,6 +35,7 @@ __all__ = [
     "METHODS",
     "METHOD_ALIASES",
     "MOTION_EXTENSIONS",
+    "OUTPUT_MOTION_EXTENSIONS",
     "RENDER_KINDS",
     "ROOT_MODES",
     "ROTATION_FRAMES",
@@ -243,7 +244,12 @@ CONTACT_MARK_ALIASES = {"none": "off"}
 # ------------------------------------------------------------------------------------------
 
 #: The extensions of motion files, lower case: BVH, AMC (its skeleton the ``.asf`` beside
-#: it) and DeepMimic ``.txt`` / ``.json`` (:func:`elastic_motion.motion.read_motion` chooses its
-#: reader by them; a database collects ``.txt`` / ``.json`` from a folder only when they look
-#: like a DeepMimic clip, :func:`elastic_motion.apps.database.find_motion_files`).
-MOTION_EXTENSIONS: tuple[str, ...] = (".bvh", ".amc", ".txt", ".json")
+#: it), DeepMimic ``.txt`` / ``.json`` and glTF 2.0 ``.gltf`` / ``.glb``
+#: (:func:`elastic_motion.motion.read_motion` chooses its reader by them; a database collects
+#: ``.txt`` / ``.json`` from a folder only when they look like a DeepMimic clip,
+#: :func:`elastic_motion.apps.database.find_motion_files`).
+MOTION_EXTENSIONS: tuple[str, ...] = (".bvh", ".amc", ".txt", ".json", ".gltf", ".glb")
+
+#: The extensions a command's motion output may have (:func:`elastic_motion.motion.write_motion`
+#: chooses the writer by them): BVH, glTF 2.0 JSON, glTF 2.0 binary.
+OUTPUT_MOTION_EXTENSIONS: tuple[str, ...] = (".bvh", ".gltf", ".glb")

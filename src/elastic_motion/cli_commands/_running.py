@@ -24,7 +24,7 @@ from elastic_motion.cli_commands._common import CommandError, check_output, join
 from elastic_motion.cli_commands._errors import option_message
 from elastic_motion.cli_commands._paths import protected_inputs
 from elastic_motion.errors import OptionError
-from elastic_motion.motion import write_bvh
+from elastic_motion.motion import write_motion as write_motion_file
 from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.warp import WarpOptions
 
@@ -87,12 +87,15 @@ def prepare_inputs(args: argparse.Namespace, paths: Sequence[str]) -> Any:
 
 
 def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], inputs: Sequence[str]) -> tuple:
-    """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`);
-    the notes of the writing (:func:`elastic_motion.apps.prepare.output_notes`)."""
+    """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`) as
+    ``.bvh``, ``.gltf`` or ``.glb`` (:func:`elastic_motion.motion.write_motion`: glTF is always
+    metres); the notes of the writing (:func:`elastic_motion.apps.prepare.output_notes`, BVH
+    only)."""
 
     out = output_motion(motion, prepared.units_out)
-    write_bvh(out, path, protected=list(inputs))
-    return output_notes(out)
+    write_motion_file(out, path, protected=list(inputs))
+    # glTF holds every rotation as a quaternion: the notes on BVH channels do not apply
+    return output_notes(out) if os.fspath(path).lower().endswith(".bvh") else ()
 
 
 def _parse_range(text: str) -> tuple[float | None, float | None] | None:

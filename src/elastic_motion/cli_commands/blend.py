@@ -25,8 +25,16 @@ from elastic_motion.cli_commands._common import (
     progress_for,
     run_guarded,
 )
-from elastic_motion.vocabulary import CONTACT_POLICY_ALIASES, ContactPolicy, CurveMethod, SkeletonMode
+from elastic_motion.vocabulary import (
+    CONTACT_POLICY_ALIASES,
+    OUTPUT_MOTION_EXTENSIONS,
+    ContactPolicy,
+    CurveMethod,
+    SkeletonMode,
+)
 
+_INPUTS_HELP = "motion files (.bvh, .amc, DeepMimic .txt, .gltf/.glb); A first"
+_OUTPUT_HELP = "output .bvh, .gltf or .glb file (never one of the inputs)"
 _METHOD_HELP = (
     "euler-linear: frame-by-frame linear interpolation of Euler angles (paper 001 Fig. 5a); "
     "euler-elastic: SRV geodesic of the Euler-angle curves (Fig. 5b-d); "
@@ -47,10 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "plays on the blended clock (1-s) tA + s tB of the matched times, at A's frame rate."
         ),
     )
-    p.add_argument(
-        "inputs", nargs="+", metavar="FILE", help="motion files (.bvh, .amc, DeepMimic .txt); A first"
-    )
-    p.add_argument("-o", "--output", required=True, help="output .bvh file (never one of the inputs)")
+    p.add_argument("inputs", nargs="+", metavar="FILE", help=_INPUTS_HELP)
+    p.add_argument("-o", "--output", required=True, help=_OUTPUT_HELP)
     p.add_argument(
         "--weight",
         type=float,
@@ -156,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = list(args.inputs)
     if len(inputs) < 2:
         raise CommandError(f"FILE: expected at least two input motions; got {len(inputs)}")
-    out = check_output(args.output, inputs, suffixes=(".bvh",))
+    out = check_output(args.output, inputs, suffixes=OUTPUT_MOTION_EXTENSIONS)
     if args.weight is not None and args.weights is not None:
         raise CommandError("--weight: expected --weight (two motions) or --weights, not both")
     if args.weight_curve is not None and (args.weight is not None or args.weights is not None):

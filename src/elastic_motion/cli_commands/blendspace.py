@@ -18,7 +18,7 @@ from elastic_motion.cli_commands._common import (
     run_guarded,
 )
 from elastic_motion.cli_commands.blend import contacts_flag
-from elastic_motion.vocabulary import ContactPolicy, Method
+from elastic_motion.vocabulary import OUTPUT_MOTION_EXTENSIONS, ContactPolicy, Method
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -33,7 +33,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("inputs", nargs="+", metavar="FILE", help="three or more motion files of one skeleton")
-    p.add_argument("-o", "--output", required=True, help="output .bvh file (never one of the inputs)")
+    p.add_argument(
+        "-o", "--output", required=True, help="output .bvh, .gltf or .glb file (never one of the inputs)"
+    )
     p.add_argument(
         "--params",
         default="speed",
@@ -84,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = list(args.inputs)
     if len(inputs) < 3:
         raise CommandError(f"FILE: expected at least three input motions; got {len(inputs)}")
-    out = check_output(args.output, inputs, suffixes=(".bvh",))
+    out = check_output(args.output, inputs, suffixes=OUTPUT_MOTION_EXTENSIONS)
     if args.params == "speed":
         params: str | list[float] = "speed"
     else:

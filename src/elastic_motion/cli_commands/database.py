@@ -50,6 +50,7 @@ from elastic_motion.cli_commands._database_options import (
     fail,
     joints_option,
 )
+from elastic_motion.vocabulary import OUTPUT_MOTION_EXTENSIONS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -375,7 +376,7 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("files", nargs="+", help="motion files of one skeleton")
-    p.add_argument("-o", "--output", required=True, help="output .bvh file (required)")
+    p.add_argument("-o", "--output", required=True, help="output .bvh, .gltf or .glb file (required)")
     alias(p, "--out", "--output")
     add_method(p, several=False)
     p.add_argument("--max-iter", type=int, default=20, help="alignment iterations at most (default: 20)")
@@ -406,12 +407,12 @@ def run_mean(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import MeanOptions, mean_motion
     from elastic_motion.apps.prepare import output_notes
     from elastic_motion.cli_commands._database_running import emit, methods
-    from elastic_motion.motion import write_bvh
+    from elastic_motion.motion import write_motion
     from elastic_motion.warp import WarpOptions
 
     bar = progress_for("mean", args)
     try:
-        check_output(args.output, args.files, suffixes=(".bvh",), what="--output")
+        check_output(args.output, args.files, suffixes=OUTPUT_MOTION_EXTENSIONS, what="--output")
         (method,) = methods(args.method, several=False)
         options = MeanOptions(
             n_samples=args.samples,
@@ -427,7 +428,7 @@ def run_mean(args: argparse.Namespace) -> int:
             fps=args.fps,
         )
         res = mean_motion(args.files, options, progress=bar)
-        path = write_bvh(res.motion, args.output, protected=args.files)
+        path = write_motion(res.motion, args.output, protected=args.files)
     except USER_ERRORS as exc:
         return fail("mean", exc)
     finally:

@@ -21,7 +21,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "up axis and per-joint channel layout."
         ),
     )
-    p.add_argument("file", help="a .bvh, .amc (skeleton .asf found beside it) or DeepMimic .txt/.json file")
+    p.add_argument(
+        "file",
+        help="a .bvh, .amc (skeleton .asf found beside it), DeepMimic .txt/.json or glTF .gltf/.glb file",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument(
         "--asf", default=None, help="the .asf skeleton of an .amc file (default: found in its folder)"

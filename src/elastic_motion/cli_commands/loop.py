@@ -43,6 +43,7 @@ from elastic_motion.defaults import (
 )
 from elastic_motion.vocabulary import (
     METHOD_ALIASES,
+    OUTPUT_MOTION_EXTENSIONS,
     ContactPolicy,
     LimitPolicy,
     Method,
@@ -80,8 +81,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "comes back to its start. The first frame never changes."
         ),
     )
-    p.add_argument("input", metavar="IN", help="motion file (.bvh, .amc, DeepMimic .txt)")
-    p.add_argument("-o", "--output", required=True, help="output .bvh file: one closed cycle")
+    p.add_argument("input", metavar="IN", help="motion file (.bvh, .amc, DeepMimic .txt, .gltf/.glb)")
+    p.add_argument("-o", "--output", required=True, help="output .bvh, .gltf or .glb file: one closed cycle")
     _add_closing_options(p)
     _add_window_and_contact_options(p)
     _add_stopping_options(p)
@@ -92,7 +93,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="N",
         help="also write a preview: the looped clip played N times (default: no preview)",
     )
-    p.add_argument("--preview", default=None, help="path of the preview (default: OUT.repeatN.bvh)")
+    p.add_argument(
+        "--preview", default=None, help="path of the preview (default: OUT.repeatN.bvh, or .gltf/.glb as OUT)"
+    )
     add_input_options(p, several=False)
     add_json_option(p)
     add_quiet_option(p)
@@ -252,13 +255,17 @@ def run(args: argparse.Namespace) -> int:
     )
 
     inputs = [args.input]
-    out = check_output(args.output, inputs, suffixes=(".bvh",))
+    out = check_output(args.output, inputs, suffixes=OUTPUT_MOTION_EXTENSIONS)
     preview = None
     if args.repeat is not None:
         if args.repeat < 1:
             raise CommandError(f"--repeat: expected a positive number of cycles; got {args.repeat}")
-        preview = Path(args.preview) if args.preview else out.with_name(f"{out.stem}.repeat{args.repeat}.bvh")
-        check_output(str(preview), [*inputs, str(out)], suffixes=(".bvh",), what="--preview")
+        preview = (
+            Path(args.preview)
+            if args.preview
+            else out.with_name(f"{out.stem}.repeat{args.repeat}{out.suffix}")
+        )
+        check_output(str(preview), [*inputs, str(out)], suffixes=OUTPUT_MOTION_EXTENSIONS, what="--preview")
     bar = progress_for("loop", args)
     try:
         prepared = prepare_inputs(args, inputs)

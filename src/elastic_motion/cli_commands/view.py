@@ -52,7 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "clips are decimated for display and the page says so."
         ),
     )
-    p.add_argument("inputs", nargs="+", metavar="FILE", help="motion files (.bvh, .amc, DeepMimic .txt)")
+    p.add_argument(
+        "inputs", nargs="+", metavar="FILE", help="motion files (.bvh, .amc, DeepMimic .txt, .gltf/.glb)"
+    )
     p.add_argument("-o", "--output", required=True, help="output .html file (never one of the inputs)")
     p.add_argument(
         "--labels", nargs="+", default=None, help="names on the page, one per file (default: file names)"

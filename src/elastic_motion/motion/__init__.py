@@ -1,17 +1,18 @@
-"""Motions in and out: skeletons, BVH / ASF+AMC / DeepMimic files, forward kinematics, and
+"""Motions in and out: skeletons, BVH / ASF+AMC / DeepMimic / glTF 2.0 files, forward kinematics, and
 the two curve representations (``R^3 x SO(3)^J`` and Euler angles in ``R^d``).
 
 Conventions (details in :mod:`.skeleton` and ``docs/motion.md``): local joint rotations are
 matrices ``(F, J, 3, 3)`` acting on column vectors, ``global = parent_global @ local``;
 joint 0 is the root; root translation ``(F, 3)`` in the file's length unit
 (``Motion.metres_per_unit`` converts); up axis in ``Motion.up_axis`` (BVH: detected from the
-motion, :func:`detect_up_axis`; the other formats are Y-up); Euler angles are intrinsic in
-channel order; quaternions are **(w, x, y, z)**.
+motion, :func:`detect_up_axis`; the other formats are Y-up, and glTF metres); Euler angles are
+intrinsic in channel order; quaternions are **(w, x, y, z)**.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 from elastic_motion.errors import ParseError
@@ -40,6 +41,7 @@ from elastic_motion.motion.edit import (
     to_metres,
     trim,
 )
+from elastic_motion.motion.gltf import GLTF_EXTENSIONS, read_gltf, write_gltf
 from elastic_motion.motion.info import format_info, motion_info
 from elastic_motion.motion.kinematics import forward_kinematics, global_rotations
 from elastic_motion.motion.representations import (
@@ -103,6 +105,7 @@ __all__ = [
     "read_asf_amc",
     "read_bvh",
     "read_deepmimic",
+    "read_gltf",
     "read_motion",
     "read_urdf_skeleton",
     "representation",
@@ -121,6 +124,8 @@ __all__ = [
     "unwrap_euler",
     "up_axis_warning",
     "write_bvh",
+    "write_gltf",
+    "write_motion",
 ]
 
 
@@ -166,7 +171,8 @@ def convert_to_bvh(
     Parameters
     ----------
     path : str or os.PathLike
-        Input (``.bvh``, ``.amc``, DeepMimic ``.txt``/``.json``); ``**kw`` go to its reader.
+        Input (``.bvh``, ``.amc``, DeepMimic ``.txt``/``.json``, ``.gltf``/``.glb``); ``**kw``
+        go to its reader.
     out : str or os.PathLike
         Output BVH path; never one of the inputs.
     euler_orders : str, optional
@@ -189,10 +195,12 @@ def read_motion(path: str | os.PathLike[str], **kw) -> Motion:
     path : str or os.PathLike
         ``.bvh`` (:func:`read_bvh`); ``.amc`` (:func:`read_asf_amc`, the skeleton from
         ``asf=`` or :func:`find_asf`); ``.txt`` / ``.json`` DeepMimic clips
-        (:func:`read_deepmimic`).
+        (:func:`read_deepmimic`); ``.gltf`` / ``.glb`` glTF 2.0 (:func:`read_gltf`, needs the
+        ``gltf`` extra).
     **kw
         Passed to the reader (``units=``, ``up_axis=`` for BVH; ``asf=``, ``fps=`` for
-        AMC; ``urdf=``, ``skeleton=`` for DeepMimic).
+        AMC; ``urdf=``, ``skeleton=`` for DeepMimic; ``skin=``, ``animation=``, ``fps=``
+        for glTF).
 
     Returns
     -------
@@ -222,7 +230,40 @@ def read_motion(path: str | os.PathLike[str], **kw) -> Motion:
         return read_asf_amc(p, amc, **kw)
     if ext in (".txt", ".json"):
         return read_deepmimic(p, **kw)
+    if ext in GLTF_EXTENSIONS:
+        return read_gltf(p, **kw)
     raise ValueError(
         f"path: unsupported motion file extension {p.suffix!r} for {str(p)!r}; expected "
-        ".bvh, .amc (+ .asf) or a DeepMimic .txt/.json"
+        ".bvh, .amc (+ .asf), a DeepMimic .txt/.json or a glTF .gltf/.glb"
     )
+
+
+def write_motion(
+    motion: Motion, path: str | os.PathLike[str], *, protected: Sequence[str | os.PathLike[str]] = ()
+) -> Path:
+    """Write a motion file, choosing the writer by extension: ``.bvh`` (:func:`write_bvh`, the
+    skeleton's channels), ``.gltf`` / ``.glb`` (:func:`write_gltf`).
+
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+        Destination, written atomically; never one of ``motion.source`` or ``protected``.
+    protected : sequence of paths, optional
+        Further files that must not be overwritten (the inputs of a computed motion).
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ValueError
+        For another extension, or a path that is an input.
+    """
+    ext = Path(path).suffix.lower()
+    if ext == ".bvh":
+        return write_bvh(motion, path, protected=protected)
+    if ext in GLTF_EXTENSIONS:
+        return write_gltf(motion, path, protected=list(protected))
+    raise ValueError(f"path: expected a .bvh, .gltf or .glb file name; got {os.fspath(path)!r}")

@@ -26,7 +26,9 @@ __all__ = [
     "axis_rotation",
     "euler_to_matrix",
     "matrix_to_euler",
+    "matrix_to_quaternion",
     "nearest_euler",
+    "quaternion_slerp",
     "quaternion_to_matrix",
     "valid_euler_order",
 ]
@@ -289,3 +291,72 @@ def quaternion_to_matrix(q: np.ndarray, *, normalise: bool = True) -> np.ndarray
             raise ValueError(f"q: expected non-zero finite quaternions; q{list(idx)} = {q[idx]}")
         q = q / n
     return _quat_parts_to_matrix(q[..., 0], q[..., 1], q[..., 2], q[..., 3])
+
+
+def matrix_to_quaternion(m: np.ndarray) -> np.ndarray:
+    """Unit quaternions **(w, x, y, z)** of rotation matrices, with ``w >= 0``.
+
+    Parameters
+    ----------
+    m : array_like, shape (..., 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``quaternion_to_matrix`` of it gives ``m`` back to rounding (about 1e-16).
+
+    Notes
+    -----
+    Shepperd's method: the largest of ``4 w^2, 4 x^2, 4 y^2, 4 z^2`` (read off the trace
+    and the diagonal) is taken as the pivot, so no division is by a small number.
+    """
+    m = np.asarray(m, dtype=np.float64)
+    if m.shape[-2:] != (3, 3):
+        raise ValueError(f"m: expected rotation matrices of shape (..., 3, 3); got {m.shape}")
+    d0, d1, d2 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
+    cand = np.stack([1 + d0 + d1 + d2, 1 + d0 - d1 - d2, 1 - d0 + d1 - d2, 1 - d0 - d1 + d2], axis=-1)
+    k = np.argmax(cand, axis=-1)
+    s = np.sqrt(np.maximum(np.take_along_axis(cand, k[..., None], axis=-1)[..., 0], 1e-300)) * 2
+    r21, r12 = m[..., 2, 1], m[..., 1, 2]
+    r02, r20 = m[..., 0, 2], m[..., 2, 0]
+    r10, r01 = m[..., 1, 0], m[..., 0, 1]
+    rows = [
+        np.stack([s / 4, (r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s], axis=-1),
+        np.stack([(r21 - r12) / s, s / 4, (r01 + r10) / s, (r02 + r20) / s], axis=-1),
+        np.stack([(r02 - r20) / s, (r01 + r10) / s, s / 4, (r12 + r21) / s], axis=-1),
+        np.stack([(r10 - r01) / s, (r02 + r20) / s, (r12 + r21) / s, s / 4], axis=-1),
+    ]
+    q = np.choose(k[..., None], rows)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.where(q[..., :1] < 0, -q, q)
+
+
+def quaternion_slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Spherical linear interpolation of unit quaternions along the shorter arc.
+
+    Parameters
+    ----------
+    q0, q1 : array_like, shape (..., 4)
+        Unit quaternions (any component order: the formula is the same).
+    u : array_like, shape (...)
+        Interpolation parameter in ``[0, 1]`` (0 gives ``q0``).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions; a normalised linear blend where the two are within 1e-6 rad.
+    """
+    q0 = np.asarray(q0, dtype=np.float64)
+    q1 = np.asarray(q1, dtype=np.float64)
+    u = np.asarray(u, dtype=np.float64)[..., None]
+    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
+    q1 = np.where(dot < 0, -q1, q1)
+    dot = np.clip(np.abs(dot), 0.0, 1.0)
+    theta = np.arccos(dot)
+    sin = np.sin(theta)
+    near = sin < 1e-6
+    safe = np.where(near, 1.0, sin)
+    w0 = np.where(near, 1 - u, np.sin((1 - u) * theta) / safe)
+    w1 = np.where(near, u, np.sin(u * theta) / safe)
+    q = w0 * q0 + w1 * q1
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
