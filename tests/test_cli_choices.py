@@ -78,7 +78,22 @@ API: dict[tuple[str, str], tuple[str, ...]] = {
     # --up: every command that reads motions (PrepareOptions.up)
     **{
         (cmd, "--up"): UP_AXES
-        for cmd in ("blend", "landmarks", "loop", "align", "distance", "render", "blendspace")
+        for cmd in (
+            "blend",
+            "landmarks",
+            "loop",
+            "align",
+            "distance",
+            "render",
+            "blendspace",
+            "info",
+            "view",
+            "matrix",
+            "search",
+            "index",
+            "mean",
+            "pca",
+        )
     },
 }
 

@@ -189,7 +189,12 @@ def motion_pca(
         raise OptionError("files", f"expected at least two motion files; got {len(files)}")
     n_samples = opts.n_samples
     prepared = prepare_same_skeleton(
-        files, n_samples, joints=opts.joints, drop_fingers=opts.drop_fingers, align_heading=opts.align_heading
+        files,
+        n_samples,
+        joints=opts.joints,
+        drop_fingers=opts.drop_fingers,
+        align_heading=opts.align_heading,
+        options=opts.read_options(),
     )
     curves = database_curves(prepared, opts.method)
     km = karcher_mean(

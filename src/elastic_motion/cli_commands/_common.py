@@ -49,6 +49,7 @@ __all__ = [  # CommandError and check_output are re-exported: every command modu
     "add_landmark_options",
     "add_landmark_weight_option",
     "add_quiet_option",
+    "add_up_units_options",
     "add_warp_options",
     "check_output",
     "fail",
@@ -122,6 +123,21 @@ def add_input_options(p: argparse.ArgumentParser, *, several: bool = True, write
         action="store_true",
         help="keep frame 0 even when it looks like a T-pose (default: such a frame is dropped)",
     )
+    add_up_units_options(p)
+    if not writes_bvh:
+        return
+    p.add_argument(
+        "--units-out",
+        default=None,
+        metavar="UNIT",
+        help="length unit of the written BVH: m, cm, mm, inch or cmu (default: the unit of the first input)",
+    )
+
+
+def add_up_units_options(p: argparse.ArgumentParser) -> None:
+    """``--units`` and ``--up``: how every motion file a command reads is read
+    (:class:`elastic_motion.apps.prepare.PrepareOptions` ``units`` and ``up``); every command
+    that reads motions has them."""
     # unit names are checked by PrepareOptions (elastic_motion.motion.UNITS); not imported
     # here so that --help does not load the numerical stack
     p.add_argument(
@@ -135,14 +151,6 @@ def add_input_options(p: argparse.ArgumentParser, *, several: bool = True, write
         default=None,
         choices=UP_AXES,
         help="up axis of the inputs (default: as detected when reading; Blender exports are z-up)",
-    )
-    if not writes_bvh:
-        return
-    p.add_argument(
-        "--units-out",
-        default=None,
-        metavar="UNIT",
-        help="length unit of the written BVH: m, cm, mm, inch or cmu (default: the unit of the first input)",
     )
 
 

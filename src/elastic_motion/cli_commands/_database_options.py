@@ -18,7 +18,12 @@ import argparse
 
 from elastic_motion._options import choices
 from elastic_motion.cli_commands._argparse import EXIT_BAD_INPUT, add_alias, handle_error, print_error
-from elastic_motion.cli_commands._common import CommandError, add_warp_options, joints_arg
+from elastic_motion.cli_commands._common import (
+    CommandError,
+    add_up_units_options,
+    add_warp_options,
+    joints_arg,
+)
 from elastic_motion.defaults import MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.vocabulary import JOINT_SELECTIONS, EngineName, Linkage, Method
@@ -55,6 +60,8 @@ FLAGS: dict[str, str | None] = {
     "pose_weight": "--pose-weight",
     "cyclic": "--cyclic",
     "takes": "DATABASE",
+    "up": "--up",
+    "units": "--units",
     "database": "DATABASE",
 }
 
@@ -69,6 +76,8 @@ FIELD_FLAGS = {
     "warp.coarse_to_fine": "--coarse-to-fine",
     "pose_weight": "--pose-weight",
     "cyclic": "--cyclic",
+    "up": "--up",
+    "units": "--units",
 }
 
 
@@ -98,6 +107,7 @@ def add_preparation(p: argparse.ArgumentParser) -> None:
         help="do not remove the heading and floor position of the root at frame 0 (default: removed)",
     )
     alias(p, "--no-align-heading", "--no-align")
+    add_up_units_options(p)  # every file the command reads, a search's query included
 
 
 def joints_option(value: str) -> str | tuple[str, ...]:

@@ -57,6 +57,9 @@ def _given(args: argparse.Namespace) -> tuple[dict, dict]:
         fields["pose_weight"] = args.pose_weight  # "balanced" or a number: DatabaseSettings checks it
     if getattr(args, "cyclic", None) is not None:
         fields["cyclic"] = bool(args.cyclic)
+    for name in ("up", "units"):  # how the files are read (None: detected, guessed)
+        if getattr(args, name, None) is not None:
+            fields[name] = getattr(args, name)
     warp = {
         f: getattr(args, f)
         for f in ("warp", "neighbourhood", "coarse_to_fine")

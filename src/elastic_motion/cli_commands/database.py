@@ -258,6 +258,20 @@ def _run_within(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_other_reading(args: argparse.Namespace, db: Any, built: Any) -> None:
+    """A stored database reads every file, the query too, with the ``--up`` and ``--units`` it
+    was built with: other ones given are refused (a query read otherwise than the motions it
+    is compared with would be measured lying down or scaled)."""
+    for flag, name in (("--up", "up"), ("--units", "units")):
+        asked, was = getattr(args, name), getattr(built, name)
+        if asked is not None and asked != was:
+            raise CommandError(
+                f"{flag}: expected {was or 'none'} (the stored database {os.fspath(Path(db))} was built "
+                f"with {flag} {was or 'not given: detected per file'}, which also reads the query); got "
+                f"{asked!r}: build it again with {flag} {asked}, or search the motion files"
+            )
+
+
 def run_search(args: argparse.Namespace) -> int:
     from elastic_motion.apps.database import is_stored_database, knn_search
     from elastic_motion.apps.database.settings import ignored_settings_note
@@ -273,6 +287,8 @@ def run_search(args: argparse.Namespace) -> int:
         # a stored database is measured as it was built: name only the flags given that differ
         stored = is_stored_database(db)
         res = knn_search(args.query, db, args.k, method, None if stored else settings, progress=bar)
+        if stored:
+            _refuse_other_reading(args, db, res.settings)
     except USER_ERRORS as exc:
         return fail("search", exc)
     finally:
@@ -424,6 +440,8 @@ def run_mean(args: argparse.Namespace) -> int:
                 method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
             ),
             max_iter=args.max_iter,
+            up=args.up,
+            units=args.units,
             tol=args.tol,
             fps=args.fps,
         )

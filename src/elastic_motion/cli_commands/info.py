@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from elastic_motion.cli_commands._common import positive_float
+from elastic_motion.cli_commands._common import add_up_units_options, positive_float
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,9 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--fps", type=positive_float, default=None, help="frame rate of an .amc file (default 120)"
     )
-    p.add_argument(
-        "--units", default=None, help="length unit of a .bvh file (m, cm, mm, inch, cmu; default: guessed)"
-    )
+    add_up_units_options(p)
     p.set_defaults(func=run)
 
 
@@ -54,9 +52,14 @@ def run(args: argparse.Namespace) -> int:
             kw["asf"] = args.asf
         if args.fps is not None:
             kw["fps"] = args.fps
-    elif name.endswith(".bvh") and args.units is not None:
-        kw["units"] = args.units
+    elif name.endswith(".bvh"):
+        if args.units is not None:
+            kw["units"] = args.units
+        if args.up is not None:
+            kw["up_axis"] = args.up
     motion = read_motion(args.file, **kw)
+    if args.up is not None and motion.up_axis != args.up:  # the other formats: a label
+        motion = motion.replace(up_axis=args.up)
     info = motion_info(motion)
     if args.json:
         print(json.dumps(info, indent=2))

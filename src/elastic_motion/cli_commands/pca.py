@@ -86,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
                 method=args.warp, neighbourhood=args.neighbourhood, coarse_to_fine=args.coarse_to_fine
             ),
             max_iter=args.max_iter,
+            up=args.up,
+            units=args.units,
             fps=args.fps,
         )
         model = motion_pca(args.files, options, progress=bar)

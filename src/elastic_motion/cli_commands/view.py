@@ -20,6 +20,7 @@ from elastic_motion._options import choices
 from elastic_motion.cli_commands._common import (
     CommandError,
     add_json_option,
+    add_up_units_options,
     check_output,
     run_guarded,
 )
@@ -100,6 +101,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="write plotly.js into the page (one file, about 4.8 MB) or as plotly.min.js beside it",
     )
     p.add_argument("--title", default=VIEWER_TITLE, help="title of the page")
+    add_up_units_options(p)
     add_json_option(p)
     p.set_defaults(func=lambda a: run_guarded("view", run, a))
 
@@ -143,6 +145,8 @@ def run(args: argparse.Namespace) -> int:
         contacts=args.contacts,
         plotly_src=beside.name if beside is not None else None,
         title=args.title,
+        up=args.up,
+        units=args.units,
     )
     outputs = [str(out)]
     if beside is not None:

@@ -17,21 +17,34 @@ in ``[0, 1]`` (the first in ``[-1, 1]``):
   travel with the body.
 * **balance** ``Bal(d)``: fraction of frames whose centre of mass (the skeleton as a wire
   of uniform density), projected along ``d``, lies within ``0.05 s`` of the convex hull of
-  the support points (points within ``0.15 s`` of the lowest point along ``d`` and slower
-  than ``0.4 s`` per second: contacts do not slide). A body stands over its support;
-  a crawling body seen along its length would be cantilevered over its feet.
+  the support points (points within ``0.15 s`` of the lowest point along ``d`` that move
+  less than ``0.4 s`` per second relative to the feet on that floor: contacts do not slide).
+  A body stands over its support; a crawling body seen along its length would be
+  cantilevered over its feet. The speeds are relative to the floor (the median velocity of
+  the foot points on it, across it), not to the world: on an **in-place export** (the
+  body's travel removed, its height kept, as animators export walk cycles) the planted
+  feet slide back as on a treadmill, so no point would be still in the world frame, while
+  the side of an upright body, seen along a horizontal axis, stays still and looks like a
+  body lying on its side. Nothing here reads the root's path: the body axis is the pose,
+  and the floor and balance cues hold whether the body travels or not.
 
 The total is ``S(d) = B(d) + F(d) + Bal(d)`` (``-1 .. 3``); the best direction wins and the
 **margin** to the second best is the confidence. Body axis alone decides upright clips
 (walks, runs, dances: ``B ~ 0.9-1``); floor and balance decide clips whose body is mostly
 horizontal (crawl: ``B(+y) = 0.16``, but ``F = 1``, ``Bal = 1`` along +y). On the 47 real clips
 of the project's test data (CMU BVH and ASF/AMC, Bandai, DeepMimic, all Y-up), +y wins
-with margins 0.44 to 2.15; the smallest are the DeepMimic get-up and crawl clips.
+with margins 0.31 to 2.15; the smallest are the DeepMimic get-up and crawl clips. Blender's
+own exports of all 43 shared BVH and DeepMimic clips (Z-up: in full, with
+``root_transform_only`` and in place) are all detected +z (129 of 129; 125 before the
+speeds were relative to the feet and the rest pose confirmed narrow leads).
 
-The **rest pose** (all rotations identity) is reported as evidence but not scored: in the
-test data it points the body along -y (the CMU files converted from FBX, whose root
-rotation turns the skeleton over in every frame) or along +x (Bandai, bone-aligned local
-frames) in 18 of 47 clips.
+The **rest pose** (all rotations identity) is not scored: in the test data it points the
+body along -y (the CMU files converted from FBX, whose root rotation turns the skeleton
+over in every frame) or along +x (Bandai, bone-aligned local frames) in 18 of 47 clips.
+It only **confirms**: a best direction whose margin is below ``min_margin`` is taken (not
+ambiguous) when the rest pose's feet-to-torso vector lies within 30 degrees of it (the
+DeepMimic crawl in place, the get-up face down as Blender exports it); a rest pose along
+another axis changes nothing.
 
 Conventions: a detected direction is a signed axis (``"+z"``); ``Motion.up_axis`` holds
 positive axes only, so a reader labels a motion with :attr:`UpAxisEstimate.up_axis`, which
@@ -65,13 +78,14 @@ DIRECTIONS = ("+x", "-x", "+y", "-y", "+z", "-z")
 _AXES = "xyz"
 
 #: Default minimum score margin for a confident estimate (the real clips of ../shared/mocap:
-#: 0.34 and above, the least a DeepMimic get-up with its hands on the floor).
+#: 0.31 and above, the least a DeepMimic get-up with its hands on the floor).
 MIN_MARGIN = 0.3
 _FLOOR_TOL = 0.1  # body sizes: lowest point within this of the floor level counts as on it
 _SUPPORT_TOL = 0.15  # body sizes: points this close to the lowest one support the body
 _BALANCE_TOL = 0.05  # body sizes: centre of mass this close to the support hull counts as balanced
 _CONTACT_SPEED = 0.4  # body sizes per second: slower points can be floor contacts
 _FLOOR_PERCENTILE = 5.0
+_REST_CONFIRM_COS = math.cos(math.radians(30.0))  # rest pose this close to the best direction confirms it
 _N_HULL_DIRECTIONS = 32  # a multiple of 4: the test is the same for every signed-axis permutation
 
 
@@ -134,6 +148,7 @@ class _Body:
     torso: np.ndarray  # joint indices of the torso subtree
     feet_joints: np.ndarray  # leaf joints of the leg subtrees (used when they have no end sites)
     feet_sites: np.ndarray  # end sites under the leg subtrees
+    foot_joints: np.ndarray  # the legs' leaf joints, the parents of their end sites, and their parents
 
 
 def _body_parts(skeleton: Skeleton) -> _Body | None:
@@ -168,7 +183,9 @@ def _body_parts(skeleton: Skeleton) -> _Body | None:
     leaf_joints = np.array([j for j in legs if not sk.children(j)], dtype=np.int64)
     if sites.size == 0 and leaf_joints.size == 0:
         return None
-    return _Body(np.array(subtrees[t], dtype=np.int64), leaf_joints, sites)
+    ends = {int(sk.end_site_parents[e]) for e in sites} | set(leaf_joints.tolist())
+    foot = sorted(ends | {int(sk.parents[j]) for j in ends if int(sk.parents[j]) in leg_set})
+    return _Body(np.array(subtrees[t], dtype=np.int64), leaf_joints, sites, np.array(foot, dtype=np.int64))
 
 
 def _frame_sample(n_frames: int, max_frames: int) -> np.ndarray:
@@ -232,6 +249,23 @@ def _centre_of_mass(skeleton: Skeleton, pos: np.ndarray, sites: np.ndarray) -> n
     return np.where(total > 0, com, pos.mean(axis=1))
 
 
+def _floor_velocity(vel: np.ndarray, feet_on_floor: np.ndarray, axis: int) -> np.ndarray:
+    """Velocity ``(F, 3)`` of the floor under the body: the median velocity of the foot points
+    on it (``feet_on_floor`` (F, N)), its component along the up ``axis`` removed; zero in
+    frames with no foot on it.
+
+    On a capture the planted feet are still and this is about zero; on an in-place export
+    (the body's travel removed, its height kept) the planted feet slide back at the walking
+    speed, as on a treadmill, and contacts are still relative to them.
+    """
+    out = np.zeros(vel.shape[::2])
+    rows = feet_on_floor.any(axis=1)
+    if rows.any():
+        out[rows] = np.nanmedian(np.where(feet_on_floor[rows, :, None], vel[rows], np.nan), axis=1)
+    out[:, axis] = 0.0
+    return out
+
+
 def _hull_distance(points: np.ndarray, mask: np.ndarray, q: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """Distance from ``q`` (F, 2) to the convex hull of the masked ``points`` (F, N, 2).
 
@@ -275,8 +309,10 @@ def _cues(motion: Motion, body: _Body, frames: np.ndarray) -> dict[str, Any]:
     if not all(np.all(np.abs(a) < _MAX_COORD) for a in (pa, sa, pb, sb)):
         raise _Degenerate
     step = np.maximum(after - before, 1)[:, None] / motion.fps
-    speed = np.linalg.norm(np.concatenate([pa - pb, sa - sb], axis=1), axis=-1) / (step * size)
-    still = speed < _CONTACT_SPEED
+    vel = np.concatenate([pa - pb, sa - sb], axis=1) / (step * size)[:, :, None]  # (F, N, 3)
+    is_foot = np.zeros(pts.shape[1], dtype=bool)
+    is_foot[body.foot_joints] = True
+    is_foot[pos.shape[1] + body.feet_sites] = True
     com = _centre_of_mass(sk, pos, sites)
     angles = np.arange(_N_HULL_DIRECTIONS) * (2 * math.pi / _N_HULL_DIRECTIONS)
     dirs = np.stack([np.cos(angles), np.sin(angles)], axis=1)
@@ -288,7 +324,9 @@ def _cues(motion: Motion, body: _Body, frames: np.ndarray) -> dict[str, Any]:
         height = s * pts[..., a]  # (F, N)
         low = height.min(axis=1)
         level = np.percentile(low, _FLOOR_PERCENTILE)
-        support = still & (height <= (low + _SUPPORT_TOL * size)[:, None])
+        near = height <= (low + _SUPPORT_TOL * size)[:, None]
+        slide = vel - _floor_velocity(vel, near & is_foot, a)[:, None]
+        support = near & (np.linalg.norm(slide, axis=-1) < _CONTACT_SPEED)
         dist = _hull_distance(pts[..., rest], support, com[:, rest], dirs)
         body_cue[name] = float(np.mean(s * b[:, a]))
         floor[name] = float(np.mean(low - level <= _FLOOR_TOL * size))
@@ -323,6 +361,14 @@ def _rest_pose_axis(skeleton: Skeleton, body: _Body) -> dict[str, float] | None:
     return {ax: float(v[k] / norm) for k, ax in enumerate(_AXES)}
 
 
+def _rest_pose_confirms(rest: dict[str, float] | None, direction: str) -> bool:
+    """True if the rest pose's feet-to-torso vector is within 30 degrees of ``direction``."""
+    if rest is None:
+        return False
+    sign = 1.0 if direction[0] == "+" else -1.0
+    return sign * rest[direction[1]] >= _REST_CONFIRM_COS
+
+
 # ------------------------------------------------------------------------------------------
 # Public API
 # ------------------------------------------------------------------------------------------
@@ -340,7 +386,8 @@ def detect_up_axis(
         Any length unit (the cues are relative to the body size).
     min_margin : float, default 0.3
         Score margin (best minus second-best direction, ``0 .. 4``) below which the
-        estimate is ``ambiguous``. On the project's 47 real clips the margin is at least 0.4.
+        estimate is ``ambiguous``, unless the rest pose stands along the best direction
+        (module docstring). On the project's 47 real clips the margin is at least 0.31.
     max_frames : int, default 300
         At most this many frames, evenly spaced, are used (a few milliseconds).
 
@@ -386,13 +433,20 @@ def detect_up_axis(
     best, second = ranked[0], ranked[1]
     margin = scores[best] - scores[second]
     evidence["runner_up"] = second
-    ambiguous = margin < min_margin
+    confirmed = margin > 0 and _rest_pose_confirms(evidence.get("rest_pose"), best)
+    evidence["rest_pose_confirms"] = confirmed
+    ambiguous = margin < min_margin and not confirmed
     cue_text = (
         f"body axis {cues['body_axis'][best]:+.2f}, floor {cues['floor'][best]:.2f}, "
         f"balance {cues['balance'][best]:.2f} along {best}"
     )
     if ambiguous:
         reason = f"ambiguous: {best} leads {second} by {margin:.2f} (< {min_margin:g}); {cue_text}"
+    elif margin < min_margin:
+        reason = (
+            f"up is {best} by {margin:.2f} over {second} (< {min_margin:g}), as the rest pose stands; "
+            f"{cue_text}"
+        )
     elif best[0] == "-":
         reason = f"up is {best} (an upside-down file) by {margin:.2f} over {second}; {cue_text}"
     else:

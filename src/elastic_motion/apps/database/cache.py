@@ -350,6 +350,7 @@ def _prepare_one(
             drop_fingers=settings.drop_fingers,
             align_heading=settings.align_heading,
             motion=motion,
+            options=settings.read_options(),
         )
     except (ParseError, ValueError, KeyError, OSError) as exc:
         reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)

@@ -26,6 +26,7 @@ from elastic_motion import motion as mm
 from elastic_motion._options import options_from_json, with_overrides
 from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
 from elastic_motion.apps.database.settings import DEFAULT_WARP, joint_selection
+from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.apps.statistics import KarcherMeanResult, as_warp_options, karcher_mean
@@ -63,6 +64,9 @@ class MeanOptions:
         Stop when the relative energy decrease falls below it (dimensionless).
     fps : float, optional
         Frames per second of the mean (default: the first file's, after preparation).
+    up, units : str or None, default None
+        How every file is read, as :attr:`DatabaseSettings.up` and
+        :attr:`DatabaseSettings.units` (None: detected, guessed).
 
     Raises
     ------
@@ -79,8 +83,11 @@ class MeanOptions:
     max_iter: int = 20
     tol: float = 1e-4
     fps: float | None = None
+    up: str | None = None
+    units: str | None = None
 
     def __post_init__(self) -> None:
+        PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]  # checks them, naming the field
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
         object.__setattr__(self, "method", representations.representation(self.method).name)
@@ -97,6 +104,11 @@ class MeanOptions:
             and self.fps > 0
         ):
             raise OptionError("fps", f"expected a positive frame rate; got {self.fps!r}")
+
+    def read_options(self) -> PrepareOptions:
+        """How each file is read (:func:`elastic_motion.apps.prepare.load_motion`): the
+        defaults with :attr:`up` and :attr:`units`."""
+        return PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]
 
     def replace(self, **changes: Any) -> MeanOptions:
         """A copy with some fields changed (validated again)."""
@@ -240,6 +252,7 @@ def mean_motion(
         joints=opts.joints,
         drop_fingers=opts.drop_fingers,
         align_heading=opts.align_heading,
+        options=opts.read_options(),
     )
     rep = representations.representation(opts.method)
     curves = database_curves(prepared, rep)

@@ -280,6 +280,7 @@ def prepare_same_skeleton(
     joints: str | Sequence[str] = "all",
     drop_fingers: bool = True,
     align_heading: bool = True,
+    options: PrepareOptions | None = None,
 ) -> list[PreparedMotion]:
     """Prepare files that must share one skeleton (a mean, a statistical model).
 
@@ -287,7 +288,8 @@ def prepare_same_skeleton(
     share (:func:`restrict_to_common_joints`), ``"map"`` maps every skeleton onto the common
     body model, a list keeps those joints. A file whose rest pose is another conversion's is
     re-expressed in the first file's rest frames
-    (:func:`~elastic_motion.apps.prepare.rest_pose_like`, with a note).
+    (:func:`~elastic_motion.apps.prepare.rest_pose_like`, with a note). ``options``: how
+    each file is read (:func:`prepare_motion`; ``up``, ``units``).
 
     Raises
     ------
@@ -303,6 +305,7 @@ def prepare_same_skeleton(
             joints=joints if joints == "map" or not isinstance(joints, str) else "all",
             drop_fingers=drop_fingers,
             align_heading=align_heading,
+            options=options,
         )
         for f in files
     ]

@@ -185,6 +185,7 @@ def _query_srv(
         joints=select,
         drop_fingers=settings.drop_fingers,
         align_heading=settings.align_heading,
+        options=settings.read_options(),
     )
     try:
         g = [tuple(j) for j in cache.group_joints].index(p.joint_names)

@@ -8,9 +8,9 @@ of the run, ``srv_cache.npz`` and ``report.json``)::
               "sample_fps": 30.0, "landmark_weight": 100.0},
      "joints": "all", "drop_fingers": true, "align_heading": true, "tile_size": 32}
 
-plus ``"pose_weight"`` and ``"cyclic": true`` when they are set (written only then, so a file
-of the default distance reads as before in earlier releases; a missing field reads as its
-default, the numbers the file was computed with).
+plus ``"pose_weight"``, ``"cyclic": true``, ``"up"`` and ``"units"`` when they are set
+(written only then, so a file of the default distance reads as before in earlier releases;
+a missing field reads as its default, the numbers the file was computed with).
 
 Format 1 (releases before :class:`~elastic_motion.warp.WarpOptions`) stored the warp as
 ``"pair": {"warp": "dp", "neighbourhood": 6, "coarse_to_fine": false}``;
@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.apps.statistics import MEAN_WARP, as_warp_options
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.representations import EULER, LIE, METHODS, Representation, representation
@@ -164,6 +165,14 @@ class DatabaseSettings:
         ``2 n_samples`` times the cost of a pair). For windows of periodic motions (gait)
         started at different phases. Needs the exact DP (``warp.method == "dp"``, no
         ``coarse_to_fine``).
+    up : {"x", "y", "z"} or None, default None
+        Up axis of every file read (:attr:`elastic_motion.apps.prepare.PrepareOptions.up`):
+        the database's files and a query measured against it. None: each file's as
+        detected when reading (BVH) or its format's.
+    units : str or None, default None
+        Length unit of every BVH file read (``"m"``, ``"cm"``, ``"mm"``, ``"inch"``,
+        ``"cmu"``; :attr:`elastic_motion.apps.prepare.PrepareOptions.units`). None: guessed
+        from each skeleton's size.
 
     Raises
     ------
@@ -180,8 +189,11 @@ class DatabaseSettings:
     tile_size: int = 32
     pose_weight: float | str = 0.0
     cyclic: bool = False
+    up: str | None = None
+    units: str | None = None
 
     def __post_init__(self) -> None:
+        PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]  # checks them, naming the field
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
         object.__setattr__(self, "representations", representation_keys(self.representations))
@@ -220,7 +232,14 @@ class DatabaseSettings:
             # only when set: files of the default distance stay readable by earlier releases
             **({"pose_weight": self.pose_weight} if self.pose_weight else {}),
             **({"cyclic": True} if self.cyclic else {}),
+            **({"up": self.up} if self.up is not None else {}),
+            **({"units": self.units} if self.units is not None else {}),
         }
+
+    def read_options(self) -> PrepareOptions:
+        """How each file is read and prepared (:func:`elastic_motion.apps.prepare.load_motion`):
+        the defaults with :attr:`up` and :attr:`units`."""
+        return PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> DatabaseSettings:
@@ -264,12 +283,15 @@ QUERY_FIELDS = (
     "align_heading",
     "pose_weight",
     "cyclic",
+    "up",
+    "units",
 )
 
 
 def flat_settings(data: dict[str, Any]) -> dict[str, Any]:
     """A settings JSON form (:meth:`DatabaseSettings.to_json`) as one level: the warp's fields
-    as ``warp.<field>``, the fields written only when set (``pose_weight``, ``cyclic``) at
+    as ``warp.<field>``, the fields written only when set (``pose_weight``, ``cyclic``, ``up``,
+    ``units``) at
     their defaults when absent, a list of joints sorted (the preparation keeps the skeleton's
     order whatever the list's)."""
     out: dict[str, Any] = {}
@@ -282,6 +304,8 @@ def flat_settings(data: dict[str, Any]) -> dict[str, Any]:
             out[k] = v
     out.setdefault("pose_weight", DatabaseSettings.pose_weight)
     out.setdefault("cyclic", DatabaseSettings.cyclic)
+    out.setdefault("up", None)
+    out.setdefault("units", None)
     return out
 
 

@@ -154,7 +154,7 @@ def build_viewer(
     _check_counts(sources, labels, reports)
     views, floors = [], []
     for k, src in enumerate(sources):
-        motion, path = load_clip(src, labels[k] if labels is not None else None)
+        motion, path = load_clip(src, labels[k] if labels is not None else None, up=opts.up, units=opts.units)
         rep = _report_of(reports[k] if reports is not None else None, path)
         views.append(_without_contacts(clip_view(motion, path, rep, index=k, options=opts), opts))
         floors.append(floor_height(motion))  # metres (the file's numbers when the unit is unknown)

@@ -109,10 +109,13 @@ def b64(a: np.ndarray) -> str:
     return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
 
 
-def load_clip(source: Any, label: str | None) -> tuple[Motion, str | None]:
+def load_clip(
+    source: Any, label: str | None, *, up: str | None = None, units: str | None = None
+) -> tuple[Motion, str | None]:
     """A motion to show, read without dropping a T-pose frame (the viewer shows every frame,
-    so that frame numbers match the reports), and the path read (None for a ``Motion``)."""
-    opts = PrepareOptions(drop_tpose=False, check_up_axis=False)
+    so that frame numbers match the reports), and the path read (None for a ``Motion``);
+    ``up`` and ``units`` as :class:`~elastic_motion.apps.prepare.PrepareOptions`'."""
+    opts = PrepareOptions(drop_tpose=False, check_up_axis=False, up=up, units=units)  # type: ignore[arg-type]
     if isinstance(source, Motion):
         m, _ = load_motion(source, opts, label=label)
         return m, None

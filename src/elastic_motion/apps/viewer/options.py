@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
+from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.defaults import (
     VIEWER_CONTACTS,
     VIEWER_LAYOUT,
@@ -62,6 +63,11 @@ class ViewerOptions:
         Title of the page and of the viewer.
     element_id : str, default "em-viewer"
         HTML id of the viewer (several viewers on one page need different ids).
+    up : {"x", "y", "z"} or None, default None
+        Up axis of every file shown (:attr:`elastic_motion.apps.prepare.PrepareOptions.up`;
+        None: as detected when reading).
+    units : str or None, default None
+        Length unit of every BVH file shown (None: guessed from the skeleton's size).
     """
 
     layout: Layout = VIEWER_LAYOUT
@@ -71,8 +77,11 @@ class ViewerOptions:
     plotly_src: str | None = None
     title: str = VIEWER_TITLE
     element_id: str = "em-viewer"
+    up: str | None = None
+    units: str | None = None
 
     def __post_init__(self) -> None:
+        PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]  # checks them, naming the field
         if self.layout not in LAYOUTS:
             raise OptionError("layout", f"expected 'side' or 'overlay'; got {self.layout!r}")
         object.__setattr__(self, "contacts", contact_marks(self.contacts))
