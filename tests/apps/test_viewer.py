@@ -225,7 +225,9 @@ def test_page_in_chromium(loop_files, tmp_path):
         b.evaluate(f"{v}.showTrajectories(['left_ankle', 'right_ankle']).then(() => 1)")
         b.evaluate(f"{v}.setLayout('overlay').then(() => 1)")
         n_traces = b.evaluate("document.querySelector('#em-viewer .emv-scene').data.length")
-        assert n_traces >= 2 + 1 + 2 * 6
+        assert n_traces == 1 + 2 * 5 + 2 * 2  # floor, 5 per clip, 2 joint paths per clip
+        # the camera showing the whole paths, and back to following the figures
+        b.evaluate(f"{v}.setCamera('path').then(() => {v}.setCamera('follow')).then(() => 1)")
         assert b.errors == [], b.errors
 
 

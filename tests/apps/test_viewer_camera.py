@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (the embedded JavaScript keeps its own line lengths)
 """The viewer's first camera and its labels, measured in a real headless Chromium (skipped
 when absent): each figure at least a quarter of the page's height, the floor in view under
 and around every figure, all side-by-side figures in view, no two labels overlapping.
@@ -22,16 +23,17 @@ plotly = pytest.importorskip("plotly")
 
 from elastic_motion.apps.palette import LEFT, RIGHT  # noqa: E402
 from elastic_motion.apps.viewer import build_viewer, write_viewer  # noqa: E402
-from elastic_motion.apps.viewer.page import page_html  # noqa: E402
 from elastic_motion.apps.viewer.browser import Browser, find_chromium  # noqa: E402
+from elastic_motion.apps.viewer.page import page_html  # noqa: E402
 
 pytestmark = pytest.mark.skipif(find_chromium() is None, reason="chromium is not installed")
 
 WIDTH, HEIGHT = 1200, 900  # the page's viewport, CSS pixels
 
 #: Screen geometry of the viewer ``id`` with ``K`` clips, in viewport pixels: each clip's figure (its joints
-#: projected with plotly's camera matrices: bounding box; the floor around its lowest joint,
-#: +-30 cm within the scene's ranges, projected; whether every joint is inside the ranges,
+#: projected with plotly's camera matrices: bounding box; the floor under it (the corners of
+#: its horizontal extent, 10 cm wider, within the scene's ranges, and the point under its lowest
+#: joint) projected; whether every joint is inside the ranges,
 #: which plotly clips to) and each label's rectangle (an older page without label elements:
 #: plotly's 3D text labels, their size estimated from the font).
 MEASURE = r"""
@@ -53,8 +55,9 @@ MEASURE = r"""
     const pts = v.pose(k), s = pts.map(proj);
     const xs = s.map(p => p[0]), ys = s.map(p => p[1]);
     const foot = pts.reduce((a, b) => (b[2] < a[2] ? b : a));
-    const around = [[-0.3, -0.3], [0.3, -0.3], [0.3, 0.3], [-0.3, 0.3], [0, 0]]
-      .map(d => proj([clamp(foot[0] + d[0], 0), clamp(foot[1] + d[1], 1), fz]));
+    const lo = [0, 1].map(a => Math.min(...pts.map(p => p[a])) - 0.1), hi = [0, 1].map(a => Math.max(...pts.map(p => p[a])) + 0.1);
+    const around = [[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]], foot]
+      .map(q => proj([clamp(q[0], 0), clamp(q[1], 1), fz]));
     const inRanges = pts.every(p => p.every((c, i) => c >= rng[i][0] - 1e-6 && c <= rng[i][1] + 1e-6))
       && fz >= rng[2][0] && fz <= rng[2][1];
     figures.push({ box: [Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)], floor: around, inRanges });
@@ -74,7 +77,7 @@ MEASURE = r"""
 CASES = {
     "long walk": ["cmu/bvh/08_02.bvh"],  # about 4 m of walking
     "side by side": ["cmu/bvh/07_01.bvh", "cmu/bvh/08_02.bvh", "cmu/bvh/131_02.bvh"],
-    "pirouette": ["deepmimic/humanoid3d_spin.txt"],
+    "pirouette": ["cmu/bvh/55_01.bvh"],  # a dance with whirls, travelling about 2 m
 }
 
 
@@ -106,7 +109,7 @@ def geometry_problems(m: dict, n_clips: int) -> list[str]:
             out.append(f"figure {k}: joints or the floor outside the scene's ranges (clipped)")
         for px, py in f["floor"]:
             if not (x0 <= px <= x1 and y0 <= py <= y1):
-                out.append(f"figure {k}: the floor around its feet at ({px:.0f}, {py:.0f}) is off the scene")
+                out.append(f"figure {k}: the floor under it at ({px:.0f}, {py:.0f}) is off the scene")
                 break
     if len(m["labels"]) != n_clips:
         out.append(f"{len(m['labels'])} labels shown, expected {n_clips}")
@@ -120,7 +123,7 @@ def limb_pixels_box(png: bytes, scene: list[float]) -> tuple[int, int, int, int]
     from PIL import Image
 
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
-    x0, y0, x1, y1 = (int(round(v)) for v in scene)
+    x0, y0, x1, y1 = (round(v) for v in scene)
     img = img[y0:y1, x0:x1]
     hit = np.zeros(img.shape[:2], bool)
     for colour in (LEFT, RIGHT):
@@ -153,7 +156,7 @@ def build_page(mocap_dir: Path, out: Path, builder=build_viewer) -> Path:
 def measure(b: Browser, vid: str, n_clips: int, frame: int | None = None) -> dict:
     """:data:`MEASURE` of viewer ``vid`` (after going to ``frame``), scrolled into view."""
     v = f"window.emViewers['{vid}']"
-    b.evaluate(f"document.getElementById('{vid}').querySelector('.emv-stage').scrollIntoView(); 1")
+    b.evaluate(f"document.getElementById('{vid}').querySelector('.emv-scene').scrollIntoView(); 1")
     if frame is not None:
         b.evaluate(f"{v}.setFrame({frame}).then(() => 1)")
     time.sleep(0.3)  # plotly draws on the next animation frames; the labels are laid out then
@@ -167,13 +170,18 @@ def measured(tmp_path_factory, mocap_dir):
     out = {}
     with Browser(WIDTH, HEIGHT) as b:
         b.open(page)
-        b.wait_for(f"window.emViewers && [0, 1, 2].every(k => (window.emViewers['case' + k] || {{}}).ready)")
+        b.wait_for("window.emViewers && [0, 1, 2].every(k => (window.emViewers['case' + k] || {}).ready)")
         for c, (name, files) in enumerate(CASES.items()):
             first = measure(b, f"case{c}", len(files))
             png = b.screenshot()
             count = b.evaluate(f"window.emViewers['case{c}'].count")
             later = [measure(b, f"case{c}", len(files), frame) for frame in (count // 2, count - 1)]
             out[name] = (first, png, later)
+        # the side-by-side clips overlaid on one spot: their labels would all sit together
+        b.evaluate(
+            "window.emViewers['case1'].setLayout('overlay').then(() => window.emViewers['case1'].setFrame(0))"
+        )
+        out["overlaid"] = measure(b, "case1", len(CASES["side by side"]))
         assert b.errors == [], b.errors
     return out
 
@@ -202,6 +210,15 @@ def test_the_measurement_matches_the_pixels(measured, case):
     # colour) is above the limbs' top
     assert np.abs(drawn - projected)[[0, 2, 3]].max() < 12, (drawn, projected)
     assert projected[1] - 12 < drawn[1] < projected[3], (drawn, projected)
+
+
+def test_overlaid_clips_labels_do_not_overlap(measured):
+    """Three clips on one spot: the labels are stacked apart; all figures in view."""
+    m = measured["overlaid"]
+    problems = [p for p in geometry_problems(m, 3) if "px tall" not in p]
+    assert problems == []
+    heads = [f["box"][1] for f in m["figures"]]
+    assert all(lab[3] <= max(heads) + 5 for lab in m["labels"])  # above the heads, not aside
 
 
 def test_labels_sit_by_their_figures(measured):

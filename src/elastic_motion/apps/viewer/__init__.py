@@ -6,6 +6,9 @@
 page opens from ``file://`` without a network or a server), with
 
 * orbit and zoom (plotly's 3D scene), play / pause, speed, a frame slider;
+* a first camera that follows the figures, fitted so that they fill the scene, or the
+  whole travelled paths (a switch); each clip's label above its figure, never overlapping
+  another;
 * clips side by side or overlaid on one floor;
 * joint trajectories on demand (pick joints in a list);
 * contacts (planted joints marked in the scene, intervals on a timeline, a footprint where

@@ -10,8 +10,17 @@ is written, as it is an optional dependency). Colours are those of
 
 The script keeps one viewer object per fragment in ``window.emViewers[id]`` (used by the
 tests and by anyone scripting the page): ``setFrame(i)``, ``frame()``, ``count``,
-``setLayout("side" | "overlay")``, ``showTrajectories([names])``, ``pose(k)`` (the points
-drawn for clip ``k``: plotly coordinates, metres) and ``ready``.
+``setLayout("side" | "overlay")``, ``setCamera("follow" | "path")``,
+``showTrajectories([names])``, ``pose(k)`` (the points drawn for clip ``k``: plotly
+coordinates, metres) and ``ready``.
+
+The first camera follows the figures (``"follow"``: a window centred on the clips' roots at
+each frame, its eye fitted to the first frame's figures; ``spec["camera"]``, made by
+``build_viewer``, gives each clip's reach from its root and the height range); ``"path"``
+shows the whole travelled paths. Each clip's label is an HTML element over the scene, placed
+above its figure's head by projecting it with plotly's camera matrices each time plotly
+draws the scene, then moved by whole label heights until no two labels (nor the legend)
+overlap. Labels are written as ``textContent``: names show as written.
 """
 
 from __future__ import annotations
@@ -176,6 +185,13 @@ _JS = r"""
     var m = Math.max(d[0], d[1], d[2]);
     state.fit = state.fit.map(function (p) { return p.map(function (v) { return v / m; }); });
     out["scene.aspectratio"] = boxAspect(d);
+    // a following camera's x and y ticks would change at every frame: their numbers scroll by,
+    // and re-drawing them and the axis titles (plotly draws text in WebGL) takes most of a
+    // frame's time; the grid on the floor shows the motion
+    var whole = state.camera === "path";
+    out["scene.xaxis.showticklabels"] = out["scene.yaxis.showticklabels"] = whole;
+    out["scene.xaxis.title.text"] = whole ? "x (m)" : "";
+    out["scene.yaxis.title.text"] = whole ? "-z (m)" : "";
     return out;
   }
   function eyeFitting(pts, dir) {
@@ -212,8 +228,8 @@ _JS = r"""
   var layout3d = {
     margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: true, legend: { x: 0, y: 1 }, uirevision: "keep",
     scene: { aspectmode: "manual", aspectratio: sl["scene.aspectratio"],
-             xaxis: { title: { text: "x (m)" }, range: sl["scene.xaxis.range"] },
-             yaxis: { title: { text: "-z (m)" }, range: sl["scene.yaxis.range"] },
+             xaxis: { title: { text: sl["scene.xaxis.title.text"] }, range: sl["scene.xaxis.range"], showticklabels: sl["scene.xaxis.showticklabels"] },
+             yaxis: { title: { text: sl["scene.yaxis.title.text"] }, range: sl["scene.yaxis.range"], showticklabels: sl["scene.yaxis.showticklabels"] },
              zaxis: { title: { text: "up: y (m)" }, range: sl["scene.zaxis.range"] },
              camera: { eye: eyeFitting(state.fit, firstEyeDirection()) } }
   };
@@ -254,7 +270,7 @@ _JS = r"""
   function hits(a, b) { return a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h; }
   function placeLabels() {
     // greedy, in screen space: each label centred above its figure's head, else moved up
-    // (then down) by whole label heights to the nearest place free of the labels already
+    // (or, at the top of the scene, down) by whole label heights to the nearest place free of the labels already
     // placed and of the legend, inside the scene
     var W = scene.clientWidth, H = scene.clientHeight, placed = [];
     var leg = scene.querySelector(".legend"), sr = scene.getBoundingClientRect();
@@ -267,8 +283,9 @@ _JS = r"""
       el.style.display = "";
       var w = el.offsetWidth, h = el.offsetHeight + 2;
       var x = Math.max(0, Math.min(W - w, it.at[0] - w / 2)), y0 = it.at[1] - h, best = null;
-      for (var k = 0; k <= 2 * (clips.length + 2) && best === null; k++) {
-        var dy = (k % 2 ? -1 : 1) * Math.ceil(k / 2) * h;  // 0, -h, +h, -2h, ...
+      var n = clips.length + 2;
+      for (var k = 0; k <= 2 * n && best === null; k++) {
+        var dy = k <= n ? -k * h : (k - n) * h;  // 0, -h, -2h, ..., then +h, +2h, ...
         var r = { x: x, y: Math.max(0, Math.min(H - h, y0 + dy)), w: w, h: h };
         if (!placed.some(function (p) { return hits(p, r); })) best = r;
       }
