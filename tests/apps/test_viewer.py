@@ -153,6 +153,26 @@ def test_long_clip_is_decimated_and_said(mocap_dir):
     assert np.allclose(pts[..., 2], p[..., 1], atol=1e-4)
 
 
+def test_the_following_cameras_window_holds_every_joint(mocap_dir):
+    """The page's following camera centres a window on the roots with ``camera.reach`` around
+    each (plotly clips what is outside): every joint of every frame is within reach of its
+    clip's root, and between the window's heights; the window is not the whole path."""
+    import base64
+
+    files = [mocap_dir / "cmu/bvh/08_02.bvh", mocap_dir / "deepmimic/humanoid3d_cartwheel.txt"]
+    spec = _spec(build_viewer(files, plotly_src="x.js", reports=[False, False]))
+    cam = spec["camera"]
+    assert cam["axis"] in (0, 1) and len(cam["reach"]) == 2
+    for c in spec["clips"]:
+        p = np.frombuffer(base64.b64decode(c["pos"]), dtype=np.float32).reshape(c["n"], c["P"], 3)
+        assert (np.abs(p[:, :, :2] - p[:, :1, :2]) <= np.array(cam["reach"]) - 0.05).all()
+        assert cam["z"][0] < p[..., 2].min() and p[..., 2].max() < cam["z"][1]
+    assert cam["z"][0] < spec["floor"]
+    side = spec["ranges"]["side"]
+    travelled = max(side[0][1] - side[0][0], side[1][1] - side[1][0])
+    assert 2 * max(cam["reach"]) < travelled / 2  # a window around the figures, not the path
+
+
 def test_view_refuses_an_unreadable_file(tmp_path, capsys):
     bad = tmp_path / "broken.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n")
@@ -225,7 +245,9 @@ def test_page_in_chromium(loop_files, tmp_path):
         b.evaluate(f"{v}.showTrajectories(['left_ankle', 'right_ankle']).then(() => 1)")
         b.evaluate(f"{v}.setLayout('overlay').then(() => 1)")
         n_traces = b.evaluate("document.querySelector('#em-viewer .emv-scene').data.length")
-        assert n_traces >= 2 + 1 + 2 * 6
+        assert n_traces == 1 + 2 * 5 + 2 * 2  # floor, 5 per clip, 2 joint paths per clip
+        # the camera showing the whole paths, and back to following the figures
+        b.evaluate(f"{v}.setCamera('path').then(() => {v}.setCamera('follow')).then(() => 1)")
         assert b.errors == [], b.errors
 
 

@@ -100,7 +100,9 @@ def test_page_with_such_names_starts_in_chromium_and_shows_them(weird_file, tmp_
         title = b.evaluate("document.querySelector('.emv-notes li').textContent")
         # every text plotly drew (legend, labels, timeline rows, warp plot): the names as written
         drawn = b.evaluate("Array.from(document.querySelectorAll('.emv svg text')).map(t => t.textContent)")
+        labels = b.evaluate("Array.from(document.querySelectorAll('.emv-label')).map(t => t.textContent)")
         assert b.errors == [], b.errors
+    assert labels == [STEM]  # the figure's label, as written
     assert options[:4] == list(JOINTS)
     assert title.startswith(STEM + ":")
     for want in (

@@ -6,6 +6,9 @@
 page opens from ``file://`` without a network or a server), with
 
 * orbit and zoom (plotly's 3D scene), play / pause, speed, a frame slider;
+* a first camera that follows the figures, fitted so that they fill the scene, or the
+  whole travelled paths (a switch); each clip's label above its figure, never overlapping
+  another;
 * clips side by side or overlaid on one floor;
 * joint trajectories on demand (pick joints in a list);
 * contacts (planted joints marked in the scene, intervals on a timeline, a footprint where
@@ -166,9 +169,9 @@ def build_viewer(
         "clips": [v.data for v in views],
         "floor": floors[0],
         "layout": opts.layout,
-        "ranges": _place(views, floors[0]),
         "notes": notes,
     }
+    spec["ranges"], spec["camera"] = _place(views, floors[0])
     fragment = viewer_fragment(spec)
     html = page_html(opts.title, fragment, plotly_src=opts.plotly_src)
     return ViewerPage(tuple(clips), fragment, html, tuple(notes))
@@ -225,9 +228,10 @@ def _notes(clips: list[ViewerClip], floors: list[float]) -> list[str]:
     return notes
 
 
-def _place(views: list[ClipView], floor: float) -> dict[str, list[list[float]]]:
+def _place(views: list[ClipView], floor: float) -> tuple[dict[str, list[list[float]]], dict[str, Any]]:
     """Place the clips side by side (each clip's ``offset`` and ``pos`` in its data) and return
-    the scene ranges of both layouts (traces and footprints included), floor at the bottom."""
+    the scene ranges of both layouts (traces and footprints included), floor at the bottom, and
+    what the page's following camera needs (:func:`_follow`)."""
     shown = [v.points for v in views]
     # side by side: along the horizontal axis in which the clips move least
     lo = np.array([p.reshape(-1, 3).min(axis=0) for p in shown])
@@ -251,7 +255,42 @@ def _place(views: list[ClipView], floor: float) -> dict[str, list[list[float]]]:
         pad = 0.15 * max(1.0, float(np.max(b - a)) * 0.1)
         return [[float(a[i] - pad), float(b[i] + pad)] for i in range(3)]
 
-    return {"side": box(offsets), "overlay": box(np.zeros_like(offsets))}
+    return {"side": box(offsets), "overlay": box(np.zeros_like(offsets))}, _follow(shown, floor, axis)
+
+
+def _follow(shown: list[np.ndarray], floor: float, axis: int) -> dict[str, Any]:
+    """What the page's following camera needs to keep every figure whole in its window.
+
+    The page centres a window on the figures' roots (joint 0) at each frame (``page.py``);
+    with ``reach`` around each root and ``z`` from under the floor to above the highest head,
+    no joint of any frame leaves it.
+
+    Parameters
+    ----------
+    shown : list of ndarray, each shape (K, P, 3)
+        Each clip's drawn points (plotly axes: x, -z, y), metres, before placing.
+    floor : float
+        Height of the floor drawn, metres.
+    axis : int
+        0 or 1: the horizontal axis along which the clips are placed side by side (the
+        camera looks across it, so that the clips stand next to each other on screen).
+
+    Returns
+    -------
+    dict
+        ``axis``; ``reach`` (metres, x and y): the largest distance along each horizontal axis
+        of a joint from its clip's root over all frames, plus a margin; ``z`` (metres): the
+        window's height range, a little below the floor to a little above the highest joint.
+    """
+    reach = np.max([np.abs(p[:, :, :2] - p[:, :1, :2]).max(axis=(0, 1)) for p in shown], axis=0)
+    top = max(float(p[..., 2].max()) for p in shown)
+    low = min(floor, min(float(p[..., 2].min()) for p in shown))
+    height = max(top - low, 0.5)
+    return {
+        "axis": axis,
+        "reach": (reach + 0.1 * height).round(4).tolist(),
+        "z": [round(low - 0.05 * height, 4), round(top + 0.12 * height, 4)],
+    }
 
 
 def write_viewer(page: ViewerPage, path: str | os.PathLike[str], *, protected: Sequence[Any] = ()) -> Path:

@@ -10,8 +10,17 @@ is written, as it is an optional dependency). Colours are those of
 
 The script keeps one viewer object per fragment in ``window.emViewers[id]`` (used by the
 tests and by anyone scripting the page): ``setFrame(i)``, ``frame()``, ``count``,
-``setLayout("side" | "overlay")``, ``showTrajectories([names])``, ``pose(k)`` (the points
-drawn for clip ``k``: plotly coordinates, metres) and ``ready``.
+``setLayout("side" | "overlay")``, ``setCamera("follow" | "path")``,
+``showTrajectories([names])``, ``pose(k)`` (the points drawn for clip ``k``: plotly
+coordinates, metres) and ``ready``.
+
+The first camera follows the figures (``"follow"``: a window centred on the clips' roots at
+each frame, its eye fitted to the first frame's figures; ``spec["camera"]``, made by
+``build_viewer``, gives each clip's reach from its root and the height range); ``"path"``
+shows the whole travelled paths. Each clip's label is an HTML element over the scene, placed
+above its figure's head by projecting it with plotly's camera matrices each time plotly
+draws the scene, then moved by whole label heights until no two labels (nor the legend)
+overlap. Labels are written as ``textContent``: names show as written.
 """
 
 from __future__ import annotations
@@ -31,7 +40,10 @@ CSS = """
 .emv-controls{display:flex;flex-wrap:wrap;gap:.6em;align-items:center;margin:.3em 0}
 .emv-slider{flex:1 1 300px;min-width:200px}
 .emv-time{font-variant-numeric:tabular-nums;min-width:9em}
-.emv-scene{width:100%;height:520px}
+.emv-stage{position:relative}
+.emv-scene{width:100%;height:max(520px,72vh)}
+.emv-labels{position:absolute;left:0;top:0;right:0;bottom:0;pointer-events:none;overflow:hidden}
+.emv-label{position:absolute;white-space:nowrap;font-size:13px;line-height:16px;padding:0 3px;background:rgba(255,255,255,.75);border-radius:3px}
 .emv-notes{color:#555;font-size:13px;margin:.3em 0 0 1.2em;padding:0}
 .emv-key{color:#555;font-size:13px}
 .emv-key span{display:inline-block;width:1.6em;height:.5em;margin:0 .3em 0 .8em;vertical-align:middle}
@@ -105,32 +117,193 @@ _JS = r"""
     traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.text + ": planted",
                   legendgroup: "clip" + k, showlegend: !!c.contacts,
                   marker: { color: PLANTED, size: 6, symbol: "diamond" }, hoverinfo: "skip" });
-    traces.push({ type: "scatter3d", mode: "text", x: [], y: [], z: [], text: [c.text], name: c.text,
-                  showlegend: false, textfont: { color: c.colour, size: 13 }, hoverinfo: "skip" });
     traces.push({ type: "scatter3d", mode: "markers", x: [], y: [], z: [], name: c.text + ": contact starts",
                   legendgroup: "clip" + k, showlegend: c.footprints.length > 0,
                   marker: { color: PLANTED, size: 3, symbol: "x", opacity: 0.6 }, hoverinfo: "skip" });
-    for (var t = 0; t < 6; t++) dynamic.push(c.tr + t);
+    for (var t = 0; t < 5; t++) dynamic.push(c.tr + t);
   });
   var nFixed = traces.length;
 
-  function sceneLayout() {
-    var r = spec.ranges[state.layout];
-    var d = r.map(function (a) { return a[1] - a[0]; }), m = Math.max(d[0], d[1], d[2]);
-    return {
-      "scene.xaxis.range": r[0], "scene.yaxis.range": r[1], "scene.zaxis.range": r[2],
-      "scene.aspectratio": { x: d[0] / m, y: d[1] / m, z: d[2] / m }
-    };
+  // ---- the camera ----------------------------------------------------------------------
+  // "follow" (the first camera): at each frame a window centred on the figures' roots, wide
+  // enough for every figure whole (spec.camera.reach around each root; z from under the floor
+  // to above the highest head; plotly clips what is outside), of the shape of the window at
+  // the frame shown when the camera was set, grown evenly when the figures spread further
+  // apart. The eye looks across the axis along which the clips stand side by side, at the
+  // distance where the figures of that frame (all their joints, the floor under them, room
+  // for the labels) fill the scene. "path": the whole travelled path (spec.ranges) in view.
+  var cam = spec.camera;
+  var zSpan = cam.z[1] - cam.z[0];
+  function rootSpread(i) {
+    var lo = [Infinity, Infinity], hi = [-Infinity, -Infinity];
+    clips.forEach(function (c) {
+      var r = pt(c, clipFrame(c, i), 0, offset(c));
+      for (var a = 0; a < 2; a++) { lo[a] = Math.min(lo[a], r[a]); hi[a] = Math.max(hi[a], r[a]); }
+    });
+    return { mid: [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2],
+             need: [hi[0] - lo[0] + 2 * cam.reach[0], hi[1] - lo[1] + 2 * cam.reach[1]] };
   }
+  function boxAspect(d) {
+    var m = Math.max(d[0], d[1], d[2]);
+    return { x: d[0] / m, y: d[1] / m, z: d[2] / m };
+  }
+  function windowLayout(i) {  // the scene's ranges at frame i
+    if (state.camera === "path") return {};
+    var w = rootSpread(i), b = state.base;
+    var s = Math.max(1, w.need[0] / b[0], w.need[1] / b[1]);
+    return { "scene.xaxis.range": [w.mid[0] - s * b[0] / 2, w.mid[0] + s * b[0] / 2],
+             "scene.yaxis.range": [w.mid[1] - s * b[1] / 2, w.mid[1] + s * b[1] / 2],
+             "scene.zaxis.range": [cam.z[0], cam.z[0] + s * b[2]] };
+  }
+  function corners(lo, hi) {  // the 8 corners of a box
+    var out = [];
+    for (var k = 0; k < 8; k++) out.push([0, 1, 2].map(function (e) { return (k >> e) & 1 ? hi[e] : lo[e]; }));
+    return out;
+  }
+  function sceneLayout() {
+    // ranges and aspect ratio of the camera mode and layout, and state.fit: the points (box
+    // units, centred) the eye is fitted to
+    var r = spec.ranges[state.layout], d, out;
+    if (state.camera === "path") {
+      d = r.map(function (a) { return a[1] - a[0]; });
+      out = { "scene.xaxis.range": r[0], "scene.yaxis.range": r[1], "scene.zaxis.range": r[2] };
+      state.fit = corners(d.map(function (v) { return -v / 2; }), d.map(function (v) { return v / 2; }));
+    } else {
+      var w = rootSpread(state.i), lo = [Infinity, Infinity], hi = [-Infinity, -Infinity];
+      state.base = d = [w.need[0], w.need[1], zSpan];
+      out = windowLayout(state.i);
+      clips.forEach(function (c) {  // the figures as they are now, 15 cm around
+        var f = clipFrame(c, state.i), off = offset(c);
+        for (var j = 0; j < c.P; j++) {
+          var v = pt(c, f, j, off);
+          for (var a = 0; a < 2; a++) { lo[a] = Math.min(lo[a], v[a] - 0.15); hi[a] = Math.max(hi[a], v[a] + 0.15); }
+        }
+      });
+      var zm = (cam.z[0] + cam.z[1]) / 2;
+      state.fit = corners([lo[0] - w.mid[0], lo[1] - w.mid[1], cam.z[0] - zm], [hi[0] - w.mid[0], hi[1] - w.mid[1], cam.z[1] - zm]);
+    }
+    var m = Math.max(d[0], d[1], d[2]);
+    state.fit = state.fit.map(function (p) { return p.map(function (v) { return v / m; }); });
+    out["scene.aspectratio"] = boxAspect(d);
+    // a following camera's x and y ticks would change at every frame: their numbers scroll by,
+    // and re-drawing them and the axis titles (plotly draws text in WebGL) takes most of a
+    // frame's time; the grid on the floor shows the motion
+    var whole = state.camera === "path";
+    out["scene.xaxis.showticklabels"] = out["scene.yaxis.showticklabels"] = whole;
+    out["scene.xaxis.title.text"] = whole ? "x (m)" : "";
+    out["scene.yaxis.title.text"] = whole ? "-z (m)" : "";
+    return out;
+  }
+  function eyeFitting(pts, dir) {
+    // the eye along dir (from the box centre) at the distance where pts (box units) fill 95 %
+    // of the scene: plotly's perspective (vertical field of view 45 degrees, z up)
+    var n = Math.hypot(dir[0], dir[1], dir[2]), u = dir.map(function (v) { return v / n; });
+    var B = (scene.clientWidth || 1000) / (scene.clientHeight || 520), t = Math.tan(Math.PI / 8);
+    var rgt = [-u[1], u[0], 0], rn = Math.hypot(rgt[0], rgt[1]) || 1;
+    rgt = rgt.map(function (v) { return v / rn; });
+    var up = [-rgt[1] * u[2], rgt[0] * u[2], rgt[1] * u[0] - rgt[0] * u[1]];  // rgt x (-u)
+    function fits(D) {
+      return pts.every(function (q) {
+        var p = [0, 1, 2].map(function (e) { return q[e] - D * u[e]; });
+        var depth = -(p[0] * u[0] + p[1] * u[1] + p[2] * u[2]);
+        var x = p[0] * rgt[0] + p[1] * rgt[1] + p[2] * rgt[2], y = p[0] * up[0] + p[1] * up[1] + p[2] * up[2];
+        return depth > 0.05 && Math.abs(x) <= 0.95 * depth * t * B && Math.abs(y) <= 0.95 * depth * t;
+      });
+    }
+    var lo = 0.05, hi = 20;
+    for (var it = 0; it < 40; it++) { var mid = (lo + hi) / 2; if (fits(mid)) hi = mid; else lo = mid; }
+    return { x: hi * u[0], y: hi * u[1], z: hi * u[2] };
+  }
+  function firstEyeDirection() {
+    // across the side-by-side axis (clip 0 on the left), turned 8 degrees, 12 degrees above
+    var e = 12 * Math.PI / 180, a = 8 * Math.PI / 180, s = Math.sin(a) * Math.cos(e), c = Math.cos(a) * Math.cos(e);
+    return cam.axis === 0 ? [s, -c, Math.sin(e)] : [c, s, Math.sin(e)];
+  }
+  function currentEyeDirection() {
+    var e = scene.layout && scene.layout.scene && scene.layout.scene.camera && scene.layout.scene.camera.eye;
+    return e && isFinite(e.x) ? [e.x, e.y, e.z] : firstEyeDirection();
+  }
+  state.camera = "follow";
+  var sl = sceneLayout();
   var layout3d = {
     margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: true, legend: { x: 0, y: 1 }, uirevision: "keep",
-    scene: { aspectmode: "manual", xaxis: { title: { text: "x (m)" } }, yaxis: { title: { text: "-z (m)" } },
-             zaxis: { title: { text: "up: y (m)" } }, camera: { eye: { x: 0.15, y: -1.25, z: 0.45 } } }
+    scene: { aspectmode: "manual", aspectratio: sl["scene.aspectratio"],
+             xaxis: { title: { text: sl["scene.xaxis.title.text"] }, range: sl["scene.xaxis.range"], showticklabels: sl["scene.xaxis.showticklabels"] },
+             yaxis: { title: { text: sl["scene.yaxis.title.text"] }, range: sl["scene.yaxis.range"], showticklabels: sl["scene.yaxis.showticklabels"] },
+             zaxis: { title: { text: "up: y (m)" }, range: sl["scene.zaxis.range"] },
+             camera: { eye: eyeFitting(state.fit, firstEyeDirection()) } }
   };
-  var sl = sceneLayout();
-  layout3d.scene.xaxis.range = sl["scene.xaxis.range"]; layout3d.scene.yaxis.range = sl["scene.yaxis.range"];
-  layout3d.scene.zaxis.range = sl["scene.zaxis.range"]; layout3d.scene.aspectratio = sl["scene.aspectratio"];
   var config = { responsive: true, displaylogo: false };
+
+  // ---- labels: one per clip above its head, laid out on screen so that none overlap ------
+  var labelBox = q(".emv-labels");
+  clips.forEach(function (c) {
+    c.labelEl = document.createElement("span");
+    c.labelEl.className = "emv-label";
+    c.labelEl.textContent = c.label;
+    c.labelEl.style.color = c.colour;
+    labelBox.appendChild(c.labelEl);
+  });
+  function glScene() { var s = scene._fullLayout && scene._fullLayout.scene; return s && s._scene; }
+  function project(v) {
+    // a point (plotly coordinates, metres) to CSS pixels in the scene's <div>, as plotly
+    // places its 3D annotations; null behind the eye or before the scene is drawn
+    var sc = glScene();
+    if (!sc || !sc.glplot) return null;
+    var cp = sc.glplot.cameraParams, ds = sc.dataScale, fl = scene._fullLayout, sz = fl._size, dom = fl.scene.domain;
+    function mul(m, x) {
+      var r = [0, 0, 0, 0];
+      for (var a = 0; a < 4; a++) for (var b = 0; b < 4; b++) r[b] += m[4 * a + b] * x[a];
+      return r;
+    }
+    var p = mul(cp.projection, mul(cp.view, mul(cp.model, [v[0] * ds[0], v[1] * ds[1], v[2] * ds[2], 1])));
+    if (!(p[3] > 0)) return null;
+    return [sz.l + dom.x[0] * sz.w + 0.5 * (1 + p[0] / p[3]) * sz.w * (dom.x[1] - dom.x[0]),
+            sz.t + (1 - dom.y[1]) * sz.h + 0.5 * (1 - p[1] / p[3]) * sz.h * (dom.y[1] - dom.y[0])];
+  }
+  function headOf(c) {  // above the highest joint of clip c at the current frame
+    var f = clipFrame(c, state.i), off = offset(c), top = -Infinity;
+    for (var j = 0; j < c.P; j++) top = Math.max(top, c.p[(f * c.P + j) * 3 + 2]);
+    var r0 = pt(c, f, 0, off);
+    return [r0[0], r0[1], top + off[2] + 0.05];
+  }
+  function hits(a, b) { return a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h; }
+  function placeLabels() {
+    // greedy, in screen space: each label centred above its figure's head, else moved up
+    // (or, at the top of the scene, down) by whole label heights to the nearest place free of the labels already
+    // placed and of the legend, inside the scene
+    var W = scene.clientWidth, H = scene.clientHeight, placed = [];
+    var leg = scene.querySelector(".legend"), sr = scene.getBoundingClientRect();
+    if (leg) { var lr = leg.getBoundingClientRect(); placed.push({ x: lr.left - sr.left, y: lr.top - sr.top, w: lr.width, h: lr.height }); }
+    var items = clips.map(function (c) { return { c: c, at: project(headOf(c)) }; })
+      .filter(function (it) { if (!it.at) it.c.labelEl.style.display = "none"; return !!it.at; });
+    items.sort(function (a, b) { return a.at[1] - b.at[1] || a.at[0] - b.at[0]; });
+    items.forEach(function (it) {
+      var el = it.c.labelEl;
+      el.style.display = "";
+      var w = el.offsetWidth, h = el.offsetHeight + 2;
+      var x = Math.max(0, Math.min(W - w, it.at[0] - w / 2)), y0 = it.at[1] - h, best = null;
+      var n = clips.length + 2;
+      for (var k = 0; k <= 2 * n && best === null; k++) {
+        var dy = k <= n ? -k * h : (k - n) * h;  // 0, -h, -2h, ..., then +h, +2h, ...
+        var r = { x: x, y: Math.max(0, Math.min(H - h, y0 + dy)), w: w, h: h };
+        if (!placed.some(function (p) { return hits(p, r); })) best = r;
+      }
+      if (best === null) {  // a column at the left edge below everything placed
+        var yb = placed.reduce(function (m, p) { return Math.max(m, p.y + p.h); }, 0);
+        best = { x: 0, y: yb, w: w, h: h };
+      }
+      placed.push(best);
+      el.style.left = best.x + "px"; el.style.top = best.y + "px";
+    });
+  }
+  function hookLabels() {  // lay the labels out again each time plotly draws the scene (orbit, zoom)
+    var sc = glScene();
+    if (!sc || !sc.glplot || sc.glplot.emLabels) return;
+    var drawn = sc.glplot.onrender;
+    sc.glplot.onrender = function () { if (drawn) drawn.apply(this, arguments); placeLabels(); };
+    sc.glplot.emLabels = true;
+  }
 
   function poseUpdate(i) {
     var X = [], Y = [], Z = [];
@@ -147,10 +320,6 @@ _JS = r"""
         }
       }
       X.push(px); Y.push(py); Z.push(pz);
-      var top = -Infinity;
-      for (var j = 0; j < c.P; j++) top = Math.max(top, c.p[(f * c.P + j) * 3 + 2]);
-      var r0 = pt(c, f, 0, off);
-      X.push([r0[0]]); Y.push([r0[1]]); Z.push([top + off[2] + 0.15]);
       X.push(c.footprints.map(function (p) { return p[0] + off[0]; }));
       Y.push(c.footprints.map(function (p) { return p[1] + off[1]; }));
       Z.push(c.footprints.map(function (p) { return p[2] + off[2]; }));
@@ -215,7 +384,8 @@ _JS = r"""
   function render(i) {
     var t = timeOf(i);
     var upd = poseUpdate(i);
-    var jobs = [Plotly.restyle(scene, upd, dynamic),
+    hookLabels();
+    var jobs = [Plotly.update(scene, upd, windowLayout(i), dynamic),
                 Plotly.restyle(timeline, { x: [[t, t]] }, [cursorIndex])];
     if (warpDiv && warpClips.length) {
       var mx = [], my = [];
@@ -228,7 +398,7 @@ _JS = r"""
     }
     slider.value = String(i);
     timeLabel.textContent = t.toFixed(2) + " s / " + total.toFixed(2) + " s";
-    return Promise.all(jobs);
+    return Promise.all(jobs).then(placeLabels);
   }
   function setFrame(i) {
     i = Math.max(0, Math.min(count - 1, Math.round(i)));
@@ -260,11 +430,21 @@ _JS = r"""
     var p = old.length ? Plotly.deleteTraces(scene, old) : Promise.resolve();
     return p.then(function () { var tr = trajectoryTraces(); return tr.length ? Plotly.addTraces(scene, tr) : null; });
   }
+  function refit() {  // the scene for the layout and camera mode; the eye keeps its direction
+    var l = sceneLayout();
+    l["scene.camera.eye"] = eyeFitting(state.fit, currentEyeDirection());
+    return Plotly.relayout(scene, l).then(function () { return showTrajectories(state.traj); })
+      .then(function () { return setFrame(state.i); });
+  }
   function setLayout(mode) {
     state.layout = mode;
     q(".emv-layout").value = mode;
-    return Plotly.relayout(scene, sceneLayout()).then(function () { return showTrajectories(state.traj); })
-      .then(function () { return setFrame(state.i); });
+    return refit();
+  }
+  function setCamera(mode) {
+    state.camera = mode;
+    q(".emv-camera").value = mode;
+    return refit();
   }
   function tick(ts) {
     if (!state.playing) return;
@@ -296,7 +476,7 @@ _JS = r"""
   var init = [Plotly.newPlot(scene, traces, layout3d, config), Plotly.newPlot(timeline, tl, layoutTl, config)];
   if (warpDiv && warpClips.length) init.push(Plotly.newPlot(warpDiv, wtr, layoutWarp, config));
   var api = { count: count, dt: dt, ready: false, setFrame: setFrame, frame: function () { return state.i; },
-              setLayout: setLayout, showTrajectories: showTrajectories, play: play,
+              setLayout: setLayout, setCamera: setCamera, showTrajectories: showTrajectories, play: play,
               pose: function (k) { var c = clips[k], f = clipFrame(c, state.i), off = offset(c), out = [];
                                    for (var j = 0; j < c.P; j++) out.push(pt(c, f, j, off)); return out; } };
   window.emViewers = window.emViewers || {};
@@ -305,6 +485,7 @@ _JS = r"""
     slider.addEventListener("input", function () { play(false); setFrame(parseInt(slider.value, 10)); });
     playBtn.addEventListener("click", function () { play(!state.playing); });
     q(".emv-layout").addEventListener("change", function (ev) { setLayout(ev.target.value); });
+    q(".emv-camera").addEventListener("change", function (ev) { setCamera(ev.target.value); });
     q(".emv-traj").addEventListener("change", function (ev) {
       var names = Array.prototype.filter.call(ev.target.options, function (o) { return o.selected; })
         .map(function (o) { return o.value; });
@@ -396,9 +577,11 @@ def viewer_fragment(spec: dict[str, Any]) -> str:
         f"<label>speed <select class='emv-speed'>{speeds}</select></label>",
         "<label><input type='checkbox' class='emv-loop' checked> loop</label>",
         f"<label>clips <select class='emv-layout'>{layout_opts}</select></label>",
+        "<label>camera <select class='emv-camera'><option value='follow' selected>follows the figures</option>"
+        "<option value='path'>whole paths</option></select></label>",
         f"<label>joint paths <select class='emv-traj' multiple size='3'>{options}</select></label>",
         "</div>",
-        "<div class='emv-scene'></div>",
+        "<div class='emv-stage'><div class='emv-scene'></div><div class='emv-labels'></div></div>",
         "<div class='emv-key'>"
         f"<span style='background:{LEFT}'></span>left limbs<span style='background:{RIGHT}'></span>right "
         f"limbs<span style='background:{PLANTED}'></span>planted (contacts from the report) and where each contact "
