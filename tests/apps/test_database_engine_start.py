@@ -12,8 +12,10 @@
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -104,7 +106,17 @@ def test_local_workers_are_forked_from_a_fresh_driver_single_threaded_and_quiet(
 
 @needs_dask
 def test_local_engine_equals_serial_bit_for_bit(db: Path, tmp_path: Path) -> None:
-    assert_local_cluster_is_serial(db, tmp_path, SETTINGS)
+    """A local cluster computes the serial matrix and leaves Dask's default port alone: with 8787 taken (a user's cluster, another
+    run, another test worker) the cluster starts without Dask's "port in use" warning."""
+    with socket.socket() as taken, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            taken.bind(("", 8787))
+            taken.listen()
+        except OSError:  # already in use: the case under test all the same
+            pass
+        assert_local_cluster_is_serial(db, tmp_path, SETTINGS)
+    assert not [w for w in caught if "8787" in str(w.message)], [str(w.message) for w in caught]
 
 
 def test_dask_setup_loads_the_kernels_of_a_run_in_a_fresh_process() -> None:

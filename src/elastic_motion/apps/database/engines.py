@@ -268,6 +268,10 @@ class DaskEngine:
                     threads_per_worker=1,
                     processes=True,
                     dashboard_address=None,
+                    # no dashboard, but the scheduler still serves its health routes over HTTP,
+                    # on 8787 unless told otherwise: two runs at once (or a user's own cluster)
+                    # then collide and Dask warns; any free port will do
+                    scheduler_kwargs={"dashboard_address": ":0"},
                     silence_logs=logging.CRITICAL,  # task errors still reach the driver as exceptions
                 )
             self.client = Client(self.cluster)
