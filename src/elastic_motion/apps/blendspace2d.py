@@ -23,7 +23,11 @@ What happens (the 1-D space's steps, :mod:`elastic_motion.apps.blendspace`, on a
    steps (a secant estimate of the map from the asked point to the measured one, starting
    from the identity; a step leaving the hull is halved until it is inside) for at most
    ``max_steps`` more blends; the closest blend is returned. Its note
-   (:data:`NOTE_HIT`) gives the measured parameters and the miss.
+   (:data:`NOTE_HIT`) gives the measured parameters and the miss. The blends' measured
+   parameters need not fill the hull: on the DeepMimic clips, blends of the run and the sharp
+   right turn are slower than the straight line between their points (a turning walk covers
+   less ground than its arc), so (3 m/s, -20 deg/s), inside the hull near that edge, is met
+   at best to 5.6 % (the note says when a miss exceeds :data:`MISS_WARNING`).
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 from elastic_motion.notes import Note
 
-__all__ = ["MEASURES", "NOTE_HIT", "BlendSpace2D", "blendspace_2d"]
+__all__ = ["MEASURES", "MISS_WARNING", "NOTE_HIT", "BlendSpace2D", "blendspace_2d"]
 
 #: The parameters a 2-D space measures itself: name -> (the parameter's name with its unit,
 #: the measure of a motion).
@@ -54,6 +58,8 @@ MEASURES: dict[str, tuple[str, Callable[[Motion], float]]] = {
 }
 #: The point asked, the blend's measured parameters and the miss (fraction of the range).
 NOTE_HIT = "blendspace.hit"
+#: A miss over this fraction of the range is said in the note (issue 33's target: 5 %).
+MISS_WARNING = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,7 +157,7 @@ class BlendSpace2D:
         return blend_motions(self.prepared, w, options=self.options, template_warps=self.warps)
 
     def at(
-        self, p: Sequence[float], *, tolerance: float = 0.01, max_steps: int = 4, metrics: bool = False
+        self, p: Sequence[float], *, tolerance: float = 0.01, max_steps: int = 6, metrics: bool = False
     ) -> BlendResult:
         """The motion at the point ``p`` (module docstring, step 5): the barycentric blend,
         corrected until its measured parameters are within ``tolerance`` of each axis's range
@@ -204,6 +210,11 @@ class BlendSpace2D:
             f"at ({target[0]:g}, {target[1]:g}) ({', '.join(names)}): measured ({measured[0]:.4g}, "
             f"{measured[1]:.4g}), miss {100 * miss:.2f} % of the range after {blends} blends"
         )
+        if miss > MISS_WARNING:
+            text += (
+                f", over {100 * MISS_WARNING:g} %: the closest blend found (near the hull's edge the blends' "
+                "measured parameters need not reach every point of the motions' hull)"
+            )
         data = {"target": target.tolist(), "measured": measured.tolist(), "miss": miss, "blends": blends}
         return Note(NOTE_HIT, text, data)
 
