@@ -13,7 +13,10 @@ Target (issue 33): every miss under 5 %.
 **Time-varying weights** (``weight_curve``, three motions: walk, turn_left1, run): the joint
 positions (forward kinematics, m) of a constant weight curve against the constant-weight
 blend (target ~1e-9), of ``w = e_k`` against input ``k`` (target 1e-6), and the time of a
-changing curve (walk -> turn -> run) against the constant-weight blend.
+changing curve (walk -> turn -> run) against the constant-weight blend; and the figure
+``docs/images/weight_curve_walk_turn_run.png``: three cycles of each, walk -> left turn -> run
+with the library's default options, its first and last frames against the walk's first and
+the run's last (joint positions relative to the root).
 
 Writes ``benchmarks/results/blendspace_2d.json`` and the figure
 ``docs/images/blendspace_2d.png`` (the plane, its triangles, the points asked and measured;
@@ -46,6 +49,8 @@ CLIPS = (
 )
 GRID = [(s, t) for s in (1.0, 1.5, 2.0, 2.5, 3.0) for t in (-40.0, -20.0, 0.0, 20.0)]
 FIGURE = REPO / "docs" / "images" / "blendspace_2d.png"
+FIGURE_CURVE = REPO / "docs" / "images" / "weight_curve_walk_turn_run.png"
+THREE_CURVE = "0:1/0/0,0.25:1/0/0,0.4:0/1/0,0.6:0/1/0,0.75:0/0/1,1:0/0/1"
 
 
 def space_rows(space) -> list[dict]:
@@ -100,6 +105,41 @@ def weight_curve_rows(paths: list[str]) -> dict:
     blend_motions(paths, weight_curve="0:1/0/0,0.5:0/1/0,1:0/0/1", **plain)
     out["changing_curve_s"] = time.perf_counter() - t0
     return out
+
+
+def weight_curve_figure(paths: list[str], path: Path) -> dict:
+    """Walk -> left turn -> run, three cycles each, with the library's default options: the
+    foot trajectories of the inputs and of the blend; its start against the walk's and its end
+    against the run's last frame (FK, m, after the clean-up)."""
+    from elastic_motion.apps.render import plot_foot_trajectories
+    from elastic_motion.motion import read_motion
+    from elastic_motion.motion.looping import repeat_motion
+
+    ms = [repeat_motion(read_motion(p), 3) for p in paths]
+    t0 = time.perf_counter()
+    res = blend_motions(ms, weight_curve=THREE_CURVE)
+    dt = time.perf_counter() - t0
+    fk = forward_kinematics(res.motion)
+    first = forward_kinematics(res.prepared.motions[0])[0]
+    last = forward_kinematics(res.prepared.motions[2])[-1]
+    rel = lambda x: x - x[:1]  # noqa: E731 -- positions relative to the root
+    plot_foot_trajectories(
+        [*res.prepared.motions, res.motion],
+        path,
+        labels=["walk (3 cycles)", "turn_left1 (3 cycles)", "run (3 cycles)", "walk -> turn -> run"],
+        ncols=4,
+        title=f"Time-varying weights of three motions in SRV space: {THREE_CURVE}",
+        panel_size=(3.0, 1.5),
+        dpi=80,
+    )
+    return {
+        "curve": THREE_CURVE,
+        "time_s": dt,
+        "duration_s": res.motion.duration,
+        "start_vs_walk_m": float(np.abs(rel(fk[0]) - rel(first)).max()),
+        "end_vs_run_m": float(np.abs(rel(fk[-1]) - rel(last)).max()),
+        "skating_after_m_s": None if res.cleanup is None else res.cleanup.skating_after.mean_speed,
+    }
 
 
 def figure(space, rows: list[dict], path: Path) -> None:
@@ -185,6 +225,13 @@ def main() -> None:
         f"{wc['constant_vs_blend_m']:.2e} m; "
         f"w = e_k vs input k {', '.join(f'{e:.2e}' for e in wc['unit_weight_vs_input_m'])} m; "
         f"changing curve {wc['changing_curve_s']:.2f} s (constant blend {wc['constant_blend_s']:.2f} s)"
+    )
+    wc["figure"] = weight_curve_figure([paths[0], paths[2], paths[5]], FIGURE_CURVE)
+    f = wc["figure"]
+    print(
+        f"walk -> turn_left1 -> run ({THREE_CURVE}), default options: {f['duration_s']:.2f} s in "
+        f"{f['time_s']:.1f} s; first frame vs the walk's {f['start_vs_walk_m']:.3f} m, last vs the run's "
+        f"{f['end_vs_run_m']:.3f} m (joint positions relative to the root)"
     )
     figure(space, rows, Path(args.figure))
     for r in rows:
