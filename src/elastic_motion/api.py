@@ -28,6 +28,7 @@ from elastic_motion.apps.align import AlignResult, align_motions
 from elastic_motion.apps.blend import BlendResult, blend_motions
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.blendspace import BlendSpace, blendspace
+from elastic_motion.apps.blendspace2d import BlendSpace2D, blendspace_2d
 from elastic_motion.apps.cleanup import CleanupOptions, CleanupResult, cleanup_footskate
 from elastic_motion.apps.cycles import gait_cycles
 from elastic_motion.apps.database import (  # motion databases (issue 15)
@@ -87,6 +88,7 @@ __all__ = [
     "BlendOptions",
     "BlendResult",
     "BlendSpace",
+    "BlendSpace2D",
     "Classification",
     "CleanupOptions",
     "CleanupResult",
@@ -121,6 +123,7 @@ __all__ = [
     "blend",
     "blend_metrics",
     "blendspace",
+    "blendspace_2d",
     "build_index",
     "classify",
     "cleanup_footskate",
@@ -159,6 +162,9 @@ prepare = prepare_motions
 blend = blend_motions
 #: ``em.blendspace(motions, params="speed", one_cycle=)``: motions placed by a parameter,
 #: aligned to one template; ``.at(p)`` blends any parameter (a BlendResult).
+#: ``em.blendspace_2d(motions, params=("speed", "turn"))``: placed on a plane (m/s x deg/s, or
+#: given points), triangulated; ``.at((x, y))`` blends the containing triangle, corrected to
+#: meet the point.
 #: ``em.cleanup_footskate(motion, contacts)``: plant contacts by leg IK (blends do it by default).
 #: ``em.gait_cycles(motion)``: heel strike to heel strike, from the contacts.
 #: ``em.loop(motion, options=LoopOptions(...), **overrides)`` (``root=``, ``seam=``, ``method=``,

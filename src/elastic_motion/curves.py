@@ -431,8 +431,13 @@ def weighted_blend(
     ----------
     curves : sequence of DiscreteCurve
         ``K >= 1`` curves in one group (grids may differ).
-    weights : array_like, shape (K,)
-        Affine weights (they must sum to 1; negative ones extrapolate).
+    weights : array_like, shape (K,) or (M, K + 1)
+        Affine weights (they must sum to 1; negative ones extrapolate); or time-varying
+        weights: knots ``(t, w_1, ..., w_K)`` of ``w_k(t)`` piecewise linear in the curves'
+        common parameter (``t`` from 0 to 1, increasing; each row non-negative, summing to 1).
+        Then ``q(t) = sum_k w_k(t) (q_k * phi_k)(t)`` (the weights read at the midpoint of each
+        cell of the merged grid refined by the knots and 1024 uniform cells), integrated from
+        the weighted mean of the start points at ``w(0)``.
     warps : sequence of (warp or None), optional
         ``phi_k`` applied to curve ``k`` before blending (samples on its grid or vertices).
     t_out : ndarray, optional
@@ -455,9 +460,10 @@ def weighted_blend(
         _check_same_group(curves[0].group, c.group, "curves[0]", f"curves[{k}]")
     w = as_float_array(weights, "weights")
     check_finite(w, "weights")
-    if w.shape != (len(curves),):
+    knots = _check_weight_knots(w, len(curves)) if w.ndim == 2 else None
+    if knots is None and w.shape != (len(curves),):
         raise ValueError(f"weights: expected one weight per curve, shape ({len(curves)},); got {w.shape}")
-    if abs(w.sum() - 1.0) > 1e-9:
+    if knots is None and abs(w.sum() - 1.0) > 1e-9:
         raise ValueError(f"weights: expected weights summing to 1; got sum {w.sum()!r}")
     if warps is None:
         warps = [None] * len(curves)
@@ -468,8 +474,18 @@ def weighted_blend(
     for c, phi in zip(curves, warps, strict=True):
         srv = srv_transform(c)
         srvs.append(srv if phi is None else reparametrize_srv(srv, phi))
-    grid, vals = common_refinement([(s.q, s.t) for s in srvs])
-    q = np.einsum("k,kij->ij", w, np.stack(vals))
+    functions = [(s.q, s.t) for s in srvs]
+    if knots is not None:  # refine by the knots and a uniform grid: the weights vary in a cell
+        extra = np.union1d(knots[:, 0], np.linspace(0.0, 1.0, 1025))
+        functions.append((np.zeros((extra.shape[0] - 1, 1)), extra))
+    grid, vals = common_refinement(functions)
+    if knots is None:
+        q = np.einsum("k,kij->ij", w, np.stack(vals))
+    else:
+        mid = 0.5 * (grid[:-1] + grid[1:])
+        wt = np.column_stack([np.interp(mid, knots[:, 0], knots[:, k + 1]) for k in range(len(curves))])
+        q = np.einsum("ik,kij->ij", wt, np.stack(vals[: len(curves)]))
+        w = knots[0, 1:]
     starts = np.stack([c.values[0] for c in curves])
     if (w >= 0).all():
         start = g.weighted_mean(starts, w)
@@ -481,6 +497,21 @@ def weighted_blend(
         return result
     t_out = check_parameters(t_out, "t_out")
     return DiscreteCurve(result.evaluate(t_out), g, t_out)
+
+
+def _check_weight_knots(knots: np.ndarray, k: int) -> np.ndarray:
+    """Knots ``(M, K + 1)`` of time-varying weights (:func:`weighted_blend`), checked."""
+    if knots.shape[0] < 2 or knots.shape[1] != k + 1:
+        raise ValueError(
+            f"weights: expected constant weights ({k},) or at least two knots (t, w_1, ..., w_{k}) of shape "
+            f"(M, {k + 1}); got shape {knots.shape}"
+        )
+    t, w = knots[:, 0], knots[:, 1:]
+    if abs(t[0]) > 1e-12 or abs(t[-1] - 1.0) > 1e-12 or not (np.diff(t) > 0).all():
+        raise ValueError(f"weights: expected knot times t from 0 to 1, increasing; got {t.tolist()}")
+    if (w < 0).any() or np.abs(w.sum(axis=1) - 1.0).max() > 1e-9:
+        raise ValueError(f"weights: expected knot weights >= 0 summing to 1 in each row; got {w.tolist()}")
+    return knots
 
 
 def blend(

@@ -45,12 +45,17 @@ def test_transition_starts_like_a_ends_like_b_and_runs_on_the_blended_clock(pair
     res = blend_motions([a, b], weight_curve="0:0,1:1", warp="dp", contacts="off")
     pa, pb = res.prepared.motions
     m = res.motion
-    assert _angle(m.rotations[0, 1:10], pa.rotations[0, 1:10]).max() < 1e-6
-    # the last frame: s(u) ~ 1, B's pose at the matched time
+    # the SRV blend starts on A's pose; the pose anchoring moves it by its slow correction
+    # (0.003 rad here); unanchored, the start is A's exactly
+    assert _angle(m.rotations[0, 1:10], pa.rotations[0, 1:10]).max() < 0.005
+    plain = blend_motions([a, b], weight_curve="0:0,1:1", warp="dp", contacts="off", anchor=False)
+    assert _angle(plain.motion.rotations[0, 1:10], pa.rotations[0, 1:10]).max() < 1e-9
+    # the last frame: s(u) ~ 1, B's pose at the matched time, up to the SRV blend's drift
+    # (integrated velocities, not frame-wise poses: 0.008 rad unanchored, 0.004 anchored)
     u = res.timing[-1]
     tb = np.interp(u, res.warps[1][:, 0], res.warps[1][:, 1]) * pb.duration
     want = sample_rotations(pb, np.arange(1, 10), np.array([tb]))[0]
-    assert u > 0.98 and _angle(m.rotations[-1, 1:10], want).max() < 1.0 * (1 - u) + 1e-6  # |A - B| < 1 rad
+    assert u > 0.98 and _angle(m.rotations[-1, 1:10], want).max() < 1.0 * (1 - u) + 0.01  # |A - B| < 1 rad
     # dT/du = (1 - u) dA + u dB phi'(u): with phi the identity, T(1) = (dA + dB) / 2
     ident = blend_motions([a, b], weight_curve="0:0,1:1", warp="none", contacts="off")
     assert ident.motion.duration == pytest.approx((a.duration + b.duration) / 2, abs=1.5 / a.fps)

@@ -106,8 +106,9 @@ def test_local_workers_are_forked_from_a_fresh_driver_single_threaded_and_quiet(
 
 @needs_dask
 def test_local_engine_equals_serial_bit_for_bit(db: Path, tmp_path: Path) -> None:
-    """A local cluster computes the serial matrix and leaves Dask's default port alone: with 8787 taken (a user's cluster, another
-    run, another test worker) the cluster starts without Dask's "port in use" warning."""
+    """A local cluster computes the serial matrix and leaves Dask's default port alone: with
+    8787 taken (a user's cluster, another run, another test worker) the cluster starts
+    without Dask's "port in use" warning."""
     with socket.socket() as taken, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:

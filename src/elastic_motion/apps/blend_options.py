@@ -12,7 +12,9 @@ app: the package imports the loop app for ``loop=True``, 1.1 s of the command li
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,7 +28,14 @@ from elastic_motion.motion.representations import EULER, Representation, represe
 from elastic_motion.vocabulary import SKELETON_MODES, SkeletonMode
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["SKELETON_MODES", "BlendOptions", "SkeletonMode", "parse_weight_curve"]
+__all__ = [
+    "SKELETON_MODES",
+    "BlendOptions",
+    "SkeletonMode",
+    "knot_weights",
+    "parse_weight_curve",
+    "read_weight_curve",
+]
 
 # Bone offsets of a blend: SkeletonMode ("blend": the weighted mean of the inputs', "first":
 # the first input's) and SKELETON_MODES, from elastic_motion.vocabulary.
@@ -64,11 +73,16 @@ class BlendOptions:
         Allow a weight outside ``[0, 1]`` (two motions only).
     skeleton : {"blend", "first"}, default "blend"
         Bone offsets of the result: the inputs' weighted mean, or A's.
-    weight_curve : tuple of (float, float) or None, default None
-        Two motions only, instead of weights: knots ``(u, s)`` of B's weight as a piecewise
-        linear function of the result's normalised time (``u`` from 0 to 1, increasing; ``s``
-        in ``[0, 1]``); the string ``"0:0,1:1"`` (a transition from A into B) is parsed by
-        :func:`parse_weight_curve`.
+    weight_curve : tuple of tuple of float, str, path or None, default None
+        Instead of weights, time-varying weights ``w_k(u)``, piecewise linear in the result's
+        normalised time ``u`` (the template's parameter), blended in SRV space (the package
+        docstring). Knots ``(u, w_1, ..., w_K)``, one weight per motion, each row
+        non-negative and summing to 1 (within 1e-6; rows are rescaled to sum to 1), ``u``
+        from 0 to 1, increasing: a string ``"0:0.5/0.5/0,1:0/0/1"``, an array ``(M, K + 1)``,
+        or a CSV file (a path, or a string ending in ``.csv``; :func:`read_weight_curve`).
+        Two motions also take knots ``(u, s)`` of B's weight: ``"0:0,1:1"`` (a transition
+        from A into B) or an array ``(M, 2)``. Kept as given (parsed by
+        :func:`parse_weight_curve`): rows ``(u, s)`` or ``(u, w_1, ..., w_K)``.
     anchor : bool, default True
         Pose anchoring of the elastic methods with constant weights in ``[0, 1]``: the slow
         drift (Gaussian, 1 s) of the joint angles and of the root's height from the aligned
@@ -107,7 +121,7 @@ class BlendOptions:
     prepare: PrepareOptions | None = None
     extrapolate: bool = False
     skeleton: SkeletonMode = "blend"
-    weight_curve: tuple[tuple[float, float], ...] | None = None
+    weight_curve: tuple[tuple[float, ...], ...] | None = None
     anchor: bool = True
     trim_ends: bool = True
     contacts: ContactPolicy = "keep"
@@ -132,7 +146,8 @@ class BlendOptions:
             raise OptionError("skeleton", f"expected 'blend' or 'first'; got {self.skeleton!r}")
         if self.weight_curve is not None:
             self._set(
-                "weight_curve", tuple((float(u), float(s)) for u, s in parse_weight_curve(self.weight_curve))
+                "weight_curve",
+                tuple(tuple(float(x) for x in row) for row in parse_weight_curve(self.weight_curve)),
             )
         if isinstance(self.contacts, ContactOptions):
             raise OptionError(
@@ -216,37 +231,138 @@ def _kinds(value: Any) -> tuple[str, ...] | None:
 
 
 def parse_weight_curve(value: Any) -> np.ndarray:
-    """Knots ``(u, s)`` of a weight curve from ``"u:s,u:s,..."`` or an array ``(M, 2)``.
+    """Knots of a weight curve (:class:`BlendOptions` ``weight_curve``): from ``"u:s,u:s,..."``
+    (two motions, B's weight ``s``), ``"u:w1/w2/.../wK,..."`` (one weight per motion), an
+    array ``(M, 2)`` or ``(M, K + 1)``, or a CSV file (a path, or a string ending in
+    ``.csv``: :func:`read_weight_curve`).
 
     Returns
     -------
-    ndarray, shape (M, 2)
+    ndarray, shape (M, 2) or (M, K + 1)
+        Rows ``(u, s)`` or ``(u, w_1, ..., w_K)`` (each of the latter rescaled to sum to 1).
 
     Raises
     ------
     OptionError
-        Not defined on [0, 1] (first ``u`` not 0, last not 1, not increasing), a weight
-        outside [0, 1], fewer than two knots, a malformed string.
+        Not defined on [0, 1] (first ``u`` not 0, last not 1, not increasing), a weight ``s``
+        outside [0, 1], weights ``w_k`` negative or not summing to 1 (within 1e-6), fewer
+        than two knots, a malformed string (a file's errors name it and the line).
     """
+    if isinstance(value, os.PathLike) or (isinstance(value, str) and value.strip().lower().endswith(".csv")):
+        return read_weight_curve(value)
     if isinstance(value, str):
-        try:
-            arr = np.array([[float(x) for x in item.split(":")] for item in value.split(",") if item.strip()])
-        except ValueError:
-            arr = np.zeros((0, 1))
-        if arr.ndim != 2 or arr.shape[1:] != (2,):
-            raise OptionError("weight_curve", f"expected knots 'u:s,u:s,...' like '0:0,1:1'; got {value!r}")
+        arr = _parse_keys(value)
     else:
         arr = np.asarray(value, dtype=np.float64)
-        if arr.ndim != 2 or arr.shape[1] != 2:
-            raise OptionError("weight_curve", f"expected knots (u, s) of shape (M, 2); got shape {arr.shape}")
+        if arr.ndim != 2 or arr.shape[1] < 2:
+            raise OptionError(
+                "weight_curve",
+                f"expected knots (u, s) of shape (M, 2) or (u, w_1, ..., w_K) of shape (M, K + 1); "
+                f"got shape {arr.shape}",
+            )
+    return _check_knots(arr)
+
+
+def _parse_keys(value: str) -> np.ndarray:
+    """``"u:s,..."`` or ``"u:w1/.../wK,..."`` as an array (rows of one width)."""
+    try:
+        rows = []
+        for item in (x for x in value.split(",") if x.strip()):
+            u, ws = item.split(":")
+            rows.append([float(u)] + [float(x) for x in ws.split("/")])
+        arr = np.array(rows, dtype=np.float64)
+    except ValueError:
+        arr = np.zeros((0, 1))
+    if arr.ndim != 2 or arr.shape[1] < 2:
+        raise OptionError(
+            "weight_curve",
+            f"expected knots 'u:s,u:s,...' like '0:0,1:1' or 'u:w1/w2/.../wK,...' like "
+            f"'0:1/0/0,1:0/0.5/0.5' (the same number of weights in every knot); got {value!r}",
+        )
+    return arr
+
+
+def _check_knots(arr: np.ndarray, where: str = "") -> np.ndarray:
+    """The knots checked (``where``, e.g. ``"file.csv: "``, starts the errors' messages)."""
     if arr.shape[0] < 2 or not np.isfinite(arr).all():
-        raise OptionError("weight_curve", f"expected at least two finite knots (u, s); got {arr.tolist()}")
-    u, s = arr[:, 0], arr[:, 1]
+        raise OptionError(
+            "weight_curve", f"{where}expected at least two finite knots (u, s); got {arr.tolist()}"
+        )
+    u, w = arr[:, 0], arr[:, 1:]
     if abs(u[0]) > 1e-12 or abs(u[-1] - 1.0) > 1e-12 or not (np.diff(u) > 0).all():
         raise OptionError(
             "weight_curve",
-            f"expected a curve defined on [0, 1]: times u from 0 to 1, increasing; got u = {u.tolist()}",
+            f"{where}expected a curve defined on [0, 1]: times u from 0 to 1, increasing; "
+            f"got u = {u.tolist()}",
         )
-    if (s < 0).any() or (s > 1).any():
-        raise OptionError("weight_curve", f"expected weights s in [0, 1]; got s = {s.tolist()}")
-    return arr
+    if w.shape[1] == 1:
+        if (w < 0).any() or (w > 1).any():
+            raise OptionError(
+                "weight_curve", f"{where}expected weights s in [0, 1]; got s = {w[:, 0].tolist()}"
+            )
+        return arr
+    sums = w.sum(axis=1)
+    if (w < 0).any() or np.abs(sums - 1.0).max() > 1e-6:
+        bad = int(np.argmax((w < 0).any(axis=1) | (np.abs(sums - 1.0) > 1e-6)))
+        raise OptionError(
+            "weight_curve",
+            f"{where}expected weights w_k >= 0 summing to 1 at every knot; knot {bad} (u = {u[bad]:g}) has "
+            f"{w[bad].tolist()} (sum {sums[bad]:.9g})",
+        )
+    return np.column_stack([u, w / sums[:, None]])
+
+
+def read_weight_curve(path: str | os.PathLike) -> np.ndarray:
+    """Knots ``(M, K + 1)`` of a weight curve from a CSV file: a header ``u,<name 1>,...,<name
+    K>`` (the first column named ``u``), then one knot per line, ``u,w_1,...,w_K``; blank
+    lines and lines starting with ``#`` are skipped. Checked as :func:`parse_weight_curve`.
+
+    Raises
+    ------
+    OptionError
+        Naming ``file:line``: a missing header, a row of another width or not numbers; the
+        knots' errors (:func:`parse_weight_curve`) name the file.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise OptionError("weight_curve", f"{p}: cannot read the weight curve ({exc.strerror})") from exc
+    rows: list[list[float]] = []
+    width = 0
+    for no, line in enumerate(text.splitlines(), start=1):
+        cells = [c.strip() for c in line.split(",")]
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        if not width:
+            if cells[0].lower() != "u" or len(cells) < 3:
+                raise OptionError(
+                    "weight_curve",
+                    f"{p}:{no}: expected a header 'u,w1,...,wK' (u, then one column per motion, K >= 2); "
+                    f"got {line.strip()!r}",
+                )
+            width = len(cells)
+            continue
+        try:
+            row = [float(c) for c in cells]
+        except ValueError:
+            row = []
+        if len(row) != width:
+            raise OptionError(
+                "weight_curve",
+                f"{p}:{no}: expected {width} numbers (u and {width - 1} weights, as the header); "
+                f"got {line.strip()!r}",
+            )
+        rows.append(row)
+    if not width:
+        raise OptionError("weight_curve", f"{p}:1: expected a header 'u,w1,...,wK'; the file is empty")
+    return _check_knots(np.array(rows, dtype=np.float64).reshape(-1, width), f"{p}: ")
+
+
+def knot_weights(knots: np.ndarray) -> np.ndarray:
+    """Knots ``(M, K + 1)`` ``(u, w_1, ..., w_K)`` from :func:`parse_weight_curve`'s: two
+    motions' ``(u, s)`` become ``(u, 1 - s, s)``; the others are returned as they are."""
+    knots = np.asarray(knots, dtype=np.float64)
+    if knots.shape[1] == 2:
+        return np.column_stack([knots[:, 0], 1.0 - knots[:, 1], knots[:, 1]])
+    return knots

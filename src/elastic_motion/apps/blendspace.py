@@ -40,10 +40,20 @@ from elastic_motion.apps.prepare import PreparedMotions, Source, prepare_motions
 from elastic_motion.apps.statistics import karcher_mean
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, trim
+from elastic_motion.motion.edit import heading_angle
 from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["NOTE_ONE_CYCLE", "NOTE_TEMPLATE", "BlendSpace", "blendspace", "motion_speed"]
+__all__ = [
+    "NOTE_ONE_CYCLE",
+    "NOTE_TEMPLATE",
+    "BlendSpace",
+    "blendspace",
+    "common_template",
+    "motion_speed",
+    "motion_turning_rate",
+    "prepare_space",
+]
 
 #: The gait cycle kept of a motion (``one_cycle=True``), or why it was kept whole.
 NOTE_ONE_CYCLE = "blendspace.one_cycle"
@@ -63,6 +73,17 @@ def motion_speed(motion: Motion) -> float:
     if motion.n_frames < 2:
         return 0.0
     return float(np.linalg.norm(p[-1] - p[0]) * scale / motion.duration)
+
+
+def motion_turning_rate(motion: Motion) -> float:
+    """Mean turning rate of the root about the up axis, degrees per second: the change of its
+    heading (:func:`elastic_motion.motion.edit.heading_angle`, unwrapped frame to frame) from
+    the first frame to the last over the duration. Positive: counter-clockwise seen from
+    above (a right-handed turn about the up axis: a left turn)."""
+    if motion.n_frames < 2:
+        return 0.0
+    heading = np.unwrap(heading_angle(motion.rotations[:, 0], "xyz".index(motion.up_axis)))
+    return float(np.degrees(heading[-1] - heading[0]) / motion.duration)
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,16 +227,8 @@ def blendspace(
         Fewer than 3 motions, different skeletons, parameters not one per motion or not all
         different, options a blend space sets itself.
     """
-    opts = _space_options(with_overrides(BlendOptions, options, overrides))
-    motions = list(motions)
-    if len(motions) < 3:
-        raise OptionError("motions", f"expected at least 3 motions for a blend space; got {len(motions)}")
-    prep = prepare_motions(motions, opts.prepare)
-    _check_one_skeleton(prep)
-    extra_notes: tuple[Note, ...] = ()
-    if one_cycle:
-        prep, extra_notes = _one_cycle_each(prep)
-    x, name = _parameters(params, prep, len(motions))
+    prep, opts, notes = prepare_space(motions, options, one_cycle, overrides)
+    x, name = _parameters(params, prep, len(prep.motions))
     order = np.argsort(x, kind="stable")
     if (np.diff(x[order]) <= 1e-9 * max(1.0, np.abs(x).max())).any():
         raise OptionError("params", f"expected different parameters for the motions; got {x.tolist()}")
@@ -225,23 +238,47 @@ def blendspace(
         labels=tuple(prep.labels[i] for i in order),
         inputs=tuple(prep.inputs[i] for i in order) if prep.inputs else prep.inputs,
     )
-    warp = WarpOptions(method="dp")
-    coarse = motion_curves(sorted_prep, opts.method, fps=warp.sample_fps, smoothing=warp.sample_smoothing)
-    n = max(c.n_points for c in coarse) - 1
-    km = karcher_mean(coarse, n_samples=n, warp=warp)
-    template = Note(
-        NOTE_TEMPLATE,
-        f"one alignment: Karcher mean template of {len(motions)} motions, {km.iterations} iterations, "
-        f"{'converged' if km.converged else 'not converged'}",
-    )
+    warps, template = common_template(sorted_prep, opts.method)
     return BlendSpace(
         prepared=sorted_prep,
         params=x[order],
         param_name=name,
-        warps=tuple(np.asarray(v) for v in km.warps),
+        warps=warps,
         options=opts.replace(prepare=None),
-        notes=(*tuple(prep.notes), *extra_notes, template),
+        notes=(*notes, template),
     )
+
+
+def common_template(prep: PreparedMotions, method: str) -> tuple[tuple[np.ndarray, ...], Note]:
+    """The warps ``phi_k`` (template parameter -> motion ``k``'s) of the prepared motions onto
+    their Karcher mean (equal weights, DP; module docstring, step 3), and a note."""
+    warp = WarpOptions(method="dp")
+    coarse = motion_curves(prep, method, fps=warp.sample_fps, smoothing=warp.sample_smoothing)
+    n = max(c.n_points for c in coarse) - 1
+    km = karcher_mean(coarse, n_samples=n, warp=warp)
+    template = Note(
+        NOTE_TEMPLATE,
+        f"one alignment: Karcher mean template of {len(prep.motions)} motions, {km.iterations} "
+        f"iterations, {'converged' if km.converged else 'not converged'}",
+    )
+    return tuple(np.asarray(v) for v in km.warps), template
+
+
+def prepare_space(
+    motions: Sequence[Source], options: BlendOptions | None, one_cycle: bool, overrides: dict[str, Any]
+) -> tuple[PreparedMotions, BlendOptions, tuple[Note, ...]]:
+    """The motions of a blend space prepared together (one skeleton; one gait cycle each when
+    asked), the space's options checked, and the notes (module docstring, step 1)."""
+    opts = _space_options(with_overrides(BlendOptions, options, overrides))
+    motions = list(motions)
+    if len(motions) < 3:
+        raise OptionError("motions", f"expected at least 3 motions for a blend space; got {len(motions)}")
+    prep = prepare_motions(motions, opts.prepare)
+    _check_one_skeleton(prep)
+    extra_notes: tuple[Note, ...] = ()
+    if one_cycle:
+        prep, extra_notes = _one_cycle_each(prep)
+    return prep, opts, (*tuple(prep.notes), *extra_notes)
 
 
 def _space_options(opts: BlendOptions) -> BlendOptions:

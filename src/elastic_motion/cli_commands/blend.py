@@ -86,10 +86,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--weight-curve",
         default=None,
-        metavar="U:S,...",
-        help="two motions: the weight s of B as a piecewise linear function of the result's normalised "
-        "time u in [0, 1], knots u:s from 0 to 1 (e.g. 0:0,1:1, a transition from A into B; "
-        "default: none, the constant --weight)",
+        metavar="KNOTS|CSV",
+        help="time-varying weights, blended in SRV space: piecewise linear in the result's normalised "
+        "time u in [0, 1], knots from u=0 to u=1: u:w1/w2/.../wK (one weight per motion, each knot's "
+        "summing to 1, e.g. 0:1/0/0,0.5:0/1/0,1:0/0/1), or for two motions u:s (B's weight, e.g. 0:0,1:1, "
+        "a transition from A into B), or a CSV file with a header u,w1,...,wK and one knot per line "
+        "(default: none, the constant --weight/--weights)",
     )
     p.add_argument(
         "--contacts",
@@ -213,9 +215,7 @@ def _summary(res, out, notes) -> str:
             "weights "
             + ", ".join(f"{lab} {w:.3g}" for lab, w in zip(res.prepared.labels, res.weights, strict=True))
             if res.weight_curve is None
-            else f"weight of {res.prepared.labels[1]} by normalised time: "
-            + ", ".join(f"{u:g}:{w:g}" for u, w in res.weight_curve)
-            + f" (mean {res.weights[1]:.3g})"
+            else _weight_curve_line(res.weight_curve, res.weights, res.prepared.labels)
         ),
     ]
     if res.landmarks:
@@ -267,3 +267,22 @@ def _summary(res, out, notes) -> str:
         )
     lines += [f"note: {n}" for n in notes]
     return "\n".join(lines)
+
+
+def _weight_curve_line(knots, weights, labels) -> str:
+    """The report's line of a weight curve: B's weight ``(u, s)`` or every motion's."""
+    if knots.shape[1] == 2:
+        return (
+            f"weight of {labels[1]} by normalised time: "
+            + ", ".join(f"{u:g}:{w:g}" for u, w in knots)
+            + f" (mean {weights[1]:.3g})"
+        )
+    return (
+        "weights of "
+        + "/".join(labels)
+        + " by normalised time: "
+        + ", ".join(f"{r[0]:g}:" + "/".join(f"{x:g}" for x in r[1:]) for r in knots)
+        + " (mean "
+        + "/".join(f"{x:.3g}" for x in weights)
+        + ")"
+    )

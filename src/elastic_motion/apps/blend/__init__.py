@@ -99,14 +99,20 @@ taking the one :class:`~elastic_motion.apps.blend_options.BlendOptions`:
    without changing it; ``"off"`` does neither.
 9. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
 
-Time-varying weights (``weight_curve``, two motions; paper 000 sec. 5.3)
-----------------------------------------------------------------------
-``s(u)`` piecewise linear in the result's normalised time ``u``: the poses are the frame-wise
-geodesics between ``cA(u)`` and ``cB(phi(u))`` at ``s(u)`` (a constant-weight SRV blend
-integrates blended velocities from a blended start, which would not end on B's pose), the
-root integrates the blended root velocities ``(1 - s) cA' + s (cB o phi)'`` from the
-blended start, and the clock runs at ``dT/du = (1 - s(u)) d_A + s(u) d_B phi'(u)``. So
-``0:0,1:1`` starts on A's first pose and ends on B's last, a transition.
+Time-varying weights (``weight_curve``; paper 000 sec. 5.3)
+-----------------------------------------------------------
+``w_k(u)`` piecewise linear in the result's normalised time ``u`` (knots ``u:w1/.../wK``, an
+array ``(M, K + 1)``, a CSV file, or for two motions B's weight ``u:s``;
+:func:`elastic_motion.apps.blend_options.parse_weight_curve`), for any ``K >= 2`` motions,
+blended in SRV space on the warps of stage 2 (two motions: B's onto A; more: the weighted
+Karcher template at the curve's mean weights): ``R^{-1}(sum_k w_k(u) (q_k * phi_k)(u))``
+started at the start weighted at ``w(0)`` (:func:`elastic_motion.curves.weighted_blend` with
+knots), anchored at the per-frame weighted mean pose, on the clock ``dT/du = sum_k w_k(u)
+d_k phi_k'(u)`` (:mod:`.transitions`). Constant weights give the constant-weight blend (with
+``trim_ends=False``: a weight curve's ends are not trimmed) and ``w = e_k`` input ``k`` on its
+own clock. ``0:0,1:1`` is a transition from A into B: it starts on A's first pose and ends
+near B's last, within the SRV blend's drift (until issue 33 the poses were frame-wise
+geodesics at ``s(u)``, which end on B's exactly but are no SRV blend).
 
 **Root translation.** The root position is a coordinate of the curve in both
 representations (``R^3`` factor of ``R^3 x SO(3)^J``; the first three coordinates of the
@@ -267,7 +273,7 @@ def blend_motions(
         landmark_pairing=None if warps.pairing is None else warps.pairing.summary(),
         pose_anchor_deg=anchored.pose_deg,
         height_anchor_m=anchored.height_m,
-        weight_curve=inputs.knots,
+        weight_curve=None if opts.weight_curve is None else np.array(opts.weight_curve),
         options=opts,
         trimmed=clock.trimmed,
     )

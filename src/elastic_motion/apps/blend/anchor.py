@@ -3,7 +3,8 @@
 The SRV blend integrates blended velocities, so its joint angles drift slowly from the
 aligned inputs' poses (on Bandai normal x tired, knees bent backwards by up to 16 degrees in
 the Lie blend and 29 in the Euler one, where both inputs stand straight). With ``anchor``
-(``"lie"`` and ``"euler-elastic"`` with constant weights in ``[0, 1]``) the slow part
+(``"lie"`` and ``"euler-elastic"`` with weights in ``[0, 1]``, constant or a weight curve's
+per frame) the slow part
 (Gaussian, :data:`POSE_ANCHOR` s) of each joint's difference from the inputs' weighted mean
 pose at the matched times is removed: the geodesic mean of the local rotations for
 ``"lie"`` (:func:`anchor_poses`), the mean of the Euler angles, the method's own space, for
@@ -23,7 +24,7 @@ import numpy as np
 
 from elastic_motion.apps.blend.curves import BlendedCurve, inputs_mean
 from elastic_motion.apps.blend.inputs import BlendInputs
-from elastic_motion.apps.blend.sampling import blend_rotations, sample_linear, sample_rotations
+from elastic_motion.apps.blend.sampling import blend_rotations, frame_weight, sample_linear, sample_rotations
 from elastic_motion.apps.blend.timing import Clock
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.curves import DiscreteCurve
@@ -80,7 +81,8 @@ def anchor_poses(
     and likewise of its root height's difference from the inputs' weighted mean root height.
 
     ``inputs``: the prepared inputs' curve motions (same joints as ``body``); ``times``: each
-    input's time (s) at every output frame; ``w``: the blend weights ``(K,)``. Returns the
+    input's time (s) at every output frame; ``w``: the blend weights ``(K,)`` or per output
+    frame ``(F, K)`` (a weight curve). Returns the
     anchored motion, the largest rotation correction in degrees and the largest height
     correction (``body``'s length units). The root's horizontal path is kept.
     """
@@ -89,8 +91,8 @@ def anchor_poses(
     up = _AXES.index(body.up_axis)
     target = body.root_translation.copy()  # the horizontal path kept, the mean height
     target[:, up] = sum(
-        wk * sample_linear(m.root_translation[:, up], m.fps, t)
-        for wk, m, t in zip(w, inputs, times, strict=True)
+        frame_weight(w, k, body.n_frames, 0) * sample_linear(m.root_translation[:, up], m.fps, t)
+        for k, (m, t) in enumerate(zip(inputs, times, strict=True))
     )
     mean = body.replace(rotations=blend_rotations(rots, w), root_translation=target)
     out = smooth_change(body, mean, POSE_ANCHOR * body.fps)
@@ -121,21 +123,20 @@ def anchor_blend(
 ) -> AnchoredBody:
     """Stage 5 (module docstring): the curve anchored (Euler) or the motion anchored (Lie)."""
     prep, w = inputs.prepared, inputs.weights
-    # a weight curve interpolates the poses frame by frame (transitions): nothing drifts
-    anchorable = options.anchor and inputs.knots is None and options.method != "euler-linear"
+    anchorable = options.anchor and options.method != "euler-linear"
     anchored = anchorable and bool(((w >= 0.0) & (w <= 1.0)).all())
     rep = options.representation
     like = prep.curve_motion(0)
     curve = blended.curve
     pose = height = None
     if anchored and not rep.is_lie:
-        mean = inputs_mean(blended.inputs, w, clock.local_u)
+        mean = inputs_mean(blended.inputs, clock.weights, clock.local_u)
         values, pose, height = anchor_euler(curve.values, mean, prep.fps, _AXES.index(like.up_axis))
         curve = DiscreteCurve(values, curve.group)
     body = rep.from_curve(curve, like, fps=prep.fps)
     if anchored and rep.is_lie:
         curve_inputs = [prep.curve_motion(k) for k in range(len(prep.motions))]
-        body, pose, height = anchor_poses(body, curve_inputs, clock.times, w)
+        body, pose, height = anchor_poses(body, curve_inputs, clock.times, clock.weights)
     if height is not None and like.metres_per_unit is not None:
         height *= like.metres_per_unit
     return AnchoredBody(body, pose, height, _anchor_notes(anchorable, pose, height, like, rep.is_lie))

@@ -17,7 +17,6 @@ import numpy as np
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend.sampling import (
     blend_rotations,
-    blend_rotations_varying,
     frame_weight,
     sample_linear,
     sample_rotations,
@@ -74,9 +73,7 @@ def assemble_motion(
     extra = np.array([names.index(n) for n in prep.extra_joints], dtype=int)
     if extra.size:
         rots = [sample_rotations(m, extra, t) for m, t in zip(ms, clock.times, strict=True)]
-        rotations[:, extra] = (
-            blend_rotations(rots, w) if clock.s is None else blend_rotations_varying(rots, clock.s)
-        )
+        rotations[:, extra] = blend_rotations(rots, clock.weights)
     label = " + ".join(f"{wk:.3g} {lab}" for wk, lab in zip(w, prep.labels, strict=True))
     return ms[0].replace(
         skeleton=out_sk,

@@ -7,7 +7,9 @@ frame rate, sampled at the output clock.
   SRVs on the template's warps).
 * ``"euler-linear"``: ``(1 - s) cA(u) + s cB(phi(u))``, the inputs' weighted mean at the
   matched times (paper 001 Fig. 5 (a) with a warp or without).
-* A weight curve: the transition of :mod:`elastic_motion.apps.blend.transitions`.
+* A weight curve (:mod:`elastic_motion.apps.blend.transitions`): the same at the weights
+  ``w_k(u)`` of each output frame, ``R^{-1}(sum_k w_k(u) (q_k * phi_k)(u))`` from the start
+  weighted at ``w(0)`` (``weighted_blend`` with knots), or the inputs' mean at those weights.
 """
 
 from __future__ import annotations
@@ -19,8 +21,8 @@ import numpy as np
 
 from elastic_motion.apps.align import motion_curves
 from elastic_motion.apps.blend.inputs import BlendInputs
+from elastic_motion.apps.blend.sampling import frame_weight
 from elastic_motion.apps.blend.timing import Clock
-from elastic_motion.apps.blend.transitions import transition_curve
 from elastic_motion.apps.blend.warps import IDENTITY_WARP, Warps
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.curves import DiscreteCurve, weighted_blend
@@ -46,19 +48,22 @@ class BlendedCurve:
 
 def inputs_mean(curves: Sequence[DiscreteCurve], w: np.ndarray, local_u: Sequence[np.ndarray]) -> np.ndarray:
     """The inputs' weighted mean at the matched times in ``R^d``, ``(F, d)``: the
-    ``"euler-linear"`` blend, and the pose the Euler elastic blend is anchored to."""
-    return sum(wk * c.evaluate(lu) for wk, c, lu in zip(w, curves, local_u, strict=True))
+    ``"euler-linear"`` blend, and the pose the Euler elastic blend is anchored to. ``w``: the
+    weights ``(K,)`` or per output frame ``(F, K)``."""
+    n = local_u[0].shape[0]
+    return sum(
+        frame_weight(w, k, n, 1) * c.evaluate(lu)
+        for k, (c, lu) in enumerate(zip(curves, local_u, strict=True))
+    )
 
 
 def blend_curves(inputs: BlendInputs, warps: Warps, clock: Clock, options: BlendOptions) -> BlendedCurve:
     """Stage 4 (module docstring)."""
     full = tuple(motion_curves(inputs.prepared, options.method))
-    if inputs.knots is not None:
-        curve = transition_curve(full, warps.vertices[1], inputs.knots, clock.u)
-    elif options.method == "euler-linear":
-        curve = DiscreteCurve(inputs_mean(full, inputs.weights, clock.local_u), full[0].group)
+    if options.method == "euler-linear":
+        curve = DiscreteCurve(inputs_mean(full, clock.weights, clock.local_u), full[0].group)
     else:
         phis = [None if v is IDENTITY_WARP else v for v in warps.vertices]
-        blended = weighted_blend(full, inputs.weights, phis)
+        blended = weighted_blend(full, inputs.weights if inputs.knots is None else inputs.knots, phis)
         curve = DiscreteCurve(blended.evaluate(clock.u), blended.group)
     return BlendedCurve(curve, full)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
-from elastic_motion.apps.blend_options import BlendOptions
+from elastic_motion.apps.blend_options import BlendOptions, knot_weights
 from elastic_motion.apps.cycles import CycleMatch, gait_cycles, match_cycles
 from elastic_motion.apps.prepare import PreparedMotions, Source, prepare_motions
 from elastic_motion.errors import OptionError
@@ -42,8 +42,8 @@ class BlendInputs:
         The inputs after preparation (cut to the matched cycles with ``cycles``).
     weights : ndarray, shape (K,)
         One weight per input, summing to 1 (a weight curve's mean over the normalised time).
-    knots : ndarray, shape (M, 2), or None
-        The weight curve's knots ``(u, s)``; None for constant weights.
+    knots : ndarray, shape (M, K + 1), or None
+        The weight curve's knots ``(u, w_1, ..., w_K)``; None for constant weights.
     landmarks : Any
         What the warp meets: the options' landmarks, or the matched cycles' pairs (s).
     warp : WarpOptions
@@ -110,14 +110,20 @@ def check_weights(weights: Any, k: int, extrapolate: bool) -> np.ndarray:
 
 
 def _weights_and_knots(weights: Any, k: int, options: BlendOptions) -> tuple[np.ndarray, np.ndarray | None]:
-    """The weights ``(K,)`` and the weight curve's knots (or None) of ``k`` motions."""
+    """The weights ``(K,)`` (a weight curve's: their means over the normalised time) and the
+    weight curve's knots ``(M, K + 1)`` (or None) of ``k`` motions."""
     if options.weight_curve is None:
         return check_weights(weights, k, options.extrapolate), None
-    knots = np.array(options.weight_curve)
-    if k != 2:
-        raise OptionError("weight_curve", f"expected two motions (a transition from A into B); got {k}")
-    mean_s = float(np.trapezoid(knots[:, 1], knots[:, 0]))
-    return check_weights(np.array([1.0 - mean_s, mean_s]), k, options.extrapolate), knots
+    knots = knot_weights(np.array(options.weight_curve))
+    if knots.shape[1] != k + 1:
+        given = (
+            "(u, s): two motions" if len(options.weight_curve[0]) == 2 else f"{knots.shape[1] - 1} weights"
+        )
+        raise OptionError(
+            "weight_curve", f"expected knots with one weight per motion ({k}); got knots {given}"
+        )
+    mean = np.trapezoid(knots[:, 1:], knots[:, 0], axis=0)
+    return check_weights(mean / mean.sum(), k, options.extrapolate), knots
 
 
 def prepare_inputs(
@@ -130,8 +136,8 @@ def prepare_inputs(
     ValueError
         Fewer than 2 motions.
     OptionError
-        Weights and a weight curve both; weights (:func:`check_weights`); landmarks, a weight
-        curve or cycles with more than two motions.
+        Weights and a weight curve both; weights (:func:`check_weights`); a weight curve not
+        of one weight per motion; landmarks or cycles with more than two motions.
     """
     if options.weight_curve is not None and weights is not None:
         raise OptionError("weight_curve", "expected weights or a weight curve, not both")

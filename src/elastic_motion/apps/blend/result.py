@@ -78,8 +78,9 @@ class BlendResult:
     height_anchor_m : float or None
         The largest correction of the root height by the same anchoring (metres; length
         units when the motion's are unknown); None when not anchored.
-    weight_curve : ndarray, shape (M, 2), or None
-        The knots ``(u, s)`` of a weight curve (``weight_curve=``); None for constant weights.
+    weight_curve : ndarray, shape (M, 2) or (M, K + 1), or None
+        The knots of a weight curve as given (``weight_curve=``): ``(u, s)`` or
+        ``(u, w_1, ..., w_K)``; None for constant weights.
     options : BlendOptions
         The options of the blend.
     trimmed : tuple of (int, int)

@@ -15,7 +15,6 @@ from elastic_motion.motion import Motion
 
 __all__ = [
     "blend_rotations",
-    "blend_rotations_varying",
     "frame_weight",
     "sample_linear",
     "sample_rotations",
@@ -45,21 +44,26 @@ def sample_linear(arr: np.ndarray, fps: float, times: np.ndarray) -> np.ndarray:
 
 
 def blend_rotations(rots: list[np.ndarray], w: np.ndarray) -> np.ndarray:
-    """Weighted geodesic blend of rotation stacks ``(N, k, 3, 3)`` (two: geodesic point,
-    extrapolation allowed; more: weighted Karcher mean, batched)."""
+    """Weighted geodesic blend of rotation stacks ``(N, k, 3, 3)`` at weights ``w``: ``(K,)``
+    (two: geodesic point, extrapolation allowed; more: weighted Karcher mean, batched) or per
+    frame, ``(N, K)`` (a weight curve: two, the geodesic point at each frame's weight; more,
+    each distinct row's Karcher mean)."""
+    w = np.asarray(w, dtype=np.float64)
     if len(rots) == 2:
-        return rots[0] @ _SO3.exp(w[1] * _SO3.log(np.swapaxes(rots[0], -1, -2) @ rots[1]))
+        s = w[1] if w.ndim == 1 else w[:, 1].reshape(-1, *([1] * (rots[0].ndim - 2)))
+        return rots[0] @ _SO3.exp(s * _SO3.log(np.swapaxes(rots[0], -1, -2) @ rots[1]))
+    if w.ndim == 2:
+        rows, which = np.unique(w, axis=0, return_inverse=True)
+        out = np.empty_like(rots[0])
+        for i, row in enumerate(rows):
+            at = np.flatnonzero(which.reshape(-1) == i)
+            out[at] = blend_rotations([r[at] for r in rots], row)
+        return out
     shape = rots[0].shape
     n = int(np.prod(shape[:-2]))
     g = PowerGroup(SO3(), n)
     pts = np.stack([r.reshape(n, 3, 3) for r in rots])
     return g.weighted_mean(pts, w).reshape(shape)
-
-
-def blend_rotations_varying(rots: list[np.ndarray], s: np.ndarray) -> np.ndarray:
-    """Geodesic blend of two rotation stacks ``(N, k, 3, 3)`` at per-frame weights ``s (N,)``."""
-    rel = _SO3.log(np.swapaxes(rots[0], -1, -2) @ rots[1])
-    return rots[0] @ _SO3.exp(s[:, None, None] * rel)
 
 
 def frame_weight(wf: np.ndarray, k: int, n: int, ndim_extra: int) -> np.ndarray | float:

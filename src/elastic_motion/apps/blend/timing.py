@@ -6,7 +6,7 @@ sampled at A's frame rate (:func:`blended_clock`). So ``s = 0`` gives A and ``s 
 B, each at its own timing. If extrapolation makes ``T`` decrease somewhere, its rate is held
 there at :data:`CLOCK_FLOOR` of the mean rate and the clock rescaled to the blended duration;
 a note says so. A weight curve runs its own clock
-(:func:`elastic_motion.apps.blend.transitions.transition_clock`).
+(:func:`elastic_motion.apps.blend.transitions.weighted_clock`).
 
 **Trimmed ends** (``trim_ends=True``, the default; :func:`held_ends`): where the warp holds an
 input still while another moves on, at a clip's start or end, the inputs are not in the same
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion.apps.blend.inputs import BlendInputs
-from elastic_motion.apps.blend.transitions import transition_clock, weight_curve_note
+from elastic_motion.apps.blend.transitions import frame_weights, weight_curve_note, weighted_clock
 from elastic_motion.apps.blend.warps import Warps
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.errors import OptionError
@@ -78,8 +78,6 @@ class Clock:
         Each input's time (s) at the output frames.
     weights : ndarray, shape (K,) or (F, K)
         The weights of the inputs, per output frame with a weight curve.
-    s : ndarray, shape (F,), or None
-        The weight curve's ``s(u)`` at the output frames; None for constant weights.
     notes : tuple of Note
     trimmed : tuple of (int, int)
         Frames of the untrimmed clock cut at the start and at the end (``(0, 0)``: none).
@@ -89,7 +87,6 @@ class Clock:
     local_u: tuple[np.ndarray, ...]
     times: tuple[np.ndarray, ...]
     weights: np.ndarray
-    s: np.ndarray | None
     notes: tuple[Note, ...]
     trimmed: tuple[int, int] = (0, 0)
 
@@ -193,7 +190,6 @@ def _trim(clock: Clock, fps: float) -> Clock:
         tuple(lu[keep] for lu in clock.local_u),
         tuple(t[keep] for t in clock.times),
         clock.weights,
-        None,
         (*clock.notes, note),
         (head, tail),
     )
@@ -205,16 +201,15 @@ def output_clock(inputs: BlendInputs, warps: Warps, options: BlendOptions) -> Cl
     already)."""
     prep, durations, knots = inputs.prepared, inputs.durations, inputs.knots
     if knots is not None:
-        u = transition_clock(warps.vertices, knots, durations, prep.fps)
-        notes: tuple[Note, ...] = (weight_curve_note(knots),)
+        u = weighted_clock(warps.vertices, knots, durations, prep.fps)
+        notes: tuple[Note, ...] = (weight_curve_note(np.array(options.weight_curve)),)
     else:
         u, text = blended_clock(warps.vertices, inputs.weights, durations, prep.fps)
         notes = (Note(NOTE_TIMING, text),) if text else ()
     local_u = tuple(np.clip(np.interp(u, v[:, 0], v[:, 1]), 0.0, 1.0) for v in warps.vertices)
-    s = None if knots is None else np.interp(u, knots[:, 0], knots[:, 1])
-    frame_weights = inputs.weights if s is None else np.column_stack([1.0 - s, s])
+    weights = inputs.weights if knots is None else frame_weights(knots, u)
     times = tuple(lu * d for lu, d in zip(local_u, durations, strict=True))
-    clock = Clock(u, local_u, times, frame_weights, s, notes)
+    clock = Clock(u, local_u, times, weights, notes)
     w = inputs.weights
     trim = options.trim_ends and knots is None and inputs.cycles is None and bool(((w >= 0) & (w <= 1)).all())
     return _trim(clock, prep.fps) if trim else clock
