@@ -99,6 +99,27 @@ def synthetic_deepmimic() -> str:
     return json.dumps({"Loop": "wrap", "Frames": frames}, indent=1)
 
 
+def synthetic_gltf() -> list[Seed]:
+    """The synthetic BVH written as ``.gltf`` (JSON, buffer inline) and ``.glb`` (binary), or
+    nothing without the ``gltf`` extra."""
+    import importlib.util
+    import tempfile
+
+    if importlib.util.find_spec("pygltflib") is None:
+        return []
+    from elastic_motion.motion import read_bvh, write_motion
+
+    with tempfile.TemporaryDirectory() as d:
+        src = Path(d) / "synthetic.bvh"
+        src.write_text(synthetic_bvh())
+        motion = read_bvh(src)
+        out = []
+        for ext in (".gltf", ".glb"):
+            write_motion(motion, Path(d) / f"synthetic{ext}")
+            out.append(Seed(f"synthetic{ext}", (Path(d) / f"synthetic{ext}").read_bytes()))
+    return out
+
+
 @dataclass(frozen=True)
 class Seed:
     """A seed file: its name (the extension selects the reader) and its bytes."""
@@ -113,6 +134,7 @@ def load_seeds(mocap: Path | None, frames: int = 12) -> list[Seed]:
     seeds = [
         Seed("synthetic.bvh", synthetic_bvh().encode()),
         Seed("synthetic_dm.txt", synthetic_deepmimic().encode()),
+        *synthetic_gltf(),
     ]
     if mocap is None or not Path(mocap).is_dir():
         return seeds
@@ -323,11 +345,13 @@ def mutate(data: bytes, rng: np.random.Generator) -> tuple[bytes, list[str]]:
 
 def read_case(path: Path, asf: Path | None = None):
     """Read ``path`` with the reader its extension selects (an AMC with the ASF ``asf``)."""
-    from elastic_motion.motion import read_amc, read_asf, read_bvh, read_deepmimic
+    from elastic_motion.motion import read_amc, read_asf, read_bvh, read_deepmimic, read_motion
 
     ext = path.suffix.lower()
     if ext == ".bvh":
         return read_bvh(path)
+    if ext in (".gltf", ".glb"):
+        return read_motion(path)
     if ext == ".asf":
         return read_asf(path)
     if ext == ".amc":

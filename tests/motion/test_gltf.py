@@ -257,6 +257,19 @@ def _view_past_buffer(doc):
     doc["bufferViews"][acc["bufferView"]]["byteLength"] = 10**12
 
 
+def _zero_quaternion(doc):
+    """One rotation key (x, y, z, w) = 0: no rotation at all (found by the mutation fuzzer: the
+    slerp between two such keys divided 0 by 0)."""
+    anim = doc["animations"][0]
+    ch = next(c for c in anim["channels"] if c["target"]["path"] == "rotation")
+    acc = doc["accessors"][anim["samplers"][ch["sampler"]]["output"]]
+    view = doc["bufferViews"][acc["bufferView"]]
+    data = bytearray(buffer_bytes(doc))
+    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0) + 16  # key 1
+    data[start : start + 16] = bytes(16)
+    set_buffer(doc, bytes(data))
+
+
 def _integer_times(doc):
     doc["accessors"][doc["animations"][0]["samplers"][0]["input"]]["componentType"] = 5123
 
@@ -301,6 +314,7 @@ BAD = [
     (_huge_accessor, "to fit its bufferView"),
     (_view_past_buffer, "to lie inside buffers[0]"),
     (_integer_times, "expected float components"),
+    (_zero_quaternion, "expected unit quaternions"),
     (_sparse, "sparse"),
     (_interpolation, "LINEAR, STEP or CUBICSPLINE"),
     (_glTF1, "glTF 2.0"),
@@ -343,6 +357,17 @@ def test_bad_glb_container(tmp_path, synth, cut):
     path = tmp_path / "bad.glb"
     path.write_bytes(bytes(data))
     with pytest.raises(ParseError, match=expected) as info:
+        read_gltf(path)
+    assert info.value.path == str(path)
+
+
+def test_an_integer_too_long_for_python_is_a_parse_error(tmp_path, synth):
+    """Python's JSON refuses integers over 4,300 digits with a plain ValueError (found by the
+    mutation fuzzer): it must end as a ParseError naming the file."""
+    text = write_gltf(synth, tmp_path / "walk.gltf").read_text()
+    path = tmp_path / "long.gltf"
+    path.write_text(text.replace('"2.0"', '"2.0", "n": ' + "9" * 5000, 1))
+    with pytest.raises(ParseError, match="expected glTF 2.0 JSON") as info:
         read_gltf(path)
     assert info.value.path == str(path)
 

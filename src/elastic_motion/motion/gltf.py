@@ -151,7 +151,7 @@ def _load_document(path: str) -> tuple[Any, bytes | None]:
             raise ParseError(path, None, f"expected glTF JSON (UTF-8) or a binary .glb; {exc}") from None
     try:
         raw = json.loads(text)
-    except (json.JSONDecodeError, RecursionError) as exc:
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, or an integer of > 4300 digits
         line = getattr(exc, "lineno", None)
         raise ParseError(path, line, f"expected glTF 2.0 JSON ({exc})") from None
     asset = raw.get("asset") if isinstance(raw, dict) else None
@@ -502,6 +502,14 @@ def _channels(src: _Source, a: int, included: set[int]) -> list[_Channel]:
                     f"{where}: expected unit scale on the skeleton's joints; got up to {values.max():g}"
                 )
             continue
+        if target.path == "rotation":  # the key values (CUBICSPLINE: not its tangents)
+            keys = values[1::3] if interp == "CUBICSPLINE" else values
+            norms = np.linalg.norm(keys, axis=1)
+            if keys.size and not (norms > 1e-6).all():
+                k = int(np.argmin(norms))
+                raise src.error(
+                    f"{where}: expected unit quaternions (x, y, z, w); key {k} is {keys[k].tolist()}"
+                )
         out.append(_Channel(target.node, target.path, times, values, interp))
     return out
 
