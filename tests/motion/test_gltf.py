@@ -367,7 +367,7 @@ def test_an_integer_too_long_for_python_is_a_parse_error(tmp_path, synth):
     text = write_gltf(synth, tmp_path / "walk.gltf").read_text()
     path = tmp_path / "long.gltf"
     path.write_text(text.replace('"2.0"', '"2.0", "n": ' + "9" * 5000, 1))
-    with pytest.raises(ParseError, match="expected glTF 2.0 JSON") as info:
+    with pytest.raises(ParseError, match=r"expected glTF 2\.0 JSON") as info:
         read_gltf(path)
     assert info.value.path == str(path)
 
