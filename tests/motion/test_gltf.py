@@ -196,7 +196,14 @@ def test_cli_blend_reads_and_writes_gltf(tmp_path, synth, capsys):
     out = tmp_path / "ab.glb"
     assert main(["blend", str(a), str(b), "-o", str(out), "--warp", "none", "--units", "cm"]) == 0
     # the head's two BVH rotation channels cannot hold the blend; glTF's quaternions can
-    assert "fewer than three rotation channels" not in "".join(capsys.readouterr())
+    said = "".join(capsys.readouterr())
+    assert "fewer than three rotation channels" not in said and "glTF's unit" not in said
+    # a unit asked for the output does not apply to glTF (metres by its specification): said
+    cm = ["--units-out", "cm"]
+    assert main(["blend", str(a), str(b), "-o", str(tmp_path / "c.glb"), "--warp", "none", *cm]) == 0
+    assert "written in metres, glTF's unit by its specification (a BVH would be in cm)" in "".join(
+        capsys.readouterr()
+    )
     assert (
         main(["blend", str(a), str(b), "-o", str(tmp_path / "ab.bvh"), "--warp", "none", "--units", "cm"])
         == 0

@@ -59,6 +59,7 @@ import numpy as np
 
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import (
+    GLTF_EXTENSIONS,
     UNITS,
     Motion,
     Skeleton,
@@ -91,6 +92,7 @@ __all__ = [
     "JOINTS_REORDERED",
     "MAX_EXTENT_M",
     "OUTPUT_CHANNELS",
+    "OUTPUT_GLTF_METRES",
     "PLACED",
     "RESAMPLED",
     "REST_POSE_CHANGED",
@@ -155,6 +157,9 @@ FINGERS_NOT_CURVES = "prepare.finger_joints"
 #: Output: joints whose rotation channels cannot hold the result's rotations, written as the
 #: nearest ones they hold (data ``joints``: name -> largest angle between them, degrees).
 OUTPUT_CHANNELS = "prepare.output_channels"
+#: Output: a glTF file is written in metres, the format's unit, where a BVH would have been
+#: written in the output unit (data ``unit_m``: that unit's size in metres).
+OUTPUT_GLTF_METRES = "prepare.output_gltf_metres"
 
 
 # ------------------------------------------------------------------------------------------
@@ -1107,15 +1112,26 @@ def _check_finite(m: Motion, name: str) -> None:
             )
 
 
-def output_notes(motion: Motion) -> tuple[Note, ...]:
-    """What writing ``motion`` as BVH with its skeleton's channels changes, as notes.
+def output_notes(
+    motion: Motion, path: str | os.PathLike[str] | None = None, metres_per_unit: float | None = None
+) -> tuple[Note, ...]:
+    """What writing ``motion`` to ``path`` changes, as notes.
 
-    A joint with one or two rotation channels (``Xrotation Zrotation``) holds only the
-    rotations of their family; a result (a blend, a loop) may leave it, and the writer
-    then keeps the joint's channels and writes the nearest rotation they hold
-    (:func:`elastic_motion.motion.rotation_channel_fit`). Empty when nothing changes (a
-    motion read from a BVH file, or any motion whose joints have three rotation channels).
+    BVH (``path`` None or ``.bvh``): a joint with one or two rotation channels
+    (``Xrotation Zrotation``) holds only the rotations of their family; a result (a blend, a
+    loop) may leave it, and the writer then keeps the joint's channels and writes the nearest
+    rotation they hold (:func:`elastic_motion.motion.rotation_channel_fit`). glTF (``.gltf``,
+    ``.glb``): every rotation is a quaternion, but lengths are metres by the format's
+    specification, so an output unit ``metres_per_unit`` other than 1 (the first input's, or
+    ``units_out``) does not apply. Empty when nothing changes.
     """
+    if path is not None and Path(path).suffix.lower() in GLTF_EXTENSIONS:
+        if metres_per_unit is None or abs(metres_per_unit - 1.0) < 1e-12:
+            return ()
+        names = [k for k, v in UNITS.items() if abs(v - metres_per_unit) < 1e-12]
+        unit = names[0] if names else f"{metres_per_unit:g} m"
+        text = f"written in metres, glTF's unit by its specification (a BVH would be in {unit})"
+        return (Note(OUTPUT_GLTF_METRES, text, {"unit_m": metres_per_unit}),)
     fit = rotation_channel_fit(motion)
     if not fit:
         return ()

@@ -89,13 +89,11 @@ def prepare_inputs(args: argparse.Namespace, paths: Sequence[str]) -> Any:
 def write_motion(motion: Any, prepared: Any, path: str | os.PathLike[str], inputs: Sequence[str]) -> tuple:
     """Write a result in the output unit (:func:`elastic_motion.apps.prepare.output_motion`) as
     ``.bvh``, ``.gltf`` or ``.glb`` (:func:`elastic_motion.motion.write_motion`: glTF is always
-    metres); the notes of the writing (:func:`elastic_motion.apps.prepare.output_notes`, BVH
-    only)."""
+    metres); the notes of the writing (:func:`elastic_motion.apps.prepare.output_notes`)."""
 
     out = output_motion(motion, prepared.units_out)
     write_motion_file(out, path, protected=list(inputs))
-    # glTF holds every rotation as a quaternion: the notes on BVH channels do not apply
-    return output_notes(out) if os.fspath(path).lower().endswith(".bvh") else ()
+    return output_notes(out, path, prepared.units_out)
 
 
 def _parse_range(text: str) -> tuple[float | None, float | None] | None:

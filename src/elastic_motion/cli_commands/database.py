@@ -463,7 +463,7 @@ def run_mean(args: argparse.Namespace) -> int:
     frames = f"{body['frames']} frames at {body['fps']:g} fps"
     lines.append(f"{state}; mean of {len(args.files)} motions -> {path} ({frames})")
     # a joint with 1-2 rotation channels is written as the nearest rotation it holds: say so
-    channel_notes = output_notes(res.motion)
+    channel_notes = output_notes(res.motion, path)
     body["output_notes"] = [str(n) for n in channel_notes]
     lines += [f"note: {n}" for n in channel_notes]
     emit(args, "mean", body, args.files, outputs, lines)

@@ -65,6 +65,7 @@ from elastic_motion.motion.skeleton import UNITS, Motion, Skeleton
 
 __all__ = [
     "EULER",
+    "GLTF_EXTENSIONS",
     "LIE",
     "METHODS",
     "UNITS",
