@@ -130,7 +130,8 @@ def add_input_options(p: argparse.ArgumentParser, *, several: bool = True, write
         "--units-out",
         default=None,
         metavar="UNIT",
-        help="length unit of the written BVH: m, cm, mm, inch or cmu (default: the unit of the first input); glTF is always metres (its specification)",
+        help="length unit of the written BVH: m, cm, mm, inch or cmu (default: the unit of the first "
+        "input); glTF is always metres (its specification)",
     )
 
 
