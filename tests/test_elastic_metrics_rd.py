@@ -140,7 +140,8 @@ def test_invariances_rotation_translation_reparametrisation(a, b):
     # c1 o gamma: the same samples on other parameters; the distance to c1 is 0, to c0 unchanged
     tg = np.linspace(0, 1, 61) ** 1.3
     assert elastic_ab_distance(C1, C1, a, b, t1=tg).distance < 1e-6
-    assert elastic_ab_distance(C0, C1, a, b, t1=tg).distance == pytest.approx(d, rel=1e-2)
+    # unchanged up to the solver: its DP grids (the break points) differ
+    assert elastic_ab_distance(C0, C1, a, b, t1=tg).distance == pytest.approx(d, rel=2e-2)
 
 
 def test_srv_action_of_the_transform():
@@ -190,3 +191,20 @@ def test_bad_input():
         elastic_ab_distance(C0, C1, 0.0, 0.5)
     with pytest.raises(ValueError, match="length 0"):
         elastic_ab_distance(np.ones((5, 3)), C1, 1.0, 0.5)
+
+
+@pytest.mark.parametrize(("a", "b"), [(1.0, 1.0), (2.0, 0.5)])
+def test_the_warp_minimises_the_exact_cone_energy(a, b):
+    """The solver runs on factors of the cone's cross term: no small change of the warp found
+    lowers the exact distance (the chordal F_{a,b} warp is 0.4-5 % off on these curves)."""
+    r = elastic_ab_distance(C0, C1, a, b)
+    v = r.warp.vertices
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        w = v.copy()
+        w[1:-1, 1] += 2e-3 * rng.normal(size=len(v) - 2) * np.minimum(np.diff(v[:-1, 1]), np.diff(v[1:, 1]))
+        assert cone_warp_distance(C0, C1, a, b, w) >= r.distance * (1 - 1e-9)
+    if a <= 2 * b:  # the warp of the chordal distance of the R^(d+1) transform: worse
+        q0, q1 = ab_cone_transform(C0, a, b)[0], ab_cone_transform(C1, a, b)[0]
+        chordal = optimal_warp(q0, q1).vertices
+        assert cone_warp_distance(C0, C1, a, b, chordal) > r.distance * 1.002

@@ -57,16 +57,20 @@ segments of the developed cone; through the apex when ``lambda alpha >= pi``, po
   curves ``||F(c0) - F(c1)||_{C}`` (the closed form above, cell by cell), the geodesic between
   ``c0`` and ``c1 o phi`` (:func:`elastic_ab_geodesic`: its ``G^{a,b}`` length is the
   reported distance), all invariant under rotations of ``R^d`` and translations;
-* approximate: the warp.  The transform has the SRV action ``q(c o phi) = sqrt(phi') q(c) o
-  phi`` (exact for piecewise linear curves and warps), so :func:`elastic_motion.warp.optimal_warp`
-  applies unchanged to the array ``R (lambda u, sqrt(1 - lambda^2))`` (= ``F_{a,b}``) for
-  ``lambda <= 1``, ``R u`` for ``lambda > 1``: it minimises their *chordal* ``L^2`` distance,
-  which equals the cone distance for ``a = 2 b`` (the SRV case, exact) and agrees with it to
-  second order in ``alpha`` otherwise.  The reported distance is the exact cone distance at
-  that warp: an upper bound of ``min_phi`` (``benchmarks/elastic_ab_rd.py`` measures the gap
-  a local descent on the exact energy finds).  In ``d = 2`` the cone uses the unlifted angle:
-  it agrees with the planar ``F_{a,b}`` distance at a warp wherever the lifted tangent angles
-  of the matched cells differ by less than ``min(pi, pi / lambda)``.
+* the warp: the transform has the SRV action ``q(c o phi) = sqrt(phi') q(c) o phi`` (exact
+  for piecewise linear curves and warps), and the cone energy at a warp is
+  ``||F(c0)||^2 + ||F(c1)||^2 - 2 int sqrt(phi') K(F(c0), F(c1) o phi)`` with the cone's
+  cross term ``K(p0, p1) = R0 R1 cos(min(lambda alpha, pi))``: the squared norms do not depend
+  on ``phi``.  On piecewise constant arrays ``K`` is a matrix over pairs of cells; factored
+  ``K = x0 x1^T`` (thin SVD), :func:`elastic_motion.warp.optimal_warp` on ``x0, x1`` (an SRV
+  problem whose energy differs from the cone's by a constant) minimises the *exact* cone
+  energy, with the solver's guarantees and limits (DP on its grid, local refinement,
+  landmarks and options passed through).  ``result.distance`` is the cone distance at the
+  warp found; ``result.warp.distance`` is the solver's objective (offset by that constant).
+  Cost: the SVD, ``O(n0 n1 min(n0, n1))``, on top of the SRV solve.
+* In ``d = 2`` the cone uses the unlifted angle: at a given warp it agrees with the planar
+  ``F_{a,b}`` distance wherever the lifted tangent angles of the matched cells differ by less
+  than ``min(pi, pi / lambda)`` (the planar distance is that of the *lifted* curves).
 """
 
 from __future__ import annotations
@@ -226,9 +230,9 @@ class ElasticABResult:
     a, b : float
     warp : WarpResult
         The optimal warp of c1 (``vertices``, ``phi``, diagnostics; for the cone construction
-        ``warp.distance`` is the chordal distance the solver minimised).
+        ``warp.distance`` is the solver's objective, the cone energy offset by a constant).
     q0, q1 : ndarray, shapes (n0, D), (n1, D)
-        The arrays the warp solver matched: planar ``F_{a,b}`` (``D = 2``), or the cone's
+        The transforms: planar ``F_{a,b}`` (``D = 2``), or the cone's
         ``R (lambda u, sqrt(1 - lambda^2))`` (``D = d + 1``, ``lambda <= 1``) / ``R u``
         (``D = d``, ``lambda > 1``); ``t0``, ``t1`` their break points.
     theta0 : float
@@ -393,7 +397,7 @@ def ab_cone_inverse(q: Any, a: float = 1.0, b: float = 0.5, t: Any = None, start
 
 
 def _embed(speed: np.ndarray, u: np.ndarray, lam: float, b: float) -> np.ndarray:
-    """The array the warp solver matches: ``R (lambda u, sqrt(1 - lambda^2))`` (``lambda <= 1``,
+    """The cone point ``(R, u)`` as an array: ``R (lambda u, sqrt(1 - lambda^2))`` (``lambda <= 1``,
     ``= F_{a,b}``) or ``R u`` (``lambda > 1``), ``R = 2 b |c'|^{1/2}``."""
     radius = 2.0 * b * np.sqrt(speed)
     if lam <= 1.0:
@@ -458,9 +462,9 @@ def elastic_ab_distance_rd(
     """Elastic ``G^{a,b}`` distance of open curves in ``R^d``, any ``d >= 2``, any ``a, b > 0``.
 
     The cone construction of Bauer et al. (2024) (module docstring): the warp of c1 by
-    :func:`elastic_motion.warp.optimal_warp` on the embedded arrays (``options``, landmarks
-    etc. through ``warp_kw``), then the exact cone distance at that warp.  Translations
-    factored out, rotations not optimised.
+    :func:`elastic_motion.warp.optimal_warp` on the factors of the cone's cross term
+    (``options``, landmarks etc. through ``warp_kw``), then the exact cone distance at that
+    warp.  Translations factored out, rotations not optimised.
 
     Parameters
     ----------
@@ -489,9 +493,30 @@ def elastic_ab_distance_rd(
     lam = a / (2.0 * b)
     q0 = _embed(*_velocities(arr0, ta), lam, b)
     q1 = _embed(*_velocities(arr1, tb), lam, b)
-    res = optimal_warp(q0, q1, t0=ta, t1=tb, options=options, **warp_kw)
+    x0, x1 = _cone_gram_factors(q0, q1, arr0.shape[1], lam)
+    res = optimal_warp(x0, x1, t0=ta, t1=tb, options=options, **warp_kw)
     dist = _cone_distance_at(q0, ta, q1, tb, res.vertices, (arr0.shape[1], lam))
     return ElasticABResult(dist, a, b, res, q0, ta, q1, tb, 0.0, arr0.shape[1], "cone")
+
+
+def _cone_gram_factors(q0: np.ndarray, q1: np.ndarray, d: int, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """Arrays ``x0`` ``(n0, r)``, ``x1`` ``(n1, r)`` with ``x0 x1^T = K``, the cone's cross term
+    ``K_ij = R0_i R1_j cos(min(lambda alpha_ij, pi))`` (a thin SVD, ``r`` its numerical rank).
+
+    ``int d_C(F(c0), sqrt(phi') F(c1) o phi)^2 = ||q0||^2 + ||q1||^2 - 2 int sqrt(phi') K``
+    cell by cell, and ``||x0 - sqrt(phi') x1 o phi||^2`` differs from it by a constant (both
+    squared norms are invariant under the warp action): the SRV warp solver on ``x0, x1``
+    minimises the exact cone energy.
+    """
+    r0, u0 = _unembed(q0, d)
+    r1, u1 = _unembed(q1, d)
+    alpha = np.arccos(np.clip(u0 @ u1.T, -1.0, 1.0))
+    gram = (r0[:, None] * r1[None, :]) * np.cos(np.minimum(lam * alpha, np.pi))
+    left, sing, right = np.linalg.svd(gram, full_matrices=False)
+    keep = sing > sing[0] * 1e-13 if sing.size and sing[0] > 0 else np.zeros(sing.shape, dtype=bool)
+    keep[0] = True  # a zero cross term (curves at right angles...) still needs one column
+    root = np.sqrt(sing[keep])
+    return np.ascontiguousarray(left[:, keep] * root), np.ascontiguousarray(right[keep].T * root)
 
 
 def _cone_distance_at(
