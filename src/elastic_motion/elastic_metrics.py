@@ -419,6 +419,12 @@ def _angles(u0: np.ndarray, u1: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(u0 - u1, axis=1), np.linalg.norm(u0 + u1, axis=1))
 
 
+def _cone_cross(r0: np.ndarray, r1: np.ndarray, alpha: np.ndarray, lam: float) -> np.ndarray:
+    """The cone's cross term ``r0 r1 cos(min(lam alpha, pi))`` (broadcast): the one home of the
+    cone's geometry, used by the distance and by the warp's factors."""
+    return r0 * r1 * np.cos(np.minimum(lam * alpha, np.pi))
+
+
 def cone_distance2(r0: Any, u0: Any, r1: Any, u1: Any, lam: float) -> np.ndarray:
     """Squared distance of points ``(r, u)`` of the metric cone over ``S^{d-1}`` of radius ``lam``.
 
@@ -430,8 +436,8 @@ def cone_distance2(r0: Any, u0: Any, r1: Any, u1: Any, lam: float) -> np.ndarray
     ndarray, shape (n,)
     """
     r0a, r1a = np.asarray(r0, dtype=np.float64), np.asarray(r1, dtype=np.float64)
-    psi = np.minimum(lam * _angles(np.asarray(u0, dtype=np.float64), np.asarray(u1, dtype=np.float64)), np.pi)
-    return np.maximum(r0a**2 + r1a**2 - 2.0 * r0a * r1a * np.cos(psi), 0.0)
+    alpha = _angles(np.asarray(u0, dtype=np.float64), np.asarray(u1, dtype=np.float64))
+    return np.maximum(r0a**2 + r1a**2 - 2.0 * _cone_cross(r0a, r1a, alpha, lam), 0.0)
 
 
 def _moved_pair_arrays(
@@ -510,8 +516,9 @@ def _cone_gram_factors(q0: np.ndarray, q1: np.ndarray, d: int, lam: float) -> tu
     """
     r0, u0 = _unembed(q0, d)
     r1, u1 = _unembed(q1, d)
-    alpha = np.arccos(np.clip(u0 @ u1.T, -1.0, 1.0))
-    gram = (r0[:, None] * r1[None, :]) * np.cos(np.minimum(lam * alpha, np.pi))
+    # the angles from the dot products: a matrix product, n0 x n1 (the rows' difference form of
+    # _angles would take n0 x n1 x d memory)
+    gram = _cone_cross(r0[:, None], r1[None, :], np.arccos(np.clip(u0 @ u1.T, -1.0, 1.0)), lam)
     left, sing, right = np.linalg.svd(gram, full_matrices=False)
     keep = sing > sing[0] * 1e-13 if sing.size and sing[0] > 0 else np.zeros(sing.shape, dtype=bool)
     keep[0] = True  # a zero cross term (curves at right angles...) still needs one column
