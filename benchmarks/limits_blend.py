@@ -25,6 +25,7 @@ from _common import MOCAP, RESULTS, machine_info, timed_best, write_json
 from elastic_motion.apps.blend import blend_motions
 from elastic_motion.apps.database.mean import mean_motion
 from elastic_motion.apps.distance import distance_table
+from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.motion import read_motion, write_motion
 from elastic_motion.motion.asfamc import read_joint_limits
 from elastic_motion.motion.joint_limits import JointLimits, check_joint_limits
@@ -87,7 +88,7 @@ def _excess_deg(motion, lim: JointLimits, inputs_ok: np.ndarray) -> float:
 
 def _case(kind: str, name: str, files, source: str, repeat: int) -> dict:
     t_off, (_, m_off, inputs) = timed_best(lambda: _run(kind, files, "off"), repeat)
-    lim = read_joint_limits(files[0]) if source == "asf" else inputs_box(inputs)
+    lim = read_joint_limits(ASF / "charleston.asf") if source == "asf" else inputs_box(inputs)
     lim = lim.restricted_to(m_off.skeleton.names)
     t_on, (kept, m_on, _) = timed_best(lambda: _run(kind, files, lim), repeat)
     ok = np.ones(lim.n_dofs, dtype=bool)
@@ -96,7 +97,7 @@ def _case(kind: str, name: str, files, source: str, repeat: int) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         back = read_motion(write_motion(m_on, Path(tmp) / "out.bvh"))
     jl = kept.joint_limits
-    dist = distance_table([m_off, m_on, *inputs]).matrix
+    dist = distance_table([m_off, m_on, *inputs], prepare=PrepareOptions(joints="common")).matrix
     return {
         "kind": kind,
         "case": name,

@@ -54,8 +54,7 @@ def test_blend_stays_within_tight_limits_the_plain_blend_crosses(bandai, tmp_pat
     res = blend_motions([a, b], 0.5, joint_limits=lim, metrics=False)
     jl = res.joint_limits
     assert jl.mode == "keep" and not any(r.violations for r in jl.inputs)
-    # the inputs interpolated at the matched times stray past their frames' range here and there
-    assert jl.after.ok and jl.exempt.mean() < 0.01
+    assert jl.after.ok and not jl.exempt.any()
     assert {r["joint"] for r in jl.changed()} >= crossed
     assert 0 < jl.changed_frames < res.motion.n_frames and 0.3 < jl.max_change_deg < 5
     (note,) = of_kind(res.notes, LIMITS_CHANGED_NOTE)

@@ -20,8 +20,8 @@ solves that constrained projection, at 10x its time), and it moves the feet the 
 (contacts planted before are not planted again; a note gives the largest angle change).
 
 Limits the inputs violate are reported, not enforced: a DOF is enforced at an output frame
-only when every input respects it at its matched time (the blend's warps; the mean: every
-input at every frame, the mean having no single matched time per input before resampling).
+only when every input respects it at its matched time (the blend's clock, the mean's warps:
+each input's excess beyond the range interpolated between its two frames there).
 """
 
 from __future__ import annotations
@@ -198,6 +198,15 @@ class LimitStage:
         return out
 
 
+def _excess_at(excess: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """``excess`` ``(F_k, D)`` linearly interpolated at fractional ``frames`` ``(F,)``."""
+    f = np.clip(frames, 0.0, excess.shape[0] - 1)
+    i = np.clip(np.floor(f).astype(np.int64), 0, max(excess.shape[0] - 2, 0))
+    j = np.minimum(i + 1, excess.shape[0] - 1)
+    u = (f - i)[:, None]
+    return (1.0 - u) * excess[i] + u * excess[j]
+
+
 def keep_within_limits(
     motion: Motion,
     option: str | JointLimits,
@@ -217,10 +226,12 @@ def keep_within_limits(
         ``"report"`` read the limits of the first input's ASF file.
     inputs : sequence of Motion
         The inputs (their limits are measured over their own frames).
-    matched : sequence of ndarray, shape (F, J, 3, 3), optional
-        Each input's local rotations at the result's frames (joints as ``motion``'s): a DOF is
-        enforced at a frame only where every input respects it. Default: only where every
-        input respects it at all its frames.
+    matched : sequence of ndarray, shape (F,), optional
+        Each input's (fractional) frame at each of the result's frames: a DOF is enforced at a
+        frame only where every input respects it there (its excess beyond the range linearly
+        interpolated between its two frames: an input respecting it at both is not exempt,
+        though its rotation interpolated between them may stray a fraction of a degree past
+        the range). Default: only where every input respects it at all its frames.
     tol_deg : float, default 0.01
         Degrees: beyond a limit means by more than this.
 
@@ -241,8 +252,8 @@ def keep_within_limits(
     tol = math.radians(tol_deg)
     if matched is not None:
         exempt = np.zeros(before.excess.shape, dtype=bool)
-        for rot in matched:
-            exempt |= check_joint_limits(rot, lim, names=names, tol_deg=tol_deg).excess > tol
+        for rep, frames in zip(reports, matched, strict=True):
+            exempt |= _excess_at(rep.excess, np.asarray(frames, dtype=np.float64)) > tol
     else:
         bad = {(h.joint, h.dof) for r in reports for h in r.violations}
         cols = np.array([lab in bad for lab in lim.dof_labels()], dtype=bool)

@@ -2,16 +2,13 @@
 
 Last of the stages that change the motion (after the contacts' clean-up, whose leg IK bends
 knees, and the loop's closing): each DOF angle the inputs respect at the matched times
-(each input's local rotations sampled at its time of every output frame, :class:`.timing.Clock`)
+(each input's frame at every output frame, :class:`.timing.Clock`)
 is moved into its range, eased over :data:`~elastic_motion.apps.limit_stage.LIMIT_EASE` s.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
 from elastic_motion.apps.blend.inputs import BlendInputs
-from elastic_motion.apps.blend.sampling import sample_rotations
 from elastic_motion.apps.blend.timing import Clock
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.limit_stage import LimitStage, keep_within_limits
@@ -27,23 +24,15 @@ def limit_blend(
     """The blend within its joint limits (``options.joint_limits``) and what was done; the
     stage's notes are appended to ``notes`` (the blend's list).
 
-    The inputs at the blend's frames are their rotations at ``clock.times`` (joints matched by
-    name); when the frames differ (a closed loop's cycle), the inputs' limits are taken over
-    all their frames instead.
+    The inputs at the blend's frames are their frames at ``clock.times``; when the frames
+    differ (a closed loop's cycle), the inputs' limits are taken over all their frames instead.
     """
     if options.joint_limits == "off":
         return blend, None
     motions = inputs.prepared.motions
-    names = blend.skeleton.names
     matched = None
     if all(len(t) == blend.n_frames for t in clock.times):
-        matched = []
-        for m, t in zip(motions, clock.times, strict=True):
-            index = {n: k for k, n in enumerate(m.skeleton.names)}
-            if not all(n in index for n in names):
-                matched = None
-                break
-            matched.append(sample_rotations(m, np.array([index[n] for n in names]), t))
+        matched = [t * m.fps for m, t in zip(motions, clock.times, strict=True)]
     out, stage = keep_within_limits(blend, options.joint_limits, motions, matched)
     if stage is not None:
         notes += stage.notes()

@@ -147,22 +147,17 @@ class MeanOptions:
         return options_from_json(cls, d, argument="mean options")
 
 
-def _matched_inputs(
+def _matched_frames(
     motion: Motion, inputs: Sequence[Motion], warps: Sequence[np.ndarray]
-) -> list[np.ndarray] | None:
-    """Each input's local rotations at the mean's frames ``(F, J, 3, 3)``, through its warp onto
-    the mean (the mean's normalised time ``u`` -> the input's ``phi_k(u)``, geodesic
-    interpolation); None when an input lacks one of the mean's joints."""
+) -> list[np.ndarray]:
+    """Each input's fractional frame at each of the mean's frames ``(F,)``, through its warp onto
+    the mean (the mean's normalised time ``u`` -> the input's ``phi_k(u)``)."""
     u = np.clip(motion.times / max(motion.duration, 1e-12), 0.0, 1.0)
     out = []
     for m, w in zip(inputs, warps, strict=True):
         w = np.asarray(w, dtype=np.float64)
         phi = np.interp(u * w[-1, 0], w[:, 0], w[:, 1]) / w[-1, 1]
-        at = mm.resample_at_times(m, m.times, np.maximum.accumulate(phi) * m.duration, fps=motion.fps)
-        index = {n: k for k, n in enumerate(at.skeleton.names)}
-        if not all(n in index for n in motion.skeleton.names):
-            return None
-        out.append(at.rotations[:, [index[n] for n in motion.skeleton.names]])
+        out.append(phi * (m.n_frames - 1))
     return out
 
 
@@ -316,7 +311,7 @@ def mean_motion(
     limits = None
     if opts.joint_limits != "off":
         inputs = [p.motion for p in prepared]
-        matched = _matched_inputs(motion, inputs, res.warps)
+        matched = _matched_frames(motion, inputs, res.warps)
         motion, limits = keep_within_limits(motion, opts.joint_limits, inputs, matched)
     return MeanMotionResult(
         motion=motion,
