@@ -12,6 +12,7 @@ import pytest
 from elastic_motion.apps.blend import BlendOptions, blend_motions
 from elastic_motion.apps.database.mean import MeanOptions, mean_motion
 from elastic_motion.apps.limit_stage import LIMITS_CHANGED_NOTE, LIMITS_INPUT_VIOLATES_NOTE
+from elastic_motion.apps.loop import LoopOptions
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
 from elastic_motion.motion import read_motion, write_motion
@@ -135,6 +136,7 @@ def test_options_take_the_loops_forms_and_round_trip_through_json(mocap_dir):
     asf = mocap_dir / "cmu" / "asfamc" / "02.asf"
     from_file = BlendOptions(joint_limits=str(asf)).joint_limits
     assert isinstance(from_file, JointLimits) and "ltibia" in from_file.joints
+    assert isinstance(LoopOptions(joint_limits=asf).joint_limits, JointLimits)  # the loop's option too
     for bad in ("sometimes", 3, "walk.bvh"):
         with pytest.raises(OptionError, match="joint_limits"):
             BlendOptions(joint_limits=bad)
