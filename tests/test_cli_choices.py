@@ -18,7 +18,7 @@ from elastic_motion.apps.align import METHODS as CURVE_METHODS
 from elastic_motion.apps.blend_options import SKELETON_MODES
 from elastic_motion.apps.database.engines import ENGINES
 from elastic_motion.apps.landmark_files import TIME_UNITS
-from elastic_motion.apps.loop.options import LIMIT_POLICIES, SEAMS, SOLVERS, WINDOW_MODES
+from elastic_motion.apps.loop.options import SEAMS, SOLVERS, WINDOW_MODES
 from elastic_motion.apps.render import FRAMES, KINDS
 from elastic_motion.apps.statistics import LINKAGES
 from elastic_motion.apps.viewer.options import CONTACT_MARKS, LAYOUTS
@@ -68,7 +68,6 @@ API: dict[tuple[str, str], tuple[str, ...]] = {
     ("loop", "--window"): WINDOW_MODES,
     ("loop", "--solver"): SOLVERS,
     ("loop", "--contacts"): CONTACT_POLICIES,
-    ("loop", "--joint-limits"): LIMIT_POLICIES,
     # blend and blend spaces (apps.blend_options.BlendOptions): one contacts vocabulary
     ("blend", "--skeleton"): SKELETON_MODES,
     ("blend", "--contacts"): CONTACT_POLICIES,

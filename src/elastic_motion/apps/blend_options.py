@@ -21,11 +21,13 @@ import numpy as np
 
 from elastic_motion.apps.align import CurveMethod, check_method, warp_options
 from elastic_motion.apps.landmark_files import LandmarkFile
+from elastic_motion.apps.limit_stage import check_limits_option
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contact_policy
+from elastic_motion.motion.joint_limits import JointLimits
 from elastic_motion.motion.representations import EULER, Representation, representation
-from elastic_motion.vocabulary import SKELETON_MODES, SkeletonMode
+from elastic_motion.vocabulary import SKELETON_MODES, LimitPolicy, SkeletonMode
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -111,6 +113,14 @@ class BlendOptions:
     metrics : bool, default False
         Compute the quality metrics (:func:`elastic_motion.apps.metrics.blend_metrics`:
         ``K (K + 1) / 2`` extra DP solves).
+    joint_limits : {"keep", "report", "off"}, JointLimits or path, default "keep"
+        Limits of the joints' DOF angles, the loop's option
+        (:func:`elastic_motion.apps.limit_stage.check_limits_option`): those of the ASF file
+        the first input was read from (nothing happens when there are none), the given ones
+        or those of the given ASF file. ``"keep"``: the blend's last stage moves every DOF
+        angle the inputs respect at the matched times into its range, eased
+        (:func:`elastic_motion.apps.limit_stage.keep_within_limits`); ``"report"``: only
+        measured; ``"off"``: skip.
     """
 
     method: CurveMethod = "lie"
@@ -129,8 +139,10 @@ class BlendOptions:
     cycles: bool = False
     loop: bool = False
     metrics: bool = False
+    joint_limits: LimitPolicy | JointLimits = "keep"
 
     def __post_init__(self) -> None:
+        self._set("joint_limits", check_limits_option(self.joint_limits))
         self._set("method", check_method(self.method))
         self._set("warp", warp_options(self.warp))
         self._set("landmarks", _landmarks(self.landmarks))
@@ -203,6 +215,8 @@ class BlendOptions:
         out["warp"] = self.warp.to_json()
         if isinstance(self.landmarks, LandmarkFile):
             out["landmarks"] = [list(p) for p in self.landmarks.pairs]
+        if isinstance(self.joint_limits, JointLimits):
+            out["joint_limits"] = self.joint_limits.to_json()
         return out
 
 

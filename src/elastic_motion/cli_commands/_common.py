@@ -37,7 +37,14 @@ from elastic_motion.defaults import (
     DEFAULT_SAMPLE_SMOOTHING,
 )
 from elastic_motion.errors import OptionError, ParseError
-from elastic_motion.vocabulary import DEFAULT_PAIR_KINDS, EVENT_KINDS, TIME_UNITS, UP_AXES, WARP_METHODS
+from elastic_motion.vocabulary import (
+    DEFAULT_PAIR_KINDS,
+    EVENT_KINDS,
+    LIMIT_POLICIES,
+    TIME_UNITS,
+    UP_AXES,
+    WARP_METHODS,
+)
 
 __all__ = [  # CommandError and check_output are re-exported: every command module uses them
     "NO_FEET",
@@ -311,6 +318,29 @@ def add_contact_height_option(p: argparse.ArgumentParser) -> None:
         f"{CONTACT_SPEED_ENTER:g} m/s within this height of its lowest, and leaves above twice it "
         f"(default: {CONTACT_HEIGHT_ENTER:g}); raise it for a floor that is not level or a capture "
         "that drifts (the notes name the stances it misses)",
+    )
+
+
+def joint_limits_flag(value: str) -> str:
+    """``--joint-limits``: a limit policy or the path of an ASF file (read by the app's options,
+    :func:`elastic_motion.apps.limit_stage.check_limits_option`)."""
+    if value in LIMIT_POLICIES or value.lower().endswith(".asf"):
+        return value
+    raise argparse.ArgumentTypeError(
+        f"expected one of {', '.join(LIMIT_POLICIES)} or an .asf file; got {value!r}"
+    )
+
+
+def add_joint_limits_option(p: argparse.ArgumentParser, default: str, what: str) -> None:
+    """``--joint-limits`` of the loop, the blend and the mean; ``what``: what ``keep`` does."""
+    p.add_argument(
+        "--joint-limits",
+        type=joint_limits_flag,
+        default=default,
+        metavar="{keep,report,off} or FILE.asf",
+        help="limits of the joints' DOF angles, from the ASF file of an .amc input or the given .asf "
+        f"file (none: nothing happens): 'keep': {what}; 'report': only measured; 'off': skip. Limits "
+        "the input itself violates are reported, never enforced",
     )
 
 

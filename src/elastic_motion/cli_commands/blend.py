@@ -14,6 +14,7 @@ from elastic_motion.cli_commands._common import (
     CommandError,
     add_contact_height_option,
     add_input_options,
+    add_joint_limits_option,
     add_joint_options,
     add_json_option,
     add_landmark_options,
@@ -104,6 +105,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "accepted)",
     )
     add_contact_height_option(p)
+    add_joint_limits_option(p, "keep", _LIMITS_KEPT)
     p.add_argument(
         "--cycles",
         action="store_true",
@@ -139,6 +141,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p)
     add_quiet_option(p)
     p.set_defaults(func=lambda a: run_guarded("blend", run, a))
+
+
+#: What ``--joint-limits keep`` does in a blend (its help).
+_LIMITS_KEPT = (
+    "the blend's last stage moves every DOF angle the inputs respect at the matched times into its "
+    "range, eased over 0.15 s (the report says which joints and frames changed, by how much)"
+)
 
 
 def contacts_flag(value: str) -> str:
@@ -193,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
         cycles=args.cycles,
         loop=args.loop,
         metrics=not args.no_metrics,
+        joint_limits=args.joint_limits,
     )
     bar = progress_for("blend", args)
     try:

@@ -31,6 +31,7 @@ from elastic_motion.cli_commands._argparse import (
 )
 from elastic_motion.cli_commands._common import (
     CommandError,
+    add_joint_limits_option,
     add_json_option,
     add_quiet_option,
     check_output,
@@ -412,6 +413,12 @@ def _register_mean(subparsers: argparse._SubParsersAction) -> None:
         metavar="PNG",
         help="also write the energy per iteration as a PNG (default: no plot)",
     )
+    add_joint_limits_option(
+        p,
+        "keep",
+        "the mean's DOF angles that every input respects are moved into their ranges, eased over "
+        "0.15 s (the report says which joints and frames changed, by how much)",
+    )
     add_quiet_option(p)
     add_json_option(p)
     add_preparation(p)
@@ -444,6 +451,7 @@ def run_mean(args: argparse.Namespace) -> int:
             units=args.units,
             tol=args.tol,
             fps=args.fps,
+            joint_limits=args.joint_limits,
         )
         res = mean_motion(args.files, options, progress=bar)
         path = write_motion(res.motion, args.output, protected=args.files)

@@ -20,6 +20,7 @@ from elastic_motion.cli_commands._common import (
     CommandError,
     add_contact_height_option,
     add_input_options,
+    add_joint_limits_option,
     add_json_option,
     add_quiet_option,
     check_output,
@@ -45,7 +46,6 @@ from elastic_motion.vocabulary import (
     METHOD_ALIASES,
     OUTPUT_MOTION_EXTENSIONS,
     ContactPolicy,
-    LimitPolicy,
     Method,
     RootMode,
     Seam,
@@ -184,14 +184,11 @@ def _add_window_and_contact_options(p: argparse.ArgumentParser) -> None:
         "report skating and depth below the floor of input and loop during them; 'off': skip",
     )
     add_contact_height_option(p)
-    p.add_argument(
-        "--joint-limits",
-        choices=choices(LimitPolicy),
-        default=LOOP_JOINT_LIMITS,
-        help="limits of the joints' DOF angles, from the ASF file of an .amc input (none: nothing "
-        "happens): 'keep': the loop stays within every limit the input respects (DOFs pinned at "
-        "their limit in the same projection; 16-110 s on CMU clips); 'report': only measured; "
-        "'off': skip. Limits the input itself violates are reported, never enforced",
+    add_joint_limits_option(
+        p,
+        LOOP_JOINT_LIMITS,
+        "the loop stays within every limit the input respects (DOFs pinned at their limit in the same "
+        "projection; 16-110 s on CMU clips)",
     )
 
 

@@ -40,9 +40,13 @@ __all__ = [
     "check_joint_limits",
     "dof_angles",
     "dof_angles_jacobian",
+    "dof_rotation",
+    "project_to_limits",
 ]
 
 _TWO_PI = 2.0 * math.pi
+#: Radians: an angle beyond its range by at most this is within it (rounding of the decomposition).
+_ROUNDING = 1e-9
 
 
 def _full_axes(axes: str) -> str:
@@ -146,6 +150,31 @@ def dof_angles_jacobian(
     return jac[..., : len(axes), :]
 
 
+def dof_rotation(angles: np.ndarray, frame: np.ndarray, axes: str) -> np.ndarray:
+    """The local rotation of fixed-axis angles, ``R = C M C^T`` (inverse of the full
+    decomposition of :func:`dof_angles`; module docstring).
+
+    Parameters
+    ----------
+    angles : ndarray, shape (..., 3)
+        ``(alpha, beta, gamma)``: the dof axes' angles, then the missing axes', radians.
+    frame : ndarray, shape (3, 3)
+        The bone's axis frame ``C``.
+    axes : str
+        The dof axes in listed order.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    full = _full_axes(axes)
+    a = np.asarray(angles, dtype=np.float64)
+    m = axis_rotation(a[..., 2], full[2]) @ axis_rotation(a[..., 1], full[1])
+    m = m @ axis_rotation(a[..., 0], full[0])
+    c = np.asarray(frame, dtype=np.float64)
+    return c @ m @ c.T
+
+
 @dataclass(frozen=True, eq=False)
 class JointLimits:
     """Ranges of the DOF angles of some joints (module docstring).
@@ -185,6 +214,40 @@ class JointLimits:
                 raise ValueError(f"limits of {name!r}: expected {len(ax)} bounds per side (dof {ax})")
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "upper", hi)
+
+    def to_json(self) -> dict:
+        """JSON-ready fields: per joint its axes, frame and range in degrees (None: unlimited)."""
+        parts = zip(self.joints, self.axes, self.frames, self.lower, self.upper, strict=True)
+        return {
+            "source": self.source,
+            "joints": [
+                {
+                    "name": n,
+                    "axes": ax,
+                    "frame": c.tolist(),
+                    "lower_deg": [_finite_or_none(math.degrees(v)) for v in lo],
+                    "upper_deg": [_finite_or_none(math.degrees(v)) for v in hi],
+                }
+                for n, ax, c, lo, hi in parts
+            ],
+        }
+
+    @classmethod
+    def from_json(cls, data: dict) -> JointLimits:
+        """Inverse of :meth:`to_json`."""
+        rows = data["joints"]
+
+        def rad(vals: list, inf: float) -> np.ndarray:
+            return np.array([inf if v is None else math.radians(v) for v in vals], dtype=np.float64)
+
+        return cls(
+            tuple(r["name"] for r in rows),
+            tuple(r["axes"] for r in rows),
+            np.array([r["frame"] for r in rows], dtype=np.float64).reshape(len(rows), 3, 3),
+            tuple(rad(r["lower_deg"], -math.inf) for r in rows),
+            tuple(rad(r["upper_deg"], math.inf) for r in rows),
+            str(data.get("source", "")),
+        )
 
     @property
     def n_dofs(self) -> int:
@@ -231,6 +294,90 @@ class JointLimits:
         if not cols:
             return np.zeros((rotations.shape[0], 0))
         return np.concatenate(cols, axis=1)
+
+
+def _eased_envelope(c: np.ndarray, half: int) -> np.ndarray:
+    """Per column, the largest ``c[g] w(f - g)`` over ``g``, ``c >= 0``, shape (F, n); ``w`` a
+    raised cosine of half-width ``half`` frames with ``w(0) = 1`` (so the envelope is >= ``c``)."""
+    if half <= 0 or not c.any():
+        return c
+    d = np.arange(-half, half + 1)
+    w = 0.5 * (1.0 + np.cos(np.pi * d / (half + 1)))
+    pad = np.pad(c, ((half, half), (0, 0)))
+    win = np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1, axis=0)  # (F, n, 2h+1)
+    return (win * w).max(axis=-1)
+
+
+def project_to_limits(
+    rotations: np.ndarray,
+    names: list[str] | tuple[str, ...],
+    limits: JointLimits,
+    *,
+    exempt: np.ndarray | None = None,
+    ease_frames: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations moved into the limit box, each dof eased into its limit.
+
+    Per limited joint and frame, the full decomposition of :func:`dof_angles` (the turn of each
+    dof angle nearest its range) gives ``theta``; the correction ``c = clip(theta, lo, hi) -
+    theta`` is spread to the neighbouring frames by the envelope ``max_g |c(g)| w(f - g)``
+    (``w``: raised cosine of half-width ``ease_frames``, ``w(0) = 1``; the pushes down and up
+    separately), added to ``theta``, and the sum clipped to the range again. The angles about
+    the missing axes are kept and the rotation rebuilt (:func:`dof_rotation`); frames with no
+    change keep their matrices bit for bit. Exact: every dof not ``exempt`` is within its range
+    at every frame (up to rounding); the clip is the nearest point of the box in the DOF
+    angles (not in the rotation's geodesic distance), the easing makes the change continuous
+    in time with slopes of at most ``pi / 2`` times the largest correction per ``ease_frames``.
+
+    Parameters
+    ----------
+    rotations : ndarray, shape (F, J, 3, 3)
+        Local rotations of a clip whose joints are ``names``.
+    names : sequence of str
+    limits : JointLimits
+        Joints not in ``names`` are ignored.
+    exempt : ndarray of bool, shape (F, D), optional
+        Frames and dofs (columns of ``limits.restricted_to(names).angles``) left beyond their
+        range (limits an input violates there: reported, not enforced).
+    ease_frames : int, default 0
+        Half-width of the easing, frames (0: the plain clip, frame by frame).
+
+    Returns
+    -------
+    rotations : ndarray, shape (F, J, 3, 3)
+    change : ndarray, shape (F, D)
+        The change of each dof angle, radians (0 where unchanged).
+    """
+    lim = limits.restricted_to(list(names))
+    rot = np.array(rotations, dtype=np.float64, copy=True)
+    index = {n: k for k, n in enumerate(names)}
+    changes = []
+    col = 0
+    for name, ax, c, lo, hi in zip(lim.joints, lim.axes, lim.frames, lim.lower, lim.upper, strict=True):
+        n = len(ax)
+        j = index[name]
+        m = c.T @ rot[:, j] @ c
+        full = _decompose(m, _full_axes(ax), n, lo, hi)
+        theta = _nearest_turn(full[:, :n], lo, hi)
+        free = np.ones_like(theta, dtype=bool) if exempt is None else ~exempt[:, col : col + n]
+        need = np.where(free, np.clip(theta, lo, hi) - theta, 0.0)
+        need[np.abs(need) <= _ROUNDING] = 0.0  # a bound met to rounding is met
+        ease = _eased_envelope(np.maximum(need, 0.0), ease_frames) - _eased_envelope(
+            np.maximum(-need, 0.0), ease_frames
+        )
+        moved = theta + ease
+        moved = np.where(free, np.clip(moved, lo, hi), moved)
+        delta = moved - theta
+        delta[np.abs(delta) <= _ROUNDING] = 0.0
+        moved = theta + delta
+        rows = np.flatnonzero(np.abs(delta).max(axis=1) > 0.0)
+        if rows.size:
+            full[rows, :n] = moved[rows]
+            rot[rows, j] = dof_rotation(full[rows], c, ax)
+        changes.append(delta)
+        col += n
+    change = np.concatenate(changes, axis=1) if changes else np.zeros((rot.shape[0], 0))
+    return rot, change
 
 
 def _nearest_turn(theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

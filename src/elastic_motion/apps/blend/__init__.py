@@ -97,7 +97,15 @@ taking the one :class:`~elastic_motion.apps.blend_options.BlendOptions`:
    and after and the largest pose change; ``before_cleanup`` keeps the blend before it.
    ``contacts="report"`` carries the contacts and measures the blend's skating against them
    without changing it; ``"off"`` does neither.
-9. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
+9. **Joint limits** (:mod:`.limits`; ``joint_limits="keep"``, the default, with limits from
+   the first input's ASF file, a given :class:`~elastic_motion.motion.joint_limits.JointLimits`
+   or an ``.asf`` limits file): every DOF angle the inputs respect at the matched times is
+   moved into its range, the correction eased over 0.15 s
+   (:func:`elastic_motion.apps.limit_stage.keep_within_limits`: exact within the range, the
+   nearest point of the DOF-angle box per frame, not a constrained SRV solve); limits the
+   inputs violate are reported, not enforced. ``BlendResult.joint_limits`` says which joints
+   and frames changed and by how much. ``"report"`` only measures; ``"off"`` skips.
+10. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
 
 Time-varying weights (``weight_curve``; paper 000 sec. 5.3)
 -----------------------------------------------------------
@@ -152,6 +160,7 @@ from elastic_motion.apps.blend.assemble import assemble_motion
 from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, BlendContacts, blend_contacts
 from elastic_motion.apps.blend.curves import blend_curves
 from elastic_motion.apps.blend.inputs import NOTE_CYCLES, BlendInputs, prepare_inputs
+from elastic_motion.apps.blend.limits import limit_blend
 from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, close_again, close_cycle
 from elastic_motion.apps.blend.result import BlendResult
 from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
@@ -249,6 +258,7 @@ def blend_motions(
             looped = close_again(contacts.cleanup, looped)
             blend = looped.motion
             notes += looped.notes
+    blend, limits = limit_blend(blend, inputs, clock, opts, notes)
     metrics = None
     if opts.metrics:
         report("metrics", 3, stages)
@@ -276,6 +286,7 @@ def blend_motions(
         weight_curve=None if opts.weight_curve is None else np.array(opts.weight_curve),
         options=opts,
         trimmed=clock.trimmed,
+        joint_limits=limits,
     )
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cleanup import CleanupResult
 from elastic_motion.apps.cycles import CycleMatch
+from elastic_motion.apps.limit_stage import LimitStage
 from elastic_motion.apps.metrics import BlendMetrics
 from elastic_motion.apps.prepare import PreparedMotions
 from elastic_motion.motion import Motion
@@ -86,6 +87,10 @@ class BlendResult:
     trimmed : tuple of (int, int)
         Output frames cut at the start and the end where the warp held an input still
         (``trim_ends``; :func:`elastic_motion.apps.blend.timing.held_ends`).
+    joint_limits : LimitStage or None
+        What the limits stage did (``joint_limits`` option): the result's limits before and
+        after, the inputs' own violations, which dofs and frames changed and by how much;
+        None without limits (``"off"``, inputs not read from an ASF file).
     """
 
     motion: Motion
@@ -109,6 +114,7 @@ class BlendResult:
     weight_curve: np.ndarray | None = None
     options: BlendOptions = field(default_factory=BlendOptions)
     trimmed: tuple[int, int] = (0, 0)
+    joint_limits: LimitStage | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -135,4 +141,5 @@ class BlendResult:
             "pose_anchor_deg": self.pose_anchor_deg,
             "height_anchor_m": self.height_anchor_m,
             "trimmed_frames": list(self.trimmed),
+            "joint_limits": None if self.joint_limits is None else self.joint_limits.summary(),
         }

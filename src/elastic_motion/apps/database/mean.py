@@ -26,12 +26,15 @@ from elastic_motion import motion as mm
 from elastic_motion._options import options_from_json, with_overrides
 from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
 from elastic_motion.apps.database.settings import DEFAULT_WARP, joint_selection
+from elastic_motion.apps.limit_stage import LimitStage, check_limits_option, keep_within_limits
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.apps.statistics import KarcherMeanResult, as_warp_options, karcher_mean
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, representations
+from elastic_motion.motion.joint_limits import JointLimits
+from elastic_motion.vocabulary import LimitPolicy
 from elastic_motion.warp import WarpOptions
 
 __all__ = ["MeanMotionResult", "MeanOptions", "mean_motion"]
@@ -67,6 +70,12 @@ class MeanOptions:
     up, units : str or None, default None
         How every file is read, as :attr:`DatabaseSettings.up` and
         :attr:`DatabaseSettings.units` (None: detected, guessed).
+    joint_limits : {"keep", "report", "off"}, JointLimits or path, default "keep"
+        Limits of the joints' DOF angles, the loop's and the blend's option
+        (:func:`elastic_motion.apps.limit_stage.check_limits_option`: those of the first
+        file's ASF, the given ones or those of the given ASF file). ``"keep"``: the mean's
+        DOF angles that every input respects are moved into their ranges, eased
+        (:func:`elastic_motion.apps.limit_stage.keep_within_limits`); ``"report"``: measured.
 
     Raises
     ------
@@ -85,8 +94,10 @@ class MeanOptions:
     fps: float | None = None
     up: str | None = None
     units: str | None = None
+    joint_limits: LimitPolicy | JointLimits = "keep"
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "joint_limits", check_limits_option(self.joint_limits))
         PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]  # checks them, naming the field
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
@@ -120,6 +131,7 @@ class MeanOptions:
             **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)},
             "joints": self.joints if isinstance(self.joints, str) else list(self.joints),
             "warp": self.warp.to_json(),
+            "joint_limits": _limits_json(self.joint_limits),
         }
 
     @classmethod
@@ -128,9 +140,29 @@ class MeanOptions:
         d = dict(data)
         if isinstance(d.get("warp"), dict):
             d["warp"] = WarpOptions.from_json(d["warp"])
+        if isinstance(d.get("joint_limits"), dict):
+            d["joint_limits"] = JointLimits.from_json(d["joint_limits"])
         if isinstance(d.get("joints"), list):
             d["joints"] = tuple(d["joints"])
         return options_from_json(cls, d, argument="mean options")
+
+
+def _matched_frames(
+    motion: Motion, inputs: Sequence[Motion], warps: Sequence[np.ndarray]
+) -> list[np.ndarray]:
+    """Each input's fractional frame at each of the mean's frames ``(F,)``, through its warp onto
+    the mean (the mean's normalised time ``u`` -> the input's ``phi_k(u)``)."""
+    u = np.clip(motion.times / max(motion.duration, 1e-12), 0.0, 1.0)
+    out = []
+    for m, w in zip(inputs, warps, strict=True):
+        w = np.asarray(w, dtype=np.float64)
+        phi = np.interp(u * w[-1, 0], w[:, 0], w[:, 1]) / w[-1, 1]
+        out.append(phi * (m.n_frames - 1))
+    return out
+
+
+def _limits_json(value: str | JointLimits) -> Any:
+    return value.to_json() if isinstance(value, JointLimits) else value
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,6 +187,8 @@ class MeanMotionResult:
         Seconds: the mean of the inputs' durations.
     notes : dict of str -> tuple of str
         What the preparation did to each input file.
+    joint_limits : LimitStage or None
+        What the limits stage did (``joint_limits`` option); None without limits.
     """
 
     motion: Motion
@@ -164,6 +198,7 @@ class MeanMotionResult:
     n_samples: int
     duration: float
     notes: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    joint_limits: LimitStage | None = None
 
     @property
     def energies(self) -> np.ndarray:
@@ -196,6 +231,7 @@ class MeanMotionResult:
                 "fps": self.motion.fps,
                 "frames": self.motion.n_frames,
                 "notes": self.notes,
+                "joint_limits": None if self.joint_limits is None else self.joint_limits.summary(),
             }
         )
 
@@ -272,6 +308,11 @@ def mean_motion(
     if duration > 0 and out_fps > 0:
         motion = mm.resample(motion, out_fps)
     motion = motion.replace(name="karcher mean")
+    limits = None
+    if opts.joint_limits != "off":
+        inputs = [p.motion for p in prepared]
+        matched = _matched_frames(motion, inputs, res.warps)
+        motion, limits = keep_within_limits(motion, opts.joint_limits, inputs, matched)
     return MeanMotionResult(
         motion=motion,
         karcher=res,
@@ -280,4 +321,5 @@ def mean_motion(
         n_samples=opts.n_samples,
         duration=duration,
         notes={p.path: p.notes for p in prepared},
+        joint_limits=limits,
     )

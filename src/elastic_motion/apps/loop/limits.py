@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastic_motion.apps.limit_stage import limits_of
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.closing import ClosingResult, ExtraConstraints
 from elastic_motion.errors import OptionError
@@ -471,13 +472,9 @@ def limits_plan(clip: Motion, options: LoopOptions) -> LimitsPlan:
     (``options.joint_limits``: given limits are kept; ``"keep"`` and ``"report"`` read the
     clip's ASF file; keeping needs the Lie curve and the KKT solver, else they are reported,
     with a note)."""
-    option = options.joint_limits
-    if isinstance(option, JointLimits):
-        mode, lim = "keep", option
-    elif option == "off":
+    mode, lim = limits_of(options.joint_limits, clip)
+    if mode == "off":
         return LimitsPlan("off", None, tol_deg=options.limit_tol)
-    else:
-        mode, lim = option, read_joint_limits(clip)
     notes = ()
     if mode == "keep" and not options.solves_kkt_on_lie:
         mode = "report"
@@ -487,7 +484,4 @@ def limits_plan(clip: Motion, options: LoopOptions) -> LimitsPlan:
                 "joint limits: reported only (keeping them needs method='lie' and solver='kkt')",
             ),
         )
-    if lim is not None:
-        lim = lim.restricted_to(clip.skeleton.names)
-        lim = lim if lim.joints else None
     return LimitsPlan(mode, lim, notes, options.limit_tol)

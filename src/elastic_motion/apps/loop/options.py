@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from elastic_motion import defaults
+from elastic_motion.apps.limit_stage import check_limits_option
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contact_policy
@@ -124,9 +125,10 @@ class LoopOptions:
         :data:`elastic_motion.apps.loop.contact_rows.ROW_BUDGET` is closed on a grid of its
         frames at most this far apart (:func:`~elastic_motion.apps.loop.contact_grid.grid_step`);
         0: every frame always.
-    joint_limits : {"report", "keep", "off"} or JointLimits, default "report"
+    joint_limits : {"report", "keep", "off"}, JointLimits or path, default "report"
         Limits of the joints' DOF angles: those of the ASF file the clip was read from
-        (nothing happens when there are none), or the given ones (kept). ``"keep"``: the loop
+        (nothing happens when there are none), or the given ones, or those of the given ASF
+        file (kept; :func:`elastic_motion.apps.limit_stage.check_limits_option`). ``"keep"``: the loop
         stays within every limit the input respects (:mod:`elastic_motion.apps.loop.limits`;
         needs ``method="lie"`` and ``solver="kkt"``, otherwise reported only, with a note);
         ``"report"``: only measured. ``"keep"`` is not the default because each constrained
@@ -223,11 +225,7 @@ class LoopOptions:
             raise OptionError("contacts", f"'keep' needs method='lie' and solver='kkt'; got {got}")
 
     def _check_limits(self) -> None:
-        if not isinstance(self.joint_limits, JointLimits) and self.joint_limits not in LIMIT_POLICIES:
-            raise OptionError(
-                "joint_limits",
-                f"expected one of {list(LIMIT_POLICIES)} or a JointLimits; got {self.joint_limits!r}",
-            )
+        object.__setattr__(self, "joint_limits", check_limits_option(self.joint_limits))
         tol = self.limit_tol
         if not (_finite(tol) and tol >= 0):
             raise OptionError("limit_tol", f"expected a non-negative number of degrees; got {tol!r}")
