@@ -227,7 +227,11 @@ class ClipCloser:
         if rep.is_lie:
             keep = (contacts or self.options.contact_mode) == "keep"
             found = detect_contacts(clip, self.options.detection) if keep else None
-            closed = self._close_lie(clip, mask, found)
+            # the window stage ranks candidates with contacts "report" and closes the chosen one
+            # again with them: the limits too are kept then only (issue 33: 6 candidates each
+            # solved with limit rows were most of the time of a loop with limits)
+            ranking = contacts == "report" and self.options.contact_mode == "keep"
+            closed = self._close_lie(clip, mask, found, ranking)
         else:
             closed = self._close_euler(clip, mask)
         return dataclasses.replace(closed, motion=closed.motion.replace(name=clip.name, source=()))
@@ -241,9 +245,12 @@ class ClipCloser:
             clip, self.options.joint_weights, translation_weight=self.options.translation_weight
         )
 
-    def _close_lie(self, clip: Motion, mask: np.ndarray, found: Contacts | None) -> ClosedClip:
+    def _close_lie(
+        self, clip: Motion, mask: np.ndarray, found: Contacts | None, ranking: bool = False
+    ) -> ClosedClip:
         """The Lie curve closed (with the contacts ``found`` kept when some are planted), then
-        within the kept joint limits."""
+        within the kept joint limits (not when ``ranking``: a candidate window of a loop that
+        keeps its contacts, closed again with them and the limits when chosen)."""
         o, project = self.options, self.projection(mask, clip)
         kept = extra = out = None
         if found is not None and found.any:
@@ -257,7 +264,7 @@ class ClipCloser:
                 lie, method=o.solver, tol=o.tol, max_iter=o.max_iter, factors=mask, c1=o.is_c1,
                 rotation_names=list(clip.skeleton.names),
             )  # fmt: skip
-        if self.limits is None or o.solver != "kkt":
+        if self.limits is None or o.solver != "kkt" or ranking:
             return ClosedClip(out if out is not None else LIE.from_curve(res.curve, clip), res, kept)
         # kept contacts that held are rows of every limits solve too
         base = extra if kept is not None and kept.dropped is None else None
