@@ -234,3 +234,36 @@ def test_limits_kept_only_with_the_kkt_projection_of_the_lie_curve():
     assert res.joint_limits.mode == "report" and res.method == "euler-elastic"
     (note,) = of_kind(res.notes, REPORTED_ONLY_NOTE)
     assert str(note) == "joint limits: reported only (keeping them needs method='lie' and solver='kkt')"
+
+
+def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeypatch):
+    """Issue 33 (CMU backflip, default window): limits solves that stop with the seam shut but
+    the optimality residual at the rounding floor (1e-7) counted as failed; each was retried
+    with sparser pins that were the same pins, up to 6 solves of ``max_iter`` iterations (30x
+    the time), and the loop kept none of the limits. Such a solve is now closed exactly from
+    where it stopped and kept. Simulated: every solve with limit rows reports that stall."""
+    import dataclasses
+
+    import elastic_motion.apps.loop.close as close_module
+
+    real = close_module.project_closed
+    calls = []
+
+    def stalling(curve, **kw):
+        res = real(curve, **kw)
+        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)):  # pins in it
+            calls.append(len(kw["extra"]))
+            return dataclasses.replace(
+                res, converged=False, message="stalled at KKT residual 9e-08 (rounding floor)"
+            )
+        return res
+
+    monkeypatch.setattr(close_module, "project_closed", stalling)
+    m, lim = drifting_clip(), knee_limits()
+    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0", window=None, force=True)
+    jl = kept.joint_limits
+    assert jl.message == "" and jl.new_violations == () and jl.pinned > 0
+    knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
+    assert knee.min() >= -15 - 0.5
+    assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
+    assert len(calls) <= 2  # a solve with pins, a second when a round adds some; no retries

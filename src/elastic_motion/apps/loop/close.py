@@ -28,7 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.apps.loop.kept_contacts import KeptContacts, close_keeping_contacts
+from elastic_motion.apps.loop.kept_contacts import (
+    POLISH_GAP,
+    STALL_ITERATIONS,
+    KeptContacts,
+    close_keeping_contacts,
+)
 from elastic_motion.apps.loop.limits import LIMIT_STEP, LoopLimits, lie_rotations, solve_within_limits
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.apps.progress import Progress
@@ -39,7 +44,7 @@ from elastic_motion.closing import (
     project_closed,
     project_closed_rd,
 )
-from elastic_motion.curves import DiscreteCurve
+from elastic_motion.curves import DiscreteCurve, srv_distance, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import Euclidean
 from elastic_motion.motion import Motion, finger_joints, lie_group_for, to_lie_curve
@@ -47,6 +52,9 @@ from elastic_motion.motion.contacts import ContactPolicy, Contacts, detect_conta
 from elastic_motion.motion.joint_limits import JointLimits
 from elastic_motion.motion.looping import treadmill
 from elastic_motion.motion.representations import EULER, LIE, Representation, representation
+
+#: A limits solve stops after this many times the iterations of the solve without limits (+4).
+LIMIT_ITERATIONS = 4
 
 __all__ = ["ClipCloser", "ClosedClip", "ClosedJoints", "Projection", "closed_joints", "closing_mask"]
 
@@ -219,7 +227,11 @@ class ClipCloser:
         if rep.is_lie:
             keep = (contacts or self.options.contact_mode) == "keep"
             found = detect_contacts(clip, self.options.detection) if keep else None
-            closed = self._close_lie(clip, mask, found)
+            # the window stage ranks candidates with contacts "report" and closes the chosen one
+            # again with them: the limits too are kept then only (issue 33: 6 candidates each
+            # solved with limit rows were most of the time of a loop with limits)
+            ranking = contacts == "report" and self.options.contact_mode == "keep"
+            closed = self._close_lie(clip, mask, found, ranking)
         else:
             closed = self._close_euler(clip, mask)
         return dataclasses.replace(closed, motion=closed.motion.replace(name=clip.name, source=()))
@@ -233,9 +245,12 @@ class ClipCloser:
             clip, self.options.joint_weights, translation_weight=self.options.translation_weight
         )
 
-    def _close_lie(self, clip: Motion, mask: np.ndarray, found: Contacts | None) -> ClosedClip:
+    def _close_lie(
+        self, clip: Motion, mask: np.ndarray, found: Contacts | None, ranking: bool = False
+    ) -> ClosedClip:
         """The Lie curve closed (with the contacts ``found`` kept when some are planted), then
-        within the kept joint limits."""
+        within the kept joint limits (not when ``ranking``: a candidate window of a loop that
+        keeps its contacts, closed again with them and the limits when chosen)."""
         o, project = self.options, self.projection(mask, clip)
         kept = extra = out = None
         if found is not None and found.any:
@@ -249,12 +264,13 @@ class ClipCloser:
                 lie, method=o.solver, tol=o.tol, max_iter=o.max_iter, factors=mask, c1=o.is_c1,
                 rotation_names=list(clip.skeleton.names),
             )  # fmt: skip
-        if self.limits is None or o.solver != "kkt":
+        if self.limits is None or o.solver != "kkt" or ranking:
             return ClosedClip(out if out is not None else LIE.from_curve(res.curve, clip), res, kept)
         # kept contacts that held are rows of every limits solve too
         base = extra if kept is not None and kept.dropped is None else None
+        cap = LIMIT_ITERATIONS * max(res.iterations, 1) + 4
         res, lim_info = solve_within_limits(
-            lambda ex: project(lie, ex), clip, self.limits, base=base, first=res,
+            lambda ex: _limits_solve(project, lie, ex, base, cap), clip, self.limits, base=base, first=res,
             step=max(1, round(LIMIT_STEP * clip.fps)), tol_deg=o.limit_tol,
         )  # fmt: skip
         if base is not None:
@@ -300,6 +316,30 @@ class ClipCloser:
         else:
             res = project_closed_rd(curve, factors=mask, tol=o.tol, max_iter=o.max_iter)
         return ClosedClip(EULER.from_curve(res.curve, clip), res)
+
+
+def _limits_solve(
+    project: Projection, lie: DiscreteCurve, extra: ExtraConstraints, base: ExtraConstraints | None, cap: int
+) -> ClosingResult:
+    """A solve of :func:`solve_within_limits`: ``lie`` projected with the rows ``extra``
+    (pins and ``base``), stopping when the gap stops shrinking or after ``cap`` iterations.
+
+    A solve that stopped short of its tolerances (the optimality residual at the rounding
+    floor, 1e-7, or the gap flat near 1e-7: issue 33, CMU backflip) is closed exactly from
+    where it stopped with the rows ``base`` only: the pins then move by far less than
+    ``limit_tol``, which the next round checks. Before, such a solve ran to ``max_iter`` and
+    counted as failed, and its retries with sparser pins picked the same pins and failed the
+    same way (five of them: 30x the time of the loop without limits).
+    """
+    res = project(lie, extra, stall=STALL_ITERATIONS, iterations=cap)
+    if res.converged or not np.isfinite(res.gap):
+        return res
+    polish = project(res.curve, base if base is not None and len(base) else None)
+    if not (polish.converged or polish.gap <= POLISH_GAP):
+        return res
+    change = srv_distance(polish.srv, srv_transform(lie))  # from the input
+    message = f"limits solve stopped ({res.message}); closed exactly from there ({polish.message})"
+    return dataclasses.replace(polish, change=change, message=message, converged=True)
 
 
 def _root(res: ClosingResult) -> np.ndarray:

@@ -404,7 +404,8 @@ def solve_within_limits(
         cand = solve(extra)
         done += 1
         if not cand.converged:
-            if stride < n_frames:  # pins too dense for the solver: sparser ones
+            if stride < n_frames and _pick(beyond, after.excess, 2 * stride).sum() < new.sum():
+                # pins too dense for the solver: sparser ones (not the same pins again)
                 stride *= 2
                 continue
             message = f"joint limits: solve {done} did not converge ({cand.message}); kept the previous loop"
