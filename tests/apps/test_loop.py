@@ -512,7 +512,11 @@ def test_a_whole_clip_that_whips_a_limb_says_where_and_what_to_do(mocap_dir):
         ("candidates", 0, r"^candidates: expected a positive integer"),
         ("contacts", "plant", r"^contacts: expected one of \['keep', 'report', 'off'\]"),
         ("contact_step", float("nan"), r"^contact_step: expected a non-negative number of seconds"),
-        ("joint_limits", "sometimes", r"^joint_limits: expected one of \['keep', 'report', 'off'\] or a"),
+        (
+            "joint_limits",
+            "sometimes",
+            r"^joint_limits: expected one of \['keep', 'report', 'off'\], a JointL",
+        ),
         ("limit_tol", -0.5, r"^limit_tol: expected a non-negative number of degrees"),
         ("window", "best", r"^window: expected 'safe', 'auto', None or \(start, stop\) frames; got 'best'"),
         ("free_joints", "toes", r"^free_joints: expected 'fingers', None or a list of joint names"),

@@ -340,7 +340,7 @@ def add_joint_limits_option(p: argparse.ArgumentParser, default: str, what: str)
         metavar="{keep,report,off} or FILE.asf",
         help="limits of the joints' DOF angles, from the ASF file of an .amc input or the given .asf "
         f"file (none: nothing happens): 'keep': {what}; 'report': only measured; 'off': skip. Limits "
-        "the input itself violates are reported, never enforced",
+        f"the input itself violates are reported, never enforced (default: {default})",
     )
 
 
