@@ -28,29 +28,28 @@ writes ``benchmarks/results/upaxis_exports.json``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import shutil
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
-
-import numpy as np
 
 from _common import MOCAP, RESULTS, machine_info, write_json
 from elastic_motion.motion import (
     Motion,
     detect_up_axis,
     drop_tpose,
-    forward_kinematics,
     read_bvh,
     read_motion,
     select_frames,
     write_bvh,
 )
 
-Y_TO_Z = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
 BLENDER_SCRIPT = Path(__file__).resolve().parents[1] / "tests" / "apps" / "test_blender_upaxis.py"
+# the simulated exports are the tests' own (one home: tests/motion/motion_testlib.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "motion"))
+from motion_testlib import blender_export, in_place  # noqa: E402
 
 
 def clips() -> list[tuple[str, Path]]:
@@ -63,34 +62,6 @@ def clips() -> list[tuple[str, Path]]:
 def load(path: Path) -> Motion:
     m = read_motion(path)
     return drop_tpose(m) if "cmu" in path.parts else m
-
-
-def blender_export(m: Motion) -> Motion:
-    """Blender's armature space of a Y-up clip (offsets turned too): Z-up."""
-    sk = m.skeleton
-    turned = dataclasses.replace(
-        sk, offsets=sk.offsets @ Y_TO_Z.T, end_site_offsets=sk.end_site_offsets @ Y_TO_Z.T
-    )
-    jt = None if m.joint_translations is None else m.joint_translations @ Y_TO_Z.T
-    return m.replace(
-        skeleton=turned,
-        rotations=np.einsum("ij,fnjk,lk->fnil", Y_TO_Z, m.rotations, Y_TO_Z),
-        root_translation=m.root_translation @ Y_TO_Z.T,
-        joint_translations=jt,
-        up_axis="z",
-    )
-
-
-def in_place(m: Motion, up: str) -> Motion:
-    """The hips held at their mean position across ``up``, their height kept."""
-    sk = m.skeleton
-    hips = 0
-    while len(sk.children(hips)) == 1:
-        hips = sk.children(hips)[0]
-    path = forward_kinematics(m)[:, hips]
-    drift = path - path.mean(axis=0)
-    drift[:, "xyz".index(up)] = 0.0
-    return m.replace(root_translation=m.root_translation - drift)
 
 
 def read_as(m: Motion, work: Path) -> tuple[str, float]:

@@ -133,3 +133,42 @@ def geodesic_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
     sin = 0.5 * np.linalg.norm(skew, axis=-1)
     return np.degrees(np.arctan2(sin, cos))
+
+
+# ------------------------------------------------------------------------------------------
+# Simulated Blender exports (the up-axis tests and benchmarks/upaxis_exports.py)
+# ------------------------------------------------------------------------------------------
+
+#: Blender's import: Y-up to Z-up, (x, y, z) -> (x, -z, y).
+Y_TO_Z = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
+
+
+def blender_export(m, rot: np.ndarray = Y_TO_Z):
+    """``m`` (Y-up Motion) as Blender exports it: Z-up armature space (offsets turned too)."""
+    import dataclasses
+
+    sk = m.skeleton
+    turned = dataclasses.replace(sk, offsets=sk.offsets @ rot.T, end_site_offsets=sk.end_site_offsets @ rot.T)
+    jt = None if m.joint_translations is None else m.joint_translations @ rot.T
+    return m.replace(
+        skeleton=turned,
+        rotations=np.einsum("ij,fnjk,lk->fnil", rot, m.rotations, rot),
+        root_translation=m.root_translation @ rot.T,
+        joint_translations=jt,
+        up_axis="z" if rot is Y_TO_Z else m.up_axis,
+    )
+
+
+def in_place(m, up: str):
+    """The hips (the first joint with several children) held at their mean position across
+    ``up``, their height kept: the whole body shifted by the root."""
+    from elastic_motion.motion import forward_kinematics
+
+    sk = m.skeleton
+    hips = 0
+    while len(sk.children(hips)) == 1:
+        hips = sk.children(hips)[0]
+    path = forward_kinematics(m)[:, hips]
+    drift = path - path.mean(axis=0)
+    drift[:, "xyz".index(up)] = 0.0
+    return m.replace(root_translation=m.root_translation - drift)

@@ -15,53 +15,19 @@ No mocap is committed: the real clips come from the shared folder (``mocap_dir``
 
 from __future__ import annotations
 
-import dataclasses
-
-import numpy as np
 import pytest
-from motion_testlib import deepmimic_files
+from motion_testlib import blender_export, deepmimic_files, in_place
 from test_motion_upaxis import TURNS, human, turned
 
 from elastic_motion.motion import (
     Motion,
     detect_up_axis,
     drop_tpose,
-    forward_kinematics,
     read_bvh,
     read_motion,
     select_frames,
     write_bvh,
 )
-
-#: Blender's import: Y-up to Z-up, (x, y, z) -> (x, -z, y).
-Y_TO_Z = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
-
-
-def blender_export(m: Motion, rot: np.ndarray = Y_TO_Z) -> Motion:
-    """``m`` (Y-up) as Blender exports it: Z-up armature space (offsets turned too)."""
-    sk = m.skeleton
-    turned = dataclasses.replace(sk, offsets=sk.offsets @ rot.T, end_site_offsets=sk.end_site_offsets @ rot.T)
-    jt = None if m.joint_translations is None else m.joint_translations @ rot.T
-    return m.replace(
-        skeleton=turned,
-        rotations=np.einsum("ij,fnjk,lk->fnil", rot, m.rotations, rot),
-        root_translation=m.root_translation @ rot.T,
-        joint_translations=jt,
-        up_axis="z" if rot is Y_TO_Z else m.up_axis,
-    )
-
-
-def in_place(m: Motion, up: str) -> Motion:
-    """The hips (the first joint with several children) held at their mean position across
-    ``up``, their height kept: the whole body shifted by the root."""
-    sk = m.skeleton
-    hips = 0
-    while len(sk.children(hips)) == 1:
-        hips = sk.children(hips)[0]
-    path = forward_kinematics(m)[:, hips]
-    drift = path - path.mean(axis=0)
-    drift[:, "xyz".index(up)] = 0.0
-    return m.replace(root_translation=m.root_translation - drift)
 
 
 def _read_back(m: Motion, tmp_path, name: str) -> Motion:
