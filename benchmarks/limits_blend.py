@@ -56,22 +56,6 @@ CASES = [
 ]
 
 
-def inputs_box(motions) -> JointLimits:
-    """Each DOF angle (XYZ, identity frame) of every non-root joint boxed by the motions' range."""
-    names = [n for n in motions[0].skeleton.names[1:]]
-    n = len(names)
-    wide = JointLimits(
-        tuple(names),
-        ("XYZ",) * n,
-        np.stack([np.eye(3)] * n),
-        (np.full(3, -np.pi),) * n,
-        (np.full(3, np.pi),) * n,
-    )
-    ang = np.concatenate([wide.angles(m.rotations, m.skeleton.names) for m in motions])
-    lo, hi = ang.min(axis=0).reshape(n, 3), ang.max(axis=0).reshape(n, 3)
-    return JointLimits(wide.joints, wide.axes, wide.frames, tuple(lo), tuple(hi), "inputs' range")
-
-
 def _run(kind: str, files, limits):
     if kind == "blend":
         res = blend_motions(files, 0.5, joint_limits=limits)
@@ -88,7 +72,11 @@ def _excess_deg(motion, lim: JointLimits, inputs_ok: np.ndarray) -> float:
 
 def _case(kind: str, name: str, files, source: str, repeat: int) -> dict:
     t_off, (_, m_off, inputs) = timed_best(lambda: _run(kind, files, "off"), repeat)
-    lim = read_joint_limits(ASF / "charleston.asf") if source == "asf" else inputs_box(inputs)
+    lim = (
+        read_joint_limits(ASF / "charleston.asf")
+        if source == "asf"
+        else JointLimits.range_of(inputs, inputs[0].skeleton.names[1:])
+    )
     lim = lim.restricted_to(m_off.skeleton.names)
     t_on, (kept, m_on, _) = timed_best(lambda: _run(kind, files, lim), repeat)
     ok = np.ones(lim.n_dofs, dtype=bool)

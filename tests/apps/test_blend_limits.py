@@ -23,27 +23,28 @@ NORMAL = "dataset-1_walk_normal_001.bvh"
 TIRED = "dataset-1_walk_tired_001.bvh"
 
 
-def box_of(motions, names):
-    """Tight limits: each dof's range over the motions (3 dofs XYZ, identity frame)."""
-    n = len(names)
-    wide = JointLimits(
-        tuple(names),
-        ("XYZ",) * n,
-        np.stack([np.eye(3)] * n),
-        (np.full(3, -np.pi),) * n,
-        (np.full(3, np.pi),) * n,
-    )
-    ang = np.concatenate([wide.angles(m.rotations, m.skeleton.names) for m in motions])
-    lo, hi = ang.min(axis=0).reshape(n, 3), ang.max(axis=0).reshape(n, 3)
-    return JointLimits(wide.joints, wide.axes, wide.frames, tuple(lo), tuple(hi), "inputs' range")
-
-
 @pytest.fixture(scope="module")
 def bandai(mocap_dir):
     a, b = mocap_dir / "bandai" / NORMAL, mocap_dir / "bandai" / TIRED
     free = blend_motions([a, b], 0.5, joint_limits="off", metrics=False)
     names = [n for n in free.motion.skeleton.names if n != "joint_Root"]
-    return a, b, free, box_of(free.prepared.motions, names)
+    return a, b, free, JointLimits.range_of(free.prepared.motions, names)
+
+
+def test_a_motions_own_range_holds_it_exactly_and_no_more(bandai):
+    """``JointLimits.range_of``: each motion inside (its DOF extremes are the bounds, touched,
+    never crossed), and a motion turned a little further at one joint crosses them."""
+    _, _, free, box = bandai
+    for m in free.prepared.motions:
+        assert check_joint_limits(m, box).ok
+    m = free.prepared.motions[0]
+    k = m.skeleton.index(box.joints[0])
+    rot = m.rotations.copy()
+    rot[:, k] = rot[:, k] @ SO3().exp(np.array([0.2, 0.0, 0.0]))  # 11.5 deg more about x, every frame
+    assert not check_joint_limits(m.replace(rotations=rot), box).ok
+    lo, hi = box.lower[0], box.upper[0]
+    ang = np.concatenate([box.angles(x.rotations, x.skeleton.names)[:, :3] for x in free.prepared.motions])
+    assert np.allclose(ang.min(axis=0), lo) and np.allclose(ang.max(axis=0), hi)
 
 
 def test_blend_stays_within_tight_limits_the_plain_blend_crosses(bandai, tmp_path):
@@ -92,7 +93,7 @@ def test_mean_stays_within_the_limits(mocap_dir):
     free = mean_motion(files, n_samples=24, max_iter=3, joint_limits="off")
     m = free.motion
     names = [n for n in m.skeleton.names if n != "joint_Root"]
-    box = box_of([m], names)
+    box = JointLimits.range_of([m], names)
     # the mean's own range shrunk by 2 degrees: the inputs violate some of it, not all
     lim = JointLimits(
         box.joints,

@@ -26,6 +26,7 @@ This module does no I/O: :func:`elastic_motion.motion.asfamc.read_joint_limits` 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -248,6 +249,24 @@ class JointLimits:
             tuple(rad(r["upper_deg"], math.inf) for r in rows),
             str(data.get("source", "")),
         )
+
+    @classmethod
+    def range_of(cls, motions: Sequence[Motion], joints: Sequence[str]) -> JointLimits:
+        """Limits that are the motions' own range: each of ``joints`` gets three DOFs (``XYZ``
+        angles in its parent frame, identity reference frame) bounded by the least and greatest
+        angle any of ``motions`` takes (radians). A motion within its own range never
+        violates them; a blend of several can (the knee of one with the hip of another)."""
+        n = len(joints)
+        whole = cls(
+            tuple(joints),
+            ("XYZ",) * n,
+            np.stack([np.eye(3)] * n) if n else np.zeros((0, 3, 3)),
+            (np.full(3, -np.pi),) * n,
+            (np.full(3, np.pi),) * n,
+        )
+        ang = np.concatenate([whole.angles(m.rotations, m.skeleton.names) for m in motions])
+        lo, hi = ang.min(axis=0).reshape(n, 3), ang.max(axis=0).reshape(n, 3)
+        return cls(whole.joints, whole.axes, whole.frames, tuple(lo), tuple(hi), "the motions' own range")
 
     @property
     def n_dofs(self) -> int:
