@@ -6,8 +6,9 @@ The allowed values are read from the API's types (:mod:`elastic_motion.vocabular
 ``--method`` from :data:`~elastic_motion.vocabulary.Method`, ``--linkage`` from
 :data:`~elastic_motion.vocabulary.Linkage`, ``--engine`` from
 :data:`~elastic_motion.vocabulary.EngineName`, ``--joints`` from
-:data:`~elastic_motion.vocabulary.JOINT_SELECTIONS`; the warp defaults to the database's
-(:data:`elastic_motion.defaults.MEAN_WARP_METHOD`). This module loads no numpy (it is imported
+:data:`~elastic_motion.vocabulary.JOINT_SELECTIONS`; the warp defaults to every command's
+(:data:`elastic_motion.defaults.DEFAULT_METHOD`), a mean's to
+:data:`elastic_motion.defaults.MEAN_WARP_METHOD`. This module loads no numpy (it is imported
 when the parser is built); what makes the parsed flags into the apps' settings is in
 :mod:`._database_running`, which a command imports inside its ``run``.
 """
@@ -24,7 +25,7 @@ from elastic_motion.cli_commands._common import (
     add_warp_options,
     joints_arg,
 )
-from elastic_motion.defaults import MEAN_WARP_METHOD
+from elastic_motion.defaults import DEFAULT_METHOD, MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.vocabulary import JOINT_SELECTIONS, EngineName, Linkage, Method
 
@@ -115,11 +116,16 @@ def joints_option(value: str) -> str | tuple[str, ...]:
     return joints_arg(value, JOINT_SELECTIONS)
 
 
-def add_warp(p: argparse.ArgumentParser) -> None:
-    """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults."""
-    # the database's defaults: DP only (the batched DP; with the refinement an all-pairs matrix
-    # at 64 samples takes 4.7x as long: apps.database.settings.DEFAULT_WARP)
-    add_warp_options(p, method=MEAN_WARP_METHOD, sampling=False, coarse_to_fine=True)
+def add_warp(p: argparse.ArgumentParser, *, mean: bool = False) -> None:
+    """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults: the
+    warp of every command (``dp+refine``: one distance for one pair in ``distance``, ``matrix``,
+    ``search`` and ``blend``; ``dp`` with ``--cyclic``, which needs it); ``mean``: a Karcher
+    mean's (``dp``, its energy non-increasing: ``apps.statistics.MEAN_WARP``)."""
+    add_warp_options(
+        p, method=MEAN_WARP_METHOD if mean else DEFAULT_METHOD, sampling=False, coarse_to_fine=True
+    )
+    if not mean:  # not given: DatabaseSettings' default (DP+refine, or the DP with --cyclic)
+        p.set_defaults(warp=None)
 
 
 def add_distance_terms(p: argparse.ArgumentParser) -> None:
@@ -137,8 +143,8 @@ def add_distance_terms(p: argparse.ArgumentParser) -> None:
         action="store_true",
         default=None,  # None: not given (a stored database's own setting is then no surprise)
         help="phase-free matching: the least distance over the cyclic shifts of either motion's cells "
-        "(windows of periodic motions started at different phases; 2 x SAMPLES times the cost; needs --warp "
-        "dp) (default: off)",
+        "(windows of periodic motions started at different phases; 2 x SAMPLES times the cost; with the DP "
+        "alone, --warp dp, its default) (default: off)",
     )
 
 

@@ -56,7 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_quiet_option(p)
     add_json_option(p)
     add_preparation(p)
-    add_warp(p)
+    add_warp(p, mean=True)
     p.set_defaults(func=run)
 
 

@@ -178,7 +178,7 @@ class SRVCache:
                     f"{fmt!r} (written by another release: delete the folder's files or recompute with "
                     "overwrite=True / --overwrite)",
                 )
-            settings = DatabaseSettings.from_json(meta["settings"])
+            settings = DatabaseSettings.from_json(meta["settings"], fmt)
             n = len(meta["names"])
             q = {r: [z[f"q_{r}_{k}"] for k in range(n)] for r in settings.representations}
         _check_arrays(
@@ -198,7 +198,7 @@ class SRVCache:
         KeyError, TypeError, ValueError
             ``meta`` lacking an entry or holding one of another type.
         """
-        settings = DatabaseSettings.from_json(meta["settings"])
+        settings = DatabaseSettings.from_json(meta["settings"], meta.get("format", FORMAT_VERSION))
         groups = np.asarray(meta["groups"], dtype=np.int64)
         pose_weights = {r: [float(x) for x in v] for r, v in meta.get("pose_weights", {}).items()}
         n_groups = len(meta["group_joints"])
@@ -346,6 +346,7 @@ def _prepare_one(
         return prepare_motion(
             path,
             settings.n_samples,
+            smoothing=settings.warp.sample_smoothing,
             joints=select,
             drop_fingers=settings.drop_fingers,
             align_heading=settings.align_heading,

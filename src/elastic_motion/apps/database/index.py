@@ -66,7 +66,7 @@ from elastic_motion.apps.database import storage, verified
 from elastic_motion.apps.database.bounds import part_norms
 from elastic_motion.apps.database.cache import SRVCache, build_srv_cache
 from elastic_motion.apps.database.files import check_output_folder, find_motion_files
-from elastic_motion.apps.database.settings import DatabaseSettings
+from elastic_motion.apps.database.settings import FORMAT_VERSION, DatabaseSettings
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError, ParseError
@@ -412,7 +412,7 @@ def _entry_layout(meta: dict[str, Any]) -> tuple[DatabaseSettings, dict[str, Any
     """The settings, entries and group dimensions of ``index.json`` of format 2, checked against
     one another (``KeyError``, ``TypeError``, ``ValueError`` otherwise)."""
     entries = meta["entries"]
-    settings = DatabaseSettings.from_json(entries["settings"])
+    settings = DatabaseSettings.from_json(entries["settings"], entries.get("format", FORMAT_VERSION))
     n = meta["n_motions"]
     groups = entries["groups"]
     n_groups = len(entries["group_joints"])

@@ -161,7 +161,7 @@ def _upgraded_identity(old: Any) -> dict[str, Any] | None:
     if not isinstance(old, dict) or old.get("format") not in READABLE_FORMATS:
         return None
     try:
-        settings = DatabaseSettings.from_json(old["settings"]).to_json()
+        settings = DatabaseSettings.from_json(old["settings"], old["format"]).to_json()
     except (KeyError, TypeError, ValueError):
         return None
     return {"format": FORMAT_VERSION, "settings": settings, "inputs": old.get("inputs")}

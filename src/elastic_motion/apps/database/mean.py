@@ -25,12 +25,12 @@ import numpy as np
 from elastic_motion import motion as mm
 from elastic_motion._options import options_from_json, with_overrides
 from elastic_motion.apps.database.preparation import database_curves, prepare_same_skeleton
-from elastic_motion.apps.database.settings import DEFAULT_WARP, joint_selection
+from elastic_motion.apps.database.settings import joint_selection
 from elastic_motion.apps.limit_stage import LimitStage, check_limits_option, keep_within_limits
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.apps.progress import Progress
 from elastic_motion.apps.report import jsonable
-from elastic_motion.apps.statistics import KarcherMeanResult, as_warp_options, karcher_mean
+from elastic_motion.apps.statistics import MEAN_WARP, KarcherMeanResult, as_warp_options, karcher_mean
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion, representations
 from elastic_motion.motion.joint_limits import JointLimits
@@ -58,8 +58,9 @@ class MeanOptions:
         skeleton.
     drop_fingers, align_heading : bool, default True
         As in :class:`~elastic_motion.apps.database.DatabaseSettings`.
-    warp : WarpOptions, default :data:`~elastic_motion.apps.database.DEFAULT_WARP`
-        How each motion is aligned to the mean (DP, neighbourhood 10); a method name is
+    warp : WarpOptions, default :data:`~elastic_motion.apps.statistics.MEAN_WARP`
+        How each motion is aligned to the mean (DP, neighbourhood 10: its energy is
+        non-increasing; an internal step, not a distance reported for a pair); a method name is
         accepted for ``WarpOptions(method=name)``; ``"none"``: the plain SRV average.
     max_iter : int, default 20
         Alignment iterations at most (0: the plain average, unaligned).
@@ -88,7 +89,7 @@ class MeanOptions:
     joints: str | tuple[str, ...] = "all"
     drop_fingers: bool = True
     align_heading: bool = True
-    warp: WarpOptions = DEFAULT_WARP
+    warp: WarpOptions = MEAN_WARP
     max_iter: int = 20
     tol: float = 1e-4
     fps: float | None = None
@@ -103,7 +104,7 @@ class MeanOptions:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
         object.__setattr__(self, "method", representations.representation(self.method).name)
         object.__setattr__(self, "joints", joint_selection(self.joints))
-        object.__setattr__(self, "warp", as_warp_options(self.warp, default=DEFAULT_WARP))
+        object.__setattr__(self, "warp", as_warp_options(self.warp, default=MEAN_WARP))
         if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 0:
             raise OptionError("max_iter", f"expected an integer >= 0; got {self.max_iter!r}")
         if isinstance(self.tol, bool) or not isinstance(self.tol, int | float) or not self.tol >= 0:

@@ -10,7 +10,12 @@ module adds the database's own steps, in this order:
 3. keep the joints asked for (a list; ``"common"`` is applied to a whole set by
    :func:`restrict_to_common_joints`), closed towards the root
    (:func:`elastic_motion.apps.prepare.closed_joint_set`);
-4. resample to ``n_samples + 1`` frames uniformly over the clip's duration (geodesic
+4. low-pass every joint (``smoothing``: a Gaussian of that standard deviation in seconds,
+   :func:`elastic_motion.motion.edit.smooth_motion`, the low-pass ``distance`` applies before
+   it samples its curves, :func:`elastic_motion.apps.align.motion_curves`; a database passes
+   its ``warp.sample_smoothing``, :data:`~elastic_motion.defaults.DEFAULT_SAMPLE_SMOOTHING` by
+   default);
+5. resample to ``n_samples + 1`` frames uniformly over the clip's duration (geodesic
    interpolation of rotations), the grid of the SRV arrays.
 """
 
@@ -98,6 +103,7 @@ def prepare_motion(
     align_heading: bool = True,
     motion: Motion | None = None,
     options: PrepareOptions | None = None,
+    smoothing: float = 0.0,
 ) -> PreparedMotion:
     """Read a motion file and bring it to the common form of a database (module docstring).
 
@@ -119,6 +125,10 @@ def prepare_motion(
         The shared per-file steps (default ``PrepareOptions()``: drop a T-pose frame 0,
         fold a static root, unit guessed from the skeleton, up axis as read). Its set-level
         fields (``joints``, ``align``, ``trim``) are not used here.
+    smoothing : float, default 0
+        Standard deviation (seconds) of the Gaussian low-pass before the grid is sampled
+        (step 4; 0: none). A database's curves pass ``settings.warp.sample_smoothing``; a mean
+        and :func:`~elastic_motion.apps.database.find_within` resample the motions unfiltered.
 
     Returns
     -------
@@ -155,6 +165,8 @@ def prepare_motion(
         m = mm.select_joints(m, closed_joint_set(m.skeleton, joints))
     original = m.n_frames
     duration = m.duration
+    if smoothing > 0:  # the low-pass of distance's curves (apps.align.motion_curves), same function
+        m = mm.smooth_motion(m, smoothing)
     target = np.linspace(0.0, duration, n_samples + 1)
     m = mm.resample_at_times(m, m.times, target, fps=n_samples / duration)
     return PreparedMotion(os.fspath(path), m, original, duration, tuple(notes), report)

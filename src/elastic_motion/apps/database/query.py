@@ -182,6 +182,7 @@ def _query_srv(
     p = prepare_motion(
         query,
         settings.n_samples,
+        smoothing=settings.warp.sample_smoothing,
         joints=select,
         drop_fingers=settings.drop_fingers,
         align_heading=settings.align_heading,

@@ -4,8 +4,8 @@ The JSON form is stored three times in an output folder (``manifest.json`` as th
 of the run, ``srv_cache.npz`` and ``report.json``)::
 
     {"n_samples": 64, "representations": ["lie", "euler"],
-     "warp": {"method": "dp", "neighbourhood": 10, "coarse_to_fine": false,
-              "sample_fps": 30.0, "landmark_weight": 100.0},
+     "warp": {"method": "dp+refine", "neighbourhood": 10, "coarse_to_fine": false,
+              "sample_fps": 30.0, "sample_smoothing": 0.016666666666666666, ...},
      "joints": "all", "drop_fingers": true, "align_heading": true, "tile_size": 32}
 
 plus ``"pose_weight"``, ``"cyclic": true``, ``"up"`` and ``"units"`` when they are set
@@ -32,6 +32,7 @@ from elastic_motion.vocabulary import JOINT_SELECTIONS
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
+    "CYCLIC_WARP",
     "DEFAULT_WARP",
     "FORMAT_VERSION",
     "JOINT_SELECTIONS",
@@ -98,21 +99,31 @@ def joint_selection(value: str | Sequence[str]) -> str | tuple[str, ...]:
 
 
 #: Version of the files of an output folder. 1: settings with ``"pair"``; 2: with ``"warp"``
-#: (:class:`~elastic_motion.warp.WarpOptions`). Tiles and SRV arrays are the same in both.
-FORMAT_VERSION = 2
+#: (:class:`~elastic_motion.warp.WarpOptions`); 3: the SRV arrays low-passed by
+#: ``warp.sample_smoothing`` before the grid is sampled, as ``distance`` samples its curves
+#: (formats 1 and 2 did not low-pass: their settings read with ``sample_smoothing = 0``, the
+#: numbers they were computed with).
+FORMAT_VERSION = 3
 #: Versions :meth:`DatabaseSettings.from_json` reads.
-READABLE_FORMATS = (1, 2)
+READABLE_FORMATS = (1, 2, 3)
+#: The last format whose SRV arrays were not low-passed (:meth:`DatabaseSettings.from_json`).
+_UNSMOOTHED_FORMAT = 2
 
-#: The warp of a database: :class:`~elastic_motion.warp.WarpOptions`' defaults (neighbourhood
-#: 10) with the DP alone (``method="dp"``), the warp of a Karcher mean
-#: (:data:`elastic_motion.apps.statistics.MEAN_WARP`: its energy is non-increasing only with the
-#: DP), so that a database's distances are those its mean minimises; ``cyclic`` needs it too.
-#: The refinement off the grid (``"dp+refine"``, compiled since issue 34) makes an all-pairs
-#: matrix 4.7 times slower than the batched DP at ``n_samples = 64`` (the benchmark's 31 CMU
-#: windows, Lie, 465 pairs: 0.84 s against 3.99 s; 29.4 s before issue 34), for distances 0.6 %
-#: lower (median; at most 12 %) and the same 1-NN accuracy. Pass
-#: ``WarpOptions(method="dp+refine")`` for the closer distances.
-DEFAULT_WARP = MEAN_WARP
+#: The warp of a database: :class:`~elastic_motion.warp.WarpOptions`' defaults, the warp of
+#: every command (``method="dp+refine"``, :data:`elastic_motion.defaults.DEFAULT_METHOD`;
+#: issue 34: one distance for one pair in ``distance``, ``matrix``, ``search`` and ``blend``).
+#: The refinement off the grid makes an all-pairs matrix about 4.7 times slower than the
+#: batched DP at ``n_samples = 64`` (the benchmark's 31 CMU windows, Lie, 465 pairs: 0.84 s
+#: against 3.99 s), for distances 0.6 % lower (median; at most 12 %); ``warp="dp"`` gives the
+#: batched DP's numbers. The exact search stays exact (its bounds hold for every warp,
+#: :mod:`.bounds`). Phase-free matching (``cyclic``) needs the DP alone: its default warp is
+#: :data:`CYCLIC_WARP`. A Karcher mean keeps its own warp
+#: (:data:`elastic_motion.apps.statistics.MEAN_WARP`: its energy is non-increasing only with
+#: the DP), an internal step that reports no pair distance.
+DEFAULT_WARP = WarpOptions()
+#: The default warp of phase-free matching (``cyclic=True``): the DP alone, the only warp its
+#: batched shifts solve.
+CYCLIC_WARP = MEAN_WARP
 
 
 @dataclass(frozen=True)
@@ -129,12 +140,16 @@ class DatabaseSettings:
         :class:`~elastic_motion.motion.representations.Representation` objects), held as their
         stored keys ``"lie"`` / ``"euler"`` (:func:`representation_keys`), which name the
         matrix files.
-    warp : WarpOptions, default :data:`DEFAULT_WARP` (``WarpOptions(method="dp")``)
+    warp : WarpOptions, optional
         How a pair distance is computed (:func:`~elastic_motion.apps.database.pair_distance`):
-        ``method`` ``"dp"`` / ``"dp+refine"`` (elastic distance) or ``"none"`` (distance of
-        the parametrised curves), the DP ``neighbourhood`` (default 10), ``coarse_to_fine``.
-        A method name is accepted for ``WarpOptions(method=name)``. ``sample_fps`` and
-        ``landmark_weight`` are not used here (the grid is ``n_samples``; no landmarks).
+        ``method`` ``"dp+refine"`` / ``"dp"`` (elastic distance) or ``"none"`` (distance of
+        the parametrised curves), the DP ``neighbourhood`` (default 10), ``coarse_to_fine``,
+        and ``sample_smoothing``: the Gaussian low-pass (seconds) of each motion before its grid
+        is sampled, the one ``distance`` applies before sampling its curves. A method name is
+        accepted for ``WarpOptions(method=name)``. ``sample_fps`` and ``landmark_weight`` are
+        not used here (the grid is ``n_samples``; no landmarks). Default :data:`DEFAULT_WARP`
+        (``WarpOptions()``, the warp of every command), :data:`CYCLIC_WARP` (the DP alone)
+        with ``cyclic``.
     joints : "all", "common", "map" or tuple of str, default "all"
         ``"all"``: every joint of each file; motions with different joint names form
         separate groups (entries between groups are ``+inf``). ``"common"``: the joints
@@ -182,7 +197,7 @@ class DatabaseSettings:
 
     n_samples: int = 64
     representations: tuple[str, ...] = (LIE.key, EULER.key)
-    warp: WarpOptions = DEFAULT_WARP
+    warp: WarpOptions | None = None
     joints: str | tuple[str, ...] = "all"
     drop_fingers: bool = True
     align_heading: bool = True
@@ -197,7 +212,8 @@ class DatabaseSettings:
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
         object.__setattr__(self, "representations", representation_keys(self.representations))
-        object.__setattr__(self, "warp", as_warp_options(self.warp, default=None))
+        default = CYCLIC_WARP if self.cyclic is True else DEFAULT_WARP
+        object.__setattr__(self, "warp", as_warp_options(self.warp, default=default))
         object.__setattr__(self, "joints", joint_selection(self.joints))
         if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, int) or self.tile_size < 1:
             raise OptionError("tile_size", f"expected an integer >= 1; got {self.tile_size!r}")
@@ -242,8 +258,12 @@ class DatabaseSettings:
         return PrepareOptions(up=self.up, units=self.units)  # type: ignore[arg-type]
 
     @classmethod
-    def from_json(cls, data: dict[str, Any]) -> DatabaseSettings:
+    def from_json(cls, data: dict[str, Any], file_format: int = FORMAT_VERSION) -> DatabaseSettings:
         """Inverse of :meth:`to_json`; also reads format 1 (``"pair"``, module docstring).
+
+        ``file_format``: of the file ``data`` was stored in (:data:`FORMAT_VERSION`); its SRV arrays
+        were computed without the low-pass before format 3, so the settings of such a file read
+        with ``warp.sample_smoothing = 0`` (the numbers stored), whatever its JSON says.
 
         Raises
         ------
@@ -261,7 +281,12 @@ class DatabaseSettings:
         if bad:
             raise OptionError("settings", f"expected fields among {sorted(known)}; got unknown {bad}")
         if isinstance(d.get("warp"), dict):
-            d["warp"] = WarpOptions.from_json(d["warp"])
+            w = dict(d["warp"])
+            if file_format <= _UNSMOOTHED_FORMAT:
+                w["sample_smoothing"] = 0.0
+            d["warp"] = WarpOptions.from_json(w)
+        elif file_format <= _UNSMOOTHED_FORMAT:  # no warp stored: the DP of those releases' default
+            d["warp"] = WarpOptions(method=MEAN_WARP.method, sample_smoothing=0.0)
         if "representations" in d:
             d["representations"] = tuple(d["representations"])
         if "joints" in d and not isinstance(d["joints"], str):
@@ -272,10 +297,11 @@ class DatabaseSettings:
 #: The fields (``warp.<field>`` for the warp's) that change a query's distances to a stored
 #: database (:func:`~elastic_motion.apps.database.knn_search`); the others name the files
 #: (``representations``) or how a matrix run is cut into tiles (``tile_size``), and the warp's
-#: ``sample_fps``, ``sample_smoothing`` and ``landmark_weight`` are not used by a database.
+#: ``sample_fps`` and ``landmark_weight`` are not used by a database.
 QUERY_FIELDS = (
     "n_samples",
     "warp.method",
+    "warp.sample_smoothing",
     "warp.neighbourhood",
     "warp.coarse_to_fine",
     "joints",
