@@ -14,6 +14,7 @@ from elastic_motion import defaults, vocabulary
 from elastic_motion.apps import align, blend_options, landmark_files, landmarks, render, statistics
 from elastic_motion.apps.database import engines, settings
 from elastic_motion.apps.database.settings import DEFAULT_WARP
+from elastic_motion.apps.database import MeanOptions
 from elastic_motion.apps.loop import LoopOptions
 from elastic_motion.apps.loop import options as loop_options
 from elastic_motion.apps.viewer import ViewerOptions
@@ -126,7 +127,9 @@ def test_the_options_classes_take_their_defaults_from_the_module():
         defaults.DEFAULT_SAMPLE_SMOOTHING,
         defaults.DEFAULT_LANDMARK_WEIGHT,
     )
-    assert DEFAULT_WARP.method == defaults.MEAN_WARP_METHOD == statistics.MEAN_WARP.method
+    # one warp for a distance reported in every command (issue 34); a mean's own, inside it
+    assert DEFAULT_WARP == WarpOptions() and DEFAULT_WARP.method == defaults.DEFAULT_METHOD
+    assert defaults.MEAN_WARP_METHOD == statistics.MEAN_WARP.method == MeanOptions().warp.method
     assert align.AUTO_LANDMARK_WEIGHT == defaults.AUTO_LANDMARK_WEIGHT
     c = ContactOptions()
     assert (c.height_enter, c.speed_enter) == (defaults.CONTACT_HEIGHT_ENTER, defaults.CONTACT_SPEED_ENTER)
@@ -184,10 +187,14 @@ def test_the_flags_default_to_the_apis_defaults():
         assert a["--sample-smoothing"].default == w.sample_smoothing, command
         if command != "distance":  # no landmarks there
             assert f"(default: {w.landmark_weight:g};" in a["--landmark-weight"].help, command
-    for command in ("matrix", "search", "mean", "index", "pca"):
+    for command in ("matrix", "search", "index"):
         help_ = {flag: a.help for flag, a in _actions(command).items()}
         assert help_["--warp"].endswith(f"(default: {DEFAULT_WARP.method})"), command
         assert help_["--neighbourhood"].endswith(f"(default: {DEFAULT_WARP.neighbourhood})"), command
+        assert help_["--sample-smoothing"].endswith(f"(default: {DEFAULT_WARP.sample_smoothing:g})"), command
+    for command in ("mean", "pca"):  # a Karcher mean's warp (its energy non-increasing)
+        help_ = {flag: a.help for flag, a in _actions(command).items()}
+        assert help_["--warp"].endswith(f"(default: {MeanOptions().warp.method})"), command
     c = ContactOptions()
     for command in ("blend", "loop"):
         text = _actions(command)["--contact-height"].help

@@ -36,6 +36,7 @@ from elastic_motion.apps.database import (
     tile_blocks,
 )
 from elastic_motion.errors import OptionError
+from elastic_motion.apps.database.settings import FORMAT_VERSION
 from elastic_motion.motion import write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.warp import WarpOptions
@@ -153,7 +154,9 @@ def test_find_motion_files_ignores_text_and_keeps_bad_files(db_dir: Path) -> Non
 
 def test_settings_default_warp_and_format_1_json() -> None:
     s = DatabaseSettings()
-    assert s.warp == WarpOptions(method="dp") and s.warp.neighbourhood == 10  # WarpOptions' default
+    # WarpOptions' defaults: the warp of every command (issue 34); the DP alone with cyclic
+    assert s.warp == WarpOptions() and s.warp.method == "dp+refine" and s.warp.neighbourhood == 10
+    assert DatabaseSettings(cyclic=True).warp == WarpOptions(method="dp")
     assert DatabaseSettings(warp="none").warp == WarpOptions(method="none")
     assert DatabaseSettings.from_json(SETTINGS.to_json()) == SETTINGS
     old = {  # settings as written by format 1 (PairSpec)
@@ -165,8 +168,15 @@ def test_settings_default_warp_and_format_1_json() -> None:
         "align_heading": False,
         "tile_size": 2,
     }
-    s = DatabaseSettings.from_json(old)
-    assert s.warp == WarpOptions(method="none", neighbourhood=6, coarse_to_fine=True)
+    s = DatabaseSettings.from_json(old, 1)
+    # its arrays were not low-passed: read as they were computed
+    assert s.warp == WarpOptions(method="none", neighbourhood=6, coarse_to_fine=True, sample_smoothing=0.0)
+    fmt2 = {**SETTINGS.to_json(), "warp": {**SETTINGS.warp.to_json(), "sample_smoothing": 0.5}}
+    assert DatabaseSettings.from_json(fmt2, 2).warp.sample_smoothing == 0.0  # whatever its JSON says
+    assert DatabaseSettings.from_json(fmt2).warp.sample_smoothing == 0.5  # this format: as written
+    assert DatabaseSettings.from_json({"n_samples": 12}, 2).warp == WarpOptions(
+        method="dp", sample_smoothing=0.0
+    )
     assert s.joints == ("Hips", "Spine") and s.representations == ("lie",) and not s.align_heading
     with pytest.raises(OptionError, match=r"settings: .*unknown \['colour'\]"):
         DatabaseSettings.from_json({**SETTINGS.to_json(), "colour": 1})
@@ -351,8 +361,12 @@ def _as_format_1(out: Path) -> None:
 def test_run_of_the_previous_format_resumes_or_says_how_to_restart(
     serial_run, db_dir: Path, tmp_path: Path
 ) -> None:
+    # the previous release did not low-pass the motions (format < 3): its run is that of
+    # sample_smoothing 0, which its settings read as
+    started = dataclasses.replace(SETTINGS, warp=dataclasses.replace(SETTINGS.warp, sample_smoothing=0.0))
+    previous = compute_matrix([db_dir], tmp_path / "previous", started)
     out = tmp_path / "format1"
-    shutil.copytree(serial_run.out_dir, out)
+    shutil.copytree(previous.out_dir, out)
     _as_format_1(out)
     man = json.loads((out / "manifest.json").read_text())
     lost = sorted(man["tiles"])[0]
@@ -361,18 +375,21 @@ def test_run_of_the_previous_format_resumes_or_says_how_to_restart(
     (out / "manifest.json").write_text(json.dumps(man))
     # its cache and settings are read as they were
     q = query_distances(db_dir / "k1_v2.bvh", out, "lie")
-    assert q.settings == SETTINGS
-    # other settings (the new default neighbourhood): refused, saying how to resume or restart
+    assert q.settings == started
+    # other settings (the new default neighbourhood, the low-pass): refused, saying how to resume or restart
     with pytest.raises(
         OptionError,
         match=r"warp\.neighbourhood: 4 -> 10.*settings it was started with.*overwrite=True \(--overwrite\)",
     ):
         compute_matrix([db_dir], out, DatabaseSettings(n_samples=12, tile_size=2))
+    with pytest.raises(OptionError, match=r"warp\.sample_smoothing: 0\.0 -> 0\.0166"):
+        compute_matrix([db_dir], out, SETTINGS)
     # the settings it was started with: resumed, nothing recomputed but the lost tile
-    res = compute_matrix([db_dir], out, SETTINGS)
+    res = compute_matrix([db_dir], out, started)
     assert res.complete and res.report["runs"][-1]["tiles_computed"] == 1
-    assert json.loads((out / "manifest.json").read_text())["identity"]["format"] == 2
-    assert _arrays(out) == _arrays(serial_run.out_dir)
+    assert json.loads((out / "manifest.json").read_text())["identity"]["format"] == FORMAT_VERSION
+    assert _arrays(out) == _arrays(previous.out_dir)
+    assert _arrays(out) != _arrays(serial_run.out_dir)  # the low-pass changes the numbers
 
 
 # --------------------------------------------------------------------------------------------

@@ -25,7 +25,7 @@ from elastic_motion.cli_commands._common import (
     add_warp_options,
     joints_arg,
 )
-from elastic_motion.defaults import DEFAULT_METHOD, MEAN_WARP_METHOD
+from elastic_motion.defaults import DEFAULT_METHOD, DEFAULT_SAMPLE_SMOOTHING, MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.vocabulary import JOINT_SELECTIONS, EngineName, Linkage, Method
 
@@ -48,6 +48,7 @@ FLAGS: dict[str, str | None] = {
     "joints": "--joints",
     "warp": "--warp",
     "neighbourhood": "--neighbourhood",
+    "sample_smoothing": "--sample-smoothing",
     "tile_size": "--tile-size",
     "out_dir": "--output",
     "k": "-k",
@@ -73,6 +74,7 @@ FIELD_FLAGS = {
     "drop_fingers": "--keep-fingers",
     "align_heading": "--no-align",
     "warp.method": "--warp",
+    "warp.sample_smoothing": "--sample-smoothing",
     "warp.neighbourhood": "--neighbourhood",
     "warp.coarse_to_fine": "--coarse-to-fine",
     "pose_weight": "--pose-weight",
@@ -126,6 +128,15 @@ def add_warp(p: argparse.ArgumentParser, *, mean: bool = False) -> None:
     )
     if not mean:  # not given: DatabaseSettings' default (DP+refine, or the DP with --cyclic)
         p.set_defaults(warp=None)
+        p.add_argument(  # distance's flag, the same low-pass (DatabaseSettings.warp.sample_smoothing)
+            "--sample-smoothing",
+            type=float,
+            default=None,
+            metavar="SECONDS",
+            help="standard deviation (seconds) of the Gaussian low-pass applied to each motion before it is "
+            f"sampled on the --samples grid, as distance does before sampling its curves; 0: none "
+            f"(default: {DEFAULT_SAMPLE_SMOOTHING:g})",
+        )
 
 
 def add_distance_terms(p: argparse.ArgumentParser) -> None:

@@ -62,7 +62,7 @@ def _given(args: argparse.Namespace) -> tuple[dict, dict]:
             fields[name] = getattr(args, name)
     warp = {
         f: getattr(args, f)
-        for f in ("warp", "neighbourhood", "coarse_to_fine")
+        for f in ("warp", "neighbourhood", "coarse_to_fine", "sample_smoothing")
         if getattr(args, f, None) is not None
     }
     if "warp" in warp:
