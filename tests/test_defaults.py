@@ -12,9 +12,8 @@ import pytest
 
 from elastic_motion import defaults, vocabulary
 from elastic_motion.apps import align, blend_options, landmark_files, landmarks, render, statistics
-from elastic_motion.apps.database import engines, settings
+from elastic_motion.apps.database import MeanOptions, engines, settings
 from elastic_motion.apps.database.settings import DEFAULT_WARP
-from elastic_motion.apps.database import MeanOptions
 from elastic_motion.apps.loop import LoopOptions
 from elastic_motion.apps.loop import options as loop_options
 from elastic_motion.apps.viewer import ViewerOptions

@@ -35,8 +35,8 @@ from elastic_motion.apps.database import (
     query_distances,
     tile_blocks,
 )
-from elastic_motion.errors import OptionError
 from elastic_motion.apps.database.settings import FORMAT_VERSION
+from elastic_motion.errors import OptionError
 from elastic_motion.motion import write_bvh
 from elastic_motion.motion.rotations import euler_to_matrix
 from elastic_motion.warp import WarpOptions

@@ -221,7 +221,8 @@ def test_a_stored_database_names_every_setting_it_does_not_use(clips: Path, tmp_
     )
     notes = query_distances(query, idx, "lie", asked).notes
     assert notes[0].startswith(
-        "settings ignored: n_samples=12 (built with 10), warp.sample_smoothing=0.0 (built with 0.016666666666666666), "
+        "settings ignored: n_samples=12 (built with 10), "
+        "warp.sample_smoothing=0.0 (built with 0.016666666666666666), "
         "warp.neighbourhood=10 (built with 4), align_heading=False (built with True);"
     )
     assert knn_search(query, idx, 2, "lie", asked).notes[0] == notes[0]
