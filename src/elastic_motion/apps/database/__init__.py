@@ -33,13 +33,15 @@ give the same numbers.
 Conventions
 -----------
 * **Motions -> SRV arrays.** Every readable input is prepared once (:mod:`.preparation`),
-  resampled to ``n_samples + 1`` frames uniformly in time and transformed to SRV arrays
+  low-passed as ``distance`` does (``warp.sample_smoothing``), resampled to
+  ``n_samples + 1`` frames uniformly in time and transformed to SRV arrays
   ``q`` of shape ``(n_samples, D)`` on the grid ``linspace(0, 1, n_samples + 1)`` (each
   clip's duration normalised to 1), in the representations of
   :mod:`elastic_motion.motion.representations` (``LIE``: ``R^3 x SO(3)^J``, weights shared by
   a skeleton group; ``EULER``: root position in metres, Euler angles in radians), stored under
   their keys ``"lie"`` and ``"euler"``; see :mod:`.cache`.
-* **Pair distance**: with ``WarpOptions(method="dp")`` the elastic distance
+* **Pair distance**: with ``WarpOptions()`` (``"dp+refine"``, :data:`DEFAULT_WARP`, the warp
+  of every command) or ``WarpOptions(method="dp")`` the elastic distance
   ``min_phi ||q_i - q_j * phi||_L2`` (:func:`elastic_motion.warp.optimal_warp`), with
   ``method="none"`` the distance of parametrised curves ``||q_i - q_j||_L2`` (paper 000,
   eq. 4). Only ``i < j`` is computed and mirrored; diagonal 0; ``+inf`` between skeleton
