@@ -39,8 +39,12 @@ def test_the_metrics_distances_are_those_of_the_full_preparation(blended):
         labels=[*blended.prepared.labels, "result"],
         prepare=PrepareOptions(joints="common", drop_tpose=False),
     ).matrix
-    assert np.array_equal(met.distances_between_inputs, full[:2, :2])
     assert np.array_equal(met.distances_to_inputs, full[2, :2])
+    assert met.geodesic_expected[0] == blended.weights[1] * full[0, 1]  # d(A, B) of that metric
+    # between the inputs: the table of the prepared inputs alone, `distance`'s numbers for them
+    # (issue 34: one distance per pair; in the weights shared with the result they differ)
+    assert np.array_equal(met.distances_between_inputs, distance_table(blended.prepared).matrix)
+    assert met.distances_between_inputs[0, 1] != full[0, 1]
 
 
 def test_no_motion_is_measured_twice(mocap_dir: Path, monkeypatch):

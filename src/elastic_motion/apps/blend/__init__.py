@@ -137,14 +137,15 @@ mean, average, repeat). Its warps ``phi_k`` map the template's parameter to each
 and the timing is ``T(u) = sum_k w_k d_k phi_k(u)``. Landmarks are for two motions only.
 
 Metrics (``BlendResult.metrics``, a :class:`~elastic_motion.apps.metrics.BlendMetrics`, computed only with
-``metrics=True``: they cost ``K (K + 1) / 2`` extra DP solves): foot sliding of the
+``metrics=True``: they cost ``K^2`` extra DP solves): foot sliding of the
 result and of each input (:func:`elastic_motion.apps.metrics.foot_sliding`), bone-length
 error of the result against its own skeleton and each input's
 (:func:`elastic_motion.apps.metrics.bone_length_error`), and Lie elastic distances
-between the inputs and from the result to each input
-(:func:`elastic_motion.apps.distance.distance_table`, the same metric whatever the blend
-method; on the SRV geodesic with the warp, ``d(R, A) + d(R, B) = d(A, B)`` up to the
-discretisation, a useful check).
+between the inputs (:func:`elastic_motion.apps.distance.distance_table` of the prepared
+inputs: the numbers ``elastic-motion distance`` reports for them) and from the result to
+each input (in the weights the inputs share with the result; the same metric whatever the
+blend method; on the SRV geodesic with the warp, ``d(R, A) + d(R, B) = d(A, B)`` up to the
+discretisation, a useful check, with ``d(A, B)`` in that metric: ``geodesic_expected``).
 """
 
 from __future__ import annotations

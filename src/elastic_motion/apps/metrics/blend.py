@@ -37,11 +37,15 @@ class BlendMetrics:
     bone_length_error_vs_inputs : tuple of BoneLengthError
         Of the result against each input's skeleton.
     distances_between_inputs : ndarray, shape (K, K)
-        Lie elastic distances (``R^3 x SO(3)^J`` SRV, optimal warp by DP, shared weights).
+        Lie elastic distances (``R^3 x SO(3)^J`` SRV, the default warp ``dp+refine``) of the
+        prepared inputs in their own shared weights:
+        :func:`~elastic_motion.apps.distance.distance_table` of them, the numbers
+        ``elastic-motion distance`` gives for the same inputs and preparation.
     distances_to_inputs : ndarray, shape (K,)
-        From the result to each input, same metric.
+        From the result to each input, in the weights shared by the inputs and the result.
     geodesic_expected : ndarray, shape (2,) or (0,)
-        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
+        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly,
+        with ``d(A, B)`` in the metric of :attr:`distances_to_inputs` (shared with the result).
     feet, feet_inputs : FootQuality, tuple of FootQuality
         The result and each input measured the same way, each on itself
         (:func:`elastic_motion.apps.metrics.floor.foot_quality`: its own contacts and their
@@ -80,7 +84,9 @@ class BlendMetrics:
                 "inputs": [_feet_summary(q) for q in self.feet_inputs],
             },
             "distances": {
-                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
+                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP then refinement), "
+                "shared weights: of the inputs between them (distance's numbers), of the inputs and the "
+                "result from the result",
                 "labels": list(self.labels),
                 "between_inputs": self.distances_between_inputs.tolist(),
                 "result_to_inputs": self.distances_to_inputs.tolist(),
@@ -125,6 +131,10 @@ def blend_metrics(
     BlendMetrics
     """
     ms = prepared.motions
+    # between the inputs: distance_table of the prepared inputs themselves, the number
+    # `distance A B` reports for them (their own shared weights; issue 34: one distance per pair)
+    between = distance_table(prepared).matrix
+    # the result to each input: in the weights shared with the result (the geodesic check's metric)
     table = distance_table(
         [*ms, result],
         labels=[*prepared.labels, "result"],
@@ -142,7 +152,7 @@ def blend_metrics(
         foot_sliding_inputs=tuple(foot_sliding(m) for m in ms),
         bone_length_error=bone_length_error(result),
         bone_length_error_vs_inputs=tuple(bone_length_error(result, m) for m in ms),
-        distances_between_inputs=d[:k, :k].copy(),
+        distances_between_inputs=between,
         distances_to_inputs=d[k, :k].copy(),
         geodesic_expected=expected,
         feet=foot_quality(result, contact_options) if feet is None else feet,
