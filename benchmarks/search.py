@@ -3,8 +3,8 @@
 Databases: the first M (``--sizes``, default 250, 1000, 2500) of the windows of
 ``database_scale.py`` (BVH files of 200 frames at random starts of the 120 Hz CMU clips, seed
 0), each indexed once by ``build_index`` with the database defaults (Lie, 64 cells, the
-low-pass of 1/60 s, DP then refinement with neighbourhood 10 since issue 34; the build is
-timed, not compared). Queries: ``--queries`` (default 24)
+low-pass of 1/60 s since issue 34, exact DP with neighbourhood 10; the build is timed, not
+compared). Queries: ``--queries`` (default 24)
 windows at other random starts of the same clips (seed 1), the same for every size; k = 5.
 
 Per size, one new Python process (imports and one search of a small other index first, not

@@ -126,9 +126,9 @@ def test_the_options_classes_take_their_defaults_from_the_module():
         defaults.DEFAULT_SAMPLE_SMOOTHING,
         defaults.DEFAULT_LANDMARK_WEIGHT,
     )
-    # one warp for a distance reported in every command (issue 34); a mean's own, inside it
-    assert DEFAULT_WARP == WarpOptions() and DEFAULT_WARP.method == defaults.DEFAULT_METHOD
-    assert defaults.MEAN_WARP_METHOD == statistics.MEAN_WARP.method == MeanOptions().warp.method
+    assert DEFAULT_WARP.method == defaults.MEAN_WARP_METHOD == statistics.MEAN_WARP.method
+    assert DEFAULT_WARP.sample_smoothing == defaults.DEFAULT_SAMPLE_SMOOTHING  # distance's low-pass
+    assert MeanOptions().warp.method == defaults.MEAN_WARP_METHOD
     assert align.AUTO_LANDMARK_WEIGHT == defaults.AUTO_LANDMARK_WEIGHT
     c = ContactOptions()
     assert (c.height_enter, c.speed_enter) == (defaults.CONTACT_HEIGHT_ENTER, defaults.CONTACT_SPEED_ENTER)
@@ -186,14 +186,13 @@ def test_the_flags_default_to_the_apis_defaults():
         assert a["--sample-smoothing"].default == w.sample_smoothing, command
         if command != "distance":  # no landmarks there
             assert f"(default: {w.landmark_weight:g};" in a["--landmark-weight"].help, command
-    for command in ("matrix", "search", "index"):
+    for command in ("matrix", "search", "mean", "index", "pca"):
         help_ = {flag: a.help for flag, a in _actions(command).items()}
         assert help_["--warp"].endswith(f"(default: {DEFAULT_WARP.method})"), command
         assert help_["--neighbourhood"].endswith(f"(default: {DEFAULT_WARP.neighbourhood})"), command
-        assert help_["--sample-smoothing"].endswith(f"(default: {DEFAULT_WARP.sample_smoothing:g})"), command
-    for command in ("mean", "pca"):  # a Karcher mean's warp (its energy non-increasing)
-        help_ = {flag: a.help for flag, a in _actions(command).items()}
-        assert help_["--warp"].endswith(f"(default: {MeanOptions().warp.method})"), command
+    for command in ("matrix", "search", "index"):  # the database's low-pass, distance's flag
+        a = _actions(command)["--sample-smoothing"]
+        assert a.help.endswith(f"(default: {DEFAULT_WARP.sample_smoothing:g})"), command
     c = ContactOptions()
     for command in ("blend", "loop"):
         text = _actions(command)["--contact-height"].help

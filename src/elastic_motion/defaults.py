@@ -66,12 +66,12 @@ DEFAULT_METHOD = "dp+refine"
 DEFAULT_REFINE_TOL = 1e-7
 DEFAULT_REFINE_WINDOW = 20
 DEFAULT_REFINE_MAX_ITER = 1000
-#: The warp method inside a Karcher mean (``apps.statistics.MEAN_WARP``, the ``mean`` and
-#: ``pca`` commands) and of phase-free database matching (``apps.database.CYCLIC_WARP``): the
-#: DP alone on the grid, under which each iteration's energy is non-increasing (the previous
-#: warp is a path of the next DP; the refinement off the grid gives closer warps but loses
-#: that). A distance reported for a pair (``distance``, ``matrix``, ``search``, ``blend``) uses
-#: :data:`DEFAULT_METHOD` in every command (issue 34).
+#: The warp method of a Karcher mean and of a database (``apps.statistics.MEAN_WARP``,
+#: ``apps.database.DEFAULT_WARP``): the DP alone on the grid, under which each iteration's
+#: energy is non-increasing (the previous warp is a path of the next DP; the refinement off
+#: the grid gives closer warps but loses that), and the batched DP that keeps the exact
+#: search's speed target (with the refinement it was 1.5x brute-force DTW, not 3x: issue 34,
+#: ``apps.database.settings.DEFAULT_WARP``).
 MEAN_WARP_METHOD = "dp"
 #: Relative landmark weight at least used for automatic landmarks
 #: (:func:`elastic_motion.apps.align.plan_landmarks`): pairs found by phase around the warp

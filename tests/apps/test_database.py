@@ -154,9 +154,8 @@ def test_find_motion_files_ignores_text_and_keeps_bad_files(db_dir: Path) -> Non
 
 def test_settings_default_warp_and_format_1_json() -> None:
     s = DatabaseSettings()
-    # WarpOptions' defaults: the warp of every command (issue 34); the DP alone with cyclic
-    assert s.warp == WarpOptions() and s.warp.method == "dp+refine" and s.warp.neighbourhood == 10
-    assert DatabaseSettings(cyclic=True).warp == WarpOptions(method="dp")
+    assert s.warp == WarpOptions(method="dp") and s.warp.neighbourhood == 10  # WarpOptions' default
+    assert s.warp.sample_smoothing == WarpOptions().sample_smoothing  # distance's low-pass
     assert DatabaseSettings(warp="none").warp == WarpOptions(method="none")
     assert DatabaseSettings.from_json(SETTINGS.to_json()) == SETTINGS
     old = {  # settings as written by format 1 (PairSpec)

@@ -51,7 +51,7 @@ def clips(tmp_path_factory) -> Path:
 
 
 FLAGS = ["--samples", "10", "--neighbourhood", "4", "--tile-size", "4"]
-SETTINGS = DatabaseSettings(n_samples=10, tile_size=4, warp=WarpOptions(neighbourhood=4))
+SETTINGS = DatabaseSettings(n_samples=10, tile_size=4, warp=WarpOptions(method="dp", neighbourhood=4))
 
 
 def _cli_json(argv: list[str], capsys) -> dict:

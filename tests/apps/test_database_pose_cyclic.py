@@ -205,19 +205,21 @@ def test_a_stored_database_names_every_setting_it_does_not_use(clips: Path, tmp_
     assert main(["search", query, str(idx), "-k", "2", "--json"]) == 0
     plain = json.loads(capsys.readouterr().out)
     assert not any("ignored" in n for n in plain["notes"])
-    argv = ["search", query, str(idx), "-k", "2", "--samples", "12", "--keep-fingers", "--warp", "dp"]
+    argv = ["search", query, str(idx), "-k", "2", "--samples", "12", "--keep-fingers", "--warp", "dp+refine"]
     assert main([*argv, "--neighbourhood", "4", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["notes"][0].startswith(
-        "settings ignored: n_samples=12 (built with 10), warp.method='dp' (built with 'dp+refine'), "
+        "settings ignored: n_samples=12 (built with 10), warp.method='dp+refine' (built with 'dp'), "
         "drop_fingers=False (built with True);"
     )
     assert rep["results"] == plain["results"] and rep["settings"] == plain["settings"]
     # the API: the fields of the settings given that differ from the stored ones
-    stored = DatabaseSettings(n_samples=10, representations=("lie",), warp=WarpOptions(neighbourhood=4))
+    stored = DatabaseSettings(
+        n_samples=10, representations=("lie",), warp=WarpOptions(method="dp", neighbourhood=4)
+    )
     assert knn_search(query, idx, 2, "lie", stored).notes == knn_search(query, idx, 2, "lie").notes
     asked = dataclasses.replace(
-        stored, n_samples=12, align_heading=False, warp=WarpOptions(sample_smoothing=0.0)
+        stored, n_samples=12, align_heading=False, warp=WarpOptions(method="dp", sample_smoothing=0.0)
     )
     notes = query_distances(query, idx, "lie", asked).notes
     assert notes[0].startswith(
@@ -232,7 +234,7 @@ def test_a_stored_database_names_every_setting_it_does_not_use(clips: Path, tmp_
     asked = DatabaseSettings(
         n_samples=12,
         representations=("lie",),
-        warp=WarpOptions(method="dp", neighbourhood=4),
+        warp=WarpOptions(method="dp+refine", neighbourhood=4),
         drop_fingers=False,
     )
     assert knn_search(query, idx, 2, "lie", asked).notes[0] == rep["notes"][0]

@@ -19,12 +19,12 @@ Conventions
   warped onto (``q_i``, ``i < j``); ``warp="none"``: ``||q_i - q_j||``, the
   distance of the parametrised curves (paper 000, eq. 4). The matrix is symmetric with a
   zero diagonal.
-* The database module uses the same low-pass (``warp.sample_smoothing``), curves, weights
-  and default warp (``WarpOptions()``), so on the same grid without placement its distances
-  are these; by default it samples every clip at a fixed number of frames (``n_samples +
-  1``) instead of a frame rate and removes each motion's heading instead of placing it on
-  the first's root path, so its numbers differ slightly (``docs/database.md``, "What is
-  compared").
+* The database module uses the same low-pass (``warp.sample_smoothing``), curves and
+  weights, so on the same grid without placement and with the same warp its distances are
+  these; by default it keeps the DP alone (``DEFAULT_WARP``: its search's speed), samples
+  every clip at a fixed number of frames (``n_samples + 1``) instead of a frame rate and
+  removes each motion's heading instead of placing it on the first's root path, so its
+  numbers differ slightly (``docs/database.md``, "What is compared").
 """
 
 from __future__ import annotations

@@ -6,9 +6,8 @@ The allowed values are read from the API's types (:mod:`elastic_motion.vocabular
 ``--method`` from :data:`~elastic_motion.vocabulary.Method`, ``--linkage`` from
 :data:`~elastic_motion.vocabulary.Linkage`, ``--engine`` from
 :data:`~elastic_motion.vocabulary.EngineName`, ``--joints`` from
-:data:`~elastic_motion.vocabulary.JOINT_SELECTIONS`; the warp defaults to every command's
-(:data:`elastic_motion.defaults.DEFAULT_METHOD`), a mean's to
-:data:`elastic_motion.defaults.MEAN_WARP_METHOD`. This module loads no numpy (it is imported
+:data:`~elastic_motion.vocabulary.JOINT_SELECTIONS`; the warp defaults to the database's
+(:data:`elastic_motion.defaults.MEAN_WARP_METHOD`). This module loads no numpy (it is imported
 when the parser is built); what makes the parsed flags into the apps' settings is in
 :mod:`._database_running`, which a command imports inside its ``run``.
 """
@@ -25,7 +24,7 @@ from elastic_motion.cli_commands._common import (
     add_warp_options,
     joints_arg,
 )
-from elastic_motion.defaults import DEFAULT_METHOD, DEFAULT_SAMPLE_SMOOTHING, MEAN_WARP_METHOD
+from elastic_motion.defaults import DEFAULT_SAMPLE_SMOOTHING, MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.vocabulary import JOINT_SELECTIONS, EngineName, Linkage, Method
 
@@ -119,15 +118,11 @@ def joints_option(value: str) -> str | tuple[str, ...]:
 
 
 def add_warp(p: argparse.ArgumentParser, *, mean: bool = False) -> None:
-    """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults: the
-    warp of every command (``dp+refine``: one distance for one pair in ``distance``, ``matrix``,
-    ``search`` and ``blend``; ``dp`` with ``--cyclic``, which needs it); ``mean``: a Karcher
-    mean's (``dp``, its energy non-increasing: ``apps.statistics.MEAN_WARP``)."""
-    add_warp_options(
-        p, method=MEAN_WARP_METHOD if mean else DEFAULT_METHOD, sampling=False, coarse_to_fine=True
-    )
-    if not mean:  # not given: DatabaseSettings' default (DP+refine, or the DP with --cyclic)
-        p.set_defaults(warp=None)
+    """``--warp``, ``--neighbourhood``, ``--coarse-to-fine`` with the database's defaults (the
+    DP alone: ``apps.database.settings.DEFAULT_WARP`` says why), and ``--sample-smoothing``
+    (``distance``'s low-pass) unless ``mean`` (a Karcher mean's options have no low-pass)."""
+    add_warp_options(p, method=MEAN_WARP_METHOD, sampling=False, coarse_to_fine=True)
+    if not mean:
         p.add_argument(  # distance's flag, the same low-pass (DatabaseSettings.warp.sample_smoothing)
             "--sample-smoothing",
             type=float,
@@ -154,8 +149,8 @@ def add_distance_terms(p: argparse.ArgumentParser) -> None:
         action="store_true",
         default=None,  # None: not given (a stored database's own setting is then no surprise)
         help="phase-free matching: the least distance over the cyclic shifts of either motion's cells "
-        "(windows of periodic motions started at different phases; 2 x SAMPLES times the cost; with the DP "
-        "alone, --warp dp, its default) (default: off)",
+        "(windows of periodic motions started at different phases; 2 x SAMPLES times the cost; needs --warp "
+        "dp) (default: off)",
     )
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-from elastic_motion.apps.database.settings import CYCLIC_WARP, DEFAULT_WARP, DatabaseSettings
+from elastic_motion.apps.database.settings import DEFAULT_WARP, DatabaseSettings
 from elastic_motion.apps.report import report_header
 from elastic_motion.cli_commands._common import CommandError
 from elastic_motion.cli_commands._database_options import LINKAGES, METHODS, joints_option
@@ -81,10 +81,9 @@ def database_settings(args: argparse.Namespace, reps: tuple[Representation, ...]
     """The :class:`~elastic_motion.apps.database.DatabaseSettings` of the parsed flags: those
     given, the defaults for the others."""
     fields, warp = _given(args)
-    base = CYCLIC_WARP if fields.get("cyclic") else DEFAULT_WARP
     return DatabaseSettings(
         representations=reps,
-        warp=dataclasses.replace(base, **warp),
+        warp=dataclasses.replace(DEFAULT_WARP, **warp),
         tile_size=getattr(args, "tile_size", 32),
         **fields,
     )

@@ -40,8 +40,8 @@ Conventions
   :mod:`elastic_motion.motion.representations` (``LIE``: ``R^3 x SO(3)^J``, weights shared by
   a skeleton group; ``EULER``: root position in metres, Euler angles in radians), stored under
   their keys ``"lie"`` and ``"euler"``; see :mod:`.cache`.
-* **Pair distance**: with ``WarpOptions()`` (``"dp+refine"``, :data:`DEFAULT_WARP`, the warp
-  of every command) or ``WarpOptions(method="dp")`` the elastic distance
+* **Pair distance**: with ``WarpOptions(method="dp")`` (:data:`DEFAULT_WARP`) or
+  ``WarpOptions()`` (``"dp+refine"``, ``distance``'s default) the elastic distance
   ``min_phi ||q_i - q_j * phi||_L2`` (:func:`elastic_motion.warp.optimal_warp`), with
   ``method="none"`` the distance of parametrised curves ``||q_i - q_j||_L2`` (paper 000,
   eq. 4). Only ``i < j`` is computed and mirrored; diagonal 0; ``+inf`` between skeleton

@@ -4,7 +4,7 @@ The JSON form is stored three times in an output folder (``manifest.json`` as th
 of the run, ``srv_cache.npz`` and ``report.json``)::
 
     {"n_samples": 64, "representations": ["lie", "euler"],
-     "warp": {"method": "dp+refine", "neighbourhood": 10, "coarse_to_fine": false,
+     "warp": {"method": "dp", "neighbourhood": 10, "coarse_to_fine": false,
               "sample_fps": 30.0, "sample_smoothing": 0.016666666666666666, ...},
      "joints": "all", "drop_fingers": true, "align_heading": true, "tile_size": 32}
 
@@ -32,7 +32,6 @@ from elastic_motion.vocabulary import JOINT_SELECTIONS
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
-    "CYCLIC_WARP",
     "DEFAULT_WARP",
     "FORMAT_VERSION",
     "JOINT_SELECTIONS",
@@ -109,21 +108,20 @@ READABLE_FORMATS = (1, 2, 3)
 #: The last format whose SRV arrays were not low-passed (:meth:`DatabaseSettings.from_json`).
 _UNSMOOTHED_FORMAT = 2
 
-#: The warp of a database: :class:`~elastic_motion.warp.WarpOptions`' defaults, the warp of
-#: every command (``method="dp+refine"``, :data:`elastic_motion.defaults.DEFAULT_METHOD`;
-#: issue 34: one distance for one pair in ``distance``, ``matrix``, ``search`` and ``blend``).
-#: The refinement off the grid makes an all-pairs matrix about 4.7 times slower than the
-#: batched DP at ``n_samples = 64`` (the benchmark's 31 CMU windows, Lie, 465 pairs: 0.84 s
-#: against 3.99 s), for distances 0.6 % lower (median; at most 12 %); ``warp="dp"`` gives the
-#: batched DP's numbers. The exact search stays exact (its bounds hold for every warp,
-#: :mod:`.bounds`). Phase-free matching (``cyclic``) needs the DP alone: its default warp is
-#: :data:`CYCLIC_WARP`. A Karcher mean keeps its own warp
-#: (:data:`elastic_motion.apps.statistics.MEAN_WARP`: its energy is non-increasing only with
-#: the DP), an internal step that reports no pair distance.
-DEFAULT_WARP = WarpOptions()
-#: The default warp of phase-free matching (``cyclic=True``): the DP alone, the only warp its
-#: batched shifts solve.
-CYCLIC_WARP = MEAN_WARP
+#: The warp of a database: :class:`~elastic_motion.warp.WarpOptions`' defaults (neighbourhood
+#: 10, the low-pass) with the DP alone (``method="dp"``), the warp of a Karcher mean
+#: (:data:`elastic_motion.apps.statistics.MEAN_WARP`: its energy is non-increasing only with the
+#: DP) and the one ``cyclic`` needs. ``distance`` and ``blend`` refine off the grid
+#: (``"dp+refine"``); a database does not by default because its exact search would miss its
+#: speed target: with ``dp+refine`` each distance the bounds cannot exclude costs one
+#: ``optimal_warp`` call (about 9-13 ms at 64 cells, against 0.9 ms in the batched DP), and the
+#: search over 2,500 windows was 1.50x faster than brute-force DTW (median of 12 queries,
+#: ``benchmarks/search.py``, load 5-7 on 2 cores; 6.5x with the DP) where issue 34 asks 3x
+#: (``docs/database.md``, "What is compared"). An all-pairs matrix is also 4.7 times slower
+#: (31 CMU windows, 465 pairs: 0.84 s against 3.99 s) for distances 0.6 % lower (median; at
+#: most 12 %). Pass ``WarpOptions()`` (``--warp dp+refine``) for ``distance``'s warp: the search
+#: stays exact with it (its bounds hold for every warp, :mod:`.bounds`).
+DEFAULT_WARP = MEAN_WARP
 
 
 @dataclass(frozen=True)
@@ -140,16 +138,14 @@ class DatabaseSettings:
         :class:`~elastic_motion.motion.representations.Representation` objects), held as their
         stored keys ``"lie"`` / ``"euler"`` (:func:`representation_keys`), which name the
         matrix files.
-    warp : WarpOptions, optional
+    warp : WarpOptions, default :data:`DEFAULT_WARP` (``WarpOptions(method="dp")``)
         How a pair distance is computed (:func:`~elastic_motion.apps.database.pair_distance`):
-        ``method`` ``"dp+refine"`` / ``"dp"`` (elastic distance) or ``"none"`` (distance of
+        ``method`` ``"dp"`` / ``"dp+refine"`` (elastic distance) or ``"none"`` (distance of
         the parametrised curves), the DP ``neighbourhood`` (default 10), ``coarse_to_fine``,
         and ``sample_smoothing``: the Gaussian low-pass (seconds) of each motion before its grid
         is sampled, the one ``distance`` applies before sampling its curves. A method name is
         accepted for ``WarpOptions(method=name)``. ``sample_fps`` and ``landmark_weight`` are
-        not used here (the grid is ``n_samples``; no landmarks). Default :data:`DEFAULT_WARP`
-        (``WarpOptions()``, the warp of every command), :data:`CYCLIC_WARP` (the DP alone)
-        with ``cyclic``.
+        not used here (the grid is ``n_samples``; no landmarks).
     joints : "all", "common", "map" or tuple of str, default "all"
         ``"all"``: every joint of each file; motions with different joint names form
         separate groups (entries between groups are ``+inf``). ``"common"``: the joints
@@ -197,7 +193,7 @@ class DatabaseSettings:
 
     n_samples: int = 64
     representations: tuple[str, ...] = (LIE.key, EULER.key)
-    warp: WarpOptions | None = None
+    warp: WarpOptions = DEFAULT_WARP
     joints: str | tuple[str, ...] = "all"
     drop_fingers: bool = True
     align_heading: bool = True
@@ -212,8 +208,7 @@ class DatabaseSettings:
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or self.n_samples < 2:
             raise OptionError("n_samples", f"expected an integer >= 2; got {self.n_samples!r}")
         object.__setattr__(self, "representations", representation_keys(self.representations))
-        default = CYCLIC_WARP if self.cyclic is True else DEFAULT_WARP
-        object.__setattr__(self, "warp", as_warp_options(self.warp, default=default))
+        object.__setattr__(self, "warp", as_warp_options(self.warp, default=None))
         object.__setattr__(self, "joints", joint_selection(self.joints))
         if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, int) or self.tile_size < 1:
             raise OptionError("tile_size", f"expected an integer >= 1; got {self.tile_size!r}")

@@ -257,7 +257,7 @@ def distance_matrix(
     Parameters
     ----------
     q : sequence of ndarray, shapes (n, D_k)
-    warp : WarpOptions, default ``DEFAULT_WARP`` (DP then refinement, neighbourhood 10)
+    warp : WarpOptions, default ``DEFAULT_WARP`` (DP, neighbourhood 10)
     groups : sequence of int, optional
         Skeleton group per entry (default: all one group).
     cyclic : bool, default False
