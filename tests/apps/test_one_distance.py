@@ -157,3 +157,22 @@ def test_search_with_the_refined_distance_equals_brute_force(tmp_path: Path) -> 
             assert (res.lower_bounds[skipped] > res.distances[-1]).all()
             pruned.append(res.fraction_pruned)
     assert max(pruned) > 0.3  # the bounds still prune
+
+
+def test_the_database_commands_take_distances_low_pass_flag(tmp_path: Path) -> None:
+    """``--sample-smoothing`` (``distance``'s flag) sets the database's low-pass; a stored
+    database asked for another one names it among the settings it did not use."""
+    from elastic_motion.apps.database import load_index
+    from elastic_motion.cli import main
+
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    write_clips(clips, kinds=(0, 1), variants=2, frames=20, step=2)
+    idx = tmp_path / "idx"
+    flags = ["--samples", "10", "--method", "lie", "--quiet"]
+    assert main(["index", str(clips), "-o", str(idx), *flags, "--sample-smoothing", "0"]) == 0
+    with load_index(idx) as index:
+        assert index.cache.settings.warp.sample_smoothing == 0.0
+    query = str(clips / "k0_v1.bvh")
+    res = knn_search(query, idx, 1, "lie", DatabaseSettings(n_samples=10, representations=("lie",)))
+    assert "warp.sample_smoothing=0.016666666666666666 (built with 0.0)" in res.notes[0]
