@@ -35,7 +35,7 @@ from elastic_motion import limits
 from elastic_motion.apps.align import check_method, motion_curves, warp_options
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
-from elastic_motion.curves import srv_transform
+from elastic_motion.curves import SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.edit import check_interpolation, resampled_frames
 from elastic_motion.warp import WarpOptions, optimal_warp, warp_energy
@@ -90,6 +90,8 @@ def distance_table(
     prepare: PrepareOptions | None = None,
     progress: Progress | None = None,
     interpolation: str = "geodesic",
+    srvs: Sequence[SRVFunction | None] | None = None,
+    known: np.ndarray | None = None,
 ) -> DistanceTable:
     """All pairwise distances of ``K >= 2`` motions, serially (``K (K - 1) / 2`` DP solves).
 
@@ -113,6 +115,14 @@ def distance_table(
         30 fps clips) a motion and the same motion played between its frames measure about
         2.5 times closer (``benchmarks/blend_quality.py``); the DP then costs about
         ``(sample_fps / fps)^2`` times more.
+    srvs : sequence of SRVFunction or None, optional
+        One per motion: the SRV of its curve when built already (e.g. by a blend's warp stage,
+        :mod:`elastic_motion.apps.blend.warps`), exactly as this function builds it (same
+        preparation, ``method``, ``warp`` sampling and ``interpolation``), or None; only the
+        others are built.
+    known : ndarray, shape (K, K), optional
+        Elastic distances solved already on these curves with this ``warp`` (e.g. the blend's
+        warp of B onto A), NaN where not: only the NaN pairs are solved.
 
     Returns
     -------
@@ -139,25 +149,49 @@ def distance_table(
             longest[0] * longest[1],
             "max_dp_nodes",
         )
-    curves = motion_curves(
-        prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing, interpolation=interpolation
-    )
-    srvs = [srv_transform(c) for c in curves]
-    k = len(srvs)
+    given = _given(srvs, known, n)
+    missing = [k for k, s in enumerate(given) if s is None]
+    if missing:
+        curves = motion_curves(
+            prep,
+            method,
+            fps=opts.sample_fps,
+            smoothing=opts.sample_smoothing,
+            interpolation=interpolation,
+            which=missing,
+        )
+        for k, c in zip(missing, curves, strict=True):
+            given[k] = srv_transform(c)
+    k = len(given)
     d = np.zeros((k, k))
     du = np.zeros((k, k))
     pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
     report("distances", 0, len(pairs))
     for n, (i, j) in enumerate(pairs):
-        a, b = srvs[i], srvs[j]
+        a, b = given[i], given[j]
         du[i, j] = du[j, i] = math.sqrt(max(warp_energy(a.q, b.q, _IDENTITY, a.t, b.t), 0.0))
         if opts.method == "none":
             d[i, j] = d[j, i] = du[i, j]
+        elif known is not None and not math.isnan(known[i, j]):
+            d[i, j] = d[j, i] = known[i, j]
         else:
             r = optimal_warp(a.q, b.q, t0=a.t, t1=b.t, **opts.solver_kwargs())
             d[i, j] = d[j, i] = r.distance
         report("distances", n + 1, len(pairs))
     return DistanceTable(prep.labels, d, du, method, opts.method, prep.notes)
+
+
+def _given(
+    srvs: Sequence[SRVFunction | None] | None, known: np.ndarray | None, n: int
+) -> list[SRVFunction | None]:
+    """``distance_table``'s curves built already (one per motion or None), checked with
+    ``known``'s shape."""
+    given = [None] * n if srvs is None else list(srvs)
+    if len(given) != n:
+        raise OptionError("srvs", f"expected one curve or None per motion ({n}); got {len(given)}")
+    if known is not None and np.shape(known) != (n, n):
+        raise OptionError("known", f"expected a ({n}, {n}) matrix of distances; got shape {np.shape(known)}")
+    return given
 
 
 def motion_distance(a: Source, b: Source, **kw: object) -> float:

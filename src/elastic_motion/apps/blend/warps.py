@@ -20,7 +20,7 @@ from elastic_motion.apps.align import landmark_parameters, motion_curves, plan_l
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.statistics import karcher_mean
-from elastic_motion.curves import DiscreteCurve, srv_transform
+from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
@@ -51,6 +51,12 @@ class Warps:
     pairing : PhasePairing or None
         ``landmarks="auto"``: how the events were paired.
     notes : tuple of Note
+    srvs : tuple of SRVFunction
+        Two motions with a solved warp: the SRVs of A's and B's curves it was solved on (the
+        method's, at most ``options.sample_fps``); empty otherwise.
+    distance : float or None
+        Two motions with a solved warp: ``||qA - qB * phi||`` (with landmarks, not the
+        elastic distance); None otherwise.
     """
 
     vertices: tuple[np.ndarray, ...]
@@ -58,6 +64,8 @@ class Warps:
     options: WarpOptions
     pairing: Any = None
     notes: tuple[Note, ...] = ()
+    srvs: tuple[SRVFunction, ...] = ()
+    distance: float | None = None
 
 
 def find_warps(
@@ -120,7 +128,15 @@ def pairwise_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs, options:
             {"distance": float(res.distance), "landmark_pairs": len(pairs)},
         )
     )
-    return Warps((IDENTITY_WARP, np.asarray(res.vertices)), tuple(pairs), opts, plan.pairing, tuple(notes))
+    return Warps(
+        (IDENTITY_WARP, np.asarray(res.vertices)),
+        tuple(pairs),
+        opts,
+        plan.pairing,
+        tuple(notes),
+        srvs=(sa, sb),
+        distance=float(res.distance),
+    )
 
 
 def template_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs) -> Warps:

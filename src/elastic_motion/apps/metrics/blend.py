@@ -4,7 +4,7 @@ distances of the result and its inputs."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -13,7 +13,8 @@ from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics.bones import BoneLengthError, bone_length_error
 from elastic_motion.apps.metrics.feet import FootSliding, foot_sliding
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
-from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions
+from elastic_motion.apps.prepare import PreparedMotions
+from elastic_motion.curves import SRVFunction
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions
 
@@ -37,9 +38,12 @@ class BlendMetrics:
     bone_length_error_vs_inputs : tuple of BoneLengthError
         Of the result against each input's skeleton.
     distances_between_inputs : ndarray, shape (K, K)
-        Lie elastic distances (``R^3 x SO(3)^J`` SRV, optimal warp by DP, shared weights).
+        Lie elastic distances (``R^3 x SO(3)^J`` SRV on the inputs' curve joints with their
+        shared weights, the optimal warp of ``WarpOptions()``: what a Lie blend's warp stage
+        solves, so for a blend of two with that warp and no landmarks, its distance).
     distances_to_inputs : ndarray, shape (K,)
-        From the result to each input, same metric.
+        From the result to each input, same metric (the result's curve on the inputs' joints
+        and weights, where the blend put it: prepared like them already).
     geodesic_expected : ndarray, shape (2,) or (0,)
         Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
     feet, feet_inputs : FootQuality, tuple of FootQuality
@@ -102,6 +106,8 @@ def blend_metrics(
     *,
     feet_inputs: Sequence[FootQuality] | None = None,
     feet: FootQuality | None = None,
+    input_srvs: Sequence[SRVFunction] | None = None,
+    input_distances: np.ndarray | None = None,
 ) -> BlendMetrics:
     """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
 
@@ -119,20 +125,33 @@ def blend_metrics(
         blend's contacts stage measures them): taken as they are, not measured again.
     feet : FootQuality, optional
         ``foot_quality(result, contact_options)``, when measured already (the clean-up's).
+    input_srvs : sequence of SRVFunction, optional
+        The SRVs of the inputs' Lie curves as :func:`elastic_motion.apps.distance.distance_table`
+        builds them with ``WarpOptions()`` (a Lie blend's warp stage builds exactly these):
+        taken as they are, not built again.
+    input_distances : ndarray, shape (K, K), optional
+        :attr:`BlendMetrics.distances_between_inputs` solved already on those curves (the
+        blend's warp of B onto A when it met no landmarks): no warp between inputs is solved
+        again. (The result is a new curve: its warps onto the inputs are solved.)
 
     Returns
     -------
     BlendMetrics
     """
     ms = prepared.motions
+    k = len(ms)
+    known = None
+    if input_distances is not None:
+        known = np.full((k + 1, k + 1), np.nan)
+        known[:k, :k] = input_distances
     table = distance_table(
-        [*ms, result],
-        labels=[*prepared.labels, "result"],
-        # motions prepared already (metres, Y-up): no up-axis check, whose notes nobody reads
-        prepare=PrepareOptions(joints="common", drop_tpose=False, check_up_axis=False),
+        # the result beside its inputs, in their preparation (their joints, units, up axis,
+        # placement and curve weights): the blend made it there, nothing to prepare again
+        replace(prepared, motions=(*ms, result), labels=(*prepared.labels, "result")),
+        srvs=None if input_srvs is None else [*input_srvs, None],
+        known=known,
     )
     d = table.matrix
-    k = len(ms)
     expected = np.array([weights[1] * d[0, 1], weights[0] * d[0, 1]]) if k == 2 else np.zeros(0)
     if not feet_inputs:
         feet_inputs = [foot_quality(m, contact_options) for m in ms]
