@@ -131,8 +131,10 @@ for name, mod in list(sys.modules.items()):
                 misses[f"{name}.{obj.__name__}"] = dict(obj.stats.cache_misses)
             if obj.signatures:
                 signatures[f"{name}.{obj.__name__}"] = [str(s) for s in obj.signatures]
+from numba.core import entrypoints
 print(json.dumps({"code": code, "refreshes": len(refreshes), "misses": {k: str(v) for k, v in misses.items()},
-                  "hits": hits, "signatures": signatures, "modules": sorted(sys.modules)}))
+                  "hits": hits, "signatures": signatures, "modules": sorted(sys.modules),
+                  "extensions": entrypoints._already_initialized}))
 """
 
 
@@ -171,6 +173,29 @@ def test_a_warm_blend_never_loads_numbas_compiler_registries(warm_blend: dict):
     """Running cached kernels needs numba's runtime only (elastic_motion._numba_cache): the
     registries (half the bare Python's start-up) are never loaded by a warm blend."""
     assert warm_blend["refreshes"] == 0
+
+
+def test_a_warm_blend_never_scans_for_numba_extensions(warm_blend: dict):
+    """numba's extension set-up reads every installed distribution's metadata (7-13 ms); the
+    package's kernels need no extension (elastic_motion._numba_cache)."""
+    assert warm_blend["extensions"] is False
+
+
+def test_a_users_function_still_sets_up_numbas_extensions():
+    """Skipped for the package's kernels only: the set-up hook of a user's own @njit function
+    runs numba's extension set-up (before its arguments are typed) as numba does."""
+    code = (
+        "import numba\n"
+        "from numba.core import entrypoints\n"
+        "from elastic_motion.groups import _so3_exp_kernel\n"
+        "_so3_exp_kernel._compilation_chain_init_hook()\n"
+        "print(entrypoints._already_initialized)\n"
+        "@numba.njit\n"
+        "def f(x):\n    return x + 1.0\n"
+        "f._compilation_chain_init_hook()\n"
+        "print(entrypoints._already_initialized)"
+    )
+    assert _run(code).split() == ["False", "True"]
 
 
 def test_a_compile_after_a_light_load_still_finds_the_registries():

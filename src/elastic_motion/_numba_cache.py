@@ -19,6 +19,13 @@ compiles (``CompilerBase.__init__``: a cache miss, a new type signature, a user'
 It is installed by :mod:`elastic_motion.groups`, the bottom layer every module with a kernel
 imports, so it is in place before the first kernel runs. If numba lacks a piece it uses
 (another numba than the tested 0.59-0.68), numba's own loader stays.
+
+Likewise the first call of any dispatcher runs numba's extension set-up
+(``numba.core.entrypoints.init_all``: the ``numba_extensions`` entry points, found by reading
+the metadata of every installed distribution, 7-13 ms), which lets third-party packages teach
+the compiler their types. The package's own kernels take numpy arrays and numbers only, so
+their calls skip it; the first call of any other function (a user's ``@njit``) runs it as
+before, and so does every compile (numba's context refresh sets the extensions up too).
 """
 
 from __future__ import annotations
@@ -38,9 +45,11 @@ def load_kernels_lightly() -> bool:
     """
     try:
         from numba.core.caching import Cache
+        from numba.core.dispatcher import Dispatcher
         from numba.core.runtime import rtsys
     except ImportError:  # pragma: no cover - another numba layout: keep its loader
         return False
+    _skip_extensions_for_own_kernels(Dispatcher)
     original = Cache.load_overload
     if getattr(original, "_elastic_motion_light", False):
         return True
@@ -57,3 +66,21 @@ def load_kernels_lightly() -> bool:
     load_overload.__doc__ = original.__doc__
     Cache.load_overload = load_overload
     return True
+
+
+def _skip_extensions_for_own_kernels(dispatcher: Any) -> None:
+    """Skip numba's extension set-up on calls of the package's own kernels (module
+    docstring); idempotent, and nothing when numba has no such hook."""
+    hook = getattr(dispatcher, "_compilation_chain_init_hook", None)
+    if hook is None or getattr(hook, "_elastic_motion_light", False):
+        return
+
+    def init_hook(self: Any) -> None:
+        func = getattr(self, "py_func", None)
+        if getattr(func, "__module__", "").startswith("elastic_motion."):
+            return  # numpy arrays and numbers only: no third-party types to learn
+        hook(self)
+
+    init_hook._elastic_motion_light = True  # type: ignore[attr-defined]
+    init_hook.__doc__ = hook.__doc__
+    dispatcher._compilation_chain_init_hook = init_hook
