@@ -198,6 +198,25 @@ def test_a_users_function_still_sets_up_numbas_extensions():
     assert _run(code).split() == ["False", "True"]
 
 
+def test_importing_the_kernels_sets_no_cache_up():
+    """numba proves each cache folder writable with a temporary file when ``@njit(cache=True)``
+    runs; the package's kernels set their caches up on first use (the warm blend above loads
+    every kernel it calls from its cache)."""
+    code = (
+        "import tempfile\n"
+        "made = []\n"
+        "real = tempfile.TemporaryFile\n"
+        "tempfile.TemporaryFile = lambda *a, **k: made.append(1) or real(*a, **k)\n"
+        "import numpy as np\n"
+        "import elastic_motion.warp, elastic_motion.motion\n"
+        "print(len(made))\n"
+        "from elastic_motion.groups import SO3, _so3_exp_kernel\n"
+        "SO3().exp(np.array([[0.1, 0.2, 0.3]]))\n"
+        "print(len(made), bool(_so3_exp_kernel.stats.cache_path))"
+    )
+    assert _run(code).split() == ["0", "1", "True"]
+
+
 def test_a_compile_after_a_light_load_still_finds_the_registries():
     """numba refreshes its contexts itself when it compiles: a new kernel after a cached one
     (np.sum, np.full: implementations from the registries) compiles and runs."""
