@@ -10,10 +10,14 @@ import numpy as np
 import pytest
 
 import elastic_motion.apps.prepare as prepare_module
+from elastic_motion.apps.align import motion_curves
 from elastic_motion.apps.blend import blend_motions
-from elastic_motion.apps.distance import distance_table
+from elastic_motion.apps.distance import KnownDistances, distance_table
 from elastic_motion.apps.metrics import blend_metrics
 from elastic_motion.apps.prepare import PrepareOptions, prepare_motions
+from elastic_motion.curves import srv_transform
+from elastic_motion.errors import OptionError
+from elastic_motion.warp import WarpOptions
 
 
 @pytest.fixture(scope="module")
@@ -109,3 +113,30 @@ def test_no_motion_is_measured_twice(mocap_dir: Path, monkeypatch):
     monkeypatch.undo()
     fresh = blend_metrics(res.motion, res.prepared, res.weights, res.options.contact_options)
     assert fresh.summary() == res.metrics.summary()
+
+
+def test_distance_table_takes_what_it_is_given(blended):
+    """Known curves are used and known distances are taken as they are (the metrics trust
+    the blend's); a NaN is solved; the wrong number of curves or shape of distances is an
+    error naming the argument."""
+    prep = blended.prepared
+    plain = distance_table(prep)
+    solved = np.array([[0.0, 123.0], [123.0, 0.0]])
+    taken = distance_table(prep, known=KnownDistances((None, None), solved))
+    assert taken.matrix[0, 1] == 123.0 and np.array_equal(taken.unwarped, plain.unwarped)
+    srvs = tuple(_srvs(prep))
+    again = distance_table(prep, known=KnownDistances(srvs, np.full((2, 2), np.nan)))
+    assert np.array_equal(again.matrix, plain.matrix)
+    with pytest.raises(OptionError, match="known"):
+        distance_table(prep, known=KnownDistances(srvs[:1]))
+    with pytest.raises(OptionError, match="known"):
+        distance_table(prep, known=KnownDistances(srvs, np.zeros((3, 3))))
+
+
+def _srvs(prep):
+    """The SRVs distance_table builds for ``prep`` (Lie curves, default warp sampling)."""
+    opts = WarpOptions()
+    return [
+        srv_transform(c)
+        for c in motion_curves(prep, "lie", fps=opts.sample_fps, smoothing=opts.sample_smoothing)
+    ]

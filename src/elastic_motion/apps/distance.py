@@ -40,9 +40,26 @@ from elastic_motion.errors import OptionError
 from elastic_motion.motion.edit import check_interpolation, resampled_frames
 from elastic_motion.warp import WarpOptions, optimal_warp, warp_energy
 
-__all__ = ["DistanceTable", "distance_table", "format_table", "motion_distance"]
+__all__ = ["DistanceTable", "KnownDistances", "distance_table", "format_table", "motion_distance"]
 
 _IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class KnownDistances:
+    """What :func:`distance_table` need not compute again: curves built and distances solved
+    already, exactly as it would (same preparation, method, warp options, interpolation).
+
+    Attributes
+    ----------
+    srvs : tuple of SRVFunction or None
+        One per motion: the SRV of its curve, or None (built then).
+    distances : ndarray, shape (K, K), optional
+        Elastic distances on those curves, NaN where not solved (solved then); None: none.
+    """
+
+    srvs: tuple[SRVFunction | None, ...]
+    distances: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,8 +107,7 @@ def distance_table(
     prepare: PrepareOptions | None = None,
     progress: Progress | None = None,
     interpolation: str = "geodesic",
-    srvs: Sequence[SRVFunction | None] | None = None,
-    known: np.ndarray | None = None,
+    known: KnownDistances | None = None,
 ) -> DistanceTable:
     """All pairwise distances of ``K >= 2`` motions, serially (``K (K - 1) / 2`` DP solves).
 
@@ -115,14 +131,11 @@ def distance_table(
         30 fps clips) a motion and the same motion played between its frames measure about
         2.5 times closer (``benchmarks/blend_quality.py``); the DP then costs about
         ``(sample_fps / fps)^2`` times more.
-    srvs : sequence of SRVFunction or None, optional
-        One per motion: the SRV of its curve when built already (e.g. by a blend's warp stage,
-        :mod:`elastic_motion.apps.blend.warps`), exactly as this function builds it (same
-        preparation, ``method``, ``warp`` sampling and ``interpolation``), or None; only the
-        others are built.
-    known : ndarray, shape (K, K), optional
-        Elastic distances solved already on these curves with this ``warp`` (e.g. the blend's
-        warp of B onto A), NaN where not: only the NaN pairs are solved.
+    known : KnownDistances, optional
+        Curves built and distances solved already (e.g. by a blend's warp stage,
+        :mod:`elastic_motion.apps.blend.warps`), exactly as this function would (same
+        preparation, ``method``, ``warp`` and ``interpolation``): only the rest are built
+        and solved.
 
     Returns
     -------
@@ -149,7 +162,8 @@ def distance_table(
             longest[0] * longest[1],
             "max_dp_nodes",
         )
-    given = _given(srvs, known, n)
+    given = _given(known, n)
+    solved = None if known is None else known.distances
     missing = [k for k, s in enumerate(given) if s is None]
     if missing:
         curves = motion_curves(
@@ -172,8 +186,8 @@ def distance_table(
         du[i, j] = du[j, i] = math.sqrt(max(warp_energy(a.q, b.q, _IDENTITY, a.t, b.t), 0.0))
         if opts.method == "none":
             d[i, j] = d[j, i] = du[i, j]
-        elif known is not None and not math.isnan(known[i, j]):
-            d[i, j] = d[j, i] = known[i, j]
+        elif solved is not None and not math.isnan(solved[i, j]):
+            d[i, j] = d[j, i] = solved[i, j]
         else:
             r = optimal_warp(a.q, b.q, t0=a.t, t1=b.t, **opts.solver_kwargs())
             d[i, j] = d[j, i] = r.distance
@@ -181,16 +195,18 @@ def distance_table(
     return DistanceTable(prep.labels, d, du, method, opts.method, prep.notes)
 
 
-def _given(
-    srvs: Sequence[SRVFunction | None] | None, known: np.ndarray | None, n: int
-) -> list[SRVFunction | None]:
-    """``distance_table``'s curves built already (one per motion or None), checked with
-    ``known``'s shape."""
-    given = [None] * n if srvs is None else list(srvs)
+def _given(known: KnownDistances | None, n: int) -> list[SRVFunction | None]:
+    """``distance_table``'s curves built already (one per motion or None), checked with the
+    distances' shape."""
+    if known is None:
+        return [None] * n
+    given = list(known.srvs)
     if len(given) != n:
-        raise OptionError("srvs", f"expected one curve or None per motion ({n}); got {len(given)}")
-    if known is not None and np.shape(known) != (n, n):
-        raise OptionError("known", f"expected a ({n}, {n}) matrix of distances; got shape {np.shape(known)}")
+        raise OptionError("known", f"expected one curve or None per motion ({n}); got {len(given)}")
+    if known.distances is not None and np.shape(known.distances) != (n, n):
+        raise OptionError(
+            "known", f"expected a ({n}, {n}) matrix of distances; got shape {np.shape(known.distances)}"
+        )
     return given
 
 

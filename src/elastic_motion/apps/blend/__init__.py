@@ -169,6 +169,7 @@ from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
 from elastic_motion.apps.blend.transitions import NOTE_WEIGHT_CURVE
 from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, Warps, find_warps
 from elastic_motion.apps.blend_options import BlendOptions, parse_weight_curve
+from elastic_motion.apps.distance import KnownDistances
 from elastic_motion.apps.metrics import BlendMetrics, blend_metrics
 from elastic_motion.apps.prepare import PreparedMotions, Source
 from elastic_motion.apps.progress import Progress, null_progress
@@ -313,8 +314,9 @@ def _metrics(
         opts.contact_options,
         feet_inputs=contacts.inputs_feet,
         feet=feet,
-        input_srvs=warps.srvs if reuse else None,
-        input_distances=np.array([[0.0, warps.distance], [warps.distance, 0.0]]) if reuse else None,
+        inputs_known=KnownDistances(warps.srvs, np.array([[0.0, warps.distance], [warps.distance, 0.0]]))
+        if reuse
+        else None,
     )
 
 

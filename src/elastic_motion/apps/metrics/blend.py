@@ -9,12 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from elastic_motion.apps.distance import distance_table
+from elastic_motion.apps.distance import KnownDistances, distance_table
 from elastic_motion.apps.metrics.bones import BoneLengthError, bone_length_error
 from elastic_motion.apps.metrics.feet import FootSliding, foot_sliding
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PreparedMotions
-from elastic_motion.curves import SRVFunction
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions
 
@@ -84,7 +83,8 @@ class BlendMetrics:
                 "inputs": [_feet_summary(q) for q in self.feet_inputs],
             },
             "distances": {
-                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), shared weights",
+                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), the inputs' "
+                "curve joints and shared weights, the result as the blend placed it",
                 "labels": list(self.labels),
                 "between_inputs": self.distances_between_inputs.tolist(),
                 "result_to_inputs": self.distances_to_inputs.tolist(),
@@ -106,8 +106,7 @@ def blend_metrics(
     *,
     feet_inputs: Sequence[FootQuality] | None = None,
     feet: FootQuality | None = None,
-    input_srvs: Sequence[SRVFunction] | None = None,
-    input_distances: np.ndarray | None = None,
+    inputs_known: KnownDistances | None = None,
 ) -> BlendMetrics:
     """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
 
@@ -125,14 +124,11 @@ def blend_metrics(
         blend's contacts stage measures them): taken as they are, not measured again.
     feet : FootQuality, optional
         ``foot_quality(result, contact_options)``, when measured already (the clean-up's).
-    input_srvs : sequence of SRVFunction, optional
-        The SRVs of the inputs' Lie curves as :func:`elastic_motion.apps.distance.distance_table`
-        builds them with ``WarpOptions()`` (a Lie blend's warp stage builds exactly these):
-        taken as they are, not built again.
-    input_distances : ndarray, shape (K, K), optional
-        :attr:`BlendMetrics.distances_between_inputs` solved already on those curves (the
-        blend's warp of B onto A when it met no landmarks): no warp between inputs is solved
-        again. (The result is a new curve: its warps onto the inputs are solved.)
+    inputs_known : KnownDistances, optional
+        Of the inputs (K entries): the SRVs of their Lie curves and their distances as
+        :func:`elastic_motion.apps.distance.distance_table` builds and solves them with
+        ``WarpOptions()`` (a Lie blend's warp stage, when it met no landmarks): taken as they
+        are. (The result is a new curve: its warps onto the inputs are solved.)
 
     Returns
     -------
@@ -141,14 +137,16 @@ def blend_metrics(
     ms = prepared.motions
     k = len(ms)
     known = None
-    if input_distances is not None:
-        known = np.full((k + 1, k + 1), np.nan)
-        known[:k, :k] = input_distances
+    if inputs_known is not None:
+        solved = None
+        if inputs_known.distances is not None:
+            solved = np.full((k + 1, k + 1), np.nan)
+            solved[:k, :k] = inputs_known.distances
+        known = KnownDistances((*inputs_known.srvs, None), solved)
     table = distance_table(
         # the result beside its inputs, in their preparation (their joints, units, up axis,
         # placement and curve weights): the blend made it there, nothing to prepare again
         replace(prepared, motions=(*ms, result), labels=(*prepared.labels, "result")),
-        srvs=None if input_srvs is None else [*input_srvs, None],
         known=known,
     )
     d = table.matrix
