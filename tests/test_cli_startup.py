@@ -93,7 +93,8 @@ def test_the_report_path_check_loads_no_app():
 
 #: Modules a blend of two BVH files has no use for: the database app, the loop app and its
 #: closing solvers (scipy.sparse, scipy.linalg), scipy.ndimage (elastic_motion.motion.filters),
-#: XML (URDF); numba's array-math implementations, which a cached kernel's load imports when the
+#: scipy's signal, interpolation (cubic resampling only), spatial, optimisation and special
+#: functions, plotting, XML (URDF); numba's array-math implementations, which a cached kernel's load imports when the
 #: kernel calls one of them (np.round, np.searchsorted, ...: its environment names the module),
 #: and with them scipy.linalg (numba.np.linalg.ensure_blas), together 0.2 s.
 NOT_IN_A_BLEND = (
@@ -103,6 +104,12 @@ NOT_IN_A_BLEND = (
     "scipy.sparse",
     "scipy.linalg",
     "scipy.ndimage",
+    "scipy.signal",
+    "scipy.interpolate",
+    "scipy.spatial",
+    "scipy.optimize",
+    "scipy.special",
+    "matplotlib",
     "numba.np.arraymath",
     "asyncio",
     "xml.etree",
