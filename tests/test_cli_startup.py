@@ -91,15 +91,19 @@ def test_the_report_path_check_loads_no_app():
 # A warm blend of two real walks, in a fresh process
 # ------------------------------------------------------------------------------------------
 
-#: Modules a blend of two BVH files has no use for: the database app, the loop app and its
+#: Modules a blend of two BVH files has no use for: the database app, the cycles app (cycles
+#: and loops), the statistics app (the Karcher template of three motions), the loop app and its
 #: closing solvers (scipy.sparse, scipy.linalg), scipy.ndimage (elastic_motion.motion.filters),
 #: scipy's signal, interpolation (cubic resampling only), spatial, optimisation and special
-#: functions, plotting, XML (URDF); numba's array-math implementations, which a cached kernel's load imports when the
-#: kernel calls one of them (np.round, np.searchsorted, ...: its environment names the module),
-#: and with them scipy.linalg (numba.np.linalg.ensure_blas), together 0.2 s.
+#: functions, plotting, XML (URDF); numba's array-math implementations, which a cached
+#: kernel's load imports when the kernel calls one of them (np.round, np.searchsorted, ...: its
+#: environment names the module), and with them scipy.linalg (numba.np.linalg.ensure_blas),
+#: together 0.2 s.
 NOT_IN_A_BLEND = (
     "elastic_motion.apps.database",
     "elastic_motion.apps.loop",
+    "elastic_motion.apps.cycles",
+    "elastic_motion.apps.statistics",
     "elastic_motion.closing",
     "scipy.sparse",
     "scipy.linalg",

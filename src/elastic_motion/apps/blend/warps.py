@@ -19,7 +19,6 @@ import numpy as np
 from elastic_motion.apps.align import landmark_parameters, motion_curves, plan_landmarks, solve_warp
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend_options import BlendOptions
-from elastic_motion.apps.statistics import karcher_mean
 from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.notes import Note
@@ -142,6 +141,9 @@ def pairwise_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs, options:
 def template_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs) -> Warps:
     """The warps of three or more inputs onto their weighted Karcher mean (aligned by DP: the
     template moves between iterations)."""
+    # local: only a blend of three or more motions needs the statistics app (CLI start-up)
+    from elastic_motion.apps.statistics import karcher_mean
+
     n = max(c.n_points for c in coarse) - 1
     km = karcher_mean(coarse, weights=inputs.weights, n_samples=n, warp=inputs.warp.replace(method="dp"))
     note = Note(
