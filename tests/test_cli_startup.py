@@ -91,18 +91,29 @@ def test_the_report_path_check_loads_no_app():
 # A warm blend of two real walks, in a fresh process
 # ------------------------------------------------------------------------------------------
 
-#: Modules a blend of two BVH files has no use for: the database app, the loop app and its
+#: Modules a blend of two BVH files has no use for: the database app, the cycles app (cycles
+#: and loops), the statistics app (the Karcher template of three motions), the loop app and its
 #: closing solvers (scipy.sparse, scipy.linalg), scipy.ndimage (elastic_motion.motion.filters),
-#: XML (URDF); numba's array-math implementations, which a cached kernel's load imports when the
-#: kernel calls one of them (np.round, np.searchsorted, ...: its environment names the module),
-#: and with them scipy.linalg (numba.np.linalg.ensure_blas), together 0.2 s.
+#: scipy's signal, interpolation (cubic resampling only), spatial, optimisation and special
+#: functions, plotting, XML (URDF); numba's array-math implementations, which a cached
+#: kernel's load imports when the kernel calls one of them (np.round, np.searchsorted, ...: its
+#: environment names the module), and with them scipy.linalg (numba.np.linalg.ensure_blas),
+#: together 0.2 s.
 NOT_IN_A_BLEND = (
     "elastic_motion.apps.database",
     "elastic_motion.apps.loop",
+    "elastic_motion.apps.cycles",
+    "elastic_motion.apps.statistics",
     "elastic_motion.closing",
     "scipy.sparse",
     "scipy.linalg",
     "scipy.ndimage",
+    "scipy.signal",
+    "scipy.interpolate",
+    "scipy.spatial",
+    "scipy.optimize",
+    "scipy.special",
+    "matplotlib",
     "numba.np.arraymath",
     "asyncio",
     "xml.etree",
@@ -131,8 +142,10 @@ for name, mod in list(sys.modules.items()):
                 misses[f"{name}.{obj.__name__}"] = dict(obj.stats.cache_misses)
             if obj.signatures:
                 signatures[f"{name}.{obj.__name__}"] = [str(s) for s in obj.signatures]
+from numba.core import entrypoints
 print(json.dumps({"code": code, "refreshes": len(refreshes), "misses": {k: str(v) for k, v in misses.items()},
-                  "hits": hits, "signatures": signatures, "modules": sorted(sys.modules)}))
+                  "hits": hits, "signatures": signatures, "modules": sorted(sys.modules),
+                  "extensions": entrypoints._already_initialized}))
 """
 
 
@@ -171,6 +184,48 @@ def test_a_warm_blend_never_loads_numbas_compiler_registries(warm_blend: dict):
     """Running cached kernels needs numba's runtime only (elastic_motion._numba_cache): the
     registries (half the bare Python's start-up) are never loaded by a warm blend."""
     assert warm_blend["refreshes"] == 0
+
+
+def test_a_warm_blend_never_scans_for_numba_extensions(warm_blend: dict):
+    """numba's extension set-up reads every installed distribution's metadata (7-13 ms); the
+    package's kernels need no extension (elastic_motion._numba_cache)."""
+    assert warm_blend["extensions"] is False
+
+
+def test_a_users_function_still_sets_up_numbas_extensions():
+    """Skipped for the package's kernels only: the set-up hook of a user's own @njit function
+    runs numba's extension set-up (before its arguments are typed) as numba does."""
+    code = (
+        "import numba\n"
+        "from numba.core import entrypoints\n"
+        "from elastic_motion.groups import _so3_exp_kernel\n"
+        "_so3_exp_kernel._compilation_chain_init_hook()\n"
+        "print(entrypoints._already_initialized)\n"
+        "@numba.njit\n"
+        "def f(x):\n    return x + 1.0\n"
+        "f._compilation_chain_init_hook()\n"
+        "print(entrypoints._already_initialized)"
+    )
+    assert _run(code).split() == ["False", "True"]
+
+
+def test_importing_the_kernels_sets_no_cache_up():
+    """numba proves each cache folder writable with a temporary file when ``@njit(cache=True)``
+    runs; the package's kernels set their caches up on first use (the warm blend above loads
+    every kernel it calls from its cache)."""
+    code = (
+        "import tempfile\n"
+        "made = []\n"
+        "real = tempfile.TemporaryFile\n"
+        "tempfile.TemporaryFile = lambda *a, **k: made.append(1) or real(*a, **k)\n"
+        "import numpy as np\n"
+        "import elastic_motion.warp, elastic_motion.motion\n"
+        "print(len(made))\n"
+        "from elastic_motion.groups import SO3, _so3_exp_kernel\n"
+        "SO3().exp(np.array([[0.1, 0.2, 0.3]]))\n"
+        "print(len(made), bool(_so3_exp_kernel.stats.cache_path))"
+    )
+    assert _run(code).split() == ["0", "1", "True"]
 
 
 def test_a_compile_after_a_light_load_still_finds_the_registries():

@@ -266,3 +266,39 @@ def test_z_up_cmu_file_is_read_z_up(mocap_dir, tmp_path):
     np.testing.assert_allclose(
         forward_kinematics(set_up_axis(back, "y")), forward_kinematics(m), atol=1e-6 * 20
     )
+
+
+# ------------------------------------------------------------------------------------------
+# The cues' fast reductions, against numpy's own (issue 34: the up-axis check of each input)
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_masked_median_is_nanmedian_to_the_bit(seed: int):
+    from elastic_motion.motion.axes import _masked_median
+
+    rng = np.random.default_rng(seed)
+    rows, n = int(rng.integers(1, 40)), int(rng.integers(1, 12))
+    values = rng.normal(size=(rows, n, 3)) * 10.0 ** rng.integers(-3, 3)
+    if seed % 2:  # ties, as quantised velocities have
+        values = np.round(values, 1)
+    mask = rng.random((rows, n)) < rng.uniform(0.1, 0.9)
+    mask[np.arange(rows), rng.integers(0, n, rows)] = True  # at least one per row
+    want = np.nanmedian(np.where(mask[..., None], values, np.nan), axis=1)
+    got = _masked_median(values, mask)
+    assert got.shape == want.shape and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_hull_distance_is_the_masked_minimum_to_the_bit(seed: int):
+    from elastic_motion.motion.axes import _N_HULL_DIRECTIONS, _hull_distance
+
+    rng = np.random.default_rng(seed)
+    f, n = int(rng.integers(1, 50)), int(rng.integers(1, 30))
+    points, q = rng.normal(size=(f, n, 2)), rng.normal(size=(f, 2))
+    mask = rng.random((f, n)) < rng.uniform(0.0, 0.5)  # frames without support too
+    angles = np.arange(_N_HULL_DIRECTIONS) * (2 * np.pi / _N_HULL_DIRECTIONS)
+    dirs = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    proj = np.where(mask[..., None], points @ dirs.T, np.inf)
+    want = np.maximum((proj.min(axis=1) - q @ dirs.T).max(axis=1), 0.0)
+    assert np.array_equal(_hull_distance(points, mask, q, dirs), want)

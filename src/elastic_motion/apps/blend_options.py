@@ -112,7 +112,8 @@ class BlendOptions:
         keeps the whole clips.
     metrics : bool, default False
         Compute the quality metrics (:func:`elastic_motion.apps.metrics.blend_metrics`:
-        ``K^2`` extra DP solves).
+        ``K (K + 1) / 2`` extra DP solves, ``K`` when the blend's own warp of A and B is the
+        metrics': a Lie blend of two, default warp options, no landmarks).
     joint_limits : {"keep", "report", "off"}, JointLimits or path, default "keep"
         Limits of the joints' DOF angles, the loop's option
         (:func:`elastic_motion.apps.limit_stage.check_limits_option`): those of the ASF file

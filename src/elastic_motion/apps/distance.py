@@ -39,14 +39,31 @@ from elastic_motion import limits
 from elastic_motion.apps.align import check_method, motion_curves, warp_options
 from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions, Source, prepare_motions
 from elastic_motion.apps.progress import Progress, null_progress
-from elastic_motion.curves import srv_transform
+from elastic_motion.curves import SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.motion.edit import check_interpolation, resampled_frames
 from elastic_motion.warp import WarpOptions, optimal_warp, warp_energy
 
-__all__ = ["DistanceTable", "distance_table", "format_table", "motion_distance"]
+__all__ = ["DistanceTable", "KnownDistances", "distance_table", "format_table", "motion_distance"]
 
 _IDENTITY = np.array([[0.0, 0.0], [1.0, 1.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class KnownDistances:
+    """What :func:`distance_table` need not compute again: curves built and distances solved
+    already, exactly as it would (same preparation, method, warp options, interpolation).
+
+    Attributes
+    ----------
+    srvs : tuple of SRVFunction or None
+        One per motion: the SRV of its curve, or None (built then).
+    distances : ndarray, shape (K, K), optional
+        Elastic distances on those curves, NaN where not solved (solved then); None: none.
+    """
+
+    srvs: tuple[SRVFunction | None, ...]
+    distances: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,6 +111,7 @@ def distance_table(
     prepare: PrepareOptions | None = None,
     progress: Progress | None = None,
     interpolation: str = "geodesic",
+    known: KnownDistances | None = None,
 ) -> DistanceTable:
     """All pairwise distances of ``K >= 2`` motions, serially (``K (K - 1) / 2`` DP solves).
 
@@ -117,6 +135,11 @@ def distance_table(
         30 fps clips) a motion and the same motion played between its frames measure about
         2.5 times closer (``benchmarks/blend_quality.py``); the DP then costs about
         ``(sample_fps / fps)^2`` times more.
+    known : KnownDistances, optional
+        Curves built and distances solved already (e.g. by a blend's warp stage,
+        :mod:`elastic_motion.apps.blend.warps`), exactly as this function would (same
+        preparation, ``method``, ``warp`` and ``interpolation``): only the rest are built
+        and solved.
 
     Returns
     -------
@@ -143,25 +166,52 @@ def distance_table(
             longest[0] * longest[1],
             "max_dp_nodes",
         )
-    curves = motion_curves(
-        prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing, interpolation=interpolation
-    )
-    srvs = [srv_transform(c) for c in curves]
-    k = len(srvs)
+    given = _given(known, n)
+    solved = None if known is None else known.distances
+    missing = [k for k, s in enumerate(given) if s is None]
+    if missing:
+        curves = motion_curves(
+            prep,
+            method,
+            fps=opts.sample_fps,
+            smoothing=opts.sample_smoothing,
+            interpolation=interpolation,
+            which=missing,
+        )
+        for k, c in zip(missing, curves, strict=True):
+            given[k] = srv_transform(c)
+    k = len(given)
     d = np.zeros((k, k))
     du = np.zeros((k, k))
     pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
     report("distances", 0, len(pairs))
     for n, (i, j) in enumerate(pairs):
-        a, b = srvs[i], srvs[j]
+        a, b = given[i], given[j]
         du[i, j] = du[j, i] = math.sqrt(max(warp_energy(a.q, b.q, _IDENTITY, a.t, b.t), 0.0))
         if opts.method == "none":
             d[i, j] = d[j, i] = du[i, j]
+        elif solved is not None and not math.isnan(solved[i, j]):
+            d[i, j] = d[j, i] = solved[i, j]
         else:
             r = optimal_warp(a.q, b.q, t0=a.t, t1=b.t, **opts.solver_kwargs())
             d[i, j] = d[j, i] = r.distance
         report("distances", n + 1, len(pairs))
     return DistanceTable(prep.labels, d, du, method, opts.method, prep.notes)
+
+
+def _given(known: KnownDistances | None, n: int) -> list[SRVFunction | None]:
+    """``distance_table``'s curves built already (one per motion or None), checked with the
+    distances' shape."""
+    if known is None:
+        return [None] * n
+    given = list(known.srvs)
+    if len(given) != n:
+        raise OptionError("known", f"expected one curve or None per motion ({n}); got {len(given)}")
+    if known.distances is not None and np.shape(known.distances) != (n, n):
+        raise OptionError(
+            "known", f"expected a ({n}, {n}) matrix of distances; got shape {np.shape(known.distances)}"
+        )
+    return given
 
 
 def motion_distance(a: Source, b: Source, **kw: object) -> float:

@@ -135,7 +135,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--no-metrics",
         action="store_true",
-        help="skip the quality metrics in the report (saves three or more DP solves)",
+        help="skip the quality metrics in the report (saves two or more DP solves)",
     )
     add_input_options(p)
     add_json_option(p)

@@ -82,8 +82,11 @@ def gaussian_frames(x: np.ndarray, sigma_frames: float, *, truncate: float = 4.0
     n = x.shape[0]
     ext = _held(x, r)
     out = ext[r : r + n] * w[r]
+    pair = np.empty_like(out)  # in place: the same sums and products, no array per term
     for d in range(r, 0, -1):  # outermost pair first, as scipy sums
-        out += (ext[r - d : r - d + n] + ext[r + d : r + d + n]) * w[r - d]
+        np.add(ext[r - d : r - d + n], ext[r + d : r + d + n], out=pair)
+        pair *= w[r - d]
+        out += pair
     return out
 
 

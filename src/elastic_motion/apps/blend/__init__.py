@@ -137,15 +137,16 @@ mean, average, repeat). Its warps ``phi_k`` map the template's parameter to each
 and the timing is ``T(u) = sum_k w_k d_k phi_k(u)``. Landmarks are for two motions only.
 
 Metrics (``BlendResult.metrics``, a :class:`~elastic_motion.apps.metrics.BlendMetrics`, computed only with
-``metrics=True``: they cost ``K^2`` extra DP solves): foot sliding of the
+``metrics=True``: they cost ``K (K + 1) / 2`` extra DP solves, or ``K`` (the result's onto
+each input) when the warp stage solved the metrics' own warp of A and B: a Lie blend of two
+with the default warp options and no landmarks; its curves and distance are reused): foot sliding of the
 result and of each input (:func:`elastic_motion.apps.metrics.foot_sliding`), bone-length
 error of the result against its own skeleton and each input's
 (:func:`elastic_motion.apps.metrics.bone_length_error`), and Lie elastic distances
-between the inputs (:func:`elastic_motion.apps.distance.distance_table` of the prepared
-inputs: the numbers ``elastic-motion distance`` reports for them) and from the result to
-each input (in the weights the inputs share with the result; the same metric whatever the
-blend method; on the SRV geodesic with the warp, ``d(R, A) + d(R, B) = d(A, B)`` up to the
-discretisation, a useful check, with ``d(A, B)`` in that metric: ``geodesic_expected``).
+between the inputs and from the result to each input
+(:func:`elastic_motion.apps.distance.distance_table`, the same metric whatever the blend
+method; on the SRV geodesic with the warp, ``d(R, A) + d(R, B) = d(A, B)`` up to the
+discretisation, a useful check).
 """
 
 from __future__ import annotations
@@ -166,12 +167,14 @@ from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, close_again, close
 from elastic_motion.apps.blend.result import BlendResult
 from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
 from elastic_motion.apps.blend.transitions import NOTE_WEIGHT_CURVE
-from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, find_warps
+from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, Warps, find_warps
 from elastic_motion.apps.blend_options import BlendOptions, parse_weight_curve
+from elastic_motion.apps.distance import KnownDistances
 from elastic_motion.apps.metrics import BlendMetrics, blend_metrics
 from elastic_motion.apps.prepare import PreparedMotions, Source
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.motion import Motion
+from elastic_motion.warp import WarpOptions
 
 __all__ = [
     "NOTE_ANCHOR",
@@ -263,7 +266,7 @@ def blend_motions(
     metrics = None
     if opts.metrics:
         report("metrics", 3, stages)
-        metrics = _metrics(blend, inputs, opts, contacts, looped is not None)
+        metrics = _metrics(blend, inputs, opts, contacts, looped is not None, warps)
     report("done", stages, stages)
     return BlendResult(
         motion=blend,
@@ -292,11 +295,18 @@ def blend_motions(
 
 
 def _metrics(
-    blend: Motion, inputs: BlendInputs, opts: BlendOptions, contacts: BlendContacts, looped: bool
+    blend: Motion,
+    inputs: BlendInputs,
+    opts: BlendOptions,
+    contacts: BlendContacts,
+    looped: bool,
+    warps: Warps,
 ) -> BlendMetrics:
     """Stage 9: the metrics, with the feet the contacts stage measured (the inputs', and the
-    cleaned blend's unless a loop was closed since): no motion is measured twice."""
+    cleaned blend's unless a loop was closed since): no motion is measured twice. The warp
+    stage's curves and distance of A and B too, when they are the metrics' own."""
     feet = contacts.result_feet if contacts.applied and not looped else None
+    reuse = _metric_warp(warps, opts)
     return blend_metrics(
         blend,
         inputs.prepared,
@@ -304,4 +314,17 @@ def _metrics(
         opts.contact_options,
         feet_inputs=contacts.inputs_feet,
         feet=feet,
+        inputs_known=KnownDistances(warps.srvs, np.array([[0.0, warps.distance], [warps.distance, 0.0]]))
+        if reuse
+        else None,
     )
+
+
+def _metric_warp(warps: Warps, opts: BlendOptions) -> bool:
+    """Whether the blend's warp of B onto A is the metrics' distance of A and B: solved on Lie
+    curves with ``WarpOptions()`` (its sampling and solver) and no landmarks, as
+    :func:`elastic_motion.apps.distance.distance_table` solves it."""
+    if not warps.srvs or warps.distance is None or warps.pairs or opts.method != "lie":
+        return False
+    default = WarpOptions()
+    return warps.options.replace(landmark_weight=default.landmark_weight) == default

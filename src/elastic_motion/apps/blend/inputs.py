@@ -12,19 +12,21 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from elastic_motion.apps.align import AUTO_LANDMARK_WEIGHT
 from elastic_motion.apps.blend_options import BlendOptions, knot_weights
-from elastic_motion.apps.cycles import CycleMatch, gait_cycles, match_cycles
 from elastic_motion.apps.prepare import PreparedMotions, Source, prepare_motions
 from elastic_motion.errors import OptionError
 from elastic_motion.motion import trim
 from elastic_motion.motion.contacts import ContactOptions
 from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
+
+if TYPE_CHECKING:  # the cycles app is imported only by a blend that matches cycles
+    from elastic_motion.apps.cycles import CycleMatch
 
 __all__ = ["NOTE_CYCLES", "BlendInputs", "check_weights", "match_cycle_spans", "prepare_inputs"]
 
@@ -171,6 +173,9 @@ def match_cycle_spans(
     """Match the gait cycles of the two prepared motions and keep the matched spans; B is
     moved on the floor so that its span starts where A's does. The inputs unchanged (and
     ``n == 0``) when the cycles cannot be matched."""
+    # local: only a blend with cycles (or a loop) needs the cycles app (CLI start-up)
+    from elastic_motion.apps.cycles import gait_cycles, match_cycles
+
     ma, mb = prep.motions
     ca = gait_cycles(ma, options)
     cb = gait_cycles(mb, options, foot=ca.foot or None)

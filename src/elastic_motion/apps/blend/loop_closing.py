@@ -16,13 +16,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from elastic_motion.apps.cleanup import CleanupResult, cleanup_footskate
-from elastic_motion.apps.cycles import CycleMatch
 from elastic_motion.apps.metrics import contact_skating, seam_metrics
 from elastic_motion.apps.prepare import PrepareOptions
 from elastic_motion.motion import Motion
 from elastic_motion.notes import Note
 
 if TYPE_CHECKING:  # the loop app (scipy.sparse, the closing solvers) is imported by close_loop
+    from elastic_motion.apps.cycles import CycleMatch
     from elastic_motion.apps.loop import LoopResult
 
 __all__ = [

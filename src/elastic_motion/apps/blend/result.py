@@ -15,7 +15,6 @@ import numpy as np
 
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cleanup import CleanupResult
-from elastic_motion.apps.cycles import CycleMatch
 from elastic_motion.apps.limit_stage import LimitStage
 from elastic_motion.apps.metrics import BlendMetrics
 from elastic_motion.apps.prepare import PreparedMotions
@@ -23,7 +22,8 @@ from elastic_motion.motion import Motion
 from elastic_motion.notes import Note, note_texts
 from elastic_motion.warp import WarpOptions
 
-if TYPE_CHECKING:  # the loop app is imported only by a blend that closes a loop
+if TYPE_CHECKING:  # the loop and cycles apps are imported only by a blend that needs them
+    from elastic_motion.apps.cycles import CycleMatch
     from elastic_motion.apps.loop import LoopResult
 
 __all__ = ["BlendResult"]

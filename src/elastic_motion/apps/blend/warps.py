@@ -19,8 +19,7 @@ import numpy as np
 from elastic_motion.apps.align import landmark_parameters, motion_curves, plan_landmarks, solve_warp
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend_options import BlendOptions
-from elastic_motion.apps.statistics import karcher_mean
-from elastic_motion.curves import DiscreteCurve, srv_transform
+from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
@@ -51,6 +50,12 @@ class Warps:
     pairing : PhasePairing or None
         ``landmarks="auto"``: how the events were paired.
     notes : tuple of Note
+    srvs : tuple of SRVFunction
+        Two motions with a solved warp: the SRVs of A's and B's curves it was solved on (the
+        method's, at most ``options.sample_fps``); empty otherwise.
+    distance : float or None
+        Two motions with a solved warp: ``||qA - qB * phi||`` (with landmarks, not the
+        elastic distance); None otherwise.
     """
 
     vertices: tuple[np.ndarray, ...]
@@ -58,6 +63,8 @@ class Warps:
     options: WarpOptions
     pairing: Any = None
     notes: tuple[Note, ...] = ()
+    srvs: tuple[SRVFunction, ...] = ()
+    distance: float | None = None
 
 
 def find_warps(
@@ -120,12 +127,23 @@ def pairwise_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs, options:
             {"distance": float(res.distance), "landmark_pairs": len(pairs)},
         )
     )
-    return Warps((IDENTITY_WARP, np.asarray(res.vertices)), tuple(pairs), opts, plan.pairing, tuple(notes))
+    return Warps(
+        (IDENTITY_WARP, np.asarray(res.vertices)),
+        tuple(pairs),
+        opts,
+        plan.pairing,
+        tuple(notes),
+        srvs=(sa, sb),
+        distance=float(res.distance),
+    )
 
 
 def template_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs) -> Warps:
     """The warps of three or more inputs onto their weighted Karcher mean (aligned by DP: the
     template moves between iterations)."""
+    # local: only a blend of three or more motions needs the statistics app (CLI start-up)
+    from elastic_motion.apps.statistics import karcher_mean
+
     n = max(c.n_points for c in coarse) - 1
     km = karcher_mean(coarse, weights=inputs.weights, n_samples=n, warp=inputs.warp.replace(method="dp"))
     note = Note(

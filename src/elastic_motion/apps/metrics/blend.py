@@ -4,16 +4,16 @@ distances of the result and its inputs."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from elastic_motion.apps.distance import distance_table
+from elastic_motion.apps.distance import KnownDistances, distance_table
 from elastic_motion.apps.metrics.bones import BoneLengthError, bone_length_error
 from elastic_motion.apps.metrics.feet import FootSliding, foot_sliding
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
-from elastic_motion.apps.prepare import PreparedMotions, PrepareOptions
+from elastic_motion.apps.prepare import PreparedMotions
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions
 
@@ -37,15 +37,14 @@ class BlendMetrics:
     bone_length_error_vs_inputs : tuple of BoneLengthError
         Of the result against each input's skeleton.
     distances_between_inputs : ndarray, shape (K, K)
-        Lie elastic distances (``R^3 x SO(3)^J`` SRV, the default warp ``dp+refine``) of the
-        prepared inputs in their own shared weights:
-        :func:`~elastic_motion.apps.distance.distance_table` of them, the numbers
-        ``elastic-motion distance`` gives for the same inputs and preparation.
+        Lie elastic distances (``R^3 x SO(3)^J`` SRV on the inputs' curve joints with their
+        shared weights, the optimal warp of ``WarpOptions()``: what a Lie blend's warp stage
+        solves, so for a blend of two with that warp and no landmarks, its distance).
     distances_to_inputs : ndarray, shape (K,)
-        From the result to each input, in the weights shared by the inputs and the result.
+        From the result to each input, same metric (the result's curve on the inputs' joints
+        and weights, where the blend put it: prepared like them already).
     geodesic_expected : ndarray, shape (2,) or (0,)
-        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly,
-        with ``d(A, B)`` in the metric of :attr:`distances_to_inputs` (shared with the result).
+        Two inputs: ``(s d(A, B), (1 - s) d(A, B))``, what the SRV geodesic gives exactly.
     feet, feet_inputs : FootQuality, tuple of FootQuality
         The result and each input measured the same way, each on itself
         (:func:`elastic_motion.apps.metrics.floor.foot_quality`: its own contacts and their
@@ -84,9 +83,8 @@ class BlendMetrics:
                 "inputs": [_feet_summary(q) for q in self.feet_inputs],
             },
             "distances": {
-                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP then refinement), "
-                "shared weights: of the inputs between them (distance's numbers), of the inputs and the "
-                "result from the result",
+                "metric": "Lie elastic distance (R^3 x SO(3)^J SRV, optimal warp by DP), the inputs' "
+                "curve joints and shared weights, the result as the blend placed it",
                 "labels": list(self.labels),
                 "between_inputs": self.distances_between_inputs.tolist(),
                 "result_to_inputs": self.distances_to_inputs.tolist(),
@@ -108,6 +106,7 @@ def blend_metrics(
     *,
     feet_inputs: Sequence[FootQuality] | None = None,
     feet: FootQuality | None = None,
+    inputs_known: KnownDistances | None = None,
 ) -> BlendMetrics:
     """Quality metrics of a blend (module docstring): foot sliding, bone lengths, distances.
 
@@ -125,24 +124,32 @@ def blend_metrics(
         blend's contacts stage measures them): taken as they are, not measured again.
     feet : FootQuality, optional
         ``foot_quality(result, contact_options)``, when measured already (the clean-up's).
+    inputs_known : KnownDistances, optional
+        Of the inputs (K entries): the SRVs of their Lie curves and their distances as
+        :func:`elastic_motion.apps.distance.distance_table` builds and solves them with
+        ``WarpOptions()`` (a Lie blend's warp stage, when it met no landmarks): taken as they
+        are. (The result is a new curve: its warps onto the inputs are solved.)
 
     Returns
     -------
     BlendMetrics
     """
     ms = prepared.motions
-    # between the inputs: distance_table of the prepared inputs themselves, the number
-    # `distance A B` reports for them (their own shared weights; issue 34: one distance per pair)
-    between = distance_table(prepared).matrix
-    # the result to each input: in the weights shared with the result (the geodesic check's metric)
+    k = len(ms)
+    known = None
+    if inputs_known is not None:
+        solved = None
+        if inputs_known.distances is not None:
+            solved = np.full((k + 1, k + 1), np.nan)
+            solved[:k, :k] = inputs_known.distances
+        known = KnownDistances((*inputs_known.srvs, None), solved)
     table = distance_table(
-        [*ms, result],
-        labels=[*prepared.labels, "result"],
-        # motions prepared already (metres, Y-up): no up-axis check, whose notes nobody reads
-        prepare=PrepareOptions(joints="common", drop_tpose=False, check_up_axis=False),
+        # the result beside its inputs, in their preparation (their joints, units, up axis,
+        # placement and curve weights): the blend made it there, nothing to prepare again
+        replace(prepared, motions=(*ms, result), labels=(*prepared.labels, "result")),
+        known=known,
     )
     d = table.matrix
-    k = len(ms)
     expected = np.array([weights[1] * d[0, 1], weights[0] * d[0, 1]]) if k == 2 else np.zeros(0)
     if not feet_inputs:
         feet_inputs = [foot_quality(m, contact_options) for m in ms]
@@ -152,7 +159,7 @@ def blend_metrics(
         foot_sliding_inputs=tuple(foot_sliding(m) for m in ms),
         bone_length_error=bone_length_error(result),
         bone_length_error_vs_inputs=tuple(bone_length_error(result, m) for m in ms),
-        distances_between_inputs=between,
+        distances_between_inputs=d[:k, :k].copy(),
         distances_to_inputs=d[k, :k].copy(),
         geodesic_expected=expected,
         feet=foot_quality(result, contact_options) if feet is None else feet,
