@@ -16,6 +16,7 @@ from elastic_motion.apps.blend.contact_plan import (
     _rigid_feet,
     carried_interval,
     match_intervals,
+    on_own_floor,
     steadier,
 )
 from elastic_motion.apps.blend.timing import HELD_RATE, NOTE_TRIM, held_ends
@@ -206,3 +207,37 @@ def test_the_blend_measured_on_itself_skates_no_more_than_its_better_input(mocap
     out = foot_quality(res.motion)
     assert out.skating.mean_speed <= 1.1 * min(q.skating.mean_speed for q in inputs)
     assert out.skid_count <= max(q.skid_count for q in inputs)
+
+
+def test_a_plan_measured_from_a_higher_own_floor_lifts_swings_and_floor():
+    """Where the planted blend's own floor stands above the plan's (the inputs' floors set by a
+    toe dipping in one stance each, met at half depth), swings rise by the difference over their
+    middle half and nothing may go more than ``below`` under that floor; where the floors agree
+    the plan is unchanged."""
+    n = 40
+    mask = np.zeros((n, 1), dtype=bool)
+    mask[0:10] = mask[30:40] = True
+    contacts = Contacts(("toe",), np.array([4]), mask, 0.0, np.array([0.01]), 30.0, "y", ContactOptions())
+    least = np.full(n, np.nan)
+    least[10:30] = 0.05
+    intervals = {"toe": (PlannedInterval(0, 10, ((0, 0, 10),)), PlannedInterval(30, 40, ((0, 30, 40),)))}
+    plan = ContactPlan(contacts, intervals, {}, {"toe": least, "toe end site": least}, np.zeros(n))
+    same = on_own_floor(plan, np.zeros(n), 0.005)
+    np.testing.assert_array_equal(same.swing_heights["toe"], least)
+    np.testing.assert_array_equal(same.contacts.floor_heights(), np.zeros(n))
+    up = on_own_floor(plan, np.full(n, 0.03), 0.005)
+    for name in ("toe", "toe end site"):
+        h = up.swing_heights[name]
+        np.testing.assert_allclose(h[15:25], 0.08)  # the middle half: 3 cm higher
+        assert 0.05 < h[11] < 0.08 and np.isnan(h[:10]).all()  # eased in from the lift-off
+    np.testing.assert_allclose(up.contacts.floor_heights(), 0.025)
+
+
+@pytest.mark.mocap
+def test_a_start_walk_stop_blend_goes_no_deeper_than_a_centimetre_under_its_own_floor(mocap):
+    """CMU 131_01 x 131_02 measured on itself: each input's floor is set by one stance where the
+    left toe's tip dips 4-5 cm under the rest; the blend meets each dip at half depth, its own
+    floor stood 3.6 cm above the blended one, and a half dip went 1.45 cm under it."""
+    a, b = (read_motion(mocap / f"cmu/bvh/131_0{i}.bvh") for i in (1, 2))
+    res = em.blend([a, b], 0.5)
+    assert foot_quality(res.motion).below_floor_m <= 0.01

@@ -22,12 +22,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.apps.blend.contact_plan import ContactPlan, plan_contacts, steadier
+from elastic_motion.apps.blend.contact_plan import ContactPlan, on_own_floor, plan_contacts, steadier
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend.timing import Clock
 from elastic_motion.apps.blend.warps import Warps
 from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.apps.cleanup import (
+    SETTLE_BELOW,
     CleanupOptions,
     CleanupResult,
     cleanup_footskate,
@@ -37,6 +38,7 @@ from elastic_motion.apps.metrics import contact_skating
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import MISSED_STANCES, ContactOptions, Contacts
+from elastic_motion.motion.ik import LegChain
 from elastic_motion.notes import Note
 
 __all__ = [
@@ -143,10 +145,41 @@ def plant_plan(
     docstring); when no smoothing does, the same with the plants' own motion scaled down
     (:data:`STEADIER`, :func:`~elastic_motion.apps.blend.contact_plan.steadier`); when nothing
     does, the trial that comes nearest (fewest skids, then least slid, then least skating).
-    With it, the planted blend measured like its inputs
+    Where the planted blend's own floor stands above the plan's, the plan is measured from it
+    (:func:`~elastic_motion.apps.blend.contact_plan.on_own_floor`: swings as high above it as
+    the inputs' above theirs, no point deeper under it than the shallower input goes under its
+    own, at most :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`) and planted again, kept when
+    it comes as near. With it, the planted blend measured like its inputs
     (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the plan planted
     nothing)."""
     legs, _ = find_legs(result)  # once, for every trial below
+    res, q, rank = _plant_trials(result, plan, inputs, contact_options, legs)
+    if q is None:
+        return res, None
+    lift = q.contacts.floor_heights() - plan.floor_heights()
+    if lift.max() <= _SAME_FLOOR:
+        return res, q
+    below = min(SETTLE_BELOW, *(i.below_floor_m for i in inputs))
+    own = on_own_floor(plan, q.contacts.floor_heights(), below)
+    again = _plant_trials(result, own, inputs, contact_options, legs)
+    return (again[0], again[1]) if again[1] is not None and again[2] <= rank else (res, q)
+
+
+#: Metres: floors that agree to this are one floor (:func:`plant_plan`; a blend of a motion
+#: with itself is planted once).
+_SAME_FLOOR = 1e-6
+
+
+def _plant_trials(
+    result: Motion,
+    plan: ContactPlan,
+    inputs: Sequence[FootQuality],
+    contact_options: ContactOptions,
+    legs: Sequence[LegChain],
+) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
+    """:func:`plant_plan`'s search over :data:`STEADIER` and :data:`SMOOTHING`: the first trial
+    that meets the goal, else the nearest; with its rank (how far it misses the skids, the slid
+    distance and the skating: all 0 when it meets them)."""
     goal = SKATE_GOAL * min(q.skating.mean_speed for q in inputs if q.contacts.any)
     skids = max(q.skid_count for q in inputs)
     slid = max(q.slid_m for q in inputs)
@@ -159,15 +192,19 @@ def plant_plan(
                 swing_heights=trial.swing_heights, smooth=smooth,
             )  # fmt: skip
             if not res.applied:
-                return res, None
+                return res, None, ()
             q = foot_quality(res.motion, contact_options)
-            if q.skid_count <= skids and q.slid_m <= slid + 1e-9 and q.skating.mean_speed <= goal:
-                return res, q
-            rank = (max(q.skid_count - skids, 0), max(q.slid_m - slid, 0.0), q.skating.mean_speed)
+            rank = (
+                max(q.skid_count - skids, 0),
+                max(q.slid_m - slid, 0.0),
+                max(q.skating.mean_speed - goal, 0.0),
+            )
+            if rank == (0, 0.0, 0.0):
+                return res, q, rank
             if best is None or rank < best[0]:
                 best = (rank, res, q)
     assert best is not None
-    return best[1], best[2]
+    return best[1], best[2], best[0]
 
 
 def _planted_note(res: CleanupResult, own: Sequence[float]) -> Note:
