@@ -54,7 +54,6 @@ from elastic_motion.apps.blend.timing import Clock
 from elastic_motion.apps.cleanup import find_legs
 from elastic_motion.motion import Motion, Skeleton, forward_kinematics
 from elastic_motion.motion.contacts import ContactOptions, Contacts
-from elastic_motion.motion.edit import smoothstep
 from elastic_motion.motion.ik import LegChain
 
 __all__ = [
@@ -592,44 +591,24 @@ def steadier(plan: ContactPlan, factor: float) -> ContactPlan:
     return ContactPlan(plan.contacts, plan.intervals, plants, plan.swing_heights, plan.floor)
 
 
-def _swing_envelope(planned: Sequence[PlannedInterval], n: int) -> np.ndarray:
-    """``(F,)``: 1 over the middle half of each swing between two plants (where a swing's
-    clearance is measured, :mod:`elastic_motion.apps.metrics.floor`), eased to 0 over its first
-    and last quarters (a raise at lift-off or strike would jerk the foot); 0 elsewhere."""
-    env = np.zeros(n)
-    for before, after in itertools.pairwise(planned):
-        a, b = before.stop, after.start
-        if b <= a:
-            continue
-        phase = (np.arange(a, b) - a + 0.5) / (b - a)
-        env[a:b] = smoothstep(np.clip(np.minimum(phase, 1.0 - phase) / 0.25, 0.0, 1.0))
-    return env
-
-
 def on_own_floor(plan: ContactPlan, own_floor: np.ndarray, below: float) -> ContactPlan:
-    """The plan measured from the floor its planted blend stands on.
+    """The plan with no point allowed more than ``below`` (metres) under the floor its planted
+    blend stands on, where that floor is above the plan's.
 
     The floor of a motion is where its lowest point stays only 2 % of the frames
     (:func:`~elastic_motion.motion.contacts.floor_height`): an input's can be set by one
     stance where a toe dips lower than in the others (CMU 131_01 and 131_02: one stance each,
     4-5 cm under the lowest point of the rest). Their blend meets each dip at half its depth,
-    at another time, and its own floor, found the same way, stands higher than the blended
-    floor (3.6 cm on 131_01 x 131_02): measured from it, the blend's swings cleared 0.66 of
-    the lesser input's and a half dip went 1.45 cm under it. Here, where ``own_floor`` ``(F,)``
-    (metres, the planted blend's own, :func:`~elastic_motion.apps.metrics.floor.foot_quality`)
-    is above the plan's floor: the swings' least heights rise by the difference over the
-    middle half of each swing (:func:`_swing_envelope`), and no point may go more than
-    ``below`` (metres) under ``own_floor``. Unchanged where the two floors agree (a blend of
-    a motion with itself)."""
+    at another time, and its own floor, found the same way (``own_floor`` ``(F,)``, metres:
+    the planted blend's, :func:`~elastic_motion.apps.metrics.floor.foot_quality`), stands
+    higher than the blended floor (3.6 cm on 131_01 x 131_02): a half dip went 1.45 cm under
+    it. Unchanged where the two floors agree (a blend of a motion with itself). (The swings'
+    least heights stay on the plan's floor: raised by the difference too, they did not clear
+    the swings measured low on 131_01 x 131_02, which the plan does not see as swings, and the
+    Euler blend's clean-up turned a joint 45 deg instead of 32.)"""
     floor = plan.floor_heights()
     lift = np.maximum(np.asarray(own_floor, dtype=np.float64) - floor, 0.0)
     c = plan.contacts
-    n = c.n_frames
-    swings = {}
-    for name, least in plan.swing_heights.items():
-        joint = name.removesuffix(" end site")
-        env = _swing_envelope(plan.intervals.get(joint, ()), n)
-        swings[name] = least + lift * env
     allowed = np.maximum(c.floor_heights(), floor + lift - below)
     contacts = replace(c, floor_offset=allowed - c.floor)
-    return ContactPlan(contacts, plan.intervals, plan.plants, swings, plan.floor)
+    return ContactPlan(contacts, plan.intervals, plan.plants, plan.swing_heights, plan.floor)

@@ -145,11 +145,11 @@ def plant_plan(
     docstring); when no smoothing does, the same with the plants' own motion scaled down
     (:data:`STEADIER`, :func:`~elastic_motion.apps.blend.contact_plan.steadier`); when nothing
     does, the trial that comes nearest (fewest skids, then least slid, then least skating).
-    Where the planted blend's own floor stands above the plan's, the plan is measured from it
-    (:func:`~elastic_motion.apps.blend.contact_plan.on_own_floor`: swings as high above it as
-    the inputs' above theirs, no point deeper under it than the shallower input goes under its
-    own, at most :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`) and planted again, kept when
-    it comes as near. With it, the planted blend measured like its inputs
+    Where the planted blend's own floor stands above the plan's, no point may go deeper under
+    it than the shallower input goes under its own, at most
+    :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`
+    (:func:`~elastic_motion.apps.blend.contact_plan.on_own_floor`): planted again, kept when it
+    comes as near. With it, the planted blend measured like its inputs
     (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the plan planted
     nothing)."""
     legs, _ = find_legs(result)  # once, for every trial below
