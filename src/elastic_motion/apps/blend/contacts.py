@@ -11,8 +11,10 @@ better input's), lifted where they swing lower than the inputs' clearance. The c
 then smoothed in time by the largest of :data:`SMOOTHING` whose blend, **measured like its
 inputs**, skids no more than they do and skates at most :data:`SKATE_GOAL` times the lesser
 input: the least change of the blend's velocities (what the elastic distance measures) that
-plants its feet as well as the inputs plant theirs. Skipped, with a note, when the inputs
-have no contacts or a weight is 1.
+plants its feet as well as the inputs plant theirs; when no smoothing does, with steadier
+plants (:data:`STEADIER`). Where the planted blend's own floor stands above the plan's, it
+is planted again with nothing deeper under that floor than the inputs go under theirs
+(:func:`plant_plan`). Skipped, with a note, when the inputs have no contacts or a weight is 1.
 """
 
 from __future__ import annotations
