@@ -46,7 +46,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -61,8 +61,10 @@ __all__ = [
     "PlannedInterval",
     "carried_interval",
     "match_intervals",
+    "on_own_floor",
     "plan_contacts",
     "plan_mask",
+    "steadier",
 ]
 
 _AXES = "xyz"
@@ -112,12 +114,22 @@ class ContactPlan:
     swing_heights : dict of str to ndarray, shape (F,)
         Per joint (and ``"<joint> end site"``, the end sites hanging from a planted joint),
         the least height (absolute, metres) on its swinging frames (NaN elsewhere).
+    floor : ndarray, shape (F,), or None
+        The blended floor (metres) the plants' and swings' heights stand on; None: the
+        contacts' mean floor.
     """
 
     contacts: Contacts
     intervals: dict[str, tuple[PlannedInterval, ...]]
     plants: dict[str, np.ndarray] = field(default_factory=dict)
     swing_heights: dict[str, np.ndarray] = field(default_factory=dict)
+    floor: np.ndarray | None = None
+
+    def floor_heights(self) -> np.ndarray:
+        """The blended floor ``(F,)`` (metres)."""
+        if self.floor is not None:
+            return self.floor
+        return np.full(self.contacts.n_frames, self.contacts.floor)
 
 
 def carried_interval(run: Interval, frames: np.ndarray) -> Interval:
@@ -328,7 +340,7 @@ def plan_contacts(
         (),
         _allowed_floor(feet, wf, floor, up) - float(np.mean(floor)),
     )
-    return ContactPlan(contacts, intervals, plants, swings)
+    return ContactPlan(contacts, intervals, plants, swings, floor)
 
 
 def _planned(
@@ -377,7 +389,12 @@ def _rigid_feet(
     clean-up turned the ankle by 105 deg to join them (CMU 131_01 x 131_02, Euler + warp).
     Targets that agree with the foot are left (followed frame by frame, a toe slid with every
     roll of the blend's foot: its own contacts skated 1.37x the better input's, CMU 107_02 x
-    108_01)."""
+    108_01).
+
+    The follower's correction is carried over the rest of its own planted interval (held
+    beyond the overlaps, linear between two of them): made on the overlap only, it jumped
+    where the overlap began, inside a plant (3.4 cm in one frame on CMU 107_02 x 108_01 whole,
+    a planted heel sliding at 1 m/s)."""
     if leg.toe < 0:
         return
     ankle, toe = sk.names[leg.ankle], sk.names[leg.toe]
@@ -385,8 +402,10 @@ def _rigid_feet(
         return
     floor_axes = [a for a in range(3) if a != up]
     own = {ankle: out_pos[:, leg.ankle][:, floor_axes], toe: out_pos[:, leg.toe][:, floor_axes]}
-    for pa in intervals[ankle]:
-        for pt in intervals[toe]:
+    # (follower, its interval) -> the overlaps' corrections, from the targets as planned
+    fixes: dict[tuple[str, int], list[tuple[int, int, np.ndarray]]] = {}
+    for ia, pa in enumerate(intervals[ankle]):
+        for it, pt in enumerate(intervals[toe]):
             a, b = max(pa.start, pt.start), min(pa.stop, pt.stop)
             if b <= a:
                 continue
@@ -398,7 +417,17 @@ def _rigid_feet(
             )
             if np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max() <= RIGID_TURN:
                 continue
-            plants[follow][a:b, floor_axes] = plants[lead][a:b, floor_axes] + vec.mean(axis=0)
+            rigid = plants[lead][a:b, floor_axes] + vec.mean(axis=0)
+            key = (follow, it if follow == toe else ia)
+            fixes.setdefault(key, []).append((a, b, rigid - plants[follow][a:b, floor_axes]))
+    for (follow, i), found in fixes.items():
+        p = intervals[follow][i]
+        frames = np.concatenate([np.arange(a, b) for a, b, _ in found])
+        change = np.concatenate([c for _, _, c in found])
+        order = np.argsort(frames, kind="stable")
+        span = np.arange(p.start, p.stop)
+        for axis, col in enumerate(floor_axes):
+            plants[follow][p.start : p.stop, col] += np.interp(span, frames[order], change[order, axis])
 
 
 def _foot_swings_only(
@@ -534,3 +563,52 @@ def plan_mask(plan: ContactPlan, name: str) -> np.ndarray:
     if name not in c.joints:
         return np.zeros(c.n_frames, dtype=bool)
     return c.mask[:, c.joints.index(name)]
+
+
+def steadier(plan: ContactPlan, factor: float) -> ContactPlan:
+    """The plan with its plants' floor-plane motion about each planted interval's mean scaled
+    by ``factor`` in [0, 1] (0: each foot locked at one point for the interval; heights kept).
+
+    The plants carry what the inputs' planted feet do, capped on average at the better input's
+    skating (:func:`plan_contacts`); the blend measured on itself sees more (its own contacts
+    begin and end where its feet arrive and leave, not where the plan's do) and skated 1.35x
+    the better input on DeepMimic walk x run. A steadier plan is what is left to plant then
+    (:func:`~elastic_motion.apps.blend.contacts.plant_plan`)."""
+    if not 0.0 <= factor <= 1.0:
+        raise ValueError(f"factor: expected a fraction in [0, 1]; got {factor!r}")
+    if factor == 1.0:
+        return plan
+    up = _AXES.index(plan.contacts.up_axis)
+    horizontal = [a for a in range(3) if a != up]
+    plants = {}
+    for name, target in plan.plants.items():
+        t = target.copy()
+        for p in plan.intervals.get(name, ()):
+            span = t[p.start : p.stop][:, horizontal]
+            mean = np.nanmean(span, axis=0) if np.isfinite(span).any() else np.zeros(len(horizontal))
+            t[p.start : p.stop, horizontal] = mean + factor * (span - mean)
+        plants[name] = t
+    return ContactPlan(plan.contacts, plan.intervals, plants, plan.swing_heights, plan.floor)
+
+
+def on_own_floor(plan: ContactPlan, own_floor: np.ndarray, below: float) -> ContactPlan:
+    """The plan with no point allowed more than ``below`` (metres) under the floor its planted
+    blend stands on, where that floor is above the plan's.
+
+    The floor of a motion is where its lowest point stays only 2 % of the frames
+    (:func:`~elastic_motion.motion.contacts.floor_height`): an input's can be set by one
+    stance where a toe dips lower than in the others (CMU 131_01 and 131_02: one stance each,
+    4-5 cm under the lowest point of the rest). Their blend meets each dip at half its depth,
+    at another time, and its own floor, found the same way (``own_floor`` ``(F,)``, metres:
+    the planted blend's, :func:`~elastic_motion.apps.metrics.floor.foot_quality`), stands
+    higher than the blended floor (3.6 cm on 131_01 x 131_02): a half dip went 1.45 cm under
+    it. Unchanged where the two floors agree (a blend of a motion with itself). (The swings'
+    least heights stay on the plan's floor: raised by the difference too, they did not clear
+    the swings measured low on 131_01 x 131_02, which the plan does not see as swings, and the
+    Euler blend's clean-up turned a joint 45 deg instead of 32.)"""
+    floor = plan.floor_heights()
+    lift = np.maximum(np.asarray(own_floor, dtype=np.float64) - floor, 0.0)
+    c = plan.contacts
+    allowed = np.maximum(c.floor_heights(), floor + lift - below)
+    contacts = replace(c, floor_offset=allowed - c.floor)
+    return ContactPlan(contacts, plan.intervals, plan.plants, plan.swing_heights, plan.floor)
