@@ -134,9 +134,13 @@ def _merged_grid(r):
 def test_invariances_rotation_translation_reparametrisation(a, b):
     d = elastic_ab_distance(C0, C1, a, b).distance
     rot = rotation(3)
-    assert elastic_ab_distance(C0 @ rot.T, C1 @ rot.T + [1.0, -2.0, 0.5], a, b).distance == pytest.approx(
-        d, rel=1e-9
+    moved = (C0 @ rot.T, C1 @ rot.T + [1.0, -2.0, 0.5])
+    # the DP on the grid is invariant to rounding; the refinement off the grid stops at its
+    # relative energy tolerance, where the last bits of a rotated input may leave it elsewhere
+    assert elastic_ab_distance(*moved, a, b, method="dp").distance == pytest.approx(
+        elastic_ab_distance(C0, C1, a, b, method="dp").distance, rel=1e-9
     )
+    assert elastic_ab_distance(*moved, a, b).distance == pytest.approx(d, rel=1e-5)
     # c1 o gamma: the same samples on other parameters; the distance to c1 is 0, to c0 unchanged
     tg = np.linspace(0, 1, 61) ** 1.3
     assert elastic_ab_distance(C1, C1, a, b, t1=tg).distance < 1e-6
