@@ -388,8 +388,9 @@ def _limits_solve(
     start: ClosingResult | None = None,
 ) -> ClosingResult:
     """A solve of :func:`solve_within_limits`: ``lie`` projected with the rows ``extra``
-    (pins and the contacts' rows, if any) from ``start`` (warm), stopping when the gap stops
-    shrinking or after ``cap`` iterations.
+    (pins and the contacts' rows, if any) from ``start`` (warm; from ``lie`` itself again when
+    that runs out of iterations), stopping when the gap stops shrinking or after ``cap``
+    iterations.
 
     A solve that stopped short of its tolerances (the optimality residual at the rounding
     floor, 1e-7, or the gap flat near 1e-7: issue 33, CMU backflip; or the contacts' rows
@@ -400,6 +401,10 @@ def _limits_solve(
     and failed the same way (five of them: 30x the time of the loop without limits).
     """
     res = project(lie, extra, stall=STALL_ITERATIONS, iterations=cap, start=start)
+    if start is not None and not res.converged and res.iterations >= cap:
+        # the warm start wandered without settling (CMU backflip's second round: 16 iterations
+        # along the closed curves, the loop 5x farther from the clip): from the clip itself
+        res = project(lie, extra, stall=STALL_ITERATIONS, iterations=cap)
     if res.converged or not np.isfinite(res.gap):
         return res
     polish = project(res.curve, polish_rows if polish_rows is not None and len(polish_rows) else None)

@@ -137,14 +137,17 @@ class LimitConstraints(ExtraConstraints):
             return rot[self.frame, self.joint]
         return self.lift.at(rot, self.frame, self.joint)
 
-    def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
+    def _residual(self, r_all: np.ndarray) -> np.ndarray:
         g = np.zeros(len(self))
-        lim, r_all = self.limits, self._rotations(rot)
+        lim = self.limits
         for k, rows in self._groups():
             ang = dof_angles(r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
             val = ang[np.arange(rows.size), self.slot[rows]]
             g[rows] = (val - self.target[rows] + math.pi) % (2 * math.pi) - math.pi
         return g
+
+    def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
+        return self._residual(self._rotations(rot))
 
     def evaluate(
         self, rot: np.ndarray, eu: np.ndarray
@@ -164,7 +167,7 @@ class LimitConstraints(ExtraConstraints):
         d_rot = np.zeros((r_count, frames.shape[1], m, 3))
         for s in range(frames.shape[1]):
             d_rot[np.arange(r_count), s, self.joint] = weights[:, s, None] * jac_rows
-        return self.residual(rot, eu), frames, d_rot, np.zeros((r_count, frames.shape[1], eu.shape[1]))
+        return self._residual(r_all), frames, d_rot, np.zeros((r_count, frames.shape[1], eu.shape[1]))
 
 
 class StackedConstraints(ExtraConstraints):
@@ -367,8 +370,9 @@ def solve_within_limits(
     ----------
     solve : callable
         ``solve(extra, start) -> result``: :func:`~elastic_motion.closing.project_closed` of
-        the clip's Lie curve with the rows ``extra``, from the last loop that converged
-        ``start`` (its rows but the pins of this round: a warm start).
+        the clip's Lie curve with the rows ``extra``, from ``start``, the loop without limit
+        rows (a warm start: it holds every row but the pins. From the last round's loop
+        instead, CMU backflip's second round did not settle in 16 iterations).
     clip : Motion
         The input (its local rotations and joint names).
     limits : JointLimits
@@ -407,6 +411,7 @@ def solve_within_limits(
     ok_before = before.excess <= tol
     ok_before[[0, -1]] = False  # never pinned (module docstring)
     res = first if first is not None else solve(base, None)
+    free = res
     after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
     lo, hi = limits.bounds()
     pinned = np.zeros_like(ok_before)
@@ -429,7 +434,7 @@ def solve_within_limits(
         f_idx, d_idx = np.nonzero(trial)
         rows = LimitConstraints(limits, names, f_idx, d_idx, target[f_idx, d_idx], lift)
         extra = StackedConstraints(base, rows) if base is not None and len(base) else rows
-        cand = solve(extra, res)
+        cand = solve(extra, free)
         done += 1
         if not cand.converged:
             if stride < n_frames and _pick(beyond, after.excess, 2 * stride).sum() < new.sum():
