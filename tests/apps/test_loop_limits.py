@@ -11,6 +11,7 @@ import pytest
 from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.loop.contact_grid import GridLift, contact_grid, lift_correction
 from elastic_motion.apps.loop.limits import (
     AT_LIMIT_NOTE,
     INPUT_VIOLATES_NOTE,
@@ -22,7 +23,7 @@ from elastic_motion.apps.loop.limits import (
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
-from elastic_motion.motion import Motion, read_motion
+from elastic_motion.motion import Motion, read_motion, select_frames
 from elastic_motion.motion.asfamc import _extrinsic, read_amc, read_asf, read_joint_limits
 from elastic_motion.motion.joint_limits import (
     JointLimits,
@@ -267,3 +268,43 @@ def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeyp
     assert knee.min() >= -15 - 0.5
     assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
     assert len(calls) <= 2  # a solve with pins, a second when a round adds some; no retries
+
+
+def test_limit_rows_on_a_grid_hold_the_lifted_loop_at_the_clips_frames():
+    """Issue 33: kept limits are solved on the kept contacts' grid. A row's rotation is the
+    clip's at its own frame with the grid's correction lifted (as ``lift_correction`` writes
+    it), so a frame between grid frames is pinned where the written loop has it; its
+    derivative is the geodesic's weights on the two grid frames (exact on a grid frame)."""
+    m = drifting_clip(61)
+    lim = knee_limits()
+    grid = contact_grid(m.n_frames, 120.0, 1 / 30)  # every 4th frame
+    before = select_frames(m, grid)
+    rng = np.random.default_rng(4)
+    w = rng.normal(size=(4, 3)) * 0.05
+    t = grid / (m.n_frames - 1)
+    after = before.replace(rotations=SO3G.exp(np.sin(np.pi * t)[:, None, None] * w[None]) @ before.rotations)
+    lift = GridLift(grid, before.rotations, m.rotations)
+    lifted = lift_correction(m, grid, before, after).rotations
+    np.testing.assert_allclose(lift.rotations(after.rotations), lifted, atol=1e-12)
+    frames = np.array([grid[3], grid[3] + 1, grid[5] + 2])  # on the grid, between, between
+    rows = LimitConstraints(lim, m.skeleton.names, frames, np.array([0, 0, 2]), np.zeros(3), lift)
+    eu = after.root_translation
+    g, fr, d_rot, d_eu = rows.evaluate(after.rotations, eu)
+    ang = lim.angles(lifted, m.skeleton.names)
+    np.testing.assert_allclose(g, ang[frames, [0, 0, 2]], atol=1e-12)
+    assert fr.tolist() == [[3, -1], [3, 4], [5, 6]] and d_rot.shape == (3, 2, 4, 3) and not d_eu.any()
+    eps = 1e-6
+    for r in range(3):
+        j = rows.joint[r]
+        for s in range(2):
+            if fr[r, s] < 0:
+                continue
+            for i in range(3):
+                dw = np.zeros(3)
+                dw[i] = eps
+                rp, rm = after.rotations.copy(), after.rotations.copy()
+                rp[fr[r, s], j] = SO3G.exp(dw) @ rp[fr[r, s], j]
+                rm[fr[r, s], j] = SO3G.exp(-dw) @ rm[fr[r, s], j]
+                fd = (rows.residual(rp, eu)[r] - rows.residual(rm, eu)[r]) / (2 * eps)
+                # exact on the grid frame; between, first order in the correction's turn
+                assert abs(d_rot[r, s, j, i] - fd) < (1e-7 if r == 0 else 2e-3), (r, s, i)
