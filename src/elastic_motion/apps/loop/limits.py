@@ -22,6 +22,19 @@ inequality problem; after ``rounds`` rounds any frame still beyond a limit is re
 Frames 0 and ``F - 1`` are never pinned (the first frame does not change, closure ties the
 last to it).
 
+With kept contacts the active set is solved on the grid the contacts close on
+(:mod:`elastic_motion.apps.loop.contact_grid`; every frame while their rows fit its budget),
+with their rows in every solve: the limits are checked on every frame of the clip with the
+grid's correction lifted, and a row pins a clip frame where the lifted loop has it (its
+rotation the geodesic of the corrections of the grid frames around it,
+:class:`~elastic_motion.apps.loop.contact_grid.GridLift`). Each solve starts from the loop
+without limit rows (a warm start of :func:`~elastic_motion.closing.project_closed`), and
+the loop is measured again on every frame of what is written (:func:`measured_on_frames`:
+the contacts planted by IK after the solve). Before (issue 33), kept limits closed the
+contacts on every frame: 2793 rows on CMU charleston1's best cycle, whose contacts and
+closure are a hair apart, and every limits solve there failed (16.5 degrees past a limit,
+in 23 times the time of the loop without limits).
+
 Derivative of a row ``theta_i(C^T R_f C) - limit``: for ``delta R_f = hat(omega) R_f``,
 ``d theta / d omega = E^-1 C^T``
 (:func:`elastic_motion.motion.joint_limits.dof_angles_jacobian`).
