@@ -308,3 +308,30 @@ def test_limit_rows_on_a_grid_hold_the_lifted_loop_at_the_clips_frames():
                 fd = (rows.residual(rp, eu)[r] - rows.residual(rm, eu)[r]) / (2 * eps)
                 # exact on the grid frame; between, first order in the correction's turn
                 assert abs(d_rot[r, s, j, i] - fd) < (1e-7 if r == 0 else 2e-3), (r, s, i)
+
+
+@pytest.mark.mocap
+def test_cmu_charleston1_loop_keeps_its_limits_with_its_contacts_on_their_grid(mocap_dir, tmp_path):
+    """Issue 33: charleston1's best cycle (frames 17..433) kept its contacts on every frame
+    when limits were kept, and its contacts and closure are a hair apart (the gap stalls at
+    1e-4), so every limits solve failed and the loop crossed a limit the input respects by
+    16.5 degrees (in 120 s). Now the limits are solved on the contacts' grid, each stalled
+    solve closed exactly from where it stopped as the contacts' own is, and every limit the
+    input respects holds on every frame of the written BVH."""
+    import elastic_motion as em
+
+    path = mocap_dir / "cmu" / "asfamc" / "charleston1.amc"
+    res = loop_motion(path, window=(17, 433), seam="c0", joint_limits="keep", force=True)
+    jl, kept = res.joint_limits, res.contacts_kept
+    assert jl.mode == "keep" and jl.message == "" and jl.new_violations == () and jl.pinned > 0
+    assert kept.dropped is None and kept.grid_frames < res.motion.n_frames  # on the grid
+    assert kept.polished  # the contacts' own solve stalled too: closed exactly from there
+    assert res.closing.converged and res.seam_after.seam_angle_max_deg < 1e-3
+    out = tmp_path / "loop.bvh"
+    em.write(res, out)
+    lim = read_joint_limits(res.original)
+    before = check_joint_limits(res.original, lim)
+    after = check_joint_limits(read_motion(out), lim)
+    new = (after.excess > math.radians(0.5 + 1e-3)) & (before.excess <= math.radians(0.5))
+    new[[0, -1]] = False
+    assert not new.any()
