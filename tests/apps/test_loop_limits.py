@@ -3,6 +3,7 @@ derivative, the limit report, and loops that stay within the limits the input re
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -19,6 +20,8 @@ from elastic_motion.apps.loop.limits import (
     LimitConstraints,
     StackedConstraints,
     joint_limit_report,
+    limits_report,
+    measured_on_frames,
 )
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
@@ -335,3 +338,26 @@ def test_cmu_charleston1_loop_keeps_its_limits_with_its_contacts_on_their_grid(m
     new = (after.excess > math.radians(0.5 + 1e-3)) & (before.excess <= math.radians(0.5))
     new[[0, -1]] = False
     assert not new.any()
+
+
+def test_limits_solved_on_a_grid_are_measured_on_every_frame_written():
+    """A loop solved on a grid and then lifted (and planted by IK) is measured again on every
+    frame: a crossing the grid's solve did not see is a new violation and a message (the loop
+    did not converge), frames 0 and ``F - 1`` are not counted, and a clean loop keeps the
+    solve's message-free record."""
+    m = drifting_clip(40)
+    lim = knee_limits(lo_deg=-30.0)  # the input (down to -12.8 deg) respects it
+    names = m.skeleton.names
+    solved = limits_report(m.rotations, m.rotations, names, lim, tol_deg=0.5)
+    solved = dataclasses.replace(solved, mode="keep", rounds=1, pinned=3, pinned_joints=("knee",))
+    clean = measured_on_frames(solved, m.rotations, m.rotations, names, lim, tol_deg=0.5)
+    assert clean.message == "" and clean.new_violations == () and clean.pinned == 3 and clean.rounds == 1
+    loop = m.rotations.copy()
+    bend = KNEE_FRAME @ _extrinsic(np.radians([[-32.0]]), "X") @ KNEE_FRAME.T
+    loop[[0, 17], 2] = bend[0]  # frame 17 between two grid frames, frame 0 never counted
+    out = measured_on_frames(solved, m.rotations, loop, names, lim, tol_deg=0.5)
+    assert out.new_violations == ("knee.rx",) and out.pinned == 3
+    assert out.message == "joint limits: beyond a limit between the grid's frames by up to 2.00 deg: knee.rx"
+    assert out.after.excess[0].max() > 0  # frame 0 is beyond too, but not a new violation
+    loop[17, 2] = m.rotations[17, 2]
+    assert measured_on_frames(solved, m.rotations, loop, names, lim, tol_deg=0.5).message == ""
