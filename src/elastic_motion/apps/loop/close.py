@@ -364,7 +364,7 @@ def _within_limits(
     """:func:`solve_within_limits` of ``clip`` (its Lie curve ``lie``, or with ``lift`` the
     Lie curve of a grid of its frames; closed to ``first`` with the rows ``base``), pins
     every :data:`LIMIT_STEP` seconds, each round's solve (:func:`_limits_solve`)
-    warm-started from the last loop that converged. One BLAS thread: the Gram matrices
+    warm-started from ``first``, the loop without limit rows. One BLAS thread: the Gram matrices
     of the rows are a few hundred to a few thousand (issue 33: a 1000-row Cholesky took 0.7 s
     with two threads on a busy machine, the contacts' own solve 0.3 s per iteration with one)."""
     cap = LIMIT_ITERATIONS * max(first.iterations, 1) + 4
@@ -413,8 +413,3 @@ def _limits_solve(
     change = srv_distance(polish.srv, srv_transform(lie))  # from the input
     message = f"limits solve stopped ({res.message}); closed exactly from there ({polish.message})"
     return dataclasses.replace(polish, change=change, message=message, converged=True)
-
-
-def _root(res: ClosingResult) -> np.ndarray:
-    """The root positions ``(F, 3)`` of a closed Lie curve."""
-    return np.asarray(res.curve.values)[:, :3]

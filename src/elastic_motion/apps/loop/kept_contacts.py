@@ -16,7 +16,8 @@ The stages of :func:`close_keeping_contacts`, each a function here:
    released and the projection solved again.
 4. **Within the joint limits** (``within``, when the loop keeps them): the limits' active set
    (:func:`elastic_motion.apps.loop.limits.solve_within_limits`) solved on the same grid, its
-   pins on grid frames, the contacts' rows solved with every round.
+   pins on the clip's frames through the lifted correction, the contacts' rows solved with
+   every round.
 5. **On every frame** (:func:`elastic_motion.apps.loop.planting.plant_and_lift`): the grid's
    correction lifted to every frame, the kept contacts planted by IK, the body raised out of
    the floor.
@@ -251,8 +252,8 @@ class ContactsClosing:
         The rows it was solved with (on the grid's frames).
     kept : KeptContacts
     limits : LoopLimits or None
-        What ``within`` did with the joint limits, on the grid's frames (None without it, or
-        when the contacts were dropped).
+        What ``within`` did with the joint limits, before the IK (None without it, or when
+        the contacts were dropped).
     """
 
     motion: Motion | None
