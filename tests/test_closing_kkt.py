@@ -483,3 +483,30 @@ def test_structured_solve_is_chosen_for_many_rows_on_few_coordinates():
     assert structured_pays(452, 28, 3462)  # CMU 55_01 whole with its contacts
     assert not structured_pays(144, 55, 927)  # 49_08: the dense Gram matrix is cheaper
     assert not structured_pays(30, 12, 9)
+
+
+def test_warm_start_from_the_projection_with_fewer_rows_reaches_the_same_point():
+    """``start`` (issue 33: each round of a loop's joint limits starts from the last loop):
+    the projection with extra rows a little beyond the loop without them (as a limit crossed
+    by degrees), started from that loop, is the KKT point the original's start reaches, in
+    fewer iterations; started from that point it stops at once and returns it (not the
+    input); a start on another grid is an error naming it."""
+    g = lie_group()
+    curve = smooth_curve(g, 40, seed=2, scale=0.5)  # one nearest point (1.0: two KKT points)
+    mask = np.array([0, 1, 0, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    plain = project_closed(curve, factors=mask)
+    near = (g.split_points(plain.curve.values)[1][25, 2] @ [1.0, 0.0, 0.0])[:2] + [1e-3, -1e-3]
+    extra = PinConstraints(25, 2, [1.0, 0.0, 0.0], near, 30, 1, float(plain.curve.values[30, 1]) + 1e-3)
+    cold = project_closed(curve, factors=mask, extra=extra)
+    warm = project_closed(curve, factors=mask, extra=extra, start=plain.srv)
+    assert cold.converged and warm.converged, warm.message
+    assert warm.iterations < cold.iterations
+    np.testing.assert_allclose(warm.curve.values, cold.curve.values, atol=1e-8)
+    assert warm.change == pytest.approx(cold.change, rel=1e-7)  # measured from the original
+    assert warm.objective_history[0] == pytest.approx(0.5 * plain.change**2, rel=1e-9)
+    again = project_closed(curve, factors=mask, extra=extra, start=cold.srv)
+    assert again.converged and again.iterations == 0
+    np.testing.assert_array_equal(again.srv.q, cold.srv.q)
+    np.testing.assert_allclose(again.curve.values, cold.curve.values, atol=1e-12)
+    with pytest.raises(ValueError, match=r"^start: expected the SRV function of the curve's grid"):
+        project_closed(curve, start=srv_transform(smooth_curve(g, 30)))

@@ -3,6 +3,7 @@ derivative, the limit report, and loops that stay within the limits the input re
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -11,6 +12,7 @@ import pytest
 from loop_testlib import chain_skeleton
 
 from elastic_motion.apps.loop import loop_motion
+from elastic_motion.apps.loop.contact_grid import GridLift, contact_grid, lift_correction
 from elastic_motion.apps.loop.limits import (
     AT_LIMIT_NOTE,
     INPUT_VIOLATES_NOTE,
@@ -18,11 +20,13 @@ from elastic_motion.apps.loop.limits import (
     LimitConstraints,
     StackedConstraints,
     joint_limit_report,
+    limits_report,
+    measured_on_frames,
 )
 from elastic_motion.apps.report import jsonable
 from elastic_motion.errors import OptionError
 from elastic_motion.groups import SO3
-from elastic_motion.motion import Motion, read_motion
+from elastic_motion.motion import Motion, read_motion, select_frames
 from elastic_motion.motion.asfamc import _extrinsic, read_amc, read_asf, read_joint_limits
 from elastic_motion.motion.joint_limits import (
     JointLimits,
@@ -267,3 +271,93 @@ def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeyp
     assert knee.min() >= -15 - 0.5
     assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
     assert len(calls) <= 2  # a solve with pins, a second when a round adds some; no retries
+
+
+def test_limit_rows_on_a_grid_hold_the_lifted_loop_at_the_clips_frames():
+    """Issue 33: kept limits are solved on the kept contacts' grid. A row's rotation is the
+    clip's at its own frame with the grid's correction lifted (as ``lift_correction`` writes
+    it), so a frame between grid frames is pinned where the written loop has it; its
+    derivative is the geodesic's weights on the two grid frames (exact on a grid frame)."""
+    m = drifting_clip(61)
+    lim = knee_limits()
+    grid = contact_grid(m.n_frames, 120.0, 1 / 30)  # every 4th frame
+    before = select_frames(m, grid)
+    rng = np.random.default_rng(4)
+    w = rng.normal(size=(4, 3)) * 0.05
+    t = grid / (m.n_frames - 1)
+    after = before.replace(rotations=SO3G.exp(np.sin(np.pi * t)[:, None, None] * w[None]) @ before.rotations)
+    lift = GridLift(grid, before.rotations, m.rotations)
+    lifted = lift_correction(m, grid, before, after).rotations
+    np.testing.assert_allclose(lift.rotations(after.rotations), lifted, atol=1e-12)
+    frames = np.array([grid[3], grid[3] + 1, grid[5] + 2])  # on the grid, between, between
+    rows = LimitConstraints(lim, m.skeleton.names, frames, np.array([0, 0, 2]), np.zeros(3), lift)
+    eu = after.root_translation
+    g, fr, d_rot, d_eu = rows.evaluate(after.rotations, eu)
+    ang = lim.angles(lifted, m.skeleton.names)
+    np.testing.assert_allclose(g, ang[frames, [0, 0, 2]], atol=1e-12)
+    assert fr.tolist() == [[3, -1], [3, 4], [5, 6]] and d_rot.shape == (3, 2, 4, 3) and not d_eu.any()
+    eps = 1e-6
+    for r in range(3):
+        j = rows.joint[r]
+        for s in range(2):
+            if fr[r, s] < 0:
+                continue
+            for i in range(3):
+                dw = np.zeros(3)
+                dw[i] = eps
+                rp, rm = after.rotations.copy(), after.rotations.copy()
+                rp[fr[r, s], j] = SO3G.exp(dw) @ rp[fr[r, s], j]
+                rm[fr[r, s], j] = SO3G.exp(-dw) @ rm[fr[r, s], j]
+                fd = (rows.residual(rp, eu)[r] - rows.residual(rm, eu)[r]) / (2 * eps)
+                # exact on the grid frame; between, first order in the correction's turn
+                assert abs(d_rot[r, s, j, i] - fd) < (1e-7 if r == 0 else 2e-3), (r, s, i)
+
+
+@pytest.mark.mocap
+def test_cmu_charleston1_loop_keeps_its_limits_with_its_contacts_on_their_grid(mocap_dir, tmp_path):
+    """Issue 33: charleston1's best cycle (frames 17..433) kept its contacts on every frame
+    when limits were kept, and its contacts and closure are a hair apart (the gap stalls at
+    1e-4), so every limits solve failed and the loop crossed a limit the input respects by
+    16.5 degrees (in 120 s). Now the limits are solved on the contacts' grid, each stalled
+    solve closed exactly from where it stopped as the contacts' own is, and every limit the
+    input respects holds on every frame of the written BVH."""
+    import elastic_motion as em
+
+    path = mocap_dir / "cmu" / "asfamc" / "charleston1.amc"
+    res = loop_motion(path, window=(17, 433), seam="c0", joint_limits="keep", force=True)
+    jl, kept = res.joint_limits, res.contacts_kept
+    assert jl.mode == "keep" and jl.message == "" and jl.new_violations == () and jl.pinned > 0
+    assert kept.dropped is None and kept.grid_frames < res.motion.n_frames  # on the grid
+    assert kept.polished  # the contacts' own solve stalled too: closed exactly from there
+    assert res.closing.converged and res.seam_after.seam_angle_max_deg < 1e-3
+    out = tmp_path / "loop.bvh"
+    em.write(res, out)
+    lim = read_joint_limits(res.original)
+    before = check_joint_limits(res.original, lim)
+    after = check_joint_limits(read_motion(out), lim)
+    new = (after.excess > math.radians(0.5 + 1e-3)) & (before.excess <= math.radians(0.5))
+    new[[0, -1]] = False
+    assert not new.any()
+
+
+def test_limits_solved_on_a_grid_are_measured_on_every_frame_written():
+    """A loop solved on a grid and then lifted (and planted by IK) is measured again on every
+    frame: a crossing the grid's solve did not see is a new violation and a message (the loop
+    did not converge), frames 0 and ``F - 1`` are not counted, and a clean loop keeps the
+    solve's message-free record."""
+    m = drifting_clip(40)
+    lim = knee_limits(lo_deg=-30.0)  # the input (down to -12.8 deg) respects it
+    names = m.skeleton.names
+    solved = limits_report(m.rotations, m.rotations, names, lim, tol_deg=0.5)
+    solved = dataclasses.replace(solved, mode="keep", rounds=1, pinned=3, pinned_joints=("knee",))
+    clean = measured_on_frames(solved, m.rotations, m.rotations, names, lim, tol_deg=0.5)
+    assert clean.message == "" and clean.new_violations == () and clean.pinned == 3 and clean.rounds == 1
+    loop = m.rotations.copy()
+    bend = KNEE_FRAME @ _extrinsic(np.radians([[-32.0]]), "X") @ KNEE_FRAME.T
+    loop[[0, 17], 2] = bend[0]  # frame 17 between two grid frames, frame 0 never counted
+    out = measured_on_frames(solved, m.rotations, loop, names, lim, tol_deg=0.5)
+    assert out.new_violations == ("knee.rx",) and out.pinned == 3
+    assert out.message == "joint limits: beyond a limit between the grid's frames by up to 2.00 deg: knee.rx"
+    assert out.after.excess[0].max() > 0  # frame 0 is beyond too, but not a new violation
+    loop[17, 2] = m.rotations[17, 2]
+    assert measured_on_frames(solved, m.rotations, loop, names, lim, tol_deg=0.5).message == ""

@@ -586,6 +586,7 @@ def project_closed(
     options: ClosingOptions | None = None,
     *,
     extra: ExtraConstraints | None = None,
+    start: SRVFunction | None = None,
     progress: Callable[[str, int, int], None] | None = None,
     **overrides: Any,
 ) -> ClosingResult:
@@ -616,6 +617,11 @@ def project_closed(
         in the same projection; their rows follow the closing rows in ``multipliers``. Their
         Jacobian is applied by prefix sums over the cells and ``J J^*`` assembled from
         per-frame blocks (``_ExtraLinear``): ``O(n dim + R^2 dim)`` per linearisation.
+    start : SRVFunction, optional
+        The first iterate instead of ``curve``'s own SRV function: the solver's SRV function
+        (:attr:`ClosingResult.srv`) of a nearby problem on the same grid and group, e.g. the
+        same projection with fewer ``extra`` rows. The objective is still the distance to
+        ``curve``; a start near the solution saves the iterations that bring the gap down.
     progress : callable, optional
         ``progress("closing", iterations, 0)`` after each iteration (total unknown: 0).
     **overrides
@@ -637,18 +643,20 @@ def project_closed(
     t_begin = time.perf_counter()
     opts = solver_options("kkt", "kkt", options, overrides)
     prob = ClosingProblem.from_curve(curve, opts)
-    state = prob.evaluate_checked(prob.to_internal(prob.srv.q).copy())
-    run = _Projection(prob, opts, extra, state)
+    origin = prob.evaluate_checked(prob.to_internal(prob.srv.q).copy())
+    run = _Projection(prob, opts, extra, origin)
+    state = origin if start is None else prob.evaluate_checked(prob.to_internal(_start_q(prob, start)))
     log = SolverLog(
         gaps=[float(np.linalg.norm(state.f0))],
         velocity_gaps=[float(np.linalg.norm(state.f1))],
-        objective=[0.0],
+        objective=[0.5 * l2_norm(state.q - origin.q, prob.h) ** 2],
         started=t_begin,
     )
     # (the first point is not kept here: each iterate's factors go when the next is built)
     point = run.iterate(run.point(state), log, progress)
     q_final = prob.to_group(point.state.q)
-    out_curve, closed = prob.closed_output(curve, q_final, moved=log.iterations > 0, keep_free=opts.keep_free)
+    moved = log.iterations > 0 or start is not None
+    out_curve, closed = prob.closed_output(curve, q_final, moved=moved, keep_free=opts.keep_free)
     return ClosingResult(
         curve=out_curve,
         srv=closed,
@@ -661,6 +669,17 @@ def project_closed(
         multipliers=point.lam,
         **log.summary(),
     )
+
+
+def _start_q(prob: ClosingProblem, start: SRVFunction) -> np.ndarray:
+    """The SRV values of a warm ``start`` (group order), checked against the problem's grid."""
+    srv = prob.srv
+    q = np.asarray(start.q, dtype=np.float64)
+    if q.shape != srv.q.shape or not np.allclose(start.t, srv.t):
+        raise ValueError(
+            f"start: expected the SRV function of the curve's grid ({srv.q.shape}); got {q.shape}"
+        )
+    return q
 
 
 @dataclass(eq=False)

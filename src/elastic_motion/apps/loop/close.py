@@ -28,13 +28,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastic_motion._threads import single_threaded_blas
+from elastic_motion.apps.loop.contact_grid import GridLift
 from elastic_motion.apps.loop.kept_contacts import (
     POLISH_GAP,
     STALL_ITERATIONS,
+    GridClip,
+    GridSolve,
     KeptContacts,
     close_keeping_contacts,
 )
-from elastic_motion.apps.loop.limits import LIMIT_STEP, LoopLimits, lie_rotations, solve_within_limits
+from elastic_motion.apps.loop.limits import LIMIT_STEP, LoopLimits, measured_on_frames, solve_within_limits
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.apps.progress import Progress
 from elastic_motion.closing import (
@@ -160,12 +164,15 @@ class Projection:
         extra: ExtraConstraints | None = None,
         stall: int | None = None,
         iterations: int | None = None,
+        start: ClosingResult | None = None,
     ) -> ClosingResult:
         """Project ``curve`` with the rows ``extra``; stop after ``stall`` iterations without
-        progress, and after ``iterations`` (at most the options' ``max_iter``)."""
+        progress, and after ``iterations`` (at most the options' ``max_iter``); from ``start``'s
+        SRV function when given (a loop of ``curve`` with fewer rows: a warm start)."""
         o = self.options
         return project_closed(
             curve,
+            start=None if start is None else start.srv,
             factors=self.mask,
             c1=o.is_c1,
             tol=min(o.tol, 1e-9),
@@ -248,13 +255,21 @@ class ClipCloser:
     def _close_lie(
         self, clip: Motion, mask: np.ndarray, found: Contacts | None, ranking: bool = False
     ) -> ClosedClip:
-        """The Lie curve closed (with the contacts ``found`` kept when some are planted), then
-        within the kept joint limits (not when ``ranking``: a candidate window of a loop that
-        keeps its contacts, closed again with them and the limits when chosen)."""
+        """The Lie curve closed (with the contacts ``found`` kept when some are planted), within
+        the kept joint limits (not when ``ranking``: a candidate window of a loop that keeps its
+        contacts, closed again with them and the limits when chosen)."""
         o, project = self.options, self.projection(mask, clip)
-        kept = extra = out = None
+        limits = self.limits if o.solver == "kkt" and not ranking else None
+        kept = None
         if found is not None and found.any:
-            out, res, extra, kept, lie = self._keep_contacts(clip, found, project)
+            out, res, kept, lie, lim_info = self._keep_contacts(clip, found, project, limits)
+            if out is not None:
+                if lim_info is not None:  # solved on the contacts' grid: measured on every frame
+                    lim_info = measured_on_frames(
+                        lim_info, clip.rotations, out.rotations, clip.skeleton.names, limits,
+                        tol_deg=o.limit_tol,
+                    )  # fmt: skip
+                return ClosedClip(out, res, kept, lim_info)
         elif o.solver == "kkt":
             lie = self._lie_curve(clip)
             res = project(lie)
@@ -264,24 +279,22 @@ class ClipCloser:
                 lie, method=o.solver, tol=o.tol, max_iter=o.max_iter, factors=mask, c1=o.is_c1,
                 rotation_names=list(clip.skeleton.names),
             )  # fmt: skip
-        if self.limits is None or o.solver != "kkt" or ranking:
-            return ClosedClip(out if out is not None else LIE.from_curve(res.curve, clip), res, kept)
-        # kept contacts that held are rows of every limits solve too
-        base = extra if kept is not None and kept.dropped is None else None
-        cap = LIMIT_ITERATIONS * max(res.iterations, 1) + 4
-        res, lim_info = solve_within_limits(
-            lambda ex: _limits_solve(project, lie, ex, base, cap), clip, self.limits, base=base, first=res,
-            step=max(1, round(LIMIT_STEP * clip.fps)), tol_deg=o.limit_tol,
-        )  # fmt: skip
-        if base is not None:
-            kept = kept.replace(gave_way=tuple(base.gave_way(lie_rotations(res, clip.n_joints), _root(res))))
+        if limits is None:
+            return ClosedClip(LIE.from_curve(res.curve, clip), res, kept)
+        # without contacts (or with contacts dropped): on every frame, no rows but the pins
+        res, lim_info = _within_limits(project, lie, clip, limits, res, o.limit_tol)
         return ClosedClip(LIE.from_curve(res.curve, clip), res, kept, lim_info)
 
-    def _keep_contacts(self, clip: Motion, found: Contacts, project: Projection) -> tuple:
-        """:func:`close_keeping_contacts`; in place on the clip's treadmill.
+    def _keep_contacts(
+        self, clip: Motion, found: Contacts, project: Projection, limits: JointLimits | None
+    ) -> tuple:
+        """:func:`close_keeping_contacts`, within ``limits`` when given (on the contacts' grid);
+        in place on the clip's treadmill.
 
-        Returns the loop (None when the contacts were dropped), the closing, the rows, what
-        became of the contacts and the curve closed (the clip's own when they were dropped).
+        Returns the loop (None when the contacts were dropped), the closing, what became of
+        the contacts, the curve closed (the clip's own when they were dropped) and what the
+        grid's solve did with the limits (None without limits or when the contacts were
+        dropped: the caller solves them without contacts).
         """
         base, travel = clip, None
         if self.options.root == "inplace":
@@ -291,17 +304,35 @@ class ClipCloser:
             base, dist, turn = treadmill(clip)
             unit = clip.metres_per_unit if clip.metres_per_unit is not None else 1.0
             travel = {"travel_m": dist * unit, "turn_deg": float(np.degrees(turn))}
-        # kept joint limits need the clip's own frames (C1 seam rows its first and last
-        # steps, which the grid keeps)
-        step = 0.0 if self.limits is not None else self.options.contact_step
-        closing = close_keeping_contacts(base, found, project, self.options, step=step)
+        within = None
+        if limits is not None:
+
+            def within(on_grid: GridClip, solved: GridSolve) -> tuple[ClosingResult, LoopLimits]:
+                # the contacts' rows are rows of every round; a grid solve that was closed
+                # exactly from where it stalled (contacts and closure a hair apart) is polished
+                # the same way, without them (the IK plants the contacts after)
+                rows = None if solved.polished else solved.constraints
+                grid = on_grid.frames
+                lift = (
+                    None
+                    if grid.size == base.n_frames
+                    else GridLift(grid, on_grid.motion.rotations, base.rotations)
+                )
+                return _within_limits(
+                    project, on_grid.curve, base, limits, solved.result, self.options.limit_tol,
+                    base=solved.constraints, polish_rows=rows, lift=lift,
+                )  # fmt: skip
+
+        closing = close_keeping_contacts(
+            base, found, project, self.options, step=self.options.contact_step, within=within
+        )
         kept = closing.kept.replace(treadmill=travel)
         if closing.motion is not None:
-            return closing.motion, closing.closing, closing.constraints, kept, self._lie_curve(base)
+            return closing.motion, closing.closing, kept, self._lie_curve(base), closing.limits
         # contacts and closure do not fit together: closed without them, and without the
         # treadmill they needed
         lie = self._lie_curve(clip)
-        return None, project(lie), closing.constraints, kept, lie
+        return None, project(lie), kept, lie, None
 
     def _close_euler(self, clip: Motion, mask: np.ndarray) -> ClosedClip:
         """The Euler curve, weighted like the Lie curve, closed (module docstring)."""
@@ -318,30 +349,67 @@ class ClipCloser:
         return ClosedClip(EULER.from_curve(res.curve, clip), res)
 
 
+def _within_limits(
+    project: Projection,
+    lie: DiscreteCurve,
+    clip: Motion,
+    limits: JointLimits,
+    first: ClosingResult,
+    tol_deg: float,
+    *,
+    base: ExtraConstraints | None = None,
+    polish_rows: ExtraConstraints | None = None,
+    lift: GridLift | None = None,
+) -> tuple[ClosingResult, LoopLimits]:
+    """:func:`solve_within_limits` of ``clip`` (its Lie curve ``lie``, or with ``lift`` the
+    Lie curve of a grid of its frames; closed to ``first`` with the rows ``base``), pins
+    every :data:`LIMIT_STEP` seconds, each round's solve (:func:`_limits_solve`)
+    warm-started from ``first``, the loop without limit rows. One BLAS thread: the Gram matrices
+    of the rows are a few hundred to a few thousand (issue 33: a 1000-row Cholesky took 0.7 s
+    with two threads on a busy machine, the contacts' own solve 0.3 s per iteration with one)."""
+    cap = LIMIT_ITERATIONS * max(first.iterations, 1) + 4
+    step = max(1, round(LIMIT_STEP * clip.fps))
+
+    def solve(extra: ExtraConstraints | None, start: ClosingResult | None) -> ClosingResult:
+        return _limits_solve(project, lie, extra, polish_rows, cap, start)
+
+    with single_threaded_blas():
+        return solve_within_limits(
+            solve, clip, limits, base=base, first=first, step=step, tol_deg=tol_deg, lift=lift
+        )
+
+
 def _limits_solve(
-    project: Projection, lie: DiscreteCurve, extra: ExtraConstraints, base: ExtraConstraints | None, cap: int
+    project: Projection,
+    lie: DiscreteCurve,
+    extra: ExtraConstraints | None,
+    polish_rows: ExtraConstraints | None,
+    cap: int,
+    start: ClosingResult | None = None,
 ) -> ClosingResult:
     """A solve of :func:`solve_within_limits`: ``lie`` projected with the rows ``extra``
-    (pins and ``base``), stopping when the gap stops shrinking or after ``cap`` iterations.
+    (pins and the contacts' rows, if any) from ``start`` (warm; from ``lie`` itself again when
+    that runs out of iterations), stopping when the gap stops shrinking or after ``cap``
+    iterations.
 
     A solve that stopped short of its tolerances (the optimality residual at the rounding
-    floor, 1e-7, or the gap flat near 1e-7: issue 33, CMU backflip) is closed exactly from
-    where it stopped with the rows ``base`` only: the pins then move by far less than
-    ``limit_tol``, which the next round checks. Before, such a solve ran to ``max_iter`` and
-    counted as failed, and its retries with sparser pins picked the same pins and failed the
-    same way (five of them: 30x the time of the loop without limits).
+    floor, 1e-7, or the gap flat near 1e-7: issue 33, CMU backflip; or the contacts' rows
+    and closure a hair apart, so that the gap stalls at 1e-4: CMU charleston1) is closed
+    exactly from where it stopped with the rows ``polish_rows`` only: the pins then move by
+    far less than ``limit_tol``, which the next round checks. Before, such a solve ran to
+    ``max_iter`` and counted as failed, and its retries with sparser pins picked the same pins
+    and failed the same way (five of them: 30x the time of the loop without limits).
     """
-    res = project(lie, extra, stall=STALL_ITERATIONS, iterations=cap)
+    res = project(lie, extra, stall=STALL_ITERATIONS, iterations=cap, start=start)
+    if start is not None and not res.converged and res.iterations >= cap:
+        # the warm start wandered without settling (CMU backflip's second round: 16 iterations
+        # along the closed curves, the loop 5x farther from the clip): from the clip itself
+        res = project(lie, extra, stall=STALL_ITERATIONS, iterations=cap)
     if res.converged or not np.isfinite(res.gap):
         return res
-    polish = project(res.curve, base if base is not None and len(base) else None)
+    polish = project(res.curve, polish_rows if polish_rows is not None and len(polish_rows) else None)
     if not (polish.converged or polish.gap <= POLISH_GAP):
         return res
     change = srv_distance(polish.srv, srv_transform(lie))  # from the input
     message = f"limits solve stopped ({res.message}); closed exactly from there ({polish.message})"
     return dataclasses.replace(polish, change=change, message=message, converged=True)
-
-
-def _root(res: ClosingResult) -> np.ndarray:
-    """The root positions ``(F, 3)`` of a closed Lie curve."""
-    return np.asarray(res.curve.values)[:, :3]

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from elastic_motion.groups import SO3
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import Contacts
 
-__all__ = ["ROW_BUDGET", "contact_grid", "fine_contacts", "grid_step", "lift_correction"]
+__all__ = ["ROW_BUDGET", "GridLift", "contact_grid", "fine_contacts", "grid_step", "lift_correction"]
 
 _SO3 = SO3()
 
@@ -97,8 +98,7 @@ def lift_correction(fine: Motion, grid: np.ndarray, before: Motion, after: Motio
     f = fine.n_frames
     if grid.size == f:
         return after
-    k = np.clip(np.searchsorted(grid, np.arange(f), side="right") - 1, 0, grid.size - 2)
-    a = (np.arange(f) - grid[k]) / (grid[k + 1] - grid[k])
+    k, a = _bracket(grid, np.arange(f))
     d = after.rotations @ np.swapaxes(before.rotations, -1, -2)  # (K, J, 3, 3)
     step = _SO3.log(d[1:] @ np.swapaxes(d[:-1], -1, -2))  # (K-1, J, 3)
     corr = _SO3.exp(a[:, None, None] * step[k]) @ d[k]
@@ -110,6 +110,62 @@ def lift_correction(fine: Motion, grid: np.ndarray, before: Motion, after: Motio
     same = np.all(after.rotations == before.rotations, axis=(0, 2, 3))
     rot[:, same] = fine.rotations[:, same]  # unchanged joints (e.g. free ones) stay bit for bit
     return fine.replace(rotations=rot, root_translation=root)
+
+
+def _bracket(grid: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame of the clip, the grid cell ``k`` it lies in (``grid[k] <= f <= grid[k + 1]``)
+    and its fraction ``a`` of the cell."""
+    k = np.clip(np.searchsorted(grid, frames, side="right") - 1, 0, grid.size - 2)
+    return k, (frames - grid[k]) / (grid[k + 1] - grid[k])
+
+
+@dataclass(frozen=True, eq=False)
+class GridLift:
+    """A clip closed on a grid of its frames: its rotations on any frame as
+    :func:`lift_correction` lifts the grid's (for rows on the clip's frames solved on the grid:
+    the joint limits, :class:`elastic_motion.apps.loop.limits.LimitConstraints`).
+
+    Attributes
+    ----------
+    frames : ndarray of int, shape (K,)
+        The grid (increasing, ``0`` and ``F - 1`` included).
+    before : ndarray, shape (K, J, 3, 3)
+        The grid's local rotations before closing.
+    fine : ndarray, shape (F, J, 3, 3)
+        The clip's.
+    """
+
+    frames: np.ndarray
+    before: np.ndarray
+    fine: np.ndarray
+
+    def bracket(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per clip frame, its grid cell ``k`` and fraction ``a`` (the frame ``grid[k]`` is
+        ``a = 0``)."""
+        return _bracket(self.frames, np.asarray(frames))
+
+    def rotations(self, after: np.ndarray) -> np.ndarray:
+        """Every frame's rotations ``(F, J, 3, 3)`` for the grid's rotations ``after``."""
+        f = self.fine.shape[0]
+        if self.frames.size == f:
+            return after
+        k, a = self.bracket(np.arange(f))
+        d = after @ np.swapaxes(self.before, -1, -2)
+        step = _SO3.log(d[1:] @ np.swapaxes(d[:-1], -1, -2))
+        rot = _SO3.exp(a[:, None, None] * step[k]) @ d[k] @ self.fine
+        rot[self.frames] = after
+        return rot
+
+    def at(self, after: np.ndarray, frames: np.ndarray, joints: np.ndarray) -> np.ndarray:
+        """The rotations ``(R, 3, 3)`` of ``joints`` at the clip's ``frames`` (one pair per
+        row) for the grid's rotations ``after``: the correction's geodesic between the
+        neighbouring grid frames' (:func:`lift_correction`)."""
+        k, a = self.bracket(frames)
+        before_t = np.swapaxes(self.before, -1, -2)
+        d0 = after[k, joints] @ before_t[k, joints]
+        d1 = after[k + 1, joints] @ before_t[k + 1, joints]
+        step = _SO3.log(d1 @ np.swapaxes(d0, -1, -2))
+        return _SO3.exp(a[:, None] * step) @ d0 @ self.fine[frames, joints]
 
 
 def fine_contacts(contacts: Contacts, grid: np.ndarray, released: Sequence[dict]) -> Contacts:

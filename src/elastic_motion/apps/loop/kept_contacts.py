@@ -14,7 +14,11 @@ The stages of :func:`close_keeping_contacts`, each a function here:
 3. **Polish** (:func:`polish_or_release`): a solve that stopped with its contacts within
    :data:`POLISH_MISS` is closed exactly from there; when that loses them, the worst are
    released and the projection solved again.
-4. **On every frame** (:func:`elastic_motion.apps.loop.planting.plant_and_lift`): the grid's
+4. **Within the joint limits** (``within``, when the loop keeps them): the limits' active set
+   (:func:`elastic_motion.apps.loop.limits.solve_within_limits`) solved on the same grid, its
+   pins on the clip's frames through the lifted correction, the contacts' rows solved with
+   every round.
+5. **On every frame** (:func:`elastic_motion.apps.loop.planting.plant_and_lift`): the grid's
    correction lifted to every frame, the kept contacts planted by IK, the body raised out of
    the floor.
 
@@ -34,6 +38,7 @@ import numpy as np
 from elastic_motion._threads import single_threaded_blas
 from elastic_motion.apps.loop.contact_grid import contact_grid, fine_contacts, grid_step, lift_correction
 from elastic_motion.apps.loop.contact_rows import FLOOR_ROW, ContactConstraints, Row, floor_rows
+from elastic_motion.apps.loop.limits import LoopLimits
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.apps.loop.planting import floor_per_frame, plant_and_lift
 from elastic_motion.closing import ClosingResult
@@ -52,6 +57,7 @@ __all__ = [
     "GridClip",
     "GridSolve",
     "KeptContacts",
+    "WithinLimits",
     "close_keeping_contacts",
     "pin_above_floor",
     "polish_or_release",
@@ -79,8 +85,8 @@ MAX_RELEASE = 8
 #: Iterations without progress after which a constrained projection stops (``stall_iterations``).
 STALL_ITERATIONS = 6
 
-#: ``project(curve, extra=None, stall=None, iterations=None) -> ClosingResult``: the KKT
-#: projection of a clip's Lie curve (:class:`elastic_motion.apps.loop.close.Projection`).
+#: ``project(curve, extra=None, stall=None, iterations=None, start=None) -> ClosingResult``:
+#: the KKT projection of a clip's Lie curve (:class:`elastic_motion.apps.loop.close.Projection`).
 Project = Callable[..., ClosingResult]
 
 
@@ -245,16 +251,31 @@ class ContactsClosing:
     constraints : ContactConstraints
         The rows it was solved with (on the grid's frames).
     kept : KeptContacts
+    limits : LoopLimits or None
+        What ``within`` did with the joint limits, before the IK (None without it, or when
+        the contacts were dropped).
     """
 
     motion: Motion | None
     closing: ClosingResult
     constraints: ContactConstraints
     kept: KeptContacts
+    limits: LoopLimits | None = None
+
+
+#: ``within(on_grid, solved) -> (result, limits)``: the grid's solve with its contacts kept
+#: taken on within the joint limits (:func:`close_keeping_contacts`, step 4).
+WithinLimits = Callable[[GridClip, GridSolve], tuple[ClosingResult, LoopLimits]]
 
 
 def close_keeping_contacts(
-    clip: Motion, found: Contacts, project: Project, options: LoopOptions, *, step: float
+    clip: Motion,
+    found: Contacts,
+    project: Project,
+    options: LoopOptions,
+    *,
+    step: float,
+    within: WithinLimits | None = None,
 ) -> ContactsClosing:
     """Close a prepared clip with its contacts kept (module docstring).
 
@@ -271,14 +292,20 @@ def close_keeping_contacts(
     step : float
         Seconds between grid frames at most (:func:`~elastic_motion.apps.loop.contact_grid.grid_step`;
         0: every frame).
+    within : callable, optional
+        The joint limits' stage (:data:`WithinLimits`), run on the grid when the contacts held.
     """
     on_grid, found_c = _grid_clip(clip, found, options, step)
     t_keep = time.perf_counter()
+    limits = None
     with single_threaded_blas():  # rows' Gram matrices of ~1000: one BLAS thread is faster
         solved = solve_with_contacts(on_grid, found_c, _stalling(project), max_release=MAX_RELEASE)
         solved = pin_above_floor(on_grid, found_c, solved, project)
         solved = polish_or_release(on_grid, found_c, solved, project)
-    # the time of every constrained solve (released attempts, polish) is the solve's
+        if within is not None and solved.result.converged:
+            within_res, limits = within(on_grid, solved)
+            solved = solved.replace(result=within_res)
+    # the time of every constrained solve (released attempts, polish, limits) is the solve's
     res = dataclasses.replace(solved.result, time=time.perf_counter() - t_keep)
     kept = _kept_record(clip, on_grid, solved.replace(result=res))
     if not res.converged:
@@ -290,7 +317,7 @@ def close_keeping_contacts(
     kept_fine = fine_contacts(found, grid, solved.released)
     out, planted, lifted = plant_and_lift(clip, out, found, kept_fine, lift_fine, on_grid.c1, smooth=spacing)
     return ContactsClosing(
-        out, res, solved.constraints, kept.replace(planted_by_ik=planted, lifted_max_m=lifted)
+        out, res, solved.constraints, kept.replace(planted_by_ik=planted, lifted_max_m=lifted), limits
     )
 
 

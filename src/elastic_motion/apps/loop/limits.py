@@ -22,6 +22,19 @@ inequality problem; after ``rounds`` rounds any frame still beyond a limit is re
 Frames 0 and ``F - 1`` are never pinned (the first frame does not change, closure ties the
 last to it).
 
+With kept contacts the active set is solved on the grid the contacts close on
+(:mod:`elastic_motion.apps.loop.contact_grid`; every frame while their rows fit its budget),
+with their rows in every solve: the limits are checked on every frame of the clip with the
+grid's correction lifted, and a row pins a clip frame where the lifted loop has it (its
+rotation the geodesic of the corrections of the grid frames around it,
+:class:`~elastic_motion.apps.loop.contact_grid.GridLift`). Each solve starts from the loop
+without limit rows (a warm start of :func:`~elastic_motion.closing.project_closed`), and
+the loop is measured again on every frame of what is written (:func:`measured_on_frames`:
+the contacts planted by IK after the solve). Before (issue 33), kept limits closed the
+contacts on every frame: 2793 rows on CMU charleston1's best cycle, whose contacts and
+closure are a hair apart, and every limits solve there failed (16.5 degrees past a limit,
+in 23 times the time of the loop without limits).
+
 Derivative of a row ``theta_i(C^T R_f C) - limit``: for ``delta R_f = hat(omega) R_f``,
 ``d theta / d omega = E^-1 C^T``
 (:func:`elastic_motion.motion.joint_limits.dof_angles_jacobian`).
@@ -29,6 +42,7 @@ Derivative of a row ``theta_i(C^T R_f C) - limit``: for ``delta R_f = hat(omega)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -36,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastic_motion.apps.limit_stage import limits_of
+from elastic_motion.apps.loop.contact_grid import GridLift
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.closing import ClosingResult, ExtraConstraints
 from elastic_motion.errors import OptionError
@@ -61,6 +76,7 @@ __all__ = [
     "lie_rotations",
     "limits_plan",
     "limits_report",
+    "measured_on_frames",
     "solve_within_limits",
 ]
 
@@ -80,7 +96,7 @@ class LimitConstraints(ExtraConstraints):
     """DOF angles pinned at given values (rows of :func:`~elastic_motion.closing.project_closed`).
 
     The curve must be a clip's Lie curve (root translation, then one ``SO(3)`` copy per
-    joint in skeleton order).
+    joint in skeleton order), or the Lie curve of a grid of its frames (``lift``).
 
     Parameters
     ----------
@@ -88,9 +104,16 @@ class LimitConstraints(ExtraConstraints):
     names : sequence of str
         The clip's joint names (skeleton order).
     frame, dof : ndarray of int, shape (R,)
-        Per row: the frame and the dof (column of ``limits.angles``).
+        Per row: the clip's frame and the dof (column of ``limits.angles``).
     target : ndarray, shape (R,)
         The value the dof angle is pinned at, radians.
+    lift : GridLift, optional
+        The curve is a grid of the clip's frames: a row's rotation is the clip's at its frame
+        with the grid's correction lifted (:class:`~elastic_motion.apps.loop.contact_grid.GridLift`),
+        so a frame between two grid frames is held where the written loop has it. Its
+        derivative is the correction's geodesic weights, ``1 - a`` on the grid frame before
+        and ``a`` on the one after (exact on grid frames; between them first order in the
+        correction's turn over a grid cell).
     """
 
     def __init__(
@@ -100,8 +123,10 @@ class LimitConstraints(ExtraConstraints):
         frame: np.ndarray,
         dof: np.ndarray,
         target: np.ndarray,
+        lift: GridLift | None = None,
     ) -> None:
         self.limits = limits
+        self.lift = lift
         index = {n: k for k, n in enumerate(names)}
         owner = [(k, i) for k, ax in enumerate(limits.axes) for i in range(len(ax))]
         self.frame = np.asarray(frame, dtype=np.int64)
@@ -119,32 +144,43 @@ class LimitConstraints(ExtraConstraints):
             rows = np.flatnonzero(self.limit_joint == k)
             yield k, rows
 
-    def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
+    def _rotations(self, rot: np.ndarray) -> np.ndarray:
+        """Each row's rotation ``(R, 3, 3)`` on the clip's frame."""
+        if self.lift is None:
+            return rot[self.frame, self.joint]
+        return self.lift.at(rot, self.frame, self.joint)
+
+    def _residual(self, r_all: np.ndarray) -> np.ndarray:
         g = np.zeros(len(self))
         lim = self.limits
         for k, rows in self._groups():
-            r = rot[self.frame[rows], self.joint[rows]]
-            ang = dof_angles(r, lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
+            ang = dof_angles(r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
             val = ang[np.arange(rows.size), self.slot[rows]]
             g[rows] = (val - self.target[rows] + math.pi) % (2 * math.pi) - math.pi
         return g
+
+    def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
+        return self._residual(self._rotations(rot))
 
     def evaluate(
         self, rot: np.ndarray, eu: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         r_count, m = len(self), rot.shape[1]
-        d_rot = np.zeros((r_count, 1, m, 3))
-        lim = self.limits
+        lim, r_all = self.limits, self._rotations(rot)
+        jac_rows = np.zeros((r_count, 3))
         for k, rows in self._groups():
-            jac = dof_angles_jacobian(
-                rot[self.frame[rows], self.joint[rows]],
-                lim.frames[k],
-                lim.axes[k],
-                lim.lower[k],
-                lim.upper[k],
-            )
-            d_rot[rows, 0, self.joint[rows]] = jac[np.arange(rows.size), self.slot[rows]]
-        return self.residual(rot, eu), self.frame[:, None].copy(), d_rot, np.zeros((r_count, 1, eu.shape[1]))
+            jac = dof_angles_jacobian(r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
+            jac_rows[rows] = jac[np.arange(rows.size), self.slot[rows]]
+        if self.lift is None:
+            frames, weights = self.frame[:, None].copy(), np.ones((r_count, 1))
+        else:
+            cell, a = self.lift.bracket(self.frame)
+            frames = np.stack([cell, np.where(a > 0, cell + 1, -1)], axis=1)
+            weights = np.stack([1.0 - a, a], axis=1)
+        d_rot = np.zeros((r_count, frames.shape[1], m, 3))
+        for s in range(frames.shape[1]):
+            d_rot[np.arange(r_count), s, self.joint] = weights[:, s, None] * jac_rows
+        return self._residual(r_all), frames, d_rot, np.zeros((r_count, frames.shape[1], eu.shape[1]))
 
 
 class StackedConstraints(ExtraConstraints):
@@ -330,7 +366,7 @@ def _pick(beyond: np.ndarray, excess: np.ndarray, step: int) -> np.ndarray:
 
 
 def solve_within_limits(
-    solve: Callable[[ExtraConstraints | None], ClosingResult],
+    solve: Callable[[ExtraConstraints | None, ClosingResult], ClosingResult],
     clip: Motion,
     limits: JointLimits,
     *,
@@ -339,21 +375,24 @@ def solve_within_limits(
     rounds: int = 6,
     step: int = 1,
     tol_deg: float = 0.01,
+    lift: GridLift | None = None,
 ) -> tuple[ClosingResult, LoopLimits]:
     """The active-set loop of the module docstring.
 
     Parameters
     ----------
     solve : callable
-        ``solve(extra) -> result``: :func:`~elastic_motion.closing.project_closed` of the
-        clip's Lie curve with the rows ``extra``.
+        ``solve(extra, start) -> result``: :func:`~elastic_motion.closing.project_closed` of
+        the clip's Lie curve with the rows ``extra``, from ``start``, the loop without limit
+        rows (a warm start: it holds every row but the pins. From the last round's loop
+        instead, CMU backflip's second round did not settle in 16 iterations).
     clip : Motion
         The input (its local rotations and joint names).
     limits : JointLimits
     base : ExtraConstraints, optional
         Rows solved with every round (the contacts).
     first : ClosingResult, optional
-        The solve without limit rows, when already done.
+        The solve without limit rows, when already done (else ``solve(base, None)``).
     rounds : int, default 6
         Solves with limit rows at most. A solve that does not converge (pins too dense:
         a DOF held still makes the SRV singular) is retried with twice the ``step``.
@@ -361,24 +400,31 @@ def solve_within_limits(
         Frames between the pinned frames of a run (1: every frame beyond the limit).
     tol_deg : float, default 0.01
         Beyond a limit means by more than this, degrees.
+    lift : GridLift, optional
+        The solves close a grid of the clip's frames (the contacts' grid): the limits are
+        checked, and pinned, on every frame of the clip with the grid's correction lifted
+        (:class:`LimitConstraints`); ``step`` is in the clip's frames.
 
     Returns
     -------
     ClosingResult, LoopLimits
-        The last solve that converged (the first one when none with limit rows did).
+        The last solve that converged (the first one when none with limit rows did); the
+        report on the clip's frames.
     """
     original, names = clip.rotations, clip.skeleton.names
     n_joints = clip.n_joints
 
     def rotations_of(res: ClosingResult) -> np.ndarray:
-        return lie_rotations(res, n_joints)
+        rot = lie_rotations(res, n_joints)
+        return rot if lift is None else lift.rotations(rot)
 
     limits = limits.restricted_to(list(names))
     before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
     tol = math.radians(tol_deg)
     ok_before = before.excess <= tol
     ok_before[[0, -1]] = False  # never pinned (module docstring)
-    res = first if first is not None else solve(base)
+    res = first if first is not None else solve(base, None)
+    free = res
     after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
     lo, hi = limits.bounds()
     pinned = np.zeros_like(ok_before)
@@ -399,9 +445,9 @@ def solve_within_limits(
         target[new] = side[new]
         trial = pinned | new
         f_idx, d_idx = np.nonzero(trial)
-        rows = LimitConstraints(limits, names, f_idx, d_idx, target[f_idx, d_idx])
+        rows = LimitConstraints(limits, names, f_idx, d_idx, target[f_idx, d_idx], lift)
         extra = StackedConstraints(base, rows) if base is not None and len(base) else rows
-        cand = solve(extra)
+        cand = solve(extra, free)
         done += 1
         if not cand.converged:
             if stride < n_frames and _pick(beyond, after.excess, 2 * stride).sum() < new.sum():
@@ -427,6 +473,53 @@ def solve_within_limits(
         message=message,
     )
     return res, info
+
+
+def measured_on_frames(
+    info: LoopLimits,
+    original: np.ndarray,
+    loop: np.ndarray,
+    names: list[str] | tuple[str, ...],
+    limits: JointLimits,
+    *,
+    tol_deg: float,
+) -> LoopLimits:
+    """``info``, the active set solved on a grid of a clip's frames, measured on every frame.
+
+    Parameters
+    ----------
+    info : LoopLimits
+        :func:`solve_within_limits` on the grid's frames.
+    original, loop : ndarray, shape (F, J, 3, 3)
+        Local rotations of the clip and of its loop on every frame (the grid's correction
+        lifted, the contacts planted by IK: what is written).
+    names : sequence of str
+    limits : JointLimits
+    tol_deg : float
+        Beyond a limit means by more than this, degrees.
+
+    Returns
+    -------
+    LoopLimits
+        ``before``, ``after`` and ``new_violations`` of every frame (frames 0 and ``F - 1``
+        excluded, as in :func:`solve_within_limits`); a limit crossed between the grid's
+        frames (or by the IK) that the grid's solve did not see is in ``message`` too.
+    """
+    limits = limits.restricted_to(list(names))
+    before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
+    after = check_joint_limits(loop, limits, names=names, tol_deg=tol_deg)
+    ok_before = before.excess <= math.radians(tol_deg)
+    ok_before[[0, -1]] = False
+    new_v = _new_beyond(after, ok_before)
+    labels = _new_labels(limits, new_v)
+    message = info.message
+    if labels and not message:
+        worst = math.degrees(float(np.max(after.excess[new_v])))
+        message = (
+            f"joint limits: beyond a limit between the grid's frames by up to {worst:.2f} deg: "
+            + ", ".join(labels)
+        )
+    return dataclasses.replace(info, before=before, after=after, new_violations=labels, message=message)
 
 
 def lie_rotations(result: ClosingResult, n_joints: int) -> np.ndarray:

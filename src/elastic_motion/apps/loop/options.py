@@ -131,9 +131,9 @@ class LoopOptions:
         file (kept; :func:`elastic_motion.apps.limit_stage.check_limits_option`). ``"keep"``: the loop
         stays within every limit the input respects (:mod:`elastic_motion.apps.loop.limits`;
         needs ``method="lie"`` and ``solver="kkt"``, otherwise reported only, with a note);
-        ``"report"``: only measured. ``"keep"`` is not the default because each constrained
-        solve uses a dense Jacobian: 16 s for CMU's backflip, 108 s for charleston1, against
-        under 1 s reported only.
+        ``"report"``: only measured. ``"keep"`` adds solves with the limits' rows (with kept
+        contacts on their grid): 1.5-1.65 times the time of the loop reported only on the CMU
+        ASF clips (``benchmarks/loop_limits.py``, issue 33).
     limit_tol : float, default 0.5
         Degrees: beyond a limit means by more than this, at a limit within it (the loop
         between two pinned frames may bulge past the limit by a fraction of a degree).
