@@ -394,6 +394,7 @@ def plan_landmarks(
     *,
     kinds: Sequence[str] | None = None,
     max_pairs: int | None = None,
+    prior: np.ndarray | None = None,
 ) -> LandmarkPlan:
     """Landmark pairs in seconds from ``None``, ``"auto"`` or pairs ``(tA, tB)``: the one
     place where blend and align decide what their warp meets.
@@ -417,6 +418,9 @@ def plan_landmarks(
     options : WarpOptions
     kinds, max_pairs
         For ``"auto"``.
+    prior : ndarray of shape (V, 2), optional
+        For ``"auto"``: the warp without landmarks, when solved already (``solve_warp(srv_a,
+        srv_b, options)``'s vertices: a blend's plain warp); solved here otherwise.
     """
     if landmarks is None or (isinstance(landmarks, str) and landmarks == "none"):
         return LandmarkPlan([], options)
@@ -435,12 +439,13 @@ def plan_landmarks(
             )
         if options.method == "none":
             raise OptionError("landmarks", "expected a time warp (warp 'dp' or 'dp+refine'); got warp 'none'")
-        prior = solve_warp(srv_a, srv_b, options)
+        if prior is None:
+            prior = np.asarray(solve_warp(srv_a, srv_b, options).vertices)
         pairing = phase_landmarks(
             a,
             b,
             tuple(kinds) if kinds else DEFAULT_PAIR_KINDS,
-            prior=np.asarray(prior.vertices),
+            prior=np.asarray(prior),
             max_pairs=max_pairs,
         )
         pairs = list(pairing.times)

@@ -30,6 +30,7 @@ from elastic_motion.vocabulary import (
     CONTACT_POLICY_ALIASES,
     OUTPUT_MOTION_EXTENSIONS,
     ContactPolicy,
+    ContactWarpMode,
     CurveMethod,
     SkeletonMode,
 )
@@ -103,6 +104,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "IK (the foot-skate clean-up, bone lengths kept) when contacts are found; report only measures "
         "the blend's skating against them; off skips both (auto, the old name of keep, is still "
         "accepted)",
+    )
+    p.add_argument(
+        "--contact-warp",
+        choices=choices(ContactWarpMode),
+        default="auto",
+        help="two motions: warp B onto A with their heel strikes and toe-offs as landmarks (paired by "
+        "phase around the plain warp): on always; auto only when the plain warp's blend has more "
+        "skids than its inputs (counted on both alike) and the guided one has fewer, with d(A, B) "
+        "under its warp at most 1.02 times the plain warp's (the report's notes say which was kept "
+        "and why); off never. With --landmarks or --cycles (which set the landmarks) auto does nothing and "
+        "on is an error (default: auto)",
     )
     add_contact_height_option(p)
     add_joint_limits_option(p, "keep", _LIMITS_KEPT)
@@ -203,6 +215,7 @@ def run(args: argparse.Namespace) -> int:
         loop=args.loop,
         metrics=not args.no_metrics,
         joint_limits=args.joint_limits,
+        contact_warp=args.contact_warp,
     )
     bar = progress_for("blend", args)
     try:

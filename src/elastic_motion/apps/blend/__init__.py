@@ -152,33 +152,39 @@ discretisation, a useful check).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from elastic_motion._options import with_overrides
-from elastic_motion.apps.blend.anchor import NOTE_ANCHOR, anchor_blend
+from elastic_motion.apps.blend.anchor import NOTE_ANCHOR, AnchoredBody, anchor_blend
 from elastic_motion.apps.blend.assemble import assemble_motion
+from elastic_motion.apps.blend.contact_warp import NOTE_CONTACT_WARP, contact_warp_applies, guided_or_plain
 from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, BlendContacts, blend_contacts
 from elastic_motion.apps.blend.curves import blend_curves
 from elastic_motion.apps.blend.inputs import NOTE_CYCLES, BlendInputs, prepare_inputs
 from elastic_motion.apps.blend.limits import limit_blend
-from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, close_again, close_cycle
+from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, BlendLoop, close_again, close_cycle
 from elastic_motion.apps.blend.result import BlendResult
-from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
+from elastic_motion.apps.blend.timing import NOTE_TIMING, Clock, output_clock
 from elastic_motion.apps.blend.transitions import NOTE_WEIGHT_CURVE
-from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, Warps, find_warps
+from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, Warps, contact_guided_warp, find_warps
 from elastic_motion.apps.blend_options import BlendOptions, parse_weight_curve
 from elastic_motion.apps.distance import KnownDistances
+from elastic_motion.apps.limit_stage import LimitStage
 from elastic_motion.apps.metrics import BlendMetrics, blend_metrics
+from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PreparedMotions, Source
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.motion import Motion
+from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
     "NOTE_ANCHOR",
     "NOTE_CLEANUP",
+    "NOTE_CONTACT_WARP",
     "NOTE_CYCLES",
     "NOTE_LANDMARKS",
     "NOTE_LOOP",
@@ -243,12 +249,82 @@ def blend_motions(
     report("prepare", 0, stages)
     inputs = prepare_inputs(motions, weights, opts)
     report("warp", 1, stages)
-    warps = find_warps(inputs, opts, template_warps)
+    warps = plain = find_warps(inputs, opts, template_warps)
     report("blend", 2, stages)
+    guided = contact_warp_applies(inputs, opts, template_warps is not None)
+    if guided and opts.contact_warp == "on":
+        warps = contact_guided_warp(inputs, warps)
+    built = _build(inputs, warps, opts)
+    choice, feet = None, None
+    if guided and opts.contact_warp == "auto":
+        measured = _Feet(inputs, opts)
+        warps, built, choice = guided_or_plain(
+            inputs, warps, built, lambda w: _build(inputs, w, opts), measured.blend, measured.inputs(built)
+        )
+        feet = measured.known(built)
+    notes = [*inputs.notes, *built.notes] + ([] if choice is None else [choice.note()])
+    metrics = None
+    if opts.metrics:
+        report("metrics", 3, stages)
+        metrics = _metrics(built, inputs, opts, plain, feet)
+    report("done", stages, stages)
+    looped, contacts = built.looped, built.contacts
+    return BlendResult(
+        motion=built.motion,
+        method=opts.method,
+        warp=warps.options.method,
+        weights=inputs.weights,
+        warps=warps.vertices,
+        landmarks=warps.pairs,
+        timing=built.clock.u,
+        prepared=inputs.prepared,
+        warp_options=warps.options,
+        metrics=metrics,
+        notes=tuple(notes),
+        cleanup=contacts.cleanup,
+        before_cleanup=built.before,
+        cycles=inputs.cycles,
+        loop=None if looped is None else looped.loop,
+        landmark_pairing=None if warps.pairing is None else warps.pairing.summary(),
+        pose_anchor_deg=built.anchored.pose_deg,
+        height_anchor_m=built.anchored.height_m,
+        weight_curve=None if opts.weight_curve is None else np.array(opts.weight_curve),
+        options=opts,
+        trimmed=built.clock.trimmed,
+        joint_limits=built.limits,
+        contact_warp=None if choice is None else choice.summary(),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Built:
+    """A blend built on one set of warps (stages 3 to 9) and what its stages did."""
+
+    motion: Motion
+    clock: Clock
+    anchored: AnchoredBody
+    contacts: BlendContacts
+    looped: BlendLoop | None
+    before: Motion | None
+    limits: LimitStage | None
+    notes: tuple[Note, ...]
+
+    @property
+    def planted_feet(self) -> FootQuality | None:
+        """The final motion measured like its inputs, when the contacts stage measured it: the
+        clean-up's motion, unchanged since (no loop closed, no joint limit moved)."""
+        c = self.contacts
+        if c.applied and self.motion is c.cleanup.motion:
+            return c.result_feet
+        return None
+
+
+def _build(inputs: BlendInputs, warps: Warps, opts: BlendOptions) -> _Built:
+    """Stages 3 to 9 on the given warps."""
     clock = output_clock(inputs, warps, opts)
     anchored = anchor_blend(blend_curves(inputs, warps, clock, opts), inputs, clock, opts)
     blend = assemble_motion(anchored.body, inputs, clock, opts, warps.options.method)
-    notes = [*inputs.notes, *warps.notes, *clock.notes, *anchored.notes]
+    notes = [*warps.notes, *clock.notes, *anchored.notes]
     looped = close_cycle(blend, inputs.cycles) if opts.loop else None
     if looped is not None:
         blend = looped.motion
@@ -263,57 +339,53 @@ def blend_motions(
             blend = looped.motion
             notes += looped.notes
     blend, limits = limit_blend(blend, inputs, clock, opts, notes)
-    metrics = None
-    if opts.metrics:
-        report("metrics", 3, stages)
-        metrics = _metrics(blend, inputs, opts, contacts, looped is not None, warps)
-    report("done", stages, stages)
-    return BlendResult(
-        motion=blend,
-        method=opts.method,
-        warp=warps.options.method,
-        weights=inputs.weights,
-        warps=warps.vertices,
-        landmarks=warps.pairs,
-        timing=clock.u,
-        prepared=inputs.prepared,
-        warp_options=warps.options,
-        metrics=metrics,
-        notes=tuple(notes),
-        cleanup=contacts.cleanup,
-        before_cleanup=before,
-        cycles=inputs.cycles,
-        loop=None if looped is None else looped.loop,
-        landmark_pairing=None if warps.pairing is None else warps.pairing.summary(),
-        pose_anchor_deg=anchored.pose_deg,
-        height_anchor_m=anchored.height_m,
-        weight_curve=None if opts.weight_curve is None else np.array(opts.weight_curve),
-        options=opts,
-        trimmed=clock.trimmed,
-        joint_limits=limits,
-    )
+    return _Built(blend, clock, anchored, contacts, looped, before, limits, tuple(notes))
+
+
+class _Feet:
+    """The feet of the inputs and of built blends, measured like the inputs
+    (:func:`~elastic_motion.apps.metrics.floor.foot_quality`, the blend's contact options),
+    each once: what a contacts stage measured is taken, not measured again."""
+
+    def __init__(self, inputs: BlendInputs, opts: BlendOptions) -> None:
+        self._inputs = inputs
+        self._options = opts.contact_options
+        self._seen: dict[int, FootQuality] = {}
+
+    def inputs(self, built: _Built) -> tuple[FootQuality, ...]:
+        if built.contacts.inputs_feet:
+            return built.contacts.inputs_feet
+        return tuple(foot_quality(m, self._options) for m in self._inputs.prepared.motions)
+
+    def blend(self, built: _Built) -> FootQuality:
+        q = built.planted_feet or self._seen.get(id(built.motion))
+        if q is None:
+            q = foot_quality(built.motion, self._options)
+            self._seen[id(built.motion)] = q
+        return q
+
+    def known(self, built: _Built) -> FootQuality | None:
+        return built.planted_feet or self._seen.get(id(built.motion))
 
 
 def _metrics(
-    blend: Motion,
-    inputs: BlendInputs,
-    opts: BlendOptions,
-    contacts: BlendContacts,
-    looped: bool,
-    warps: Warps,
+    built: _Built, inputs: BlendInputs, opts: BlendOptions, plain: Warps, feet: FootQuality | None
 ) -> BlendMetrics:
-    """Stage 9: the metrics, with the feet the contacts stage measured (the inputs', and the
-    cleaned blend's unless a loop was closed since): no motion is measured twice. The warp
-    stage's curves and distance of A and B too, when they are the metrics' own."""
-    feet = contacts.result_feet if contacts.applied and not looped else None
+    """Stage 10: the metrics, with the feet measured already (the inputs' by the contacts
+    stage; the final blend's by the contacts stage or the contact-guided warp's rule, ``feet``):
+    no motion is measured twice. The warp stage's curves and distance of A and B too, when
+    they are the metrics' own (the ``plain`` warp, solved without landmarks, whichever warp
+    the blend kept)."""
+    contacts = built.contacts
+    warps = plain
     reuse = _metric_warp(warps, opts)
     return blend_metrics(
-        blend,
+        built.motion,
         inputs.prepared,
         inputs.weights,
         opts.contact_options,
         feet_inputs=contacts.inputs_feet,
-        feet=feet,
+        feet=feet or built.planted_feet,
         inputs_known=KnownDistances(warps.srvs, np.array([[0.0, warps.distance], [warps.distance, 0.0]]))
         if reuse
         else None,
