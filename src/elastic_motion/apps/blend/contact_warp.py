@@ -124,10 +124,9 @@ class ContactWarpChoice:
 
 def contact_warp_applies(inputs: BlendInputs, options: BlendOptions, given_warps: bool) -> bool:
     """Whether a blend can take the contact-guided warp (module docstring): two motions, a warp
-    the blend solves, no landmarks given, no matched cycles, ``contact_warp`` not ``"off"``."""
+    the blend solves, no landmarks given, no matched cycles (whatever ``contact_warp`` says)."""
     return (
-        options.contact_warp != "off"
-        and len(inputs.prepared.motions) == 2
+        len(inputs.prepared.motions) == 2
         and not given_warps
         and inputs.warp.method != "none"
         and inputs.landmarks is None
