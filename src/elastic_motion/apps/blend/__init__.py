@@ -105,7 +105,18 @@ taking the one :class:`~elastic_motion.apps.blend_options.BlendOptions`:
    nearest point of the DOF-angle box per frame, not a constrained SRV solve); limits the
    inputs violate are reported, not enforced. ``BlendResult.joint_limits`` says which joints
    and frames changed and by how much. ``"report"`` only measures; ``"off"`` skips.
-10. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
+10. **Contact-guided warp** (:mod:`.contact_warp`; ``contact_warp="auto"``, the default; two
+    motions, a warp the blend solves, no landmarks given, no cycles): the blend of stages 3-9
+    on the plain warp has its skids counted exactly as its inputs' are
+    (:func:`elastic_motion.apps.metrics.floor.foot_quality`; the clean-up's own measure when it
+    is the final motion). No more than the inputs' larger count: nothing else is done. More:
+    the contact-guided warp (heel strikes and toe-offs of A and B paired by phase around the
+    plain warp, met as ``landmarks="auto"`` meets them) is solved, stages 3-9 run again on it,
+    and its blend is kept when it has fewer skids and ``d(A, B)`` under its warp is at most
+    1.02 times the plain warp's. A note and ``BlendResult.contact_warp`` give both skid
+    counts, slid distances and distances and which was kept. ``"on"`` blends on the guided
+    warp always (stage 2), ``"off"`` never.
+11. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
 
 Time-varying weights (``weight_curve``; paper 000 sec. 5.3)
 -----------------------------------------------------------
@@ -320,7 +331,7 @@ class _Built:
 
 
 def _build(inputs: BlendInputs, warps: Warps, opts: BlendOptions) -> _Built:
-    """Stages 3 to 9 on the given warps."""
+    """Stages 3 to 9 on the given warps (the contact-guided warp's rule may run them twice)."""
     clock = output_clock(inputs, warps, opts)
     anchored = anchor_blend(blend_curves(inputs, warps, clock, opts), inputs, clock, opts)
     blend = assemble_motion(anchored.body, inputs, clock, opts, warps.options.method)
@@ -371,7 +382,7 @@ class _Feet:
 def _metrics(
     built: _Built, inputs: BlendInputs, opts: BlendOptions, plain: Warps, feet: FootQuality | None
 ) -> BlendMetrics:
-    """Stage 10: the metrics, with the feet measured already (the inputs' by the contacts
+    """Stage 11: the metrics, with the feet measured already (the inputs' by the contacts
     stage; the final blend's by the contacts stage or the contact-guided warp's rule, ``feet``):
     no motion is measured twice. The warp stage's curves and distance of A and B too, when
     they are the metrics' own (the ``plain`` warp, solved without landmarks, whichever warp
