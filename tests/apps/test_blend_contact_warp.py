@@ -19,6 +19,7 @@ import elastic_motion.apps.blend.contact_warp as contact_warp_module
 from elastic_motion.apps.blend import blend_motions
 from elastic_motion.apps.blend.contact_warp import DISTANCE_TOLERANCE, NOTE_CONTACT_WARP, guided_or_plain
 from elastic_motion.apps.blend.warps import IDENTITY_WARP, Warps
+from elastic_motion.apps.metrics import blend_metrics
 from elastic_motion.apps.prepare import PrepareOptions, prepare_motions
 from elastic_motion.cli import main
 from elastic_motion.errors import OptionError
@@ -254,3 +255,30 @@ def test_the_json_report_has_the_decision(mocap_dir: Path, tmp_path, capsys):
     report2 = json.loads(rep2.read_text())
     assert report2["contact_warp"] is None and not any("contact-guided" in n for n in report2["notes"])
     capsys.readouterr()
+
+
+def test_the_rules_measures_are_the_metrics(pair, monkeypatch):
+    """Without the contacts stage (``contacts="off"``) the rule measures the inputs and the
+    blend itself; the metrics take those measures: no motion is measured twice."""
+    import elastic_motion.apps.metrics.blend as metrics_module
+
+    measured = []
+    real = metrics_module.foot_quality
+
+    def counted(motion, *args, **kwargs):
+        measured.append(motion)  # the object itself: an id of a freed motion may be reused
+        return real(motion, *args, **kwargs)
+
+    monkeypatch.setattr(blend_package, "foot_quality", counted)
+    monkeypatch.setattr(metrics_module, "foot_quality", counted)
+    res = blend_motions(pair, 0.5, contacts="off", metrics=True)
+    assert res.contact_warp is not None and res.cleanup is None
+    assert len(measured) == len({id(m) for m in measured}) >= 3  # A, B, the blend (and a guided one)
+    monkeypatch.undo()
+    fresh = blend_metrics(res.motion, res.prepared, res.weights, res.options.contact_options)
+    assert fresh.summary()["feet"] == res.metrics.summary()["feet"]
+
+
+def test_a_weight_of_one_never_tries_the_guided_warp(pair, guided_solves):
+    res = blend_motions(pair, 1.0, contacts="report")
+    assert res.contact_warp is None and guided_solves == []

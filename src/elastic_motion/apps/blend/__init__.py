@@ -68,7 +68,7 @@ taking the one :class:`~elastic_motion.apps.blend_options.BlendOptions`:
    measures, barely change; the root's horizontal path is kept. A note,
    ``BlendResult.pose_anchor_deg`` and ``height_anchor_m`` give the largest corrections.
    ``anchor=False`` gives the papers' plain SRV blend (``examples/paper_figures.py``
-   reproduces the papers with it).
+   reproduces the papers with it, and with ``contact_warp="off"``, stage 10).
 6. **Assembly** (:mod:`.assemble`): finger joints (not on the curves, see
    :mod:`elastic_motion.apps.align`) get the geodesic blend of A's and B's local rotations
    at the matched times; per-frame translations of non-root joints (position channels),
@@ -266,13 +266,13 @@ def blend_motions(
     if guided and opts.contact_warp == "on":
         warps = contact_guided_warp(inputs, warps)
     built = _build(inputs, warps, opts)
-    choice, feet = None, None
+    choice, feet = None, ((), None)
     if guided and opts.contact_warp == "auto":
         measured = _Feet(inputs, opts)
         warps, built, choice = guided_or_plain(
             inputs, warps, built, lambda w: _build(inputs, w, opts), measured.blend, measured.inputs(built)
         )
-        feet = measured.known(built)
+        feet = (measured.inputs(built), measured.known(built))
     notes = [*inputs.notes, *built.notes] + ([] if choice is None else [choice.note()])
     metrics = None
     if opts.metrics:
@@ -361,33 +361,42 @@ class _Feet:
     def __init__(self, inputs: BlendInputs, opts: BlendOptions) -> None:
         self._inputs = inputs
         self._options = opts.contact_options
-        self._seen: dict[int, FootQuality] = {}
+        self._own: tuple[FootQuality, ...] = ()
+        self._seen: list[tuple[Motion, FootQuality]] = []  # the motions themselves: no reused id
 
     def inputs(self, built: _Built) -> tuple[FootQuality, ...]:
         if built.contacts.inputs_feet:
             return built.contacts.inputs_feet
-        return tuple(foot_quality(m, self._options) for m in self._inputs.prepared.motions)
+        if not self._own:
+            self._own = tuple(foot_quality(m, self._options) for m in self._inputs.prepared.motions)
+        return self._own
 
     def blend(self, built: _Built) -> FootQuality:
-        q = built.planted_feet or self._seen.get(id(built.motion))
+        q = self.known(built)
         if q is None:
             q = foot_quality(built.motion, self._options)
-            self._seen[id(built.motion)] = q
+            self._seen.append((built.motion, q))
         return q
 
     def known(self, built: _Built) -> FootQuality | None:
-        return built.planted_feet or self._seen.get(id(built.motion))
+        """The final motion of ``built`` measured already (by its contacts stage or here)."""
+        if built.planted_feet is not None:
+            return built.planted_feet
+        return next((q for m, q in self._seen if m is built.motion), None)
 
 
 def _metrics(
-    built: _Built, inputs: BlendInputs, opts: BlendOptions, plain: Warps, feet: FootQuality | None
+    built: _Built,
+    inputs: BlendInputs,
+    opts: BlendOptions,
+    plain: Warps,
+    feet: tuple[Sequence[FootQuality], FootQuality | None],
 ) -> BlendMetrics:
-    """Stage 11: the metrics, with the feet measured already (the inputs' by the contacts
-    stage; the final blend's by the contacts stage or the contact-guided warp's rule, ``feet``):
-    no motion is measured twice. The warp stage's curves and distance of A and B too, when
-    they are the metrics' own (the ``plain`` warp, solved without landmarks, whichever warp
-    the blend kept)."""
-    contacts = built.contacts
+    """Stage 11: the metrics, with the feet measured already (the inputs' and the final
+    blend's, by the contacts stage or by the contact-guided warp's rule, ``feet``): no motion
+    is measured twice. The warp stage's curves and distance of A and B too, when they are the
+    metrics' own (the ``plain`` warp, solved without landmarks, whichever warp the blend
+    kept)."""
     warps = plain
     reuse = _metric_warp(warps, opts)
     return blend_metrics(
@@ -395,8 +404,8 @@ def _metrics(
         inputs.prepared,
         inputs.weights,
         opts.contact_options,
-        feet_inputs=contacts.inputs_feet,
-        feet=feet or built.planted_feet,
+        feet_inputs=feet[0] or built.contacts.inputs_feet,
+        feet=feet[1] or built.planted_feet,
         inputs_known=KnownDistances(warps.srvs, np.array([[0.0, warps.distance], [warps.distance, 0.0]]))
         if reuse
         else None,

@@ -19,7 +19,8 @@ guided warp and kept when it has **fewer skids** and ``d(A, B)`` under its warp 
 which was kept; ``BlendResult.contact_warp`` the same fields.
 
 The rule applies to a blend of two motions with a time warp solved by the blend (not given,
-not a Karcher template), no landmarks given and no matched cycles (which set the landmarks).
+not a Karcher template), no landmarks given, no matched cycles (which set the landmarks) and
+no weight of 1 (the blend is that input).
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, TypeVar
+
+import numpy as np
 
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend.warps import Warps, contact_guided_warp
@@ -124,9 +127,11 @@ class ContactWarpChoice:
 
 def contact_warp_applies(inputs: BlendInputs, options: BlendOptions, given_warps: bool) -> bool:
     """Whether a blend can take the contact-guided warp (module docstring): two motions, a warp
-    the blend solves, no landmarks given, no matched cycles (whatever ``contact_warp`` says)."""
+    the blend solves, no landmarks given, no matched cycles, no weight of 1 (the blend is that
+    input: no warp changes it), whatever ``contact_warp`` says."""
     return (
         len(inputs.prepared.motions) == 2
+        and not np.isclose(inputs.weights, 1.0).any()
         and not given_warps
         and inputs.warp.method != "none"
         and inputs.landmarks is None
