@@ -139,7 +139,13 @@ def _solve_pair(
     ms, durations = prep.motions, inputs.durations
     sa, sb = srvs
     plan = plan_landmarks(
-        landmarks, ms[0], ms[1], sa, sb, inputs.warp, kinds=kinds, max_pairs=max_pairs, prior=prior
+        landmarks,
+        ms[0],
+        ms[1],
+        (sa, sb) if prior is None else prior,
+        inputs.warp,
+        kinds=kinds,
+        max_pairs=max_pairs,
     )
     pairs, opts = plan.pairs, plan.options
     notes = list(plan.notes)
