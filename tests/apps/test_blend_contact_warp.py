@@ -282,3 +282,22 @@ def test_the_rules_measures_are_the_metrics(pair, monkeypatch):
 def test_a_weight_of_one_never_tries_the_guided_warp(pair, guided_solves):
     res = blend_motions(pair, 1.0, contacts="report")
     assert res.contact_warp is None and guided_solves == []
+
+
+def test_the_second_build_measures_the_inputs_no_more(pair, monkeypatch):
+    """The guided blend's contacts stage takes the inputs' feet the plain one measured: A, B,
+    the plain blend and the guided blend, each measured once."""
+    import elastic_motion.apps.blend.contacts as contacts_stage
+
+    measured = []
+    real = contacts_stage.foot_quality
+
+    def counted(motion, *args, **kwargs):
+        measured.append(motion)
+        return real(motion, *args, **kwargs)
+
+    monkeypatch.setattr(contacts_stage, "foot_quality", counted)
+    monkeypatch.setattr(blend_package, "foot_quality", counted)
+    res = blend_motions(pair, 0.5, contacts="report")
+    assert res.contact_warp["guided"] is not None
+    assert len(measured) == 4 and len({id(m) for m in measured}) == 4

@@ -269,8 +269,9 @@ def blend_motions(
     choice, feet = None, ((), None)
     if guided and opts.contact_warp == "auto":
         measured = _Feet(inputs, opts)
+        own = measured.inputs(built)
         warps, built, choice = guided_or_plain(
-            inputs, warps, built, lambda w: _build(inputs, w, opts), measured.blend, measured.inputs(built)
+            inputs, warps, built, lambda w: _build(inputs, w, opts, own), measured.blend, own
         )
         feet = (measured.inputs(built), measured.known(built))
     notes = [*inputs.notes, *built.notes] + ([] if choice is None else [choice.note()])
@@ -330,8 +331,11 @@ class _Built:
         return None
 
 
-def _build(inputs: BlendInputs, warps: Warps, opts: BlendOptions) -> _Built:
-    """Stages 3 to 9 on the given warps (the contact-guided warp's rule may run them twice)."""
+def _build(
+    inputs: BlendInputs, warps: Warps, opts: BlendOptions, inputs_feet: Sequence[FootQuality] = ()
+) -> _Built:
+    """Stages 3 to 9 on the given warps (the contact-guided warp's rule may run them twice;
+    the second time with the inputs' feet the first measured, ``inputs_feet``)."""
     clock = output_clock(inputs, warps, opts)
     anchored = anchor_blend(blend_curves(inputs, warps, clock, opts), inputs, clock, opts)
     blend = assemble_motion(anchored.body, inputs, clock, opts, warps.options.method)
@@ -340,7 +344,7 @@ def _build(inputs: BlendInputs, warps: Warps, opts: BlendOptions) -> _Built:
     if looped is not None:
         blend = looped.motion
         notes += looped.notes
-    contacts = blend_contacts(blend, inputs, warps, clock, opts)
+    contacts = blend_contacts(blend, inputs, warps, clock, opts, inputs_feet)
     notes += contacts.notes
     before = None
     if contacts.applied:
