@@ -55,6 +55,11 @@ pairs, without the clean-up (pose anchoring on, the default), with it (anchoring
 on: the library's default blend) and as the papers have them (``anchor=False``, no clean-up,
 ``papers_blends``; ``examples/paper_figures.py``).
 
+The methods' rows blend without the contact-guided warp (``contact_warp="off"``: the methods
+as named); the default row with the library's rule (``contact_warp="auto"``), whose decision
+each of its rows gives (``contact_warp``: skids and distances on the plain and the guided warp,
+which was kept).
+
 Prints markdown tables, writes JSON (default ``benchmarks/results/blend_quality.json``).
 Data: ``$ELASTIC_MOTION_MOCAP`` or ``../shared/mocap``.
 
@@ -72,7 +77,13 @@ import numpy as np
 
 from _common import MOCAP, load_clip, machine_info, write_json
 from elastic_motion.apps.align import LANDMARK_PLAN, motion_curves
-from elastic_motion.apps.blend import NOTE_CLEANUP, NOTE_CYCLES, NOTE_LANDMARKS, blend_motions
+from elastic_motion.apps.blend import (
+    NOTE_CLEANUP,
+    NOTE_CONTACT_WARP,
+    NOTE_CYCLES,
+    NOTE_LANDMARKS,
+    blend_motions,
+)
 from elastic_motion.apps.distance import distance_table
 from elastic_motion.apps.metrics import contact_skating, foot_sliding
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
@@ -83,7 +94,7 @@ from elastic_motion.warp import WarpOptions, optimal_warp
 
 REPO = Path(__file__).resolve().parents[1]
 #: The kinds of the blend notes each row lists (cycles matched, clean-up, landmarks).
-REPORTED_NOTES = (NOTE_CYCLES, NOTE_CLEANUP, LANDMARK_PLAN, NOTE_LANDMARKS)
+REPORTED_NOTES = (NOTE_CYCLES, NOTE_CLEANUP, LANDMARK_PLAN, NOTE_LANDMARKS, NOTE_CONTACT_WARP)
 
 #: The library's default blend (``blend_motions([a, b], 0.5)``: Lie, dp+refine, contacts kept,
 #: ends trimmed): the row issue 29's targets are read on.
@@ -263,6 +274,9 @@ def run_pair(key: str, a, b) -> list[dict]:
                 landmarks=lm,
                 contacts="keep" if clean else "report",  # report: the plan, nothing changed
                 cycles=cyc,
+                # the methods as the papers have them; the default row with the library's
+                # default rule (the contact-guided warp where it lowers the skids)
+                contact_warp="auto" if label == DEFAULT[0] else "off",
                 # the methods' rows blend the whole clips (their distances to the whole inputs);
                 # the default row trims its ends, as the library does
                 trim_ends=label == DEFAULT[0],
@@ -323,6 +337,7 @@ def run_pair(key: str, a, b) -> list[dict]:
                     "euler_metric_fine_d_R_A_R_B_A_B": own,
                     "seconds": seconds,
                     "landmarks": len(res.landmarks),
+                    "contact_warp": res.contact_warp,
                     "max_change_m": res.cleanup.max_position_change
                     if res.cleanup and res.cleanup.applied
                     else 0.0,
@@ -351,7 +366,14 @@ def papers_blends(a, b) -> dict:
     out = {}
     for label, lm in (("(c)", None), ("(d)", "auto")):
         res = blend_motions(
-            [a, b], 0.5, method="euler-elastic", warp="dp", landmarks=lm, contacts="report", anchor=False
+            [a, b],
+            0.5,
+            method="euler-elastic",
+            warp="dp",
+            landmarks=lm,
+            contacts="report",
+            anchor=False,
+            contact_warp="off",
         )
         back = written(res)
         out[label] = {

@@ -71,10 +71,18 @@ def blend_all(a, b, tag: str, out: Path, title: str) -> dict:
     results, rows = [], {}
     for label, method, warp, lm in METHODS:
         t0 = time.perf_counter()
-        # the papers' blends: without the pose anchoring and the foot-skate clean-up (the
-        # library's defaults; the last row below has both)
+        # the papers' blends: without the pose anchoring, the foot-skate clean-up and the
+        # contact-guided warp (the library's defaults; the last row below has them)
         res = blend_motions(
-            [a, b], 0.5, method=method, warp=warp, landmarks=lm, metrics=True, contacts="off", anchor=False
+            [a, b],
+            0.5,
+            method=method,
+            warp=warp,
+            landmarks=lm,
+            metrics=True,
+            contacts="off",
+            anchor=False,
+            contact_warp="off",
         )
         met = res.metrics.summary()
         rows[label] = {

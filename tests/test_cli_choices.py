@@ -28,7 +28,7 @@ from elastic_motion.motion.contacts import CONTACT_POLICIES
 from elastic_motion.motion.edit import INTERPOLATIONS
 from elastic_motion.motion.looping import ROOT_MODES
 from elastic_motion.motion.representations import METHODS
-from elastic_motion.vocabulary import UP_AXES
+from elastic_motion.vocabulary import CONTACT_WARP_MODES, UP_AXES
 from elastic_motion.warp.options import WarpMethod
 
 WARP = choices(WarpMethod)
@@ -71,6 +71,7 @@ API: dict[tuple[str, str], tuple[str, ...]] = {
     # blend and blend spaces (apps.blend_options.BlendOptions): one contacts vocabulary
     ("blend", "--skeleton"): SKELETON_MODES,
     ("blend", "--contacts"): CONTACT_POLICIES,
+    ("blend", "--contact-warp"): CONTACT_WARP_MODES,
     ("blendspace", "--contacts"): CONTACT_POLICIES,
     # cluster (apps.statistics)
     ("cluster", "--linkage"): LINKAGES,

@@ -22,6 +22,7 @@ __all__ = [
     "CONTACT_MARK_ALIASES",
     "CONTACT_POLICIES",
     "CONTACT_POLICY_ALIASES",
+    "CONTACT_WARP_MODES",
     "CURVE_METHODS",
     "DEFAULT_PAIR_KINDS",
     "ENGINES",
@@ -48,6 +49,7 @@ __all__ = [
     "WINDOW_MODES",
     "ContactMarks",
     "ContactPolicy",
+    "ContactWarpMode",
     "CurveMethod",
     "EngineName",
     "EventKind",
@@ -172,6 +174,12 @@ SOLVERS: tuple[str, ...] = get_args(Solver)
 LimitPolicy = Literal["keep", "report", "off"]
 #: The values of :data:`LimitPolicy`.
 LIMIT_POLICIES: tuple[str, ...] = get_args(LimitPolicy)
+#: When a blend of two warps B onto A with the contact-guided warp (heel strikes and toe-offs as
+#: landmarks, :mod:`elastic_motion.apps.blend.contact_warp`): where it lowers the skid count
+#: within 2 % of the distance, always, or never.
+ContactWarpMode = Literal["auto", "on", "off"]
+#: The values of :data:`ContactWarpMode`.
+CONTACT_WARP_MODES: tuple[str, ...] = get_args(ContactWarpMode)
 #: Which frames loop, by name: ``"safe"`` the whole clip when it closes with little change, else
 #: the best cycle; ``"whole"`` the whole clip (``None`` in Python); ``"auto"`` the best cycle.
 #: A ``(start, stop)`` pair of frames is the fourth way (``LoopOptions.window``).

@@ -388,8 +388,7 @@ def plan_landmarks(
     landmarks: Any,
     a: Motion,
     b: Motion,
-    srv_a: SRVFunction,
-    srv_b: SRVFunction,
+    prior: np.ndarray | tuple[SRVFunction, SRVFunction],
     options: WarpOptions,
     *,
     kinds: Sequence[str] | None = None,
@@ -412,8 +411,10 @@ def plan_landmarks(
         recorded landmark weight, which replaces ``options``'.
     a, b : Motion
         The prepared motions (times from their first frames).
-    srv_a, srv_b : SRVFunction
-        Their SRV functions, for the prior warp of ``"auto"``.
+    prior : ndarray of shape (V, 2), or (SRVFunction, SRVFunction)
+        For ``"auto"``: the warp of B onto A without landmarks, its vertices when solved
+        already (a blend's plain warp), or the SRV functions of A's and B's curves to solve it
+        on (``solve_warp(srv_a, srv_b, options)``, only for ``"auto"``).
     options : WarpOptions
     kinds, max_pairs
         For ``"auto"``.
@@ -435,12 +436,13 @@ def plan_landmarks(
             )
         if options.method == "none":
             raise OptionError("landmarks", "expected a time warp (warp 'dp' or 'dp+refine'); got warp 'none'")
-        prior = solve_warp(srv_a, srv_b, options)
+        if isinstance(prior, tuple):
+            prior = np.asarray(solve_warp(prior[0], prior[1], options).vertices)
         pairing = phase_landmarks(
             a,
             b,
             tuple(kinds) if kinds else DEFAULT_PAIR_KINDS,
-            prior=np.asarray(prior.vertices),
+            prior=np.asarray(prior),
             max_pairs=max_pairs,
         )
         pairs = list(pairing.times)
@@ -518,7 +520,7 @@ def align_motions(
     ma, mb = prep.motions
     ca, cb = motion_curves(prep, method, fps=opts.sample_fps, smoothing=opts.sample_smoothing)
     sa, sb = srv_transform(ca), srv_transform(cb)
-    plan = plan_landmarks(landmarks, ma, mb, sa, sb, opts, kinds=landmark_kinds, max_pairs=max_pairs)
+    plan = plan_landmarks(landmarks, ma, mb, (sa, sb), opts, kinds=landmark_kinds, max_pairs=max_pairs)
     pairs, opts = plan.pairs, plan.options
     prep = prep.with_notes(*plan.notes)
     theta = landmark_parameters(pairs, ma.duration, mb.duration, prep.labels[:2]) if pairs else None

@@ -27,7 +27,13 @@ from elastic_motion.errors import OptionError
 from elastic_motion.motion.contacts import ContactOptions, ContactPolicy, contact_policy
 from elastic_motion.motion.joint_limits import JointLimits
 from elastic_motion.motion.representations import EULER, Representation, representation
-from elastic_motion.vocabulary import SKELETON_MODES, LimitPolicy, SkeletonMode
+from elastic_motion.vocabulary import (
+    CONTACT_WARP_MODES,
+    SKELETON_MODES,
+    ContactWarpMode,
+    LimitPolicy,
+    SkeletonMode,
+)
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
@@ -114,6 +120,14 @@ class BlendOptions:
         Compute the quality metrics (:func:`elastic_motion.apps.metrics.blend_metrics`:
         ``K (K + 1) / 2`` extra DP solves, ``K`` when the blend's own warp of A and B is the
         metrics': a Lie blend of two, default warp options, no landmarks).
+    contact_warp : {"auto", "on", "off"}, default "auto"
+        The contact-guided warp (:mod:`elastic_motion.apps.blend.contact_warp`): the heel
+        strikes and toe-offs of A and B as landmarks, paired by phase around the plain warp.
+        ``"on"``: always (a warp between two motions, no landmarks given, no cycles);
+        ``"auto"``: only when the plain warp's blend skids more than its inputs (measured like
+        them) and the guided one skids less with ``d(A, B)`` under its warp at most
+        :data:`~elastic_motion.apps.blend.contact_warp.DISTANCE_TOLERANCE` times the plain
+        warp's; ``"off"``: never.
     joint_limits : {"keep", "report", "off"}, JointLimits or path, default "keep"
         Limits of the joints' DOF angles, the loop's option
         (:func:`elastic_motion.apps.limit_stage.check_limits_option`): those of the ASF file
@@ -141,6 +155,7 @@ class BlendOptions:
     loop: bool = False
     metrics: bool = False
     joint_limits: LimitPolicy | JointLimits = "keep"
+    contact_warp: ContactWarpMode = "auto"
 
     def __post_init__(self) -> None:
         self._set("joint_limits", check_limits_option(self.joint_limits))
@@ -176,6 +191,10 @@ class BlendOptions:
             raise OptionError(
                 "contact_options", f"expected ContactOptions; got {type(self.contact_options).__name__}"
             )
+        if self.contact_warp not in CONTACT_WARP_MODES:
+            raise OptionError(
+                "contact_warp", f"expected one of {list(CONTACT_WARP_MODES)}; got {self.contact_warp!r}"
+            )
         for name in _FLAGS:
             value = getattr(self, name)
             if not isinstance(value, bool | np.bool_):
@@ -188,6 +207,15 @@ class BlendOptions:
 
     def _check_together(self) -> None:
         """Cross-field checks, naming the option that cannot be given with the others."""
+        if self.contact_warp == "on":
+            if self.warp.method == "none":
+                raise OptionError("contact_warp", "expected a time warp (warp 'dp' or 'dp+refine') with 'on'")
+            if self.landmarks is not None:
+                raise OptionError("contact_warp", "expected no landmarks with 'on' (it sets them)")
+            if self.matches_cycles:
+                raise OptionError(
+                    "contact_warp", "expected no cycles with 'on' (the cycles give the landmarks)"
+                )
         if self.landmarks is None:
             return
         if self.warp.method == "none":

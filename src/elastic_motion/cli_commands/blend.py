@@ -30,6 +30,7 @@ from elastic_motion.vocabulary import (
     CONTACT_POLICY_ALIASES,
     OUTPUT_MOTION_EXTENSIONS,
     ContactPolicy,
+    ContactWarpMode,
     CurveMethod,
     SkeletonMode,
 )
@@ -94,16 +95,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "a transition from A into B), or a CSV file with a header u,w1,...,wK and one knot per line "
         "(default: none, the constant --weight/--weights)",
     )
-    p.add_argument(
-        "--contacts",
-        type=contacts_flag,
-        choices=choices(ContactPolicy),
-        default="keep",
-        help="the inputs' foot contacts, carried through the warp: keep (default) enforces them by leg "
-        "IK (the foot-skate clean-up, bone lengths kept) when contacts are found; report only measures "
-        "the blend's skating against them; off skips both (auto, the old name of keep, is still "
-        "accepted)",
-    )
+    _add_contact_options(p)
     add_contact_height_option(p)
     add_joint_limits_option(p, "keep", _LIMITS_KEPT)
     p.add_argument(
@@ -141,6 +133,31 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p)
     add_quiet_option(p)
     p.set_defaults(func=lambda a: run_guarded("blend", run, a))
+
+
+def _add_contact_options(p: argparse.ArgumentParser) -> None:
+    """``--contacts`` (the clean-up) and ``--contact-warp`` (the contact-guided warp)."""
+    p.add_argument(
+        "--contacts",
+        type=contacts_flag,
+        choices=choices(ContactPolicy),
+        default="keep",
+        help="the inputs' foot contacts, carried through the warp: keep (default) enforces them by leg "
+        "IK (the foot-skate clean-up, bone lengths kept) when contacts are found; report only measures "
+        "the blend's skating against them; off skips both (auto, the old name of keep, is still "
+        "accepted)",
+    )
+    p.add_argument(
+        "--contact-warp",
+        choices=choices(ContactWarpMode),
+        default="auto",
+        help="two motions: warp B onto A with their heel strikes and toe-offs as landmarks (paired by "
+        "phase around the plain warp): on always; auto only when the plain warp's blend has more "
+        "skids than its inputs (counted on both alike) and the guided one has fewer, with d(A, B) "
+        "under its warp at most 1.02 times the plain warp's (the report's notes say which was kept "
+        "and why); off never. With --landmarks or --cycles (which set the landmarks) auto does nothing and "
+        "on is an error (default: auto)",
+    )
 
 
 #: What ``--joint-limits keep`` does in a blend (its help).
@@ -203,6 +220,7 @@ def run(args: argparse.Namespace) -> int:
         loop=args.loop,
         metrics=not args.no_metrics,
         joint_limits=args.joint_limits,
+        contact_warp=args.contact_warp,
     )
     bar = progress_for("blend", args)
     try:

@@ -68,7 +68,7 @@ taking the one :class:`~elastic_motion.apps.blend_options.BlendOptions`:
    measures, barely change; the root's horizontal path is kept. A note,
    ``BlendResult.pose_anchor_deg`` and ``height_anchor_m`` give the largest corrections.
    ``anchor=False`` gives the papers' plain SRV blend (``examples/paper_figures.py``
-   reproduces the papers with it).
+   reproduces the papers with it, and with ``contact_warp="off"``, stage 10).
 6. **Assembly** (:mod:`.assemble`): finger joints (not on the curves, see
    :mod:`elastic_motion.apps.align`) get the geodesic blend of A's and B's local rotations
    at the matched times; per-frame translations of non-root joints (position channels),
@@ -105,7 +105,18 @@ taking the one :class:`~elastic_motion.apps.blend_options.BlendOptions`:
    nearest point of the DOF-angle box per frame, not a constrained SRV solve); limits the
    inputs violate are reported, not enforced. ``BlendResult.joint_limits`` says which joints
    and frames changed and by how much. ``"report"`` only measures; ``"off"`` skips.
-10. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
+10. **Contact-guided warp** (:mod:`.contact_warp`; ``contact_warp="auto"``, the default; two
+    motions, a warp the blend solves, no landmarks given, no cycles): the blend of stages 3-9
+    on the plain warp has its skids counted exactly as its inputs' are
+    (:func:`elastic_motion.apps.metrics.floor.foot_quality`; the clean-up's own measure when it
+    is the final motion). No more than the inputs' larger count: nothing else is done. More:
+    the contact-guided warp (heel strikes and toe-offs of A and B paired by phase around the
+    plain warp, met as ``landmarks="auto"`` meets them) is solved, stages 3-9 run again on it,
+    and its blend is kept when it has fewer skids and ``d(A, B)`` under its warp is at most
+    1.02 times the plain warp's. A note and ``BlendResult.contact_warp`` give both skid
+    counts, slid distances and distances and which was kept. ``"on"`` blends on the guided
+    warp always (stage 2), ``"off"`` never.
+11. **Metrics** (``metrics=True``, below) and the :class:`BlendResult`.
 
 Time-varying weights (``weight_curve``; paper 000 sec. 5.3)
 -----------------------------------------------------------
@@ -152,33 +163,39 @@ discretisation, a useful check).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from elastic_motion._options import with_overrides
-from elastic_motion.apps.blend.anchor import NOTE_ANCHOR, anchor_blend
+from elastic_motion.apps.blend.anchor import NOTE_ANCHOR, AnchoredBody, anchor_blend
 from elastic_motion.apps.blend.assemble import assemble_motion
+from elastic_motion.apps.blend.contact_warp import NOTE_CONTACT_WARP, contact_warp_applies, guided_or_plain
 from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, BlendContacts, blend_contacts
 from elastic_motion.apps.blend.curves import blend_curves
 from elastic_motion.apps.blend.inputs import NOTE_CYCLES, BlendInputs, prepare_inputs
 from elastic_motion.apps.blend.limits import limit_blend
-from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, close_again, close_cycle
+from elastic_motion.apps.blend.loop_closing import NOTE_LOOP, BlendLoop, close_again, close_cycle
 from elastic_motion.apps.blend.result import BlendResult
-from elastic_motion.apps.blend.timing import NOTE_TIMING, output_clock
+from elastic_motion.apps.blend.timing import NOTE_TIMING, Clock, output_clock
 from elastic_motion.apps.blend.transitions import NOTE_WEIGHT_CURVE
-from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, Warps, find_warps
+from elastic_motion.apps.blend.warps import NOTE_LANDMARKS, NOTE_WARP, Warps, contact_guided_warp, find_warps
 from elastic_motion.apps.blend_options import BlendOptions, parse_weight_curve
 from elastic_motion.apps.distance import KnownDistances
+from elastic_motion.apps.limit_stage import LimitStage
 from elastic_motion.apps.metrics import BlendMetrics, blend_metrics
+from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PreparedMotions, Source
 from elastic_motion.apps.progress import Progress, null_progress
 from elastic_motion.motion import Motion
+from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
 
 __all__ = [
     "NOTE_ANCHOR",
     "NOTE_CLEANUP",
+    "NOTE_CONTACT_WARP",
     "NOTE_CYCLES",
     "NOTE_LANDMARKS",
     "NOTE_LOOP",
@@ -243,17 +260,91 @@ def blend_motions(
     report("prepare", 0, stages)
     inputs = prepare_inputs(motions, weights, opts)
     report("warp", 1, stages)
-    warps = find_warps(inputs, opts, template_warps)
+    warps = plain = find_warps(inputs, opts, template_warps)
     report("blend", 2, stages)
+    guided = contact_warp_applies(inputs, opts, template_warps is not None)
+    if guided and opts.contact_warp == "on":
+        warps = contact_guided_warp(inputs, warps)
+    built = _build(inputs, warps, opts)
+    choice, feet = None, ((), None)
+    if guided and opts.contact_warp == "auto":
+        measured = _Feet(inputs, opts)
+        own = measured.inputs(built)
+        warps, built, choice = guided_or_plain(
+            inputs, warps, built, lambda w: _build(inputs, w, opts, own), measured.blend, own
+        )
+        feet = (measured.inputs(built), measured.known(built))
+    notes = [*inputs.notes, *built.notes] + ([] if choice is None else [choice.note()])
+    metrics = None
+    if opts.metrics:
+        report("metrics", 3, stages)
+        metrics = _metrics(built, inputs, opts, plain, feet)
+    report("done", stages, stages)
+    looped, contacts = built.looped, built.contacts
+    return BlendResult(
+        motion=built.motion,
+        method=opts.method,
+        warp=warps.options.method,
+        weights=inputs.weights,
+        warps=warps.vertices,
+        landmarks=warps.pairs,
+        timing=built.clock.u,
+        prepared=inputs.prepared,
+        warp_options=warps.options,
+        metrics=metrics,
+        notes=tuple(notes),
+        cleanup=contacts.cleanup,
+        before_cleanup=built.before,
+        cycles=inputs.cycles,
+        loop=None if looped is None else looped.loop,
+        landmark_pairing=None if warps.pairing is None else warps.pairing.summary(),
+        pose_anchor_deg=built.anchored.pose_deg,
+        height_anchor_m=built.anchored.height_m,
+        weight_curve=None if opts.weight_curve is None else np.array(opts.weight_curve),
+        options=opts,
+        trimmed=built.clock.trimmed,
+        joint_limits=built.limits,
+        contact_warp=None if choice is None else choice.summary(),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Built:
+    """A blend built on one set of warps (stages 3 to 9) and what its stages did."""
+
+    motion: Motion
+    clock: Clock
+    anchored: AnchoredBody
+    contacts: BlendContacts
+    looped: BlendLoop | None
+    before: Motion | None
+    limits: LimitStage | None
+    notes: tuple[Note, ...]
+
+    @property
+    def planted_feet(self) -> FootQuality | None:
+        """The final motion measured like its inputs, when the contacts stage measured it: the
+        clean-up's motion, unchanged since (no loop closed, no joint limit moved)."""
+        c = self.contacts
+        if c.applied and self.motion is c.cleanup.motion:
+            return c.result_feet
+        return None
+
+
+def _build(
+    inputs: BlendInputs, warps: Warps, opts: BlendOptions, inputs_feet: Sequence[FootQuality] = ()
+) -> _Built:
+    """Stages 3 to 9 on the given warps (the contact-guided warp's rule may run them twice;
+    the second time with the inputs' feet the first measured, ``inputs_feet``)."""
     clock = output_clock(inputs, warps, opts)
     anchored = anchor_blend(blend_curves(inputs, warps, clock, opts), inputs, clock, opts)
     blend = assemble_motion(anchored.body, inputs, clock, opts, warps.options.method)
-    notes = [*inputs.notes, *warps.notes, *clock.notes, *anchored.notes]
+    notes = [*warps.notes, *clock.notes, *anchored.notes]
     looped = close_cycle(blend, inputs.cycles) if opts.loop else None
     if looped is not None:
         blend = looped.motion
         notes += looped.notes
-    contacts = blend_contacts(blend, inputs, warps, clock, opts)
+    contacts = blend_contacts(blend, inputs, warps, clock, opts, inputs_feet)
     notes += contacts.notes
     before = None
     if contacts.applied:
@@ -263,57 +354,62 @@ def blend_motions(
             blend = looped.motion
             notes += looped.notes
     blend, limits = limit_blend(blend, inputs, clock, opts, notes)
-    metrics = None
-    if opts.metrics:
-        report("metrics", 3, stages)
-        metrics = _metrics(blend, inputs, opts, contacts, looped is not None, warps)
-    report("done", stages, stages)
-    return BlendResult(
-        motion=blend,
-        method=opts.method,
-        warp=warps.options.method,
-        weights=inputs.weights,
-        warps=warps.vertices,
-        landmarks=warps.pairs,
-        timing=clock.u,
-        prepared=inputs.prepared,
-        warp_options=warps.options,
-        metrics=metrics,
-        notes=tuple(notes),
-        cleanup=contacts.cleanup,
-        before_cleanup=before,
-        cycles=inputs.cycles,
-        loop=None if looped is None else looped.loop,
-        landmark_pairing=None if warps.pairing is None else warps.pairing.summary(),
-        pose_anchor_deg=anchored.pose_deg,
-        height_anchor_m=anchored.height_m,
-        weight_curve=None if opts.weight_curve is None else np.array(opts.weight_curve),
-        options=opts,
-        trimmed=clock.trimmed,
-        joint_limits=limits,
-    )
+    return _Built(blend, clock, anchored, contacts, looped, before, limits, tuple(notes))
+
+
+class _Feet:
+    """The feet of the inputs and of built blends, measured like the inputs
+    (:func:`~elastic_motion.apps.metrics.floor.foot_quality`, the blend's contact options),
+    each once: what a contacts stage measured is taken, not measured again."""
+
+    def __init__(self, inputs: BlendInputs, opts: BlendOptions) -> None:
+        self._inputs = inputs
+        self._options = opts.contact_options
+        self._own: tuple[FootQuality, ...] = ()
+        self._seen: list[tuple[Motion, FootQuality]] = []  # the motions themselves: no reused id
+
+    def inputs(self, built: _Built) -> tuple[FootQuality, ...]:
+        if built.contacts.inputs_feet:
+            return built.contacts.inputs_feet
+        if not self._own:
+            self._own = tuple(foot_quality(m, self._options) for m in self._inputs.prepared.motions)
+        return self._own
+
+    def blend(self, built: _Built) -> FootQuality:
+        q = self.known(built)
+        if q is None:
+            q = foot_quality(built.motion, self._options)
+            self._seen.append((built.motion, q))
+        return q
+
+    def known(self, built: _Built) -> FootQuality | None:
+        """The final motion of ``built`` measured already (by its contacts stage or here)."""
+        if built.planted_feet is not None:
+            return built.planted_feet
+        return next((q for m, q in self._seen if m is built.motion), None)
 
 
 def _metrics(
-    blend: Motion,
+    built: _Built,
     inputs: BlendInputs,
     opts: BlendOptions,
-    contacts: BlendContacts,
-    looped: bool,
-    warps: Warps,
+    plain: Warps,
+    feet: tuple[Sequence[FootQuality], FootQuality | None],
 ) -> BlendMetrics:
-    """Stage 9: the metrics, with the feet the contacts stage measured (the inputs', and the
-    cleaned blend's unless a loop was closed since): no motion is measured twice. The warp
-    stage's curves and distance of A and B too, when they are the metrics' own."""
-    feet = contacts.result_feet if contacts.applied and not looped else None
+    """Stage 11: the metrics, with the feet measured already (the inputs' and the final
+    blend's, by the contacts stage or by the contact-guided warp's rule, ``feet``): no motion
+    is measured twice. The warp stage's curves and distance of A and B too, when they are the
+    metrics' own (the ``plain`` warp, solved without landmarks, whichever warp the blend
+    kept)."""
+    warps = plain
     reuse = _metric_warp(warps, opts)
     return blend_metrics(
-        blend,
+        built.motion,
         inputs.prepared,
         inputs.weights,
         opts.contact_options,
-        feet_inputs=contacts.inputs_feet,
-        feet=feet,
+        feet_inputs=feet[0] or built.contacts.inputs_feet,
+        feet=feet[1] or built.planted_feet,
         inputs_known=KnownDistances(warps.srvs, np.array([[0.0, warps.distance], [warps.distance, 0.0]]))
         if reuse
         else None,

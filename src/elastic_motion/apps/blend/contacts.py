@@ -108,16 +108,23 @@ class BlendContacts:
 
 
 def blend_contacts(
-    result: Motion, inputs: BlendInputs, warps: Warps, clock: Clock, options: BlendOptions
+    result: Motion,
+    inputs: BlendInputs,
+    warps: Warps,
+    clock: Clock,
+    options: BlendOptions,
+    inputs_feet: Sequence[FootQuality] = (),
 ) -> BlendContacts:
     """Stage 8 (module docstring): the contact plan of the blend, planted (``"keep"``) or
-    measured against (``"report"``)."""
+    measured against (``"report"``). ``inputs_feet``: the prepared inputs measured already
+    (:func:`~elastic_motion.apps.metrics.floor.foot_quality`, ``options.contact_options``: a
+    second build of the blend on another warp), not measured again."""
     if options.contacts == "off":
         return BlendContacts(None, ())
     w, prep = clock.weights, inputs.prepared
     if w.ndim == 1 and np.isclose(w, 1.0).any():
         return _skipped("clean-up: skipped, the result is one of the inputs (a weight of 1)")
-    measured = [foot_quality(m, options.contact_options) for m in prep.motions]
+    measured = list(inputs_feet) or [foot_quality(m, options.contact_options) for m in prep.motions]
     found = [q.contacts for q in measured]
     notes = [
         Note(NOTE_CLEANUP, f"clean-up: contacts of {label}: {n}", n.data)

@@ -91,6 +91,11 @@ class BlendResult:
         What the limits stage did (``joint_limits`` option): the result's limits before and
         after, the inputs' own violations, which dofs and frames changed and by how much;
         None without limits (``"off"``, inputs not read from an ASF file).
+    contact_warp : dict or None
+        What ``contact_warp="auto"`` decided
+        (:meth:`~elastic_motion.apps.blend.contact_warp.ContactWarpChoice.summary`): which
+        warp was kept, the skid counts and slid distances of the blend on each and of the
+        inputs, the distances under each warp; None when the rule did not run.
     """
 
     motion: Motion
@@ -115,6 +120,7 @@ class BlendResult:
     options: BlendOptions = field(default_factory=BlendOptions)
     trimmed: tuple[int, int] = (0, 0)
     joint_limits: LimitStage | None = None
+    contact_warp: dict | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready fields of a report (``docs/cli.md``)."""
@@ -142,4 +148,5 @@ class BlendResult:
             "height_anchor_m": self.height_anchor_m,
             "trimmed_frames": list(self.trimmed),
             "joint_limits": None if self.joint_limits is None else self.joint_limits.summary(),
+            "contact_warp": self.contact_warp,
         }

@@ -22,9 +22,18 @@ from elastic_motion.apps.blend_options import BlendOptions
 from elastic_motion.curves import DiscreteCurve, SRVFunction, srv_transform
 from elastic_motion.errors import OptionError
 from elastic_motion.notes import Note
+from elastic_motion.vocabulary import GAIT_KINDS
 from elastic_motion.warp import WarpOptions
 
-__all__ = ["IDENTITY_WARP", "NOTE_LANDMARKS", "NOTE_WARP", "Warps", "find_warps", "pairing_notes"]
+__all__ = [
+    "IDENTITY_WARP",
+    "NOTE_LANDMARKS",
+    "NOTE_WARP",
+    "Warps",
+    "contact_guided_warp",
+    "find_warps",
+    "pairing_notes",
+]
 
 #: The identity warp's vertices ``(2, 2)``; the curve blend skips the warping of an input whose
 #: warp is this very array (``is``).
@@ -100,18 +109,43 @@ def find_warps(
 
 def pairwise_warp(coarse: Sequence[DiscreteCurve], inputs: BlendInputs, options: BlendOptions) -> Warps:
     """The warp of B onto A on their coarse curves, meeting the planned landmarks."""
+    return _solve_pair(
+        (srv_transform(coarse[0]), srv_transform(coarse[1])),
+        inputs,
+        inputs.landmarks,
+        options.landmark_kinds,
+        options.max_pairs,
+    )
+
+
+def contact_guided_warp(inputs: BlendInputs, plain: Warps) -> Warps:
+    """The contact-guided warp of B onto A: the heel strikes and toe-offs of both feet
+    (:data:`~elastic_motion.vocabulary.GAIT_KINDS`, from the one contact detector) paired by
+    phase and met as ``landmarks="auto"`` meets them, with the ``plain`` warp (solved without
+    landmarks on the same curves, :func:`pairwise_warp`) as the pairing's prior: no curve is
+    sampled and no warp solved twice."""
+    return _solve_pair(plain.srvs, inputs, "auto", GAIT_KINDS, None, prior=plain.vertices[1])
+
+
+def _solve_pair(
+    srvs: Sequence[SRVFunction],
+    inputs: BlendInputs,
+    landmarks: Any,
+    kinds: Sequence[str] | None,
+    max_pairs: int | None,
+    prior: np.ndarray | None = None,
+) -> Warps:
     prep = inputs.prepared
     ms, durations = prep.motions, inputs.durations
-    sa, sb = srv_transform(coarse[0]), srv_transform(coarse[1])
+    sa, sb = srvs
     plan = plan_landmarks(
-        inputs.landmarks,
+        landmarks,
         ms[0],
         ms[1],
-        sa,
-        sb,
+        (sa, sb) if prior is None else prior,
         inputs.warp,
-        kinds=options.landmark_kinds,
-        max_pairs=options.max_pairs,
+        kinds=kinds,
+        max_pairs=max_pairs,
     )
     pairs, opts = plan.pairs, plan.options
     notes = list(plan.notes)
