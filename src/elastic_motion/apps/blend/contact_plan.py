@@ -627,8 +627,9 @@ def on_own_floor(plan: ContactPlan, own_floor: np.ndarray, below: float) -> Cont
     higher than the blended floor (3.6 cm on 131_01 x 131_02): a half dip went 1.45 cm under
     it. Unchanged where the two floors agree (a blend of a motion with itself). (The swings'
     least heights stay on the plan's floor: raised by the difference too, they did not clear
-    the swings measured low on 131_01 x 131_02, which the plan does not see as swings, and the
-    Euler blend's clean-up turned a joint 45 deg instead of 32.)"""
+    the swings measured low on 131_01 x 131_02, which the plan then planted (a stance of one
+    input alone, now swung: module docstring, "Output interval"), and the Euler blend's
+    clean-up turned a joint 45 deg instead of 32.)"""
     floor = plan.floor_heights()
     lift = np.maximum(np.asarray(own_floor, dtype=np.float64) - floor, 0.0)
     c = plan.contacts
