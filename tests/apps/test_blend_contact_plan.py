@@ -13,6 +13,7 @@ import elastic_motion as em
 from elastic_motion.apps.blend.contact_plan import (
     ContactPlan,
     PlannedInterval,
+    _planned,
     _rigid_feet,
     carried_interval,
     match_intervals,
@@ -54,6 +55,25 @@ def test_held_ends_cut_where_an_input_is_held_still():
     assert held_ends([a, a], fps) == (0, 0)
     # the rate of a walk of another rhythm (half or twice) is not held
     assert held_ends([a, 0.5 * a], fps) == (0, 0) and HELD_RATE < 0.5
+
+
+def test_a_stance_of_inputs_that_do_not_carry_the_blend_swings():
+    """A stands at frames 20-40 where B swings (one long step against two): at 50 % the foot
+    swings there (a lone stance planted at half its length left the foot of CMU 131_01 x
+    131_02 no time to reach its next plant); where A carries the blend (70 %) it is planted
+    for 70 % of its length about its centre; the matched stances are planted at any weight."""
+    runs = [[(0, 10), (20, 40), (60, 70)], [(0, 10), (60, 70)]]
+    n = 70
+    for wa, lone in ((0.5, []), (0.3, []), (0.7, [(23, 37)])):
+        planned = _planned(runs, np.tile([wa, 1.0 - wa], (n, 1)), 3, 2, n)
+        assert [(p.start, p.stop) for p in planned] == [(0, 10), *lone, (60, 70)]
+    # three inputs: a stance of two of them that weigh more than half is planted (each is a
+    # group of its own, unmatched by the reference), of less than half is not
+    runs3 = [[(0, 10), (20, 40)], [(0, 10), (20, 40)], [(0, 10)]]
+    planned = _planned(runs3, np.tile([0.3, 0.3, 0.4], (n, 1)), 3, 2, n)
+    assert len(planned) == 2 and planned[1].start <= 30 < planned[1].stop
+    planned = _planned(runs3, np.tile([0.2, 0.2, 0.6], (n, 1)), 3, 2, n)
+    assert [(p.start, p.stop) for p in planned] == [(0, 10)]
 
 
 @pytest.fixture(scope="module")
@@ -232,10 +252,19 @@ def test_a_plan_measured_from_a_higher_own_floor_keeps_points_near_it():
 
 
 @pytest.mark.mocap
-def test_a_start_walk_stop_blend_goes_no_deeper_than_a_centimetre_under_its_own_floor(mocap):
+def test_a_start_walk_stop_blend_stands_on_its_floor_and_swings_clear_of_it(mocap):
     """CMU 131_01 x 131_02 measured on itself: each input's floor is set by one stance where the
     left toe's tip dips 4-5 cm under the rest; the blend meets each dip at half depth, its own
-    floor stood 3.6 cm above the blended one, and a half dip went 1.45 cm under it."""
+    floor stood 3.6 cm above the blended one, and a half dip went 1.45 cm under it. And 131_02's
+    right toe alone, planted at half its stance's length, stood above the height that starts a
+    contact and left no time to reach the next plant: the blend's own contacts saw a swing
+    passing 5.2 cm over the floor, 0.62 of the lesser input's clearance (the plan now swings it:
+    module docstring of :mod:`~elastic_motion.apps.blend.contact_plan`, "Output interval")."""
     a, b = (read_motion(mocap / f"cmu/bvh/131_0{i}.bvh") for i in (1, 2))
     res = em.blend([a, b], 0.5)
-    assert foot_quality(res.motion).below_floor_m <= 0.01
+    out = foot_quality(res.motion)
+    assert out.below_floor_m <= 0.01
+    inputs = [foot_quality(m) for m in res.prepared.motions]
+    for name, v in out.swing_clearance_m.items():
+        lesser = np.nanmin([q.swing_clearance_m[name] for q in inputs])
+        assert v >= 0.8 * lesser, name

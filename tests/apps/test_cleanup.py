@@ -496,10 +496,12 @@ def test_a_foot_the_blend_holds_high_is_not_pulled_down(mocap_dir):
     """CMU 131_01's rise from a crouch blended with 131_02's walk by the Euler baseline: the
     blend holds its right foot 36 cm up where the plan plants it (its hip posed wrong). Pulled
     down to the inputs' heights it folded the knees by 60-90 deg and sank the root; the plan
-    keeps a foot held that high at its own heights, locked in the floor plane only."""
+    keeps a foot held that high at its own heights, locked in the floor plane only. (The stance
+    is 131_02's alone: at 50 % it swings, :mod:`~elastic_motion.apps.blend.contact_plan`
+    "Output interval"; at 60 % 131_02 carries the blend and it is planted.)"""
     a = trim(read_motion(mocap_dir / "cmu/bvh/131_01.bvh"), 3.3, 6.2)
     b = trim(read_motion(mocap_dir / "cmu/bvh/131_02.bvh"), 7.0, 9.9)
-    res = blend_motions([a, b], 0.5, method="euler-elastic", warp="dp")
+    res = blend_motions([a, b], [0.4, 0.6], method="euler-elastic", warp="dp")
     before, after = res.before_cleanup, res.motion
     j = after.skeleton.index("RightAnkle")
     assert res.cleanup.contacts.mask[40, res.cleanup.contacts.joints.index("RightAnkle")]

@@ -18,9 +18,20 @@ Conventions
   input steps where this one stands: the split is a swing of length zero), then intervals are
   paired by their overlap, most first. An interval left alone is matched by a zero-length
   interval of the other input at its centre: at weight ``w`` it lasts ``w`` of its length
-  (blended with a step, a stance of one input becomes a shorter stance, not a slide).
+  (blended with a step, a stance of the input that carries the blend becomes a shorter
+  stance, not a slide).
 * **Output interval** of a matched group: ``[sum_k w_k s_k, sum_k w_k e_k)``, rounded to frames;
-  kept when at least ``min_duration`` long; overlapping ones merge.
+  kept when at least ``min_duration`` long and when the inputs planted in it, or at its
+  centre, weigh more than :data:`MAJORITY` (a half) there; overlapping ones merge. A stance
+  of inputs that weigh half or less, where the others swing, is a swing of the blend, at the
+  blended heights of their swings and its stance ("Swing heights"). Planted at half its
+  length, a lone stance left the foot of a 50 % blend no time to reach its next plant (CMU
+  131_01 x 131_02: 131_02's right toe alone, planted over output frames 663-695; the heel's
+  plant of both inputs from 696, 10 cm further on). At 131_02's own heights (1.4-5.2 cm over
+  its ground height, held only by the detector's hysteresis) the toe never came within the
+  3 cm that starts a contact: the blend's own contacts saw a swing of frames 625-697 passing
+  5.2 cm over the floor, 0.62 of the lesser input's clearance; brought down to the floor (tried),
+  it dragged 1.5 cm over it at 1 m/s into the heel's plant (0.64). Swung: 0.86.
 * **Plant targets** of a planted joint: the blend's own mean position over the interval plus
   the weighted motion of the inputs' joints about their own means there (what they did while
   planted: a heel rolling, a few millimetres of capture jitter; zero for a perfectly planted
@@ -78,6 +89,10 @@ RIGID_TURN = 20.0
 #: most of its interval is a leg posed wrong above it, and is not pulled down (module docstring,
 #: "Plant targets"); a foot hovering lower is.
 MAX_PULL = 0.05
+#: A matched group is planted only when the inputs planted in it weigh more than this at its
+#: centre (module docstring, "Output interval"): at 50 % a stance of one input alone swings,
+#: at 60 % it is planted for 60 % of its length. A group of every input always is.
+MAJORITY = 0.5
 
 
 @dataclass(frozen=True)
@@ -357,6 +372,14 @@ def _planned(
         centre = int(np.clip(np.mean([0.5 * (m[0] + m[1]) for m in g if m is not None]), 0, n - 1))
         w = wf[centre, active]
         w = w / w.sum() if w.sum() > 0 else w
+        # the inputs planted in the group, or at its centre (with more than two inputs the
+        # stances of two that the reference lacks are groups of their own)
+        members_w = sum(wi for wi, m in zip(w, g, strict=True) if m is not None)
+        centre_w = sum(
+            wi for wi, k in zip(w, active, strict=True) if any(a <= centre < b for a, b in runs[k])
+        )
+        if max(members_w, centre_w) <= MAJORITY:
+            continue  # a stance of inputs that do not carry the blend: it swings (module docstring)
         s, e = _group_interval(g, w)
         start, stop = max(0, round(s)), min(n, round(e))
         if stop - start < min_len:
@@ -604,8 +627,9 @@ def on_own_floor(plan: ContactPlan, own_floor: np.ndarray, below: float) -> Cont
     higher than the blended floor (3.6 cm on 131_01 x 131_02): a half dip went 1.45 cm under
     it. Unchanged where the two floors agree (a blend of a motion with itself). (The swings'
     least heights stay on the plan's floor: raised by the difference too, they did not clear
-    the swings measured low on 131_01 x 131_02, which the plan does not see as swings, and the
-    Euler blend's clean-up turned a joint 45 deg instead of 32.)"""
+    the swings measured low on 131_01 x 131_02, which the plan then planted (a stance of one
+    input alone, now swung: module docstring, "Output interval"), and the Euler blend's
+    clean-up turned a joint 45 deg instead of 32.)"""
     floor = plan.floor_heights()
     lift = np.maximum(np.asarray(own_floor, dtype=np.float64) - floor, 0.0)
     c = plan.contacts
