@@ -9,6 +9,8 @@ where the sine crosses 0 upwards: at ``t = k / f`` for ``k >= 1`` when ``phase =
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from elastic_motion.motion import Motion, Skeleton
@@ -89,3 +91,21 @@ def walker(
     pos[:, 2] = speed * t
     pos = pos @ axis_rotation(np.array(yaw), "Y").T
     return Motion(sk, fps, pos, rot, metres_per_unit=1.0, name=name)
+
+
+def count_foot_quality(monkeypatch: Any, *modules: Any) -> list:
+    """Counts the calls of ``foot_quality`` made through each of ``modules`` (their name bound
+    to the metrics' function): returns the list of motions measured, in order (the objects
+    themselves: an id of a freed motion may be reused)."""
+    import elastic_motion.apps.metrics.blend as metrics_module
+
+    measured: list = []
+    real = metrics_module.foot_quality
+
+    def counted(motion, *args, **kwargs):
+        measured.append(motion)
+        return real(motion, *args, **kwargs)
+
+    for module in modules:
+        monkeypatch.setattr(module, "foot_quality", counted)
+    return measured

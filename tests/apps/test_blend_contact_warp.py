@@ -13,6 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from blend_testlib import count_foot_quality
 
 import elastic_motion.apps.blend as blend_package
 import elastic_motion.apps.blend.contact_warp as contact_warp_module
@@ -262,15 +263,7 @@ def test_the_rules_measures_are_the_metrics(pair, monkeypatch):
     blend itself; the metrics take those measures: no motion is measured twice."""
     import elastic_motion.apps.metrics.blend as metrics_module
 
-    measured = []
-    real = metrics_module.foot_quality
-
-    def counted(motion, *args, **kwargs):
-        measured.append(motion)  # the object itself: an id of a freed motion may be reused
-        return real(motion, *args, **kwargs)
-
-    monkeypatch.setattr(blend_package, "foot_quality", counted)
-    monkeypatch.setattr(metrics_module, "foot_quality", counted)
+    measured = count_foot_quality(monkeypatch, blend_package, metrics_module)
     res = blend_motions(pair, 0.5, contacts="off", metrics=True)
     assert res.contact_warp is not None and res.cleanup is None
     assert len(measured) == len({id(m) for m in measured}) >= 3  # A, B, the blend (and a guided one)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from blend_testlib import count_foot_quality
 
 import elastic_motion.apps.prepare as prepare_module
 from elastic_motion.apps.align import motion_curves
@@ -100,15 +101,7 @@ def test_no_motion_is_measured_twice(mocap_dir: Path, monkeypatch):
     import elastic_motion.apps.blend.contacts as contacts_stage
     import elastic_motion.apps.metrics.blend as metrics_module
 
-    measured = []
-    real = metrics_module.foot_quality
-
-    def counted(motion, *args, **kwargs):
-        measured.append(motion)  # the object itself: an id of a freed motion may be reused
-        return real(motion, *args, **kwargs)
-
-    monkeypatch.setattr(contacts_stage, "foot_quality", counted)
-    monkeypatch.setattr(metrics_module, "foot_quality", counted)
+    measured = count_foot_quality(monkeypatch, contacts_stage, metrics_module)
     bvh = mocap_dir / "cmu" / "bvh"
     prep = prepare_motions([bvh / "07_01.bvh", bvh / "08_02.bvh"], PrepareOptions(trim=(0.0, 1.2)))
     res = blend_motions(prep, metrics=True)

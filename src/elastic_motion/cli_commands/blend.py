@@ -137,12 +137,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _add_contact_options(p: argparse.ArgumentParser) -> None:
     """``--contacts`` (the clean-up) and ``--contact-warp`` (the contact-guided warp)."""
-    p.add_argument(
-        "--contacts",
-        type=contacts_flag,
-        choices=choices(ContactPolicy),
-        default="keep",
-        help="the inputs' foot contacts, carried through the warp: keep (default) enforces them by leg "
+    add_contacts_option(
+        p,
+        "the inputs' foot contacts, carried through the warp: keep (default) enforces them by leg "
         "IK (the foot-skate clean-up, bone lengths kept) when contacts are found; report only measures "
         "the blend's skating against them; off skips both (auto, the old name of keep, is still "
         "accepted)",
@@ -165,6 +162,15 @@ _LIMITS_KEPT = (
     "the blend's last stage moves every DOF angle the inputs respect at the matched times into its "
     "range, eased over 0.15 s (the report says which joints and frames changed, by how much)"
 )
+
+
+def add_contacts_option(p: argparse.ArgumentParser, help_text: str) -> None:
+    """``--contacts``: the contact policy of a command that blends (``blend``, ``blendspace``),
+    old names accepted (:func:`contacts_flag`), default ``keep``; ``help_text`` says what it does
+    there."""
+    p.add_argument(
+        "--contacts", type=contacts_flag, choices=choices(ContactPolicy), default="keep", help=help_text
+    )
 
 
 def contacts_flag(value: str) -> str:

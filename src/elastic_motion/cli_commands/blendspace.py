@@ -19,8 +19,8 @@ from elastic_motion.cli_commands._common import (
     fmt_float,
     run_guarded,
 )
-from elastic_motion.cli_commands.blend import contacts_flag
-from elastic_motion.vocabulary import OUTPUT_MOTION_EXTENSIONS, ContactPolicy, Method
+from elastic_motion.cli_commands.blend import add_contacts_option
+from elastic_motion.vocabulary import OUTPUT_MOTION_EXTENSIONS, Method
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -66,12 +66,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--method", choices=choices(Method), default="lie", help="curves of the blend (default: lie)"
     )
-    p.add_argument(
-        "--contacts",
-        type=contacts_flag,
-        choices=choices(ContactPolicy),
-        default="keep",
-        help="the blend's foot contacts (as `blend --contacts`: keep plants them, report measures, off "
+    add_contacts_option(
+        p,
+        "the blend's foot contacts (as `blend --contacts`: keep plants them, report measures, off "
         "skips; auto is still accepted for keep; default: keep)",
     )
     p.add_argument(

@@ -38,7 +38,13 @@ from elastic_motion.apps.loop.kept_contacts import (
     KeptContacts,
     close_keeping_contacts,
 )
-from elastic_motion.apps.loop.limits import LIMIT_STEP, LoopLimits, measured_on_frames, solve_within_limits
+from elastic_motion.apps.loop.limits import (
+    LIMIT_STEP,
+    LoopLimits,
+    PinSchedule,
+    measured_on_frames,
+    solve_within_limits,
+)
 from elastic_motion.apps.loop.options import LoopOptions
 from elastic_motion.apps.progress import Progress
 from elastic_motion.closing import (
@@ -308,10 +314,6 @@ class ClipCloser:
         if limits is not None:
 
             def within(on_grid: GridClip, solved: GridSolve) -> tuple[ClosingResult, LoopLimits]:
-                # the contacts' rows are rows of every round; a grid solve that was closed
-                # exactly from where it stalled (contacts and closure a hair apart) is polished
-                # the same way, without them (the IK plants the contacts after)
-                rows = None if solved.polished else solved.constraints
                 grid = on_grid.frames
                 lift = (
                     None
@@ -320,7 +322,7 @@ class ClipCloser:
                 )
                 return _within_limits(
                     project, on_grid.curve, base, limits, solved.result, self.options.limit_tol,
-                    base=solved.constraints, polish_rows=rows, lift=lift,
+                    grid=solved, lift=lift,
                 )  # fmt: skip
 
         closing = close_keeping_contacts(
@@ -357,25 +359,34 @@ def _within_limits(
     first: ClosingResult,
     tol_deg: float,
     *,
-    base: ExtraConstraints | None = None,
-    polish_rows: ExtraConstraints | None = None,
+    grid: GridSolve | None = None,
     lift: GridLift | None = None,
 ) -> tuple[ClosingResult, LoopLimits]:
     """:func:`solve_within_limits` of ``clip`` (its Lie curve ``lie``, or with ``lift`` the
-    Lie curve of a grid of its frames; closed to ``first`` with the rows ``base``), pins
+    Lie curve of a grid of its frames; closed to ``first``, with ``grid`` the contacts' solve
+    on that grid: its rows are rows of every round, and polish a stalled round unless that
+    solve was itself closed exactly without them, the IK planting the contacts after), pins
     every :data:`LIMIT_STEP` seconds, each round's solve (:func:`_limits_solve`)
     warm-started from ``first``, the loop without limit rows. One BLAS thread: the Gram matrices
     of the rows are a few hundred to a few thousand (issue 33: a 1000-row Cholesky took 0.7 s
     with two threads on a busy machine, the contacts' own solve 0.3 s per iteration with one)."""
     cap = LIMIT_ITERATIONS * max(first.iterations, 1) + 4
     step = max(1, round(LIMIT_STEP * clip.fps))
+    base = None if grid is None else grid.constraints
+    polish_rows = None if grid is None or grid.polished else grid.constraints
 
     def solve(extra: ExtraConstraints | None, start: ClosingResult | None) -> ClosingResult:
         return _limits_solve(project, lie, extra, polish_rows, cap, start)
 
     with single_threaded_blas():
         return solve_within_limits(
-            solve, clip, limits, base=base, first=first, step=step, tol_deg=tol_deg, lift=lift
+            solve,
+            clip,
+            limits,
+            base=base,
+            first=first,
+            schedule=PinSchedule(step=step, tol_deg=tol_deg),
+            lift=lift,
         )
 
 

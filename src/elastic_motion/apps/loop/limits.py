@@ -365,6 +365,26 @@ def _pick(beyond: np.ndarray, excess: np.ndarray, step: int) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class PinSchedule:
+    """How :func:`solve_within_limits` pins.
+
+    Attributes
+    ----------
+    rounds : int, default 6
+        Solves with limit rows at most. A solve that does not converge (pins too dense:
+        a DOF held still makes the SRV singular) is retried with twice the ``step``.
+    step : int, default 1
+        Frames between the pinned frames of a run (1: every frame beyond the limit).
+    tol_deg : float, default 0.01
+        Beyond a limit means by more than this, degrees.
+    """
+
+    rounds: int = 6
+    step: int = 1
+    tol_deg: float = 0.01
+
+
 def solve_within_limits(
     solve: Callable[[ExtraConstraints | None, ClosingResult], ClosingResult],
     clip: Motion,
@@ -372,9 +392,7 @@ def solve_within_limits(
     *,
     base: ExtraConstraints | None = None,
     first: ClosingResult | None = None,
-    rounds: int = 6,
-    step: int = 1,
-    tol_deg: float = 0.01,
+    schedule: PinSchedule | None = None,
     lift: GridLift | None = None,
 ) -> tuple[ClosingResult, LoopLimits]:
     """The active-set loop of the module docstring.
@@ -393,13 +411,8 @@ def solve_within_limits(
         Rows solved with every round (the contacts).
     first : ClosingResult, optional
         The solve without limit rows, when already done (else ``solve(base, None)``).
-    rounds : int, default 6
-        Solves with limit rows at most. A solve that does not converge (pins too dense:
-        a DOF held still makes the SRV singular) is retried with twice the ``step``.
-    step : int, default 1
-        Frames between the pinned frames of a run (1: every frame beyond the limit).
-    tol_deg : float, default 0.01
-        Beyond a limit means by more than this, degrees.
+    schedule : PinSchedule, optional
+        Rounds, pin spacing and tolerance (default ``PinSchedule()``).
     lift : GridLift, optional
         The solves close a grid of the clip's frames (the contacts' grid): the limits are
         checked, and pinned, on every frame of the clip with the grid's correction lifted
@@ -413,6 +426,8 @@ def solve_within_limits(
     """
     original, names = clip.rotations, clip.skeleton.names
     n_joints = clip.n_joints
+    sched = schedule if schedule is not None else PinSchedule()
+    rounds, tol_deg = sched.rounds, sched.tol_deg
 
     def rotations_of(res: ClosingResult) -> np.ndarray:
         rot = lie_rotations(res, n_joints)
@@ -430,7 +445,7 @@ def solve_within_limits(
     pinned = np.zeros_like(ok_before)
     target = np.zeros(ok_before.shape)
     done, message = 0, ""
-    stride = max(int(step), 1)
+    stride = max(int(sched.step), 1)
     n_frames = ok_before.shape[0]
     while True:
         beyond = _new_beyond(after, ok_before) & ~pinned
@@ -458,21 +473,31 @@ def solve_within_limits(
             break
         res, pinned = cand, trial
         after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
-    new_v = _new_beyond(after, ok_before)
-    new_names = _new_labels(limits, new_v)
+    return res, _kept_report(limits, before, after, ok_before, pinned, done, message)
+
+
+def _kept_report(
+    limits: JointLimits,
+    before: JointLimitReport,
+    after: JointLimitReport,
+    ok_before: np.ndarray,
+    pinned: np.ndarray,
+    rounds: int,
+    message: str,
+) -> LoopLimits:
+    """The report of :func:`solve_within_limits`: ``pinned`` (frames, DOFs) the pins of the
+    loop kept, ``ok_before`` where the clip respected its limits."""
     labels = limits.dof_labels()
-    pinned_joints = tuple(sorted({labels[d][0] for d in np.flatnonzero(pinned.any(axis=0))}))
-    info = LoopLimits(
+    return LoopLimits(
         mode="keep",
         before=before,
         after=after,
-        rounds=done,
+        rounds=rounds,
         pinned=int(pinned.sum()),
-        pinned_joints=pinned_joints,
-        new_violations=new_names,
+        pinned_joints=tuple(sorted({labels[d][0] for d in np.flatnonzero(pinned.any(axis=0))})),
+        new_violations=_new_labels(limits, _new_beyond(after, ok_before)),
         message=message,
     )
-    return res, info
 
 
 def measured_on_frames(
