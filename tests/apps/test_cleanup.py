@@ -508,3 +508,27 @@ def test_a_foot_the_blend_holds_high_is_not_pulled_down(mocap_dir):
     h0, h1 = forward_kinematics(before)[40, j, 1], forward_kinematics(after)[40, j, 1]
     assert h0 > 0.3 and abs(h1 - h0) < 0.02
     assert after.root_translation[40, 1] > before.root_translation[40, 1] - 0.05
+
+
+def test_a_swing_raise_is_eased_in_and_out_not_a_jump_at_the_release():
+    """Issue 29's distance row: a contact plan's least swing height begins where the plan
+    releases the foot; raised in one frame there, the knee snapped by tens of degrees (DeepMimic
+    walk x run: the clean-up's own move d(R, R0) 1.05 of d(A, B) / 2, 0.46 eased). The raise
+    keeps the least height and changes by at most a third of itself a frame."""
+    m = walker(duration=1.5)
+    names = ("LeftFoot", "RightFoot")
+    ankle = m.skeleton.names.index("LeftFoot")
+    mask = np.zeros((m.n_frames, 2), dtype=bool)
+    mask[8:20, 0] = True
+    c = _contacts(names, mask, floor=float(forward_kinematics(m, end_sites=True)[..., 1].min()) - 0.05)
+    planted = cleanup_footskate(m, c, smooth=0.0).motion
+    y0 = forward_kinematics(planted)[:, ankle, 1]
+    least = np.full(m.n_frames, np.nan)
+    least[20:30] = y0[20:30] + 0.05  # 5 cm above where the plant alone leaves the swinging ankle
+    res = cleanup_footskate(m, c, smooth=0.0, swing_heights={"LeftFoot": least})
+    y = forward_kinematics(res.motion)[:, ankle, 1]
+    assert (y[20:30] >= least[20:30] - 1e-6).all()
+    raise_ = y - y0
+    assert raise_.max() == pytest.approx(0.05, abs=1e-6)
+    assert np.abs(np.diff(raise_)).max() < 0.05 / 3
+    assert np.abs(raise_[:12]).max() < 1e-9  # eased within blend_time (0.15 s: 5 frames) only

@@ -22,7 +22,9 @@ In the spirit of Kovar, Schreiner and Gleicher (2002):
    raised to it. Where a point of the foot would go below the floor the ankle is raised, the
    raise eased in and out over the same ``blend_time``
    (:func:`elastic_motion.motion.edit.eased_envelope`: a raise of a single frame would jerk
-   the knee of a nearly straight leg by tens of degrees).
+   the knee of a nearly straight leg by tens of degrees); so is, by default, the raise that
+   keeps a swinging foot at its least height (``swing_heights``, a blend's contact plan;
+   ``ease_swing``).
 3. **IK** (:mod:`elastic_motion.motion.ik`): a smooth root offset brings every target
    within reach, two-bone leg IK moves the ankles to ``ankle + delta`` (the foot keeps its
    global orientation), and where ankle and toe are both planted the foot turns about the
@@ -664,6 +666,7 @@ def _planted_target(
     plants: Mapping[str, np.ndarray] | None,
     strength: float,
     swing_heights: Mapping[str, np.ndarray] | None = None,
+    ease_swing: bool = True,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """A planted leg's ankle targets ``(F, 3)`` (NaN: stays) and its foot's turn ``(F, 3, 3)``
     (None without toe contacts): module docstring, step 2; with ``swing_heights``, the ankle
@@ -691,8 +694,14 @@ def _planted_target(
     # no point of the foot below the floor: raise the ankle where the foot would go under
     # (eased in and out like the plants: a raise of one frame would jerk the knee)
     delta[:, up] += eased_envelope(np.maximum(feet.floor - feet.low(leg.ankle) - delta[:, up], 0.0), width)
-    if swing_heights:
+    if swing_heights and not ease_swing:
         delta[:, up] += _swing_raise(leg, feet, delta[:, up], swing_heights)
+    elif swing_heights:
+        # eased in and out too: the raise starts where the plan releases the foot, and a raise
+        # that jumps there snaps the knee by tens of degrees in one frame, the velocity change
+        # the elastic distance is made of (DeepMimic walk x run: the clean-up's own move
+        # d(R, R0) 1.05 -> 0.46 of d(A, B) / 2; benchmarks/cleanup_distance.py)
+        delta[:, up] += eased_envelope(_swing_raise(leg, feet, delta[:, up], swing_heights), width)
     # a target within _STILL leg lengths of the ankle is where it is: IK there would only
     # bend a straight knee by its reach margin (cm at the knee for nothing)
     length = np.median(
@@ -710,6 +719,7 @@ def plant_targets(
     options: CleanupOptions,
     plants: Mapping[str, np.ndarray] | None = None,
     swing_heights: Mapping[str, np.ndarray] | None = None,
+    ease_swing: bool = True,
 ) -> tuple[list[np.ndarray | None], list[np.ndarray | None], list[str]]:
     """Each leg's ankle targets ``(F, 3)`` (NaN where it stays; None: the leg is not moved)
     and foot turn ``(F, 3, 3)`` (None: none), and the ankle names of the legs moved (module
@@ -722,7 +732,7 @@ def plant_targets(
         ma, _ = feet.column(leg.ankle)
         mt, _ = feet.column(leg.toe)
         if ma.any() or mt.any():
-            target, turn = _planted_target(leg, feet, plants, options.strength, swing_heights)
+            target, turn = _planted_target(leg, feet, plants, options.strength, swing_heights, ease_swing)
         else:
             target, turn = _out_of_floor_target(leg, feet), None  # no contact: out of the floor only
         if target is not None:
@@ -805,6 +815,7 @@ def cleanup_footskate(
     plants: Mapping[str, np.ndarray] | None = None,
     fixed: Sequence[int] = (),
     swing_heights: Mapping[str, np.ndarray] | None = None,
+    ease_swing: bool = True,
     **overrides: Any,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
@@ -830,8 +841,12 @@ def cleanup_footskate(
         there, within a third of ``blend_time`` (:func:`elastic_motion.motion.edit.fade_change`).
     swing_heights : mapping of str to ndarray of shape (F,), optional
         Per ankle or toe joint, the least height (absolute, motion's unit; NaN where none) it
-        keeps while swinging: where it is lower, its leg's ankle is raised by IK (a blend's
-        contact plan, :mod:`elastic_motion.apps.blend.contact_plan`).
+        keeps while swinging: where it is lower, its leg's ankle is raised by IK, the raise
+        eased in and out over ``blend_time`` (a blend's contact plan,
+        :mod:`elastic_motion.apps.blend.contact_plan`).
+    ease_swing : bool
+        False: the swing raise only where the foot swings too low, not eased (it may jump where
+        the plan releases the foot; the clean-up before issue 29's distance row).
     **overrides
         Fields of :class:`CleanupOptions` changed from ``options`` (``smooth=0.0``, ...).
 
@@ -858,7 +873,7 @@ def cleanup_footskate(
         root = motion.root_translation.copy()
         root[:, _AXES.index(motion.up_axis)] += settled
         base = motion.replace(root_translation=root)
-    targets, turns, used = plant_targets(base, contacts, found, opts, plants, swing_heights)
+    targets, turns, used = plant_targets(base, contacts, found, opts, plants, swing_heights, ease_swing)
     other = _unenforced(contacts, motion.skeleton, found)
     if other:
         notes.append(

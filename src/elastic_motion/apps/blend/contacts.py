@@ -9,8 +9,9 @@ clean-up, :func:`elastic_motion.apps.cleanup.cleanup_footskate`; bone lengths ke
 locked where the plan plants them (moving as the inputs' planted feet do, no faster than the
 better input's), lifted where they swing lower than the inputs' clearance. The change is
 then smoothed in time by the largest of :data:`SMOOTHING` whose blend, **measured like its
-inputs**, skids no more than they do and skates at most :data:`SKATE_GOAL` times the lesser
-input: the least change of the blend's velocities (what the elastic distance measures) that
+inputs**, skids no more than they do, skates at most :data:`SKATE_GOAL` times the lesser
+input and puts no point more than :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW` under its
+own floor: the least change of the blend's velocities (what the elastic distance measures) that
 plants its feet as well as the inputs plant theirs; when no smoothing does, with steadier
 plants (:data:`STEADIER`). Where the planted blend's own floor stands above the plan's, it
 is planted again with nothing deeper under that floor than the inputs go under theirs
@@ -160,18 +161,39 @@ def plant_plan(
     (:func:`~elastic_motion.apps.blend.contact_plan.on_own_floor`): planted again, kept when it
     comes as near. With it, the planted blend measured like its inputs
     (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the plan planted
-    nothing)."""
+    nothing).
+
+    All of it first with the swing raise eased in and out (``ease_swing``: a raise that jumps
+    where the plan releases a foot snaps the knee, the velocity change the elastic distance is
+    made of); when that meets no goal, again with the raise as it is needed, the nearer kept."""
     legs, _ = find_legs(result)  # once, for every trial below
-    res, q, rank = _plant_trials(result, plan, inputs, contact_options, legs)
+    eased = _plant_on_floor(result, plan, inputs, contact_options, legs, True)
+    if eased[1] is None or not any(eased[2]):
+        return eased[0], eased[1]
+    plain = _plant_on_floor(result, plan, inputs, contact_options, legs, False)
+    return (plain[0], plain[1]) if plain[1] is not None and plain[2] < eased[2] else (eased[0], eased[1])
+
+
+def _plant_on_floor(
+    result: Motion,
+    plan: ContactPlan,
+    inputs: Sequence[FootQuality],
+    contact_options: ContactOptions,
+    legs: Sequence[LegChain],
+    ease_swing: bool,
+) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
+    """:func:`plant_plan` with the swing raise eased or not: the trials, then on the planted
+    blend's own floor where it stands above the plan's; with the rank of what it keeps."""
+    res, q, rank = _plant_trials(result, plan, inputs, contact_options, legs, ease_swing)
     if q is None:
-        return res, None
+        return res, None, rank
     lift = q.contacts.floor_heights() - plan.floor_heights()
     if lift.max() <= _SAME_FLOOR:
-        return res, q
+        return res, q, rank
     below = min(SETTLE_BELOW, *(i.below_floor_m for i in inputs))
     own = on_own_floor(plan, q.contacts.floor_heights(), below)
-    again = _plant_trials(result, own, inputs, contact_options, legs)
-    return (again[0], again[1]) if again[1] is not None and again[2] <= rank else (res, q)
+    again = _plant_trials(result, own, inputs, contact_options, legs, ease_swing)
+    return again if again[1] is not None and again[2] <= rank else (res, q, rank)
 
 
 #: Metres: floors that agree to this are one floor (:func:`plant_plan`; a blend of a motion
@@ -185,10 +207,12 @@ def _plant_trials(
     inputs: Sequence[FootQuality],
     contact_options: ContactOptions,
     legs: Sequence[LegChain],
+    ease_swing: bool = True,
 ) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
     """:func:`plant_plan`'s search over :data:`STEADIER` and :data:`SMOOTHING`: the first trial
     that meets the goal, else the nearest; with its rank (how far it misses the skids, the slid
-    distance and the skating: all 0 when it meets them)."""
+    distance, the skating and the depth under its own floor, at most
+    :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`: all 0 when it meets them)."""
     goal = SKATE_GOAL * min(q.skating.mean_speed for q in inputs if q.contacts.any)
     skids = max(q.skid_count for q in inputs)
     slid = max(q.slid_m for q in inputs)
@@ -198,7 +222,7 @@ def _plant_trials(
         for smooth in SMOOTHING:
             res = cleanup_footskate(
                 result, trial.contacts, PLANT, legs=legs, plants=trial.plants,
-                swing_heights=trial.swing_heights, smooth=smooth,
+                swing_heights=trial.swing_heights, smooth=smooth, ease_swing=ease_swing,
             )  # fmt: skip
             if not res.applied:
                 return res, None, ()
@@ -207,8 +231,11 @@ def _plant_trials(
                 max(q.skid_count - skids, 0),
                 max(q.slid_m - slid, 0.0),
                 max(q.skating.mean_speed - goal, 0.0),
+                # and no point deeper than SETTLE_BELOW under its own floor (issue 29): a smoothed
+                # change may take a foot down where the unsmoothed one kept it out
+                max(q.below_floor_m - SETTLE_BELOW, 0.0),
             )
-            if rank == (0, 0.0, 0.0):
+            if rank == (0, 0.0, 0.0, 0.0):
                 return res, q, rank
             if best is None or rank < best[0]:
                 best = (rank, res, q)
