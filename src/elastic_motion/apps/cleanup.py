@@ -142,6 +142,11 @@ class CleanupOptions:
         array (kept as a tuple): that offset per frame (motion's unit), e.g.
         :func:`settle_offset` computed once for several calls. Applied in full whatever
         ``strength`` (like the floor).
+    ease_swing : bool, default True
+        A swing's least height (``swing_heights`` of :func:`cleanup_footskate`) is reached by
+        a raise eased in and out over ``blend_time``; False: raised only where the foot swings
+        too low, not eased (it may jump where a plan releases the foot: the clean-up before
+        issue 29's distance row).
     """
 
     blend_time: float = 0.15
@@ -149,6 +154,7 @@ class CleanupOptions:
     strength: float = 1.0
     knee_hinge: bool = True
     settle: float | tuple[float, ...] = 0.0
+    ease_swing: bool = True
 
     def __post_init__(self) -> None:
         for name in ("blend_time", "smooth"):
@@ -719,7 +725,6 @@ def plant_targets(
     options: CleanupOptions,
     plants: Mapping[str, np.ndarray] | None = None,
     swing_heights: Mapping[str, np.ndarray] | None = None,
-    ease_swing: bool = True,
 ) -> tuple[list[np.ndarray | None], list[np.ndarray | None], list[str]]:
     """Each leg's ankle targets ``(F, 3)`` (NaN where it stays; None: the leg is not moved)
     and foot turn ``(F, 3, 3)`` (None: none), and the ankle names of the legs moved (module
@@ -732,7 +737,9 @@ def plant_targets(
         ma, _ = feet.column(leg.ankle)
         mt, _ = feet.column(leg.toe)
         if ma.any() or mt.any():
-            target, turn = _planted_target(leg, feet, plants, options.strength, swing_heights, ease_swing)
+            target, turn = _planted_target(
+                leg, feet, plants, options.strength, swing_heights, options.ease_swing
+            )
         else:
             target, turn = _out_of_floor_target(leg, feet), None  # no contact: out of the floor only
         if target is not None:
@@ -815,7 +822,6 @@ def cleanup_footskate(
     plants: Mapping[str, np.ndarray] | None = None,
     fixed: Sequence[int] = (),
     swing_heights: Mapping[str, np.ndarray] | None = None,
-    ease_swing: bool = True,
     **overrides: Any,
 ) -> CleanupResult:
     """Enforce contacts on a motion by leg IK and a root correction (module docstring).
@@ -842,11 +848,8 @@ def cleanup_footskate(
     swing_heights : mapping of str to ndarray of shape (F,), optional
         Per ankle or toe joint, the least height (absolute, motion's unit; NaN where none) it
         keeps while swinging: where it is lower, its leg's ankle is raised by IK, the raise
-        eased in and out over ``blend_time`` (a blend's contact plan,
-        :mod:`elastic_motion.apps.blend.contact_plan`).
-    ease_swing : bool
-        False: the swing raise only where the foot swings too low, not eased (it may jump where
-        the plan releases the foot; the clean-up before issue 29's distance row).
+        eased in and out over ``blend_time`` unless ``ease_swing`` is False (a blend's contact
+        plan, :mod:`elastic_motion.apps.blend.contact_plan`).
     **overrides
         Fields of :class:`CleanupOptions` changed from ``options`` (``smooth=0.0``, ...).
 
@@ -873,7 +876,7 @@ def cleanup_footskate(
         root = motion.root_translation.copy()
         root[:, _AXES.index(motion.up_axis)] += settled
         base = motion.replace(root_translation=root)
-    targets, turns, used = plant_targets(base, contacts, found, opts, plants, swing_heights, ease_swing)
+    targets, turns, used = plant_targets(base, contacts, found, opts, plants, swing_heights)
     other = _unenforced(contacts, motion.skeleton, found)
     if other:
         notes.append(
