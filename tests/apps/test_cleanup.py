@@ -343,6 +343,7 @@ def test_cleanup_options_overrides_and_validation():
         ("smooth", float("nan")),
         ("strength", -0.5),
         ("knee_hinge", "yes"),
+        ("ease_swing", "no"),
     ):
         with pytest.raises(ValueError, match=f"^{name}: expected"):
             CleanupOptions(**{name: bad})

@@ -165,8 +165,9 @@ class CleanupOptions:
                 raise OptionError(name, f"expected seconds >= 0; got {value!r}")
         if not (0.0 <= self.strength <= 1.0):
             raise OptionError("strength", f"expected a fraction in [0, 1]; got {self.strength!r}")
-        if not isinstance(self.knee_hinge, bool | np.bool_):
-            raise OptionError("knee_hinge", f"expected True or False; got {self.knee_hinge!r}")
+        for name in ("knee_hinge", "ease_swing"):
+            if not isinstance(getattr(self, name), bool | np.bool_):
+                raise OptionError(name, f"expected True or False; got {getattr(self, name)!r}")
         object.__setattr__(self, "settle", _settle_option(self.settle))
 
     def replace(self, **changes: Any) -> CleanupOptions:
