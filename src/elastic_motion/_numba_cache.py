@@ -101,12 +101,19 @@ class _CacheOnFirstUse:
     """numba's ``FunctionCache`` of a kernel, created on the first use of any of its
     attributes (module docstring)."""
 
+    # class-level defaults: a copy made without __init__ (copy, pickle) then fails with an
+    # AttributeError naming the attribute instead of recursing through __getattr__
+    _py_func: Any = None
+    _cache_class: Any = None
+    _cache: Any = None
+
     def __init__(self, py_func: Any, cache_class: Any) -> None:
         self._py_func = py_func
         self._cache_class = cache_class
-        self._cache: Any = None
 
     def __getattr__(self, name: str) -> Any:
+        if self._cache_class is None:
+            raise AttributeError(name)
         if self._cache is None:
             self._cache = self._cache_class(self._py_func)
         return getattr(self._cache, name)

@@ -272,9 +272,8 @@ class ClipCloser:
             if out is not None:
                 if lim_info is not None:  # solved on the contacts' grid: measured on every frame
                     lim_info = measured_on_frames(
-                        lim_info, clip.rotations, out.rotations, clip.skeleton.names, limits,
-                        tol_deg=o.limit_tol,
-                    )  # fmt: skip
+                        lim_info, out.rotations, clip.skeleton.names, limits, tol_deg=o.limit_tol
+                    )
                 return ClosedClip(out, res, kept, lim_info)
         elif o.solver == "kkt":
             lie = self._lie_curve(clip)

@@ -322,6 +322,16 @@ def joint_limit_report(
     return check_joint_limits(motion, limits, tol_deg=tol_deg)
 
 
+def _respected(before: JointLimitReport, tol_deg: float, *, ends: bool = True) -> np.ndarray:
+    """Where the clip respects its limits ``(F, D)``: what a loop must not newly cross. With
+    ``ends=False`` never at frames 0 and ``F - 1`` (the seam's, never pinned: module
+    docstring)."""
+    ok = before.excess <= math.radians(tol_deg)
+    if not ends:
+        ok[[0, -1]] = False
+    return ok
+
+
 def _new_labels(limits: JointLimits, new_v: np.ndarray) -> tuple[str, ...]:
     labels = limits.dof_labels()
     return tuple(f"{labels[d][0]}.{labels[d][1]}" for d in np.flatnonzero(new_v.any(axis=0)))
@@ -348,7 +358,7 @@ def limits_report(
     limits = limits.restricted_to(list(names))
     before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
     after = check_joint_limits(loop, limits, names=names, tol_deg=tol_deg)
-    new_v = _new_beyond(after, before.excess <= math.radians(tol_deg))
+    new_v = _new_beyond(after, _respected(before, tol_deg))
     return LoopLimits(mode="report", before=before, after=after, new_violations=_new_labels(limits, new_v))
 
 
@@ -435,9 +445,7 @@ def solve_within_limits(
 
     limits = limits.restricted_to(list(names))
     before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
-    tol = math.radians(tol_deg)
-    ok_before = before.excess <= tol
-    ok_before[[0, -1]] = False  # never pinned (module docstring)
+    ok_before = _respected(before, tol_deg, ends=False)
     res = first if first is not None else solve(base, None)
     free = res
     after = check_joint_limits(rotations_of(res), limits, names=names, tol_deg=tol_deg)
@@ -502,7 +510,6 @@ def _kept_report(
 
 def measured_on_frames(
     info: LoopLimits,
-    original: np.ndarray,
     loop: np.ndarray,
     names: list[str] | tuple[str, ...],
     limits: JointLimits,
@@ -514,10 +521,11 @@ def measured_on_frames(
     Parameters
     ----------
     info : LoopLimits
-        :func:`solve_within_limits` on the grid's frames.
-    original, loop : ndarray, shape (F, J, 3, 3)
-        Local rotations of the clip and of its loop on every frame (the grid's correction
-        lifted, the contacts planted by IK: what is written).
+        :func:`solve_within_limits` on the grid's frames: its ``before`` is the clip it
+        solved (every frame), the one the loop is measured against.
+    loop : ndarray, shape (F, J, 3, 3)
+        Local rotations of the loop on every frame (the grid's correction lifted, the
+        contacts planted by IK: what is written).
     names : sequence of str
     limits : JointLimits
     tol_deg : float
@@ -526,25 +534,23 @@ def measured_on_frames(
     Returns
     -------
     LoopLimits
-        ``before``, ``after`` and ``new_violations`` of every frame (frames 0 and ``F - 1``
-        excluded, as in :func:`solve_within_limits`); a limit crossed between the grid's
-        frames (or by the IK) that the grid's solve did not see is in ``message`` too.
+        ``after`` and ``new_violations`` of every frame (frames 0 and ``F - 1`` excluded, as
+        in :func:`solve_within_limits`); a limit crossed on a written frame that the grid's
+        solve did not see (between the grid's frames, or by the IK) is in ``message`` too.
     """
     limits = limits.restricted_to(list(names))
-    before = check_joint_limits(original, limits, names=names, tol_deg=tol_deg)
     after = check_joint_limits(loop, limits, names=names, tol_deg=tol_deg)
-    ok_before = before.excess <= math.radians(tol_deg)
-    ok_before[[0, -1]] = False
-    new_v = _new_beyond(after, ok_before)
+    new_v = _new_beyond(after, _respected(info.before, tol_deg, ends=False))
     labels = _new_labels(limits, new_v)
     message = info.message
-    if labels and not message:
+    if labels:
         worst = math.degrees(float(np.max(after.excess[new_v])))
-        message = (
-            f"joint limits: beyond a limit between the grid's frames by up to {worst:.2f} deg: "
-            + ", ".join(labels)
+        seen = (
+            "joint limits: beyond a limit on the written frames (between the grid's frames or after "
+            f"the IK) by up to {worst:.2f} deg: " + ", ".join(labels)
         )
-    return dataclasses.replace(info, before=before, after=after, new_violations=labels, message=message)
+        message = f"{message}; {seen}" if message else seen
+    return dataclasses.replace(info, after=after, new_violations=labels, message=message)
 
 
 def lie_rotations(result: ClosingResult, n_joints: int) -> np.ndarray:
