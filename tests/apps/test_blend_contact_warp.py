@@ -221,6 +221,12 @@ def test_the_option_is_checked():
     assert blend_package.BlendOptions(contact_warp="auto", landmarks="auto").contact_warp == "auto"
 
 
+def test_on_with_three_motions_is_an_error_not_ignored(pair):
+    a, b = pair.motions
+    with pytest.raises(OptionError, match=r"^contact_warp: expected two motions with 'on'.*got 3"):
+        blend_motions([a, b, a], [0.3, 0.3, 0.4], contact_warp="on")
+
+
 def test_the_json_report_has_the_decision(mocap_dir: Path, tmp_path, capsys):
     bvh = mocap_dir / "cmu" / "bvh"
     args = [

@@ -176,6 +176,10 @@ def test_settings_default_warp_and_format_1_json() -> None:
     assert DatabaseSettings.from_json({"n_samples": 12}, 2).warp == WarpOptions(
         method="dp", sample_smoothing=0.0
     )
+    # a warp stored by its method's name keeps that method, read without the low-pass too
+    assert DatabaseSettings.from_json({"n_samples": 12, "warp": "none"}, 2).warp == WarpOptions(
+        method="none", sample_smoothing=0.0
+    )
     assert s.joints == ("Hips", "Spine") and s.representations == ("lie",) and not s.align_heading
     with pytest.raises(OptionError, match=r"settings: .*unknown \['colour'\]"):
         DatabaseSettings.from_json({**SETTINGS.to_json(), "colour": 1})
@@ -381,7 +385,10 @@ def test_run_of_the_previous_format_resumes_or_says_how_to_restart(
         match=r"warp\.neighbourhood: 4 -> 10.*settings it was started with.*overwrite=True \(--overwrite\)",
     ):
         compute_matrix([db_dir], out, DatabaseSettings(n_samples=12, tile_size=2))
-    with pytest.raises(OptionError, match=r"warp\.sample_smoothing: 0\.0 -> 0\.0166"):
+    with pytest.raises(
+        OptionError,
+        match=r"warp\.sample_smoothing: 0\.0 -> 0\.0166\d* \(resume it with --sample-smoothing 0\.0;",
+    ):
         compute_matrix([db_dir], out, SETTINGS)
     # the settings it was started with: resumed, nothing recomputed but the lost tile
     res = compute_matrix([db_dir], out, started)

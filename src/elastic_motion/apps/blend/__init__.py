@@ -188,6 +188,7 @@ from elastic_motion.apps.metrics import BlendMetrics, blend_metrics
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PreparedMotions, Source
 from elastic_motion.apps.progress import Progress, null_progress
+from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 from elastic_motion.notes import Note
 from elastic_motion.warp import WarpOptions
@@ -263,6 +264,11 @@ def blend_motions(
     warps = plain = find_warps(inputs, opts, template_warps)
     report("blend", 2, stages)
     guided = contact_warp_applies(inputs, opts, template_warps is not None)
+    if opts.contact_warp == "on" and len(inputs.prepared.motions) != 2:
+        raise OptionError(
+            "contact_warp",
+            f"expected two motions with 'on' (B warped onto A); got {len(inputs.prepared.motions)}",
+        )
     if guided and opts.contact_warp == "on":
         warps = contact_guided_warp(inputs, warps)
     built = _build(inputs, warps, opts)

@@ -167,6 +167,14 @@ def _upgraded_identity(old: Any) -> dict[str, Any] | None:
     return {"format": FORMAT_VERSION, "settings": settings, "inputs": old.get("inputs")}
 
 
+def _resume_hint(key: str, old: Any) -> str:
+    """What to pass to resume a run whose low-pass differs: runs of releases before cache
+    format 3 had none, and their users never set it."""
+    if key == "warp.sample_smoothing":
+        return f" (resume it with --sample-smoothing {old!r}; runs before format 3 had no low-pass)"
+    return ""
+
+
 def _identity_diff(old: dict[str, Any] | None, new: dict[str, Any]) -> str:
     if not old:
         return "its manifest.json is from an unknown format or unreadable"
@@ -175,7 +183,7 @@ def _identity_diff(old: dict[str, Any] | None, new: dict[str, Any]) -> str:
         o, n = set(old.get("inputs") or ()), set(new["inputs"])
         diffs.append(f"inputs differ ({len(n - o)} new, {len(o - n)} missing)")
     so, sn = old.get("settings", {}), new["settings"]
-    diffs += [f"{k}: {o!r} -> {n!r}" for k, o, n in settings_differences(so, sn)]
+    diffs += [f"{k}: {o!r} -> {n!r}{_resume_hint(k, o)}" for k, o, n in settings_differences(so, sn)]
     if not diffs and so.get("joints") != sn.get("joints"):  # settings_differences: a list is a set
         diffs.append(
             f"joints: the same joints in another order, {so.get('joints')!r} -> {sn.get('joints')!r}"

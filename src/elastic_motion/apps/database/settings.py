@@ -275,12 +275,16 @@ class DatabaseSettings:
         bad = sorted(set(d) - known)
         if bad:
             raise OptionError("settings", f"expected fields among {sorted(known)}; got unknown {bad}")
+        if isinstance(d.get("warp"), str):  # a method's name, as DatabaseSettings(warp="dp") takes
+            d["warp"] = {"method": d["warp"]}
         if isinstance(d.get("warp"), dict):
             w = dict(d["warp"])
             if file_format <= _UNSMOOTHED_FORMAT:
                 w["sample_smoothing"] = 0.0
             d["warp"] = WarpOptions.from_json(w)
-        elif file_format <= _UNSMOOTHED_FORMAT:  # no warp stored: the DP of those releases' default
+        elif (
+            "warp" not in d and file_format <= _UNSMOOTHED_FORMAT
+        ):  # no warp stored: the DP of those releases' default
             d["warp"] = WarpOptions(method=MEAN_WARP.method, sample_smoothing=0.0)
         if "representations" in d:
             d["representations"] = tuple(d["representations"])
