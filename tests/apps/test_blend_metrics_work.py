@@ -128,6 +128,9 @@ def test_distance_table_takes_what_it_is_given(blended):
         distance_table(prep, known=KnownDistances(srvs[:1]))
     with pytest.raises(OptionError, match="known"):
         distance_table(prep, known=KnownDistances(srvs, np.zeros((3, 3))))
+    # the metrics' own check: a (K,) row is not broadcast into the matrix
+    with pytest.raises(OptionError, match=r"^inputs_known: expected the 2 inputs' SRVs and a \(2, 2\)"):
+        blend_metrics(blended.motion, prep, blended.weights, inputs_known=KnownDistances(srvs, np.ones(2)))
 
 
 def _srvs(prep):

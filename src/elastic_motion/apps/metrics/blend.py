@@ -14,6 +14,7 @@ from elastic_motion.apps.metrics.bones import BoneLengthError, bone_length_error
 from elastic_motion.apps.metrics.feet import FootSliding, foot_sliding
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
 from elastic_motion.apps.prepare import PreparedMotions
+from elastic_motion.errors import OptionError
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import ContactOptions
 
@@ -138,6 +139,12 @@ def blend_metrics(
     k = len(ms)
     known = None
     if inputs_known is not None:
+        n_srvs, shape = len(inputs_known.srvs), np.shape(inputs_known.distances)
+        if n_srvs != k or (inputs_known.distances is not None and shape != (k, k)):
+            raise OptionError(
+                "inputs_known",
+                f"expected the {k} inputs' SRVs and a ({k}, {k}) distance matrix; got {n_srvs} and {shape}",
+            )
         solved = None
         if inputs_known.distances is not None:
             solved = np.full((k + 1, k + 1), np.nan)
