@@ -61,7 +61,9 @@ class MeanOptions:
     warp : WarpOptions, default :data:`~elastic_motion.apps.statistics.MEAN_WARP`
         How each motion is aligned to the mean (DP, neighbourhood 10: its energy is
         non-increasing; an internal step, not a distance reported for a pair); a method name is
-        accepted for ``WarpOptions(method=name)``; ``"none"``: the plain SRV average.
+        accepted for ``WarpOptions(method=name)``; ``"none"``: the plain SRV average. Its
+        ``sample_smoothing`` is not used: the mean's inputs are not low-passed (the mean is an
+        animation made of them), unlike a database's curves for its pair distances.
     max_iter : int, default 20
         Alignment iterations at most (0: the plain average, unaligned).
     tol : float, default 1e-4
