@@ -178,6 +178,20 @@ def add_joint_options(p: argparse.ArgumentParser) -> None:
     add_alias(p, "--no-align-heading", "--no-align")
 
 
+def add_sample_smoothing(p: argparse.ArgumentParser, grid: str, default: float | None) -> None:
+    """``--sample-smoothing``: the low-pass before a motion is sampled (``WarpOptions.sample_smoothing``,
+    one flag for ``distance``, ``blend`` and the database commands); ``grid`` says what is sampled
+    after it, ``default`` None: the settings' own (a stored database's)."""
+    p.add_argument(
+        "--sample-smoothing",
+        type=float,
+        default=default,
+        metavar="SECONDS",
+        help=f"standard deviation (seconds) of the Gaussian low-pass applied before sampling {grid}; "
+        f"0: none (default: {DEFAULT_SAMPLE_SMOOTHING:g})",
+    )
+
+
 def add_warp_options(
     p: argparse.ArgumentParser,
     *,
@@ -218,14 +232,7 @@ def add_warp_options(
             f"(default: {DEFAULT_SAMPLE_FPS:g})",
         )
         add_alias(p, "--warp-fps", "--sample-fps")
-        p.add_argument(
-            "--sample-smoothing",
-            type=float,
-            default=DEFAULT_SAMPLE_SMOOTHING,
-            metavar="SECONDS",
-            help="standard deviation (seconds) of the Gaussian low-pass applied before sampling "
-            f"the curves at --sample-fps; 0: none (default: {DEFAULT_SAMPLE_SMOOTHING:g})",
-        )
+        add_sample_smoothing(p, "the curves at --sample-fps", DEFAULT_SAMPLE_SMOOTHING)
     if coarse_to_fine:
         p.add_argument(
             "--coarse-to-fine",

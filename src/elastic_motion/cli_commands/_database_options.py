@@ -20,11 +20,12 @@ from elastic_motion._options import choices
 from elastic_motion.cli_commands._argparse import EXIT_BAD_INPUT, add_alias, handle_error, print_error
 from elastic_motion.cli_commands._common import (
     CommandError,
+    add_sample_smoothing,
     add_up_units_options,
     add_warp_options,
     joints_arg,
 )
-from elastic_motion.defaults import DEFAULT_SAMPLE_SMOOTHING, MEAN_WARP_METHOD
+from elastic_motion.defaults import MEAN_WARP_METHOD
 from elastic_motion.errors import OptionError, ParseError
 from elastic_motion.vocabulary import JOINT_SELECTIONS, EngineName, Linkage, Method
 
@@ -123,14 +124,8 @@ def add_warp(p: argparse.ArgumentParser, *, mean: bool = False) -> None:
     (``distance``'s low-pass) unless ``mean`` (a Karcher mean's options have no low-pass)."""
     add_warp_options(p, method=MEAN_WARP_METHOD, sampling=False, coarse_to_fine=True)
     if not mean:
-        p.add_argument(  # distance's flag, the same low-pass (DatabaseSettings.warp.sample_smoothing)
-            "--sample-smoothing",
-            type=float,
-            default=None,
-            metavar="SECONDS",
-            help="standard deviation (seconds) of the Gaussian low-pass applied to each motion before it is "
-            f"sampled on the --samples grid, as distance does before sampling its curves; 0: none "
-            f"(default: {DEFAULT_SAMPLE_SMOOTHING:g})",
+        add_sample_smoothing(  # distance's flag, the same low-pass (DatabaseSettings.warp.sample_smoothing)
+            p, "each motion on the --samples grid, as distance does before sampling its curves", None
         )
 
 
