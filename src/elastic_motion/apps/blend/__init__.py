@@ -171,7 +171,12 @@ import numpy as np
 from elastic_motion._options import with_overrides
 from elastic_motion.apps.blend.anchor import NOTE_ANCHOR, AnchoredBody, anchor_blend
 from elastic_motion.apps.blend.assemble import assemble_motion
-from elastic_motion.apps.blend.contact_warp import NOTE_CONTACT_WARP, contact_warp_applies, guided_or_plain
+from elastic_motion.apps.blend.contact_warp import (
+    NOTE_CONTACT_WARP,
+    ContactWarpChoice,
+    contact_warp_applies,
+    guided_or_plain,
+)
 from elastic_motion.apps.blend.contacts import NOTE_CLEANUP, BlendContacts, blend_contacts
 from elastic_motion.apps.blend.curves import blend_curves
 from elastic_motion.apps.blend.inputs import NOTE_CYCLES, BlendInputs, prepare_inputs
@@ -263,23 +268,7 @@ def blend_motions(
     report("warp", 1, stages)
     warps = plain = find_warps(inputs, opts, template_warps)
     report("blend", 2, stages)
-    guided = contact_warp_applies(inputs, opts, template_warps is not None)
-    if opts.contact_warp == "on" and len(inputs.prepared.motions) != 2:
-        raise OptionError(
-            "contact_warp",
-            f"expected two motions with 'on' (B warped onto A); got {len(inputs.prepared.motions)}",
-        )
-    if guided and opts.contact_warp == "on":
-        warps = contact_guided_warp(inputs, warps)
-    built = _build(inputs, warps, opts)
-    choice, feet = None, ((), None)
-    if guided and opts.contact_warp == "auto":
-        measured = _Feet(inputs, opts)
-        own = measured.inputs(built)
-        warps, built, choice = guided_or_plain(
-            inputs, warps, built, lambda w: _build(inputs, w, opts, own), measured.blend, own
-        )
-        feet = (measured.inputs(built), measured.known(built))
+    warps, built, choice, feet = _built_on_chosen_warp(inputs, plain, opts, template_warps is not None)
     notes = [*inputs.notes, *built.notes] + ([] if choice is None else [choice.note()])
     metrics = None
     if opts.metrics:
@@ -312,6 +301,31 @@ def blend_motions(
         joint_limits=built.limits,
         contact_warp=None if choice is None else choice.summary(),
     )
+
+
+def _built_on_chosen_warp(
+    inputs: BlendInputs, plain: Warps, opts: BlendOptions, given_warps: bool
+) -> tuple[Warps, _Built, ContactWarpChoice | None, tuple[Sequence[FootQuality], FootQuality | None]]:
+    """Stages 3 to 10: the blend built on the plain warp, or on the contact-guided warp
+    (``contact_warp``: ``"on"``, or ``"auto"`` where the rule keeps it). Returns the warps
+    kept, the blend, the rule's choice (None when it did not run) and the feet it measured
+    (the inputs', the final blend's or None), for the metrics."""
+    guided = contact_warp_applies(inputs, opts, given_warps)
+    if opts.contact_warp == "on" and len(inputs.prepared.motions) != 2:
+        raise OptionError(
+            "contact_warp",
+            f"expected two motions with 'on' (B warped onto A); got {len(inputs.prepared.motions)}",
+        )
+    warps = contact_guided_warp(inputs, plain) if guided and opts.contact_warp == "on" else plain
+    built = _build(inputs, warps, opts)
+    if not (guided and opts.contact_warp == "auto"):
+        return warps, built, None, ((), None)
+    measured = _Feet(inputs, opts)
+    own = measured.inputs(built)
+    warps, built, choice = guided_or_plain(
+        inputs, warps, built, lambda w: _build(inputs, w, opts, own), measured.blend, own
+    )
+    return warps, built, choice, (measured.inputs(built), measured.known(built))
 
 
 @dataclass(frozen=True, eq=False)
