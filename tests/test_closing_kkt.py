@@ -17,7 +17,7 @@ from elastic_motion.closing import (
     project_closed,
     project_closed_rd,
 )
-from elastic_motion.closing.kkt import _eu_samples, _ExtraLinear
+from elastic_motion.closing.kkt import _eu_samples, _ExtraLinear, _kkt, _newton_step, _solve
 from elastic_motion.closing.problem import ClosingProblem
 from elastic_motion.curves import SRVFunction, inverse_srv_transform, srv_transform
 from elastic_motion.groups import SO3, Euclidean, PowerGroup, ProductGroup
@@ -406,6 +406,55 @@ def test_inconsistent_extra_rows_give_up_early_when_asked():
     slow = project_closed(curve, factors=mask, extra=extra, max_iter=quick.iterations + 5)
     assert not slow.converged
     assert "inconsistent" in quick.message and "inconsistent" not in slow.message
+
+
+def test_newton_step_meets_the_linearised_rows_and_minimises_the_quadratic_model():
+    """The SQP step ``d = dn + t`` against an independent model: ``J d = -F`` (the normal
+    part) and, on the null space of ``J``, ``P (e + W d)`` down by 1e-3 from ``P (e + W dn)``,
+    ``W v = v - D(J^* lam)[v]`` by central differences at another ``eps`` (a wrong sign or
+    factor of the Hessian term fails it)."""
+    g = lie_group()
+    curve = smooth_curve(g, 30, seed=4, scale=1.5)
+    mask = np.array([0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    extra = Stacked(
+        PinConstraints(7, 1, [0.3, -0.2, 0.9], [0.1, 0.2], 9, 1, 0.5),
+        RelativeConstraints([(5, 30), (12, 20), (29, 3)], 2, 2),
+    )
+    prob = ClosingProblem.from_curve(curve, ClosingOptions(factors=mask, cut_locus_tol=1e-9))
+    q0 = prob.to_internal(prob.srv.q)
+    eu0 = _eu_samples(prob, prob.evaluate(q0))
+
+    def linearise(state):
+        return _ExtraLinear(prob, state, extra, eu0)
+
+    def norm(v):
+        return float(np.sqrt(np.sum(prob.h[:, None] * v**2)))
+
+    rng = np.random.default_rng(3)
+    q = q0 + 0.05 * rng.normal(size=q0.shape)  # away from the original: e != 0
+    lin = linearise(prob.evaluate(q))
+    e = q - q0
+    lam = _kkt(lin, e, prob.h)[1]
+    d = _newton_step(prob, lin, e, lam, linearise, max_cg=40)
+    f = lin.fsel
+    live = np.diag(lin.gmat) > 0  # a row with no derivative (on the fixed first sample) cannot move
+    assert live.sum() >= f.size - 2
+    np.testing.assert_allclose(lin.forward(d)[live], -f[live], atol=1e-8 * np.linalg.norm(f))
+
+    def w_ref(v):
+        eps = 3e-6 / norm(v)
+        plus = linearise(prob.evaluate(q + eps * v)).adjoint(lam)
+        minus = linearise(prob.evaluate(q - eps * v)).adjoint(lam)
+        return v - (plus - minus) / (2.0 * eps)
+
+    def proj(v):
+        return v - lin.adjoint(_solve(lin, lin.forward(v)))
+
+    dn = -lin.adjoint(_solve(lin, f))
+    before = norm(proj(e + w_ref(dn)))
+    after = norm(proj(e + w_ref(d)))
+    assert before > 1e-3
+    assert after <= 2e-3 * before, (after, before)
 
 
 @pytest.mark.parametrize("one_slot", [False, True])

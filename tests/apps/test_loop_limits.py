@@ -33,6 +33,7 @@ from elastic_motion.motion.joint_limits import (
     check_joint_limits,
     dof_angles,
     dof_angles_jacobian,
+    dof_angles_with_jacobian,
 )
 from elastic_motion.notes import of_kind
 
@@ -66,6 +67,21 @@ def test_dof_angles_jacobian_matches_finite_differences(axes):
         w[i] = eps
         fd = (dof_angles(SO3G.exp(w) @ rot, c, axes) - dof_angles(SO3G.exp(-w) @ rot, c, axes)) / (2 * eps)
         np.testing.assert_allclose(jac[..., i], fd, atol=1e-7)
+
+
+@pytest.mark.parametrize("axes", ["XYZ", "ZX", "Y"])
+def test_dof_angles_with_jacobian_is_both_from_one_decomposition(axes):
+    """With bounds (the 3-dof choice of solution) as without: the same angles as
+    :func:`dof_angles` (the Jacobian is :func:`dof_angles_jacobian`'s, checked by finite
+    differences above)."""
+    rng = np.random.default_rng(5)
+    c = random_frame(rng)
+    rot = SO3G.exp(rng.normal(scale=1.5, size=(9, 3)))
+    lo, hi = np.radians([-30.0, -80.0, -10.0]), np.radians([40.0, 20.0, 170.0])
+    for bounds in ((), (lo, hi)):
+        ang, jac = dof_angles_with_jacobian(rot, c, axes, *bounds)
+        np.testing.assert_array_equal(ang, dof_angles(rot, c, axes, *bounds))
+        assert ang.shape == (9, len(axes)) and jac.shape == (9, len(axes), 3)
 
 
 KNEE_FRAME = SO3G.exp(np.array([0.0, 0.5, 0.2]))

@@ -286,6 +286,40 @@ def test_smooth_motion_attenuates_frame_rate_noise_and_keeps_slow_motion():
     assert 0.45 < np.median(left) < 0.7
 
 
+def test_smooth_motion_at_some_frames_equals_the_whole_smoothing_there():
+    """``frames=``: those frames bit for bit as the whole motion's smoothing (ends included,
+    with joint translations), the others as they were; a geodesic resample of it at times
+    whose bracketing frames (:func:`frames_read_at_times`) are those equals the resample of
+    the whole smoothing; bad indices name the argument."""
+    from elastic_motion.groups import SO3
+    from elastic_motion.motion.edit import frames_read_at_times, resample_at_times, smooth_motion
+
+    rng = np.random.default_rng(8)
+    f, fps, sigma = 50, 120.0, 3.0 / 120.0
+    root = np.cumsum(rng.normal(scale=0.01, size=(f, 3)), axis=0)
+    rot = _geodesic(f, 3, seed=2) @ SO3().exp(rng.normal(scale=0.05, size=(f, 3, 3)))
+    m = _synthetic(rot, root, fps, jt=rng.normal(size=(f, 3, 3)))
+    whole = smooth_motion(m, sigma)
+    at = np.array([0, 1, 7, 30, 48, 49])
+    part = smooth_motion(m, sigma, frames=at[::-1])  # any order
+    for name in ("rotations", "root_translation", "joint_translations"):
+        got, ref, raw = getattr(part, name), getattr(whole, name), getattr(m, name)
+        np.testing.assert_array_equal(got[at], ref[at])
+        rest = np.setdiff1d(np.arange(f), at)
+        np.testing.assert_array_equal(got[rest], raw[rest])
+    target = np.sort(rng.uniform(0.0, m.times[-1], size=9))
+    read = frames_read_at_times(m.times, target)
+    assert read.size <= 18 and np.all(np.diff(read) > 0)
+    sampled = resample_at_times(smooth_motion(m, sigma, frames=read), m.times, target, fps=30.0)
+    ref = resample_at_times(whole, m.times, target, fps=30.0)
+    np.testing.assert_array_equal(sampled.rotations, ref.rotations)
+    np.testing.assert_array_equal(sampled.root_translation, ref.root_translation)
+    with pytest.raises(ValueError, match="frames"):
+        smooth_motion(m, sigma, frames=[0, f])
+    with pytest.raises(ValueError, match="frames"):
+        smooth_motion(m, sigma, frames=np.array([0.5]))
+
+
 def test_smooth_motion_matches_a_gaussian_filter_inside_and_commutes_with_frames():
     from scipy.ndimage import gaussian_filter1d
 

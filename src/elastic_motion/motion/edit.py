@@ -37,6 +37,7 @@ __all__ = [
     "drop_tpose",
     "eased_envelope",
     "finger_joints",
+    "frames_read_at_times",
     "gaussian_frames",
     "has_reference_root",
     "has_tpose_first_frame",
@@ -228,14 +229,7 @@ def resample_at_times(
     _check_target_times(src, dst)
     if interpolation == "cubic" and motion.n_frames >= 4:
         return _cubic_at_times(motion, src, np.clip(dst, src[0], src[-1]), fps)
-    if motion.n_frames == 1:
-        k = np.zeros(dst.size, dtype=int)
-        s = np.zeros(dst.size)
-        k1 = k
-    else:
-        k = np.clip(np.searchsorted(src, dst, side="right") - 1, 0, motion.n_frames - 2)
-        s = np.clip((dst - src[k]) / (src[k + 1] - src[k]), 0.0, 1.0)
-        k1 = k + 1
+    k, k1, s = _bracket_times(src, dst)
     r0 = motion.rotations[k]
     r1 = motion.rotations[k1]
     step = _SO3.log(np.swapaxes(r0, -1, -2) @ r1)  # (N, J, 3)
@@ -257,6 +251,35 @@ def resample_at_times(
         root_translation=lerp(motion.root_translation),
         joint_translations=None if jt is None else lerp(jt),
     )
+
+
+def _bracket_times(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per target time: the frames before and after it and the fraction between them."""
+    if src.size == 1:
+        k = np.zeros(dst.size, dtype=int)
+        return k, k, np.zeros(dst.size)
+    k = np.clip(np.searchsorted(src, dst, side="right") - 1, 0, src.size - 2)
+    s = np.clip((dst - src[k]) / (src[k + 1] - src[k]), 0.0, 1.0)
+    return k, k + 1, s
+
+
+def frames_read_at_times(source_times: np.ndarray, target_times: np.ndarray) -> np.ndarray:
+    """The frames a geodesic :func:`resample_at_times` reads: the two around each target
+    time, sorted and unique (the ``frames`` of :func:`smooth_motion` before such a resample).
+
+    Parameters
+    ----------
+    source_times : array_like, shape (F,)
+        Strictly increasing frame times, seconds.
+    target_times : array_like, shape (N,)
+
+    Returns
+    -------
+    ndarray of int, shape (<= 2 N,)
+    """
+    src = np.asarray(source_times, dtype=np.float64)
+    k, k1, _ = _bracket_times(src, np.asarray(target_times, dtype=np.float64))
+    return np.union1d(k, k1)
 
 
 def resample(motion: Motion, fps: float, *, interpolation: str = "geodesic") -> Motion:
@@ -319,7 +342,9 @@ def _point_reflected(x: np.ndarray, k: int) -> np.ndarray:
     return np.concatenate([head, x, tail])
 
 
-def smooth_motion(motion: Motion, sigma: float, *, truncate: float = 4.0) -> Motion:
+def smooth_motion(
+    motion: Motion, sigma: float, *, truncate: float = 4.0, frames: np.ndarray | None = None
+) -> Motion:
     """Gaussian low-pass of a motion in time, e.g. before sampling it at a lower frame rate.
 
     With the sampled Gaussian kernel ``g_k ~ exp(-k^2 / (2 s^2))``, ``s = sigma * fps``
@@ -357,17 +382,24 @@ def smooth_motion(motion: Motion, sigma: float, *, truncate: float = 4.0) -> Mot
     truncate : float, default 4
         Kernel half-width in standard deviations (as ``scipy.ndimage.gaussian_filter``);
         at most ``F - 1`` frames (the kernel is cut there and renormalised: still symmetric).
+    frames : array_like of int, optional
+        Smooth only these frames (indices in ``[0, F)``); the others are returned as they
+        are. For a caller that then reads the motion only at them: a geodesic resample
+        (:func:`resample_at_times`) reads the two frames around each time, so a database
+        sampling a 1,000-frame clip on 64 cells smooths 128 frames, not 1,000. The smoothed
+        frames equal the whole motion's smoothing bit for bit.
 
     Returns
     -------
     Motion
         Same frames, frame rate, skeleton; rotations ``(F, J, 3, 3)``, root translation
-        ``(F, 3)`` and joint translations ``(F, J, 3)`` smoothed.
+        ``(F, 3)`` and joint translations ``(F, J, 3)`` smoothed (at ``frames`` only, if given).
 
     Raises
     ------
     ValueError
-        If ``sigma`` or ``truncate`` is negative or not finite.
+        If ``sigma`` or ``truncate`` is negative or not finite, or ``frames`` not indices of
+        the motion's frames.
     """
     sigma = float(sigma)
     truncate = float(truncate)
@@ -376,6 +408,7 @@ def smooth_motion(motion: Motion, sigma: float, *, truncate: float = 4.0) -> Mot
     if not (math.isfinite(truncate) and truncate > 0):
         raise ValueError(f"truncate: expected a positive number of standard deviations; got {truncate!r}")
     f = motion.n_frames
+    at = np.arange(f) if frames is None else _frame_indices(frames, f)
     s = sigma * motion.fps
     if s < 1e-3 or f < 3:
         return motion
@@ -386,7 +419,9 @@ def smooth_motion(motion: Motion, sigma: float, *, truncate: float = 4.0) -> Mot
 
     def linear(x: np.ndarray) -> np.ndarray:
         ext = _point_reflected(x, half)
-        return sum(w * ext[half + k : half + k + f] for k, w in zip(offsets, g, strict=True))
+        out = x.copy()
+        out[at] = sum(w * ext[half + k + at] for k, w in zip(offsets, g, strict=True))
+        return out
 
     r = motion.rotations  # (F, J, 3, 3)
     rt = np.swapaxes(r, -1, -2)
@@ -394,16 +429,30 @@ def smooth_motion(motion: Motion, sigma: float, *, truncate: float = 4.0) -> Mot
     head = r[:1] @ rt[m] @ r[:1]  # R_{-m} = R_0 R_m^T R_0, m = 1..half (frames -1..-half)
     tail = r[-1:] @ rt[f - 1 - m] @ r[-1:]  # R_{F-1+m}
     ext = np.concatenate([head[::-1], r, tail])  # (F + 2 half, J, 3, 3)
-    step = np.zeros(r.shape[:-1])  # (F, J, 3): sum_k g_k log(R_f^T R_{f+k})
+    step = np.zeros((at.size, *r.shape[1:-1]))  # (frames, J, 3): sum_k g_k log(R_f^T R_{f+k})
     for k, w in zip(offsets, g, strict=True):
         if k:
-            step += w * _SO3.log(rt @ ext[half + k : half + k + f])
+            step += w * _SO3.log(rt[at] @ ext[half + k + at])
+    rotations = r.copy()
+    rotations[at] = r[at] @ _SO3.exp(step)
     jt = motion.joint_translations
     return motion.replace(
-        rotations=r @ _SO3.exp(step),
+        rotations=rotations,
         root_translation=linear(motion.root_translation),
         joint_translations=None if jt is None else linear(jt),
     )
+
+
+def _frame_indices(frames: np.ndarray, n_frames: int) -> np.ndarray:
+    """``frames`` as sorted unique int indices, checked against ``n_frames``."""
+    idx = np.asarray(frames)
+    if idx.ndim != 1 or (idx.size and not np.issubdtype(idx.dtype, np.integer)):
+        raise ValueError(
+            f"frames: expected a 1-D array of frame indices; got {idx.dtype} of shape {idx.shape}"
+        )
+    if idx.size and (idx.min() < 0 or idx.max() >= n_frames):
+        raise ValueError(f"frames: expected indices in [0, {n_frames}); got {idx.min()}..{idx.max()}")
+    return np.unique(idx.astype(np.int64))
 
 
 # ------------------------------------------------------------------------------------------

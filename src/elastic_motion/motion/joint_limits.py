@@ -41,6 +41,7 @@ __all__ = [
     "check_joint_limits",
     "dof_angles",
     "dof_angles_jacobian",
+    "dof_angles_with_jacobian",
     "dof_rotation",
     "project_to_limits",
 ]
@@ -134,6 +135,24 @@ def dof_angles_jacobian(
     ndarray, shape (..., len(axes), 3)
         Radians per radian of ``omega`` (local frame of the joint's parent).
     """
+    return dof_angles_with_jacobian(rotations, frame, axes, lower, upper)[1]
+
+
+def dof_angles_with_jacobian(
+    rotations: np.ndarray,
+    frame: np.ndarray,
+    axes: str,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`dof_angles` and :func:`dof_angles_jacobian` of the same rotations from one
+    decomposition (a solver's linearisation needs both).
+
+    Returns
+    -------
+    angles : ndarray, shape (..., len(axes))
+    jacobian : ndarray, shape (..., len(axes), 3)
+    """
     full = _full_axes(axes)
     c = np.asarray(frame, dtype=np.float64)
     r = np.asarray(rotations, dtype=np.float64)
@@ -148,7 +167,7 @@ def dof_angles_jacobian(
     col_c = np.broadcast_to(eye[idx[2]], col_a.shape)
     e = np.stack([col_a, col_b, col_c], axis=-1)
     jac = np.linalg.solve(e, np.broadcast_to(c.T, e.shape))  # E^-1 C^T
-    return jac[..., : len(axes), :]
+    return ang[..., : len(axes)], jac[..., : len(axes), :]
 
 
 def dof_rotation(angles: np.ndarray, frame: np.ndarray, axes: str) -> np.ndarray:

@@ -165,9 +165,10 @@ def prepare_motion(
         m = mm.select_joints(m, closed_joint_set(m.skeleton, joints))
     original = m.n_frames
     duration = m.duration
-    if smoothing > 0:  # the low-pass of distance's curves (apps.align.motion_curves), same function
-        m = mm.smooth_motion(m, smoothing)
     target = np.linspace(0.0, duration, n_samples + 1)
+    if smoothing > 0:  # the low-pass of distance's curves (apps.align.motion_curves), same function
+        # only where the geodesic resample below reads (2 frames a cell, not every frame)
+        m = mm.smooth_motion(m, smoothing, frames=mm.frames_read_at_times(m.times, target))
     m = mm.resample_at_times(m, m.times, target, fps=n_samples / duration)
     return PreparedMotion(os.fspath(path), m, original, duration, tuple(notes), report)
 

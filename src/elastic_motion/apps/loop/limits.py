@@ -61,7 +61,7 @@ from elastic_motion.motion.joint_limits import (
     JointLimits,
     check_joint_limits,
     dof_angles,
-    dof_angles_jacobian,
+    dof_angles_with_jacobian,
     limit_excess,
 )
 from elastic_motion.notes import Note
@@ -135,14 +135,19 @@ class LimitConstraints(ExtraConstraints):
         self.limit_joint = np.array([owner[d][0] for d in self.dof], dtype=np.int64)
         self.slot = np.array([owner[d][1] for d in self.dof], dtype=np.int64)
         self.joint = np.array([index[limits.joints[k]] for k in self.limit_joint], dtype=np.int64)
+        self._group_rows: list[tuple[int, np.ndarray]] | None = None
 
     def __len__(self) -> int:
         return len(self.frame)
 
-    def _groups(self):
-        for k in np.unique(self.limit_joint):
-            rows = np.flatnonzero(self.limit_joint == k)
-            yield k, rows
+    def _groups(self) -> list[tuple[int, np.ndarray]]:
+        """Per limited joint of the rows: its index in ``limits`` and its rows (fixed: cached,
+        a solver evaluates the rows a hundred times)."""
+        if self._group_rows is None:
+            self._group_rows = [
+                (int(k), np.flatnonzero(self.limit_joint == k)) for k in np.unique(self.limit_joint)
+            ]
+        return self._group_rows
 
     def _rotations(self, rot: np.ndarray) -> np.ndarray:
         """Each row's rotation ``(R, 3, 3)`` on the clip's frame."""
@@ -150,26 +155,29 @@ class LimitConstraints(ExtraConstraints):
             return rot[self.frame, self.joint]
         return self.lift.at(rot, self.frame, self.joint)
 
-    def _residual(self, r_all: np.ndarray) -> np.ndarray:
-        g = np.zeros(len(self))
-        lim = self.limits
-        for k, rows in self._groups():
-            ang = dof_angles(r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
-            val = ang[np.arange(rows.size), self.slot[rows]]
-            g[rows] = (val - self.target[rows] + math.pi) % (2 * math.pi) - math.pi
-        return g
+    def _residual(self, values: np.ndarray) -> np.ndarray:
+        """The rows' residuals for their dof angles ``values`` (R,): wrapped to ``[-pi, pi)``."""
+        return (values - self.target + math.pi) % (2 * math.pi) - math.pi
 
     def residual(self, rot: np.ndarray, eu: np.ndarray) -> np.ndarray:
-        return self._residual(self._rotations(rot))
+        r_all, lim = self._rotations(rot), self.limits
+        values = np.zeros(len(self))
+        for k, rows in self._groups():
+            ang = dof_angles(r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
+            values[rows] = ang[np.arange(rows.size), self.slot[rows]]
+        return self._residual(values)
 
     def evaluate(
         self, rot: np.ndarray, eu: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         r_count, m = len(self), rot.shape[1]
         lim, r_all = self.limits, self._rotations(rot)
-        jac_rows = np.zeros((r_count, 3))
+        values, jac_rows = np.zeros(r_count), np.zeros((r_count, 3))
         for k, rows in self._groups():
-            jac = dof_angles_jacobian(r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k])
+            ang, jac = dof_angles_with_jacobian(
+                r_all[rows], lim.frames[k], lim.axes[k], lim.lower[k], lim.upper[k]
+            )
+            values[rows] = ang[np.arange(rows.size), self.slot[rows]]
             jac_rows[rows] = jac[np.arange(rows.size), self.slot[rows]]
         if self.lift is None:
             frames, weights = self.frame[:, None].copy(), np.ones((r_count, 1))
@@ -180,7 +188,7 @@ class LimitConstraints(ExtraConstraints):
         d_rot = np.zeros((r_count, frames.shape[1], m, 3))
         for s in range(frames.shape[1]):
             d_rot[np.arange(r_count), s, self.joint] = weights[:, s, None] * jac_rows
-        return self._residual(r_all), frames, d_rot, np.zeros((r_count, frames.shape[1], eu.shape[1]))
+        return self._residual(values), frames, d_rot, np.zeros((r_count, frames.shape[1], eu.shape[1]))
 
 
 class StackedConstraints(ExtraConstraints):
