@@ -289,6 +289,41 @@ def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeyp
     assert len(calls) <= 2  # a solve with pins, a second when a round adds some; no retries
 
 
+def test_limits_solve_whose_warm_start_runs_out_is_solved_from_the_clip(monkeypatch):
+    """A round warm-started from the loop without limit rows that uses up its iterations
+    without settling (CMU backflip's second round once did: 16 iterations, the loop 5x farther
+    from the clip) is solved again from the clip itself, and that solve is kept. Simulated:
+    every warm-started solve with limit rows reports running out."""
+    import dataclasses
+
+    import elastic_motion.apps.loop.close as close_module
+
+    real = close_module.project_closed
+    calls = []
+
+    def wandering(curve, **kw):
+        res = real(curve, **kw)
+        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)):  # pins in it
+            warm = kw.get("start") is not None
+            calls.append(warm)
+            if warm:
+                return dataclasses.replace(
+                    res, converged=False, iterations=kw["max_iter"], message="reached max_iter"
+                )
+        return res
+
+    monkeypatch.setattr(close_module, "project_closed", wandering)
+    m, lim = drifting_clip(), knee_limits()
+    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0", window=None, force=True)
+    jl = kept.joint_limits
+    # each round: warm, ran out, then from the clip
+    assert len(calls) >= 2 and calls == [True, False] * (len(calls) // 2)
+    assert jl.message == "" and jl.new_violations == () and jl.pinned > 0
+    knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
+    assert knee.min() >= -15 - 0.5
+    assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
+
+
 def test_limit_rows_on_a_grid_hold_the_lifted_loop_at_the_clips_frames():
     """Issue 33: kept limits are solved on the kept contacts' grid. A row's rotation is the
     clip's at its own frame with the grid's correction lifted (as ``lift_correction`` writes
