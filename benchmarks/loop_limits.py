@@ -7,8 +7,8 @@ with the default options (``force=True``) and ``joint_limits="report"`` then ``"
 two alternated ``--repeat`` times in this process and each timed by its best run (the machine
 is shared: the best run is the one least slowed by others). Per row: wall time of each, the
 ratio keep/report (wall, and process CPU time), whether the loop with limits converged (the
-closing, and every limits solve: no ``joint_limits.message``), the window, limit solves and
-pinned rows, contacts released, the seam's largest angle, and the largest excess over a limit
+closing, and every limits solve: no ``joint_limits.message``), the window, limit solves (and
+their probes, one Newton iteration each), pinned rows, contacts released, the seam's largest angle, and the largest excess over a limit
 the input respected on the *written BVH*, read back (``check_joint_limits``; frames 0 and
 ``F - 1`` excluded, as in :mod:`elastic_motion.apps.loop.limits`).
 
@@ -88,6 +88,7 @@ def row(name: str, repeat: int) -> dict:
         "converged": bool(res.closing.converged) and not jl.message,
         "window": None if res.window is None else [res.window.start, res.window.stop],
         "solves": jl.rounds,
+        "probes": jl.probes,
         "pinned": jl.pinned,
         "released": [] if kept is None else [dict(r) for r in kept.released],
         "new_violations": list(jl.new_violations),
@@ -107,14 +108,15 @@ def main() -> None:
     rows = []
     print(
         f"{'clip':<12} {'report s':>8} {'keep s':>7} {'ratio':>6} {'cpu ratio':>9} {'<=2x':>5} {'conv':>5} "
-        f"{'window':>11} {'solves':>6} {'pinned':>6} {'released':>8} {'exc report':>10} {'exc keep':>8}"
+        f"{'window':>11} {'solves':>6} {'probes':>6} {'pinned':>6} {'released':>8} "
+        f"{'exc report':>10} {'exc keep':>8}"
     )
     for name in args.only:
         r = row(name, args.repeat)
         print(
             f"{name:<12} {r['report_s']:8.1f} {r['keep_s']:7.1f} {r['ratio']:6.2f} {r['ratio_cpu']:9.2f} "
             f"{'yes' if r['ratio'] <= 2.0 else 'NO':>5} {'yes' if r['converged'] else 'NO':>5} "
-            f"{r['window']!s:>11} {r['solves']:6d} {r['pinned']:6d} {len(r['released']):8d} "
+            f"{r['window']!s:>11} {r['solves']:6d} {r['probes']:6d} {r['pinned']:6d} {len(r['released']):8d} "
             f"{r['report_written_new_excess_deg']:10.2f} {r['written_new_excess_deg']:8.2f}",
             flush=True,
         )

@@ -18,6 +18,7 @@ from elastic_motion.apps.loop.limits import (
     INPUT_VIOLATES_NOTE,
     REPORTED_ONLY_NOTE,
     LimitConstraints,
+    PinSchedule,
     StackedConstraints,
     joint_limit_report,
     limits_report,
@@ -227,6 +228,8 @@ def test_cmu_backflip_loop_keeps_its_limits_on_the_written_bvh(mocap_dir, tmp_pa
     res = loop_motion(path, joint_limits="keep", window=None, force=True)
     jl = res.joint_limits
     assert jl.mode == "keep" and jl.new_violations == () and jl.pinned > 0
+    # the probes find most of the active set before a round is solved: 3 rounds without them
+    assert jl.probes >= 1 and jl.rounds <= 2
     assert jl.before.violations  # the input's own violations: reported
     out = tmp_path / "loop.bvh"
     import elastic_motion as em
@@ -271,7 +274,8 @@ def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeyp
 
     def stalling(curve, **kw):
         res = real(curve, **kw)
-        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)):  # pins in it
+        probe = kw["max_iter"] == PinSchedule().probe  # (a probe: where the pins take the loop)
+        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)) and not probe:  # pins
             calls.append(len(kw["extra"]))
             return dataclasses.replace(
                 res, converged=False, message="stalled at KKT residual 9e-08 (rounding floor)"
@@ -303,7 +307,8 @@ def test_limits_solve_whose_warm_start_runs_out_is_solved_from_the_clip(monkeypa
 
     def wandering(curve, **kw):
         res = real(curve, **kw)
-        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)):  # pins in it
+        probe = kw["max_iter"] == PinSchedule().probe  # (a probe: where the pins take the loop)
+        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)) and not probe:  # pins
             warm = kw.get("start") is not None
             calls.append(warm)
             if warm:

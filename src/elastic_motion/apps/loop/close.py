@@ -374,7 +374,9 @@ def _within_limits(
     base = None if grid is None else grid.constraints
     polish_rows = None if grid is None or grid.polished else grid.constraints
 
-    def solve(extra: ExtraConstraints | None, start: ClosingResult | None) -> ClosingResult:
+    def solve(extra: ExtraConstraints | None, start: ClosingResult | None, probe: int) -> ClosingResult:
+        if probe:  # a few iterations: where the loop goes with these pins
+            return project(lie, extra, iterations=probe, start=start)
         return _limits_solve(project, lie, extra, polish_rows, cap, start)
 
     with single_threaded_blas():
