@@ -8,9 +8,9 @@ two alternated ``--repeat`` times in this process and each timed by its best run
 is shared: the best run is the one least slowed by others). Per row: wall time of each, the
 ratio keep/report (wall, and process CPU time), whether the loop with limits converged (the
 closing, and every limits solve: no ``joint_limits.message``), the window, limit solves (and
-their probes, one Newton iteration each), pinned rows, contacts released, the seam's largest angle, and the largest excess over a limit
-the input respected on the *written BVH*, read back (``check_joint_limits``; frames 0 and
-``F - 1`` excluded, as in :mod:`elastic_motion.apps.loop.limits`).
+their probes, one Newton iteration each), pinned rows, contacts released, the seam's largest
+angle, and the largest excess over a limit the input respected on the *written BVH*, read
+back (``check_joint_limits``; frames 0 and ``F - 1`` excluded, as in :mod:`elastic_motion.apps.loop.limits`).
 
 Targets (issue 33): keep at most 2x the time of report, and converged on every clip (every
 kept limit within ``limit_tol``, 0.5 deg, on the written BVH).
