@@ -259,6 +259,32 @@ def test_limits_kept_only_with_the_kkt_projection_of_the_lie_curve():
     assert str(note) == "joint limits: reported only (keeping them needs method='lie' and solver='kkt')"
 
 
+def _knee_loop_with_limit_solves(monkeypatch, replace):
+    """The drifting clip looped within :func:`knee_limits`, every solve with limit rows (not
+    the probes) passed through ``replace(result, kwargs)``; checks that the loop kept its
+    limits and closed, and returns it."""
+    import elastic_motion.apps.loop.close as close_module
+
+    real = close_module.project_closed
+
+    def patched(curve, **kw):
+        res = real(curve, **kw)
+        probe = kw["max_iter"] == PinSchedule().probe  # (a probe: where the pins take the loop)
+        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)) and not probe:  # pins
+            return replace(res, kw)
+        return res
+
+    monkeypatch.setattr(close_module, "project_closed", patched)
+    m, lim = drifting_clip(), knee_limits()
+    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0", window=None, force=True)
+    jl = kept.joint_limits
+    assert jl.message == "" and jl.new_violations == () and jl.pinned > 0
+    knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
+    assert knee.min() >= -15 - 0.5
+    assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
+    return kept
+
+
 def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeypatch):
     """Issue 33 (CMU backflip, default window): limits solves that stop with the seam shut but
     the optimality residual at the rounding floor (1e-7) counted as failed; each was retried
@@ -267,29 +293,14 @@ def test_limits_solve_stalled_at_the_rounding_floor_is_closed_from_there(monkeyp
     where it stopped and kept. Simulated: every solve with limit rows reports that stall."""
     import dataclasses
 
-    import elastic_motion.apps.loop.close as close_module
-
-    real = close_module.project_closed
     calls = []
 
-    def stalling(curve, **kw):
-        res = real(curve, **kw)
-        probe = kw["max_iter"] == PinSchedule().probe  # (a probe: where the pins take the loop)
-        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)) and not probe:  # pins
-            calls.append(len(kw["extra"]))
-            return dataclasses.replace(
-                res, converged=False, message="stalled at KKT residual 9e-08 (rounding floor)"
-            )
-        return res
+    def stalling(res, kw):
+        calls.append(len(kw["extra"]))
+        stalled = "stalled at KKT residual 9e-08 (rounding floor)"
+        return dataclasses.replace(res, converged=False, message=stalled)
 
-    monkeypatch.setattr(close_module, "project_closed", stalling)
-    m, lim = drifting_clip(), knee_limits()
-    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0", window=None, force=True)
-    jl = kept.joint_limits
-    assert jl.message == "" and jl.new_violations == () and jl.pinned > 0
-    knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
-    assert knee.min() >= -15 - 0.5
-    assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
+    _knee_loop_with_limit_solves(monkeypatch, stalling)
     assert len(calls) <= 2  # a solve with pins, a second when a round adds some; no retries
 
 
@@ -300,33 +311,19 @@ def test_limits_solve_whose_warm_start_runs_out_is_solved_from_the_clip(monkeypa
     every warm-started solve with limit rows reports running out."""
     import dataclasses
 
-    import elastic_motion.apps.loop.close as close_module
-
-    real = close_module.project_closed
     calls = []
 
-    def wandering(curve, **kw):
-        res = real(curve, **kw)
-        probe = kw["max_iter"] == PinSchedule().probe  # (a probe: where the pins take the loop)
-        if isinstance(kw.get("extra"), (LimitConstraints, StackedConstraints)) and not probe:  # pins
-            warm = kw.get("start") is not None
-            calls.append(warm)
-            if warm:
-                return dataclasses.replace(
-                    res, converged=False, iterations=kw["max_iter"], message="reached max_iter"
-                )
+    def wandering(res, kw):
+        warm = kw.get("start") is not None
+        calls.append(warm)
+        if warm:
+            ran_out = {"iterations": kw["max_iter"], "message": "reached max_iter"}
+            return dataclasses.replace(res, converged=False, **ran_out)
         return res
 
-    monkeypatch.setattr(close_module, "project_closed", wandering)
-    m, lim = drifting_clip(), knee_limits()
-    kept = loop_motion(m, root="inplace", joint_limits=lim, seam="c0", window=None, force=True)
-    jl = kept.joint_limits
+    _knee_loop_with_limit_solves(monkeypatch, wandering)
     # each round: warm, ran out, then from the clip
     assert len(calls) >= 2 and calls == [True, False] * (len(calls) // 2)
-    assert jl.message == "" and jl.new_violations == () and jl.pinned > 0
-    knee = np.degrees(lim.angles(kept.motion.rotations, m.skeleton.names)[:, 0])
-    assert knee.min() >= -15 - 0.5
-    assert kept.closing.converged and kept.seam_after.seam_angle_max_deg < 1e-3
 
 
 @pytest.mark.parametrize("lo_deg", [-15.0, 0.0])
