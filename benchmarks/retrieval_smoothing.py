@@ -31,6 +31,11 @@ Sections
   preparation (``prepare_motion``: its steps are rigid or per-joint and commute with the
   low-pass, so this equals smoothing just before its resampling). DTW is reported on the
   unsmoothed frames (the baseline) and on the smoothed ones.
+* ``prepare``: what the low-pass costs a database: every CMU BVH and Bandai clip prepared on
+  64 cells (``apps.database.preparation.prepare_motion``) without it, with it on the frames
+  its geodesic resample reads (the library: ``smooth_motion(frames=frames_read_at_times(...))``)
+  and with it on every frame (before); best of 3 runs, seconds, and whether the last two give
+  the same arrays bit for bit.
 * ``blend``: runs ``benchmarks/blend_quality.py`` (``--only`` passed through) with the
   library's default ``sample_smoothing`` set to ``--sigma`` seconds for this process only
   (the defaults of ``WarpOptions`` and ``motion_curves``), so the blend's warp and the
@@ -41,6 +46,7 @@ Usage::
 
     python benchmarks/retrieval_smoothing.py reparam
     python benchmarks/retrieval_smoothing.py retrieval
+    python benchmarks/retrieval_smoothing.py prepare
     python benchmarks/retrieval_smoothing.py blend --sigma 0.016667 --only obstacles,rhythm
 
 Writes ``benchmarks/results/retrieval_smoothing_<section>.json``. Data:
@@ -258,9 +264,46 @@ def blend(smoothing: float, only: str | None) -> None:
     blend_quality.main()
 
 
+def prepare(repeat: int = 3) -> dict:
+    """Seconds to prepare every CMU BVH and Bandai clip on 64 cells: no low-pass, the low-pass
+    on the frames the resample reads, on every frame (module docstring)."""
+    import elastic_motion.motion as mm
+    from elastic_motion.apps.database.preparation import prepare_motion
+
+    files = sorted((MOCAP / "cmu" / "bvh").glob("*.bvh")) + sorted((MOCAP / "bandai").glob("*.bvh"))
+    smooth = mm.smooth_motion
+
+    def every_frame(motion, sigma, frames=None, **kw):  # the preparation before: all frames
+        return smooth(motion, sigma, **kw)
+
+    sigma = WarpOptions().sample_smoothing
+    ways = {"none": (smooth, 0.0), "read frames": (smooth, sigma), "every frame": (every_frame, sigma)}
+    times: dict[str, list[float]] = {w: [] for w in ways}
+    out = {}
+    try:
+        for _ in range(repeat):
+            for way, (function, sm) in ways.items():
+                mm.smooth_motion = function  # (preparation calls it as mm.smooth_motion)
+                t = time.perf_counter()
+                out[way] = [prepare_motion(f, 64, smoothing=sm).motion for f in files]
+                times[way].append(time.perf_counter() - t)
+    finally:
+        mm.smooth_motion = smooth
+    same = all(
+        np.array_equal(a.rotations, b.rotations) and np.array_equal(a.root_translation, b.root_translation)
+        for a, b in zip(out["read frames"], out["every frame"], strict=True)
+    )
+    best = {w: min(t) for w, t in times.items()}
+    print("| clips | none s | low-pass, frames read s | low-pass, every frame s | bit-identical |")
+    print("|---|---|---|---|---|")
+    cells = " | ".join(f"{best[w]:.2f}" for w in ways)
+    print(f"| {len(files)} | {cells} | {same} |")
+    return {"clips": len(files), "seconds": best, "runs": times, "bit_identical": same}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("section", choices=("reparam", "retrieval", "blend"))
+    ap.add_argument("section", choices=("reparam", "retrieval", "prepare", "blend"))
     ap.add_argument("--sigma", type=float, default=1 / 60, help="blend: low-pass, seconds (default 1/60)")
     ap.add_argument("--only", default=None, help="blend: pairs of blend_quality.py, comma-separated")
     args = ap.parse_args()
@@ -273,6 +316,8 @@ def main() -> None:
     if args.section == "reparam":
         print("| pair | d(A,A'), d(B,B') (/ d(A,B)/2) at c = " + ", ".join(f"{c:g}" for c in LEVELS) + " |")
         res = reparam()
+    elif args.section == "prepare":
+        res = prepare()
     else:
         res = retrieval()
         print_retrieval(res)
