@@ -246,6 +246,7 @@ def test_cmu_backflip_loop_keeps_its_limits_on_the_written_bvh(mocap_dir, tmp_pa
     assert res.seam_after.seam_angle_max_deg < 1e-3
     s = json.loads(em.to_json(res))["joint_limits"]
     assert s["mode"] == "keep" and s["joints_at_limit"] and s["input_violations"]
+    assert (s["rounds"], s["probes"]) == (jl.rounds, jl.probes)
 
 
 def test_limits_kept_only_with_the_kkt_projection_of_the_lie_curve():
