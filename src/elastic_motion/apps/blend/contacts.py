@@ -39,12 +39,15 @@ from elastic_motion.apps.cleanup import (
 )
 from elastic_motion.apps.metrics import contact_skating
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
+from elastic_motion.curves import curve_distance
 from elastic_motion.motion import Motion
 from elastic_motion.motion.contacts import MISSED_STANCES, ContactOptions, Contacts
 from elastic_motion.motion.ik import LegChain
+from elastic_motion.motion.representations import group_weights, to_lie_curve
 from elastic_motion.notes import Note
 
 __all__ = [
+    "CLEARANCE_GOAL",
     "NOTE_CLEANUP",
     "PLANT",
     "SKATE_GOAL",
@@ -63,6 +66,9 @@ __all__ = [
 #: again (6 skids at 0.1 s, none exact): the feet come first.
 SMOOTHING = (0.4, 0.3, 0.2, 0.15, 0.1, 0.07, 0.05, 0.035, 0.025, 0.0)
 SKATE_GOAL = 1.05
+#: The least swing clearance of a planted blend's foot point, as a fraction of the lesser
+#: input's on the same point (issue 29's target).
+CLEARANCE_GOAL = 0.8
 #: The fractions of the plants' own floor-plane motion tried, in order, when no smoothing meets
 #: the goal (:func:`~elastic_motion.apps.blend.contact_plan.steadier`): the inputs' planted feet
 #: move, and carried into a blend whose own contacts begin and end elsewhere that motion read
@@ -150,25 +156,33 @@ def blend_contacts(
 def plant_plan(
     result: Motion, plan: ContactPlan, inputs: Sequence[FootQuality], contact_options: ContactOptions
 ) -> tuple[CleanupResult, FootQuality | None]:
-    """The plan planted with the smoothest change whose blend, measured like its inputs, skids
-    no more than they do and skates at most :data:`SKATE_GOAL` times the lesser (module
-    docstring); when no smoothing does, the same with the plants' own motion scaled down
-    (:data:`STEADIER`, :func:`~elastic_motion.apps.blend.contact_plan.steadier`); when nothing
-    does, the trial that comes nearest (fewest skids, then least slid, then least skating).
+    """The plan planted with the least change of the blend among the trials whose blend,
+    measured like its inputs, skids no more than they do, skates at most :data:`SKATE_GOAL`
+    times the lesser, swings at least :data:`CLEARANCE_GOAL` as high as the lesser on every
+    foot point and puts no point more than :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`
+    under its own floor (module docstring); when no trial does, the one that comes nearest
+    (fewest skids, then least slid, then least skating, depth, lost clearance).
+
+    The trials: each smoothing of :data:`SMOOTHING`, with the plants' own motion scaled by each
+    of :data:`STEADIER` (:func:`~elastic_motion.apps.blend.contact_plan.steadier`), with the
+    swing raise eased in and out (``ease_swing``: a raise that jumps where the plan releases a
+    foot snaps the knee) and not. The **change** is the SRV distance of the planted blend to
+    the blend on the blend's own clock (:func:`_change`, the elastic distance's L2 norm without
+    a warp: an upper bound of ``d(R, R0)``). Kept before as the first trial to meet the goal,
+    from the smoothest down, it moved the blend 0.06-0.81 of ``d(A, B) / 2``: a heavily
+    smoothed change of firm plants can cost more than a lightly smoothed change of steadier
+    ones (Bandai normal x tired: 0.73 with the exact plants, 0.11 steadier and smoothed over
+    0.2 s, both meeting the goal; ``benchmarks/cleanup_distance.py``).
     Where the planted blend's own floor stands above the plan's, no point may go deeper under
     it than the shallower input goes under its own, at most
     :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`
     (:func:`~elastic_motion.apps.blend.contact_plan.on_own_floor`): planted again, kept when it
     comes as near. With it, the planted blend measured like its inputs
     (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the plan planted
-    nothing).
-
-    All of it first with the swing raise eased in and out (``ease_swing``: a raise that jumps
-    where the plan releases a foot snaps the knee, the velocity change the elastic distance is
-    made of); when that meets no goal, again with the raise as it is needed, the nearer kept."""
+    nothing)."""
     legs, _ = find_legs(result)  # once, for every trial below
     eased = _plant_on_floor(result, plan, inputs, contact_options, legs, True)
-    if eased[1] is None or not any(eased[2]):
+    if eased[1] is None:
         return eased[0], eased[1]
     plain = _plant_on_floor(result, plan, inputs, contact_options, legs, False)
     return (plain[0], plain[1]) if plain[1] is not None and plain[2] < eased[2] else (eased[0], eased[1])
@@ -183,22 +197,48 @@ def _plant_on_floor(
     ease_swing: bool,
 ) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
     """:func:`plant_plan` with the swing raise eased or not: the trials, then on the planted
-    blend's own floor where it stands above the plan's; with the rank of what it keeps."""
-    res, q, rank = _plant_trials(result, plan, inputs, contact_options, legs, ease_swing)
+    blend's own floor where it stands above the plan's; with the key of what it keeps (how far
+    it misses the goal, then its change)."""
+    res, q, key = _plant_trials(result, plan, inputs, contact_options, legs, ease_swing)
     if q is None:
-        return res, None, rank
+        return res, None, key
     lift = q.contacts.floor_heights() - plan.floor_heights()
     if lift.max() <= _SAME_FLOOR:
-        return res, q, rank
+        return res, q, key
     below = min(SETTLE_BELOW, *(i.below_floor_m for i in inputs))
     own = on_own_floor(plan, q.contacts.floor_heights(), below)
     again = _plant_trials(result, own, inputs, contact_options, legs, ease_swing)
-    return again if again[1] is not None and again[2] <= rank else (res, q, rank)
+    # kept when it misses the goal by no more (its own floor asks more of it than the plan's)
+    return again if again[1] is not None and again[2][:-1] <= key[:-1] else (res, q, key)
 
 
 #: Metres: floors that agree to this are one floor (:func:`plant_plan`; a blend of a motion
 #: with itself is planted once).
 _SAME_FLOOR = 1e-6
+
+
+def _change(before: Motion, after: Motion) -> float:
+    """The SRV distance of ``after`` to ``before`` on their common clock (same frames): the
+    norm of the elastic distance without a warp, so an upper bound of it; each motion a curve in
+    ``R^3 x SO(3)^J`` with the skeleton's default weights
+    (:func:`~elastic_motion.motion.representations.to_lie_curve`). The SRV is made of
+    velocities: a change costs more the faster it varies."""
+    w, tw = group_weights([before])
+    return curve_distance(
+        to_lie_curve(before, w, translation_weight=tw), to_lie_curve(after, w, translation_weight=tw)
+    )
+
+
+def _clearance_lost(q: FootQuality, inputs: Sequence[FootQuality]) -> float:
+    """How far the least swing clearance of ``q`` over its foot points falls short of
+    :data:`CLEARANCE_GOAL` times the lesser input's on the same point (a fraction of it; 0:
+    none short). Points that an input or ``q`` does not swing are left out."""
+    short = 0.0
+    for name, v in q.swing_clearance_m.items():
+        own = [x for x in (i.swing_clearance_m.get(name, np.nan) for i in inputs) if np.isfinite(x)]
+        if own and np.isfinite(v) and min(own) > 0:
+            short = max(short, CLEARANCE_GOAL - v / min(own))
+    return short
 
 
 def _plant_trials(
@@ -209,10 +249,11 @@ def _plant_trials(
     legs: Sequence[LegChain],
     ease_swing: bool = True,
 ) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
-    """:func:`plant_plan`'s search over :data:`STEADIER` and :data:`SMOOTHING`: the first trial
-    that meets the goal, else the nearest; with its rank (how far it misses the skids, the slid
-    distance, the skating and the depth under its own floor, at most
-    :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`: all 0 when it meets them)."""
+    """:func:`plant_plan`'s search over :data:`STEADIER` and :data:`SMOOTHING`: of the trials
+    that meet the goal the one of least change (:func:`_change`), else the nearest; with its
+    key: how far it misses the skids, the slid distance, the skating, the depth under its own
+    floor (at most :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`) and the swing clearance
+    (all 0 when it meets them), then its change."""
     goal = SKATE_GOAL * min(q.skating.mean_speed for q in inputs if q.contacts.any)
     skids = max(q.skid_count for q in inputs)
     slid = max(q.slid_m for q in inputs)
@@ -227,18 +268,18 @@ def _plant_trials(
             if not res.applied:
                 return res, None, ()
             q = foot_quality(res.motion, contact_options)
-            rank = (
+            key = (
                 max(q.skid_count - skids, 0),
                 max(q.slid_m - slid, 0.0),
                 max(q.skating.mean_speed - goal, 0.0),
                 # and no point deeper than SETTLE_BELOW under its own floor (issue 29): a smoothed
                 # change may take a foot down where the unsmoothed one kept it out
                 max(q.below_floor_m - SETTLE_BELOW, 0.0),
+                _clearance_lost(q, inputs),
+                _change(result, res.motion),
             )
-            if rank == (0, 0.0, 0.0, 0.0):
-                return res, q, rank
-            if best is None or rank < best[0]:
-                best = (rank, res, q)
+            if best is None or key < best[0]:
+                best = (key, res, q)
     assert best is not None
     return best[1], best[2], best[0]
 
