@@ -15,6 +15,7 @@ from elastic_motion.apps.blend.contact_plan import (
     PlannedInterval,
     _planned,
     _rigid_feet,
+    at_ends,
     carried_interval,
     match_intervals,
     on_own_floor,
@@ -23,7 +24,7 @@ from elastic_motion.apps.blend.contact_plan import (
 from elastic_motion.apps.blend.timing import HELD_RATE, NOTE_TRIM, held_ends
 from elastic_motion.apps.distance import motion_distance
 from elastic_motion.apps.metrics.floor import foot_quality
-from elastic_motion.motion import Skeleton, drop_tpose, forward_kinematics, read_motion
+from elastic_motion.motion import Motion, Skeleton, drop_tpose, forward_kinematics, read_motion
 from elastic_motion.motion.contacts import ContactOptions, Contacts
 from elastic_motion.motion.ik import LegChain
 
@@ -208,6 +209,40 @@ def test_a_steadier_plan_scales_the_plants_motion_about_their_means():
     assert np.isnan(locked[:4]).all() and np.isnan(locked[14:]).all()
     with pytest.raises(ValueError, match="factor"):
         steadier(plan, 1.5)
+
+
+def test_plants_at_the_ends_stand_between_where_the_blends_foot_arrives_and_leaves():
+    """:func:`at_ends`: each interval's floor position moves from the blend's own mean over it to
+    the middle of the blend's own positions at its first and last frames (a foot still moving
+    when the plant begins: the mean stood 3.2 cm from it there, the middle 2.0 cm); heights and
+    the plants' motion about their position are kept, nothing outside the plants."""
+    sk = Skeleton(
+        ["hips", "foot"],
+        [-1, 0],
+        np.array([[0, 1, 0], [0, -0.9, 0]], dtype=float),
+        [("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
+        + [("Zrotation", "Xrotation", "Yrotation")],
+    )
+    n = 30
+    x = np.r_[np.zeros(10), 0.001 * np.arange(1, 9) ** 2, np.full(12, 0.064)]
+    root = np.c_[x, np.ones(n), np.zeros(n)]
+    m = Motion(sk, 30.0, root, np.tile(np.eye(3), (n, 2, 1, 1)), metres_per_unit=1.0)
+    foot = forward_kinematics(m)[:, 1]
+    mask = np.zeros((n, 1), dtype=bool)
+    mask[14:26] = True  # the foot still moves over the plant's first 4 frames
+    target = np.full((n, 3), np.nan)
+    target[14:26] = foot[14:26].mean(axis=0) + [0.0, 0.02, 0.0]
+    target[14:26, 2] += 0.001 * np.arange(12)  # the inputs' planted motion
+    contacts = Contacts(("foot",), np.array([1]), mask, 0.0, np.array([0.02]), 30.0, "y", ContactOptions())
+    plan = ContactPlan(contacts, {"foot": (PlannedInterval(14, 26, ((0, 14, 26),)),)}, {"foot": target}, {})
+    moved = at_ends(plan, m).plants["foot"]
+    middle = 0.5 * (foot[14, 0] + foot[25, 0])
+    np.testing.assert_allclose(moved[14:26, 0], middle)
+    np.testing.assert_array_equal(moved[14:26, 1:], target[14:26, 1:])
+    assert np.isnan(moved[:14]).all() and np.isnan(moved[26:]).all()
+    # the larger jump at the plant's ends is smaller than from the mean
+    ends = foot[[14, 25], 0]
+    assert np.abs(ends - middle).max() < np.abs(ends - target[14, 0]).max()
 
 
 @pytest.mark.mocap

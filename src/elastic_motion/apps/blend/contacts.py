@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastic_motion.apps.blend.contact_plan import ContactPlan, on_own_floor, plan_contacts, steadier
+from elastic_motion.apps.blend.contact_plan import ContactPlan, at_ends, on_own_floor, plan_contacts, steadier
 from elastic_motion.apps.blend.inputs import BlendInputs
 from elastic_motion.apps.blend.timing import Clock
 from elastic_motion.apps.blend.warps import Warps
@@ -166,13 +166,17 @@ def plant_plan(
     The trials: each smoothing of :data:`SMOOTHING`, with the plants' own motion scaled by each
     of :data:`STEADIER` (:func:`~elastic_motion.apps.blend.contact_plan.steadier`), with the
     swing raise eased in and out (``ease_swing``: a raise that jumps where the plan releases a
-    foot snaps the knee) and not. The **change** is the SRV distance of the planted blend to
-    the blend on the blend's own clock (:func:`_change`, the elastic distance's L2 norm without
-    a warp: an upper bound of ``d(R, R0)``). Kept before as the first trial to meet the goal,
-    from the smoothest down, it moved the blend 0.06-0.81 of ``d(A, B) / 2``: a heavily
-    smoothed change of firm plants can cost more than a lightly smoothed change of steadier
-    ones (Bandai normal x tired: 0.73 with the exact plants, 0.11 steadier and smoothed over
-    0.2 s, both meeting the goal; ``benchmarks/cleanup_distance.py``).
+    foot snaps the knee) and not, with the plants where the plan puts them and at the middle
+    of where the blend's feet are at their ends
+    (:func:`~elastic_motion.apps.blend.contact_plan.at_ends`); for each but the smoothing, the
+    smoothest that meets the goal (less smoothing changes the blend faster). The **change** is
+    the SRV distance of the planted blend to the blend on the blend's own clock
+    (:func:`_change`, the elastic distance's L2 norm without a warp: an upper bound of
+    ``d(R, R0)``). Kept before as the first trial to meet the goal, from the smoothest down,
+    it moved the blend 0.06-0.81 of ``d(A, B) / 2``: a smoothed change of steadier plants can
+    cost far less than an exact plant (Bandai normal x tired: 0.73 with the exact plants, 0.11
+    steadier and smoothed over 0.2 s, both meeting the goal; fine measure,
+    ``benchmarks/cleanup_distance.py``).
     Where the planted blend's own floor stands above the plan's, no point may go deeper under
     it than the shallower input goes under its own, at most
     :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`
@@ -181,11 +185,16 @@ def plant_plan(
     (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the plan planted
     nothing)."""
     legs, _ = find_legs(result)  # once, for every trial below
-    eased = _plant_on_floor(result, plan, inputs, contact_options, legs, True)
-    if eased[1] is None:
-        return eased[0], eased[1]
-    plain = _plant_on_floor(result, plan, inputs, contact_options, legs, False)
-    return (plain[0], plain[1]) if plain[1] is not None and plain[2] < eased[2] else (eased[0], eased[1])
+    best = None
+    for ease_swing in (True, False):
+        for placed in (plan, at_ends(plan, result)):
+            got = _plant_on_floor(result, placed, inputs, contact_options, legs, ease_swing)
+            if got[1] is None:
+                return got[0], None
+            if best is None or got[2] < best[2]:
+                best = got
+    assert best is not None
+    return best[0], best[1]
 
 
 def _plant_on_floor(
@@ -280,6 +289,8 @@ def _plant_trials(
             )
             if best is None or key < best[0]:
                 best = (key, res, q)
+            if not any(key[:-1]):
+                break  # met: a smoothing less than this changes the blend more (faster)
     assert best is not None
     return best[1], best[2], best[0]
 
