@@ -628,7 +628,7 @@ def at_ends(plan: ContactPlan, result: Motion) -> ContactPlan:
     The middle of the two ends halves the larger jump. Tried by
     :func:`~elastic_motion.apps.blend.contacts.plant_plan` next to the plan itself, which keeps
     the one that changes the blend less (CMU 131_01 x 131_02: the planted blend's fine distance
-    to 131_02 1.11 -> 1.10 of ``d(A, B) / 2``; Bandai normal x old is nearer with the means)."""
+    to 131_02 1.11 -> 1.096 of ``d(A, B) / 2``; Bandai normal x old is nearer with the means)."""
     up = _AXES.index(plan.contacts.up_axis)
     horizontal = [a for a in range(3) if a != up]
     scale = result.metres_per_unit if result.metres_per_unit is not None else 1.0
