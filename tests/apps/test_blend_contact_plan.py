@@ -307,6 +307,35 @@ def test_a_start_walk_stop_blend_stands_on_its_floor_and_swings_clear_of_it(moca
 
 
 @pytest.mark.mocap
+def test_a_planting_that_changes_the_blend_little_enough_ends_the_search(mocap, monkeypatch):
+    """``ENOUGH``: the clean-up stops at a trial that meets the feet's goal with a change of at
+    most a fifth of the blend's distance to the nearer input (both on the blend's clock). On
+    CMU 07_01 x 08_02 (the command line's benchmark pair) it plants with fewer trials than the
+    exhaustive search (``ENOUGH = 0``), whose change is the least."""
+    import elastic_motion.apps.blend.contacts as contacts_module
+
+    a, b = (drop_tpose(read_motion(mocap / f"cmu/bvh/{n}.bvh")) for n in ("07_01", "08_02"))
+    real = contacts_module.cleanup_footskate
+    runs = {}
+    enough_default = contacts_module.ENOUGH
+    calls = []
+
+    def counted(*args, **kw):
+        calls.append(1)
+        return real(*args, **kw)
+
+    monkeypatch.setattr(contacts_module, "cleanup_footskate", counted)
+    for enough in (enough_default, 0.0):
+        monkeypatch.setattr(contacts_module, "ENOUGH", enough)
+        calls.clear()
+        res = em.blend([a, b], 0.5)
+        runs[enough] = (len(calls), contacts_module._change(res.before_cleanup, res.motion))
+    quick, full = runs[enough_default], runs[0.0]
+    assert quick[0] < full[0]
+    assert quick[1] >= full[1] - 1e-12  # the exhaustive search's change is the least
+
+
+@pytest.mark.mocap
 def test_the_feet_are_planted_with_the_least_change_that_plants_them(mocap):
     """Issue 29's distance row: of the clean-up's trials whose blend meets the feet's goal, the
     one that changes the blend least (its SRV distance on the blend's clock) is kept. Bandai
