@@ -481,13 +481,16 @@ def test_an_euler_blends_skated_foot_is_planted_not_twisted(mocap_dir):
     """CMU 131_01 x 131_02 by the Euler baseline: the blend's left toe moves 46 cm (and 13 cm
     up) in a carried contact in which the ankle is planted for its last 40 frames. The means
     of the two runs pointed the foot 67 deg away from the blend's own (and from both inputs');
-    with the plants of a rigid foot the clean-up turns no joint by more than about 35 deg."""
+    with the plants of a rigid foot the clean-up turns no joint by more than about 39 deg (70
+    without: the ankles, also when the clean-up's trial with plants at the middle of the blend's
+    feet's ends, :func:`~elastic_motion.apps.blend.contact_plan.at_ends`, does not make the foot
+    rigid again)."""
     a = read_motion(mocap_dir / "cmu/bvh/131_01.bvh")
     b = read_motion(mocap_dir / "cmu/bvh/131_02.bvh")
     res = blend_motions([a, b], 0.5, method="euler-elastic", warp="dp")
     cl = res.cleanup
     assert cl is not None and cl.applied
-    assert cl.max_rotation_change_deg < 40.0
+    assert cl.max_rotation_change_deg < 42.0
     assert cl.skating_after.mean_speed < 0.9 * cl.skating_before.mean_speed
     assert cl.skating_after.below_floor <= 0.01
 
