@@ -615,7 +615,7 @@ def steadier(plan: ContactPlan, factor: float) -> ContactPlan:
     return ContactPlan(plan.contacts, plan.intervals, plants, plan.swing_heights, plan.floor)
 
 
-def at_ends(plan: ContactPlan, result: Motion) -> ContactPlan:
+def at_ends(plan: ContactPlan, result: Motion, legs: Sequence[LegChain] | None = None) -> ContactPlan:
     """The plan with each planted interval's floor position moved from the blend's own mean
     over the interval (module docstring, "Plant targets") to the middle of where the blend puts
     the joint on the interval's first and last frames (``result``: the blend the plan was made
@@ -628,7 +628,8 @@ def at_ends(plan: ContactPlan, result: Motion) -> ContactPlan:
     The middle of the two ends halves the larger jump. Tried by
     :func:`~elastic_motion.apps.blend.contacts.plant_plan` next to the plan itself, which keeps
     the one that changes the blend less (CMU 131_01 x 131_02: the planted blend's fine distance
-    to 131_02 1.11 -> 1.096 of ``d(A, B) / 2``; Bandai normal x old is nearer with the means)."""
+    to 131_02 1.11 -> 1.096 of ``d(A, B) / 2``; Bandai normal x old is nearer with the means).
+    ``legs``: ``result``'s (default :func:`~elastic_motion.apps.cleanup.find_legs`)."""
     up = _AXES.index(plan.contacts.up_axis)
     horizontal = [a for a in range(3) if a != up]
     scale = result.metres_per_unit if result.metres_per_unit is not None else 1.0
@@ -643,7 +644,7 @@ def at_ends(plan: ContactPlan, result: Motion) -> ContactPlan:
         plants[name] = t
     # moved apart, the ankle's and toe's plants of one foot can turn it (70 deg at an ankle of an
     # Euler blend of CMU 131_01 x 131_02): a foot is made rigid again as the plan makes it
-    for leg in find_legs(result)[0]:
+    for leg in find_legs(result)[0] if legs is None else legs:
         _rigid_feet(result.skeleton, leg, dict(plan.intervals), plants, pos, up)
     return ContactPlan(plan.contacts, plan.intervals, plants, plan.swing_heights, plan.floor)
 

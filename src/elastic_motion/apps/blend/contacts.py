@@ -25,8 +25,9 @@ contacts or a weight is 1.
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,7 +46,7 @@ from elastic_motion.apps.cleanup import (
 )
 from elastic_motion.apps.metrics import contact_skating
 from elastic_motion.apps.metrics.floor import FootQuality, foot_quality
-from elastic_motion.curves import curve_distance
+from elastic_motion.curves import srv_distance, srv_transform
 from elastic_motion.motion import Motion, resample_at_times
 from elastic_motion.motion.contacts import MISSED_STANCES, ContactOptions, Contacts
 from elastic_motion.motion.ik import LegChain
@@ -76,7 +77,7 @@ SKATE_GOAL = 1.05
 #: input's on the same point (issue 29's target).
 CLEARANCE_GOAL = 0.8
 #: A planting that meets the goal and changes the blend by at most this fraction of its
-#: distance to the nearer input (both on the blend's clock, :func:`_change`) ends the search
+#: distance to the nearer input (both on the blend's clock, :func:`_change_from`) ends the search
 #: (:func:`plant_plan`): even along the inputs' difference it would move the blend's distances
 #: by at most this, across it by ~2 %; searching on for a smaller change cost 4x the clean-up's
 #: time (CMU 07_01 x 08_02: the command line's blend 1.09 -> 1.51 s) and changed nothing there.
@@ -161,7 +162,8 @@ def blend_contacts(
         resample_at_times(m, m.times, np.clip(t, m.times[0], m.times[-1]), fps=result.fps)
         for m, t in zip(prep.motions, clock.times, strict=True)
     ]
-    enough = ENOUGH * min(_change(result, m) for m in on_clock)
+    change = _change_from(result)
+    enough = ENOUGH * min(change(m) for m in on_clock)
     res, feet = plant_plan(result, plan, measured, options.contact_options, enough)
     if res.applied:
         notes.append(_planted_note(res, own))
@@ -194,7 +196,7 @@ def plant_plan(
     (:func:`~elastic_motion.apps.blend.contact_plan.at_ends`); for each but the smoothing, the
     smoothest that meets the goal (less smoothing changes the blend faster). The **change** is
     the SRV distance of the planted blend to the blend on the blend's own clock
-    (:func:`_change`, the elastic distance's L2 norm without a warp: an upper bound of
+    (:func:`_change_from`, the elastic distance's L2 norm without a warp: an upper bound of
     ``d(R, R0)``). Kept before as the first trial to meet the goal, from the smoothest down,
     it moved the blend 0.06-0.81 of ``d(A, B) / 2``: a smoothed change of steadier plants can
     cost far less than an exact plant (Bandai normal x tired: 0.73 with the exact plants, 0.11
@@ -209,23 +211,50 @@ def plant_plan(
     (:func:`~elastic_motion.apps.metrics.floor.foot_quality`; None when the plan planted
     nothing)."""
     legs, _ = find_legs(result)  # once, for every trial below
+    search = _Search(_change_from(result), enough)
+    placements = [plan]  # and at_ends(plan), made when first tried
     best = None
     for ease_swing in (True, False):
         if not ease_swing and best is not None and not any(best[2][:-1]):
             break  # an eased trial met the goal
-        for placed in (plan, at_ends(plan, result)):
+        for k in range(2):
             met = best is not None and not any(best[2][:-1])
             if met and best[2][-1] <= enough:
                 return best[0], best[1]  # little enough
+            if k == len(placements):
+                placements.append(at_ends(plan, result, legs))
             # a trial that changes the blend more than one that met the goal ends its search
-            bound = best[2][-1] if met else math.inf
-            got = _plant_on_floor(result, placed, inputs, contact_options, legs, ease_swing, (bound, enough))
+            most = best[2][-1] if met else math.inf
+            got = _plant_on_floor(
+                result, placements[k], inputs, contact_options, legs, ease_swing,
+                dataclasses.replace(search, most=most),
+            )  # fmt: skip
             if got[1] is None:
                 return got[0], None
             if best is None or got[2] < best[2]:
                 best = got
     assert best is not None
     return best[0], best[1]
+
+
+@dataclass(frozen=True)
+class _Search:
+    """How far :func:`plant_plan`'s search goes.
+
+    Attributes
+    ----------
+    change : callable
+        ``change(planted)``: the change of a planted blend from the blend (:func:`_change_from`).
+    enough : float
+        A trial that meets the goal with a change of at most this ends the search.
+    most : float
+        A trial that misses the goal with a change above this ends its smoothings (a change
+        that met the goal already).
+    """
+
+    change: Callable[[Motion], float]
+    enough: float = 0.0
+    most: float = math.inf
 
 
 def _plant_on_floor(
@@ -235,12 +264,12 @@ def _plant_on_floor(
     contact_options: ContactOptions,
     legs: Sequence[LegChain],
     ease_swing: bool,
-    bound: tuple[float, float] = (math.inf, 0.0),
+    search: _Search,
 ) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
     """:func:`plant_plan` with the swing raise eased or not: the trials, then on the planted
     blend's own floor where it stands above the plan's; with the key of what it keeps (how far
-    it misses the goal, then its change). ``bound``: as :func:`_plant_trials`."""
-    res, q, key = _plant_trials(result, plan, inputs, contact_options, legs, ease_swing, bound)
+    it misses the goal, then its change)."""
+    res, q, key = _plant_trials(result, plan, inputs, contact_options, legs, ease_swing, search)
     if q is None:
         return res, None, key
     lift = q.contacts.floor_heights() - plan.floor_heights()
@@ -248,7 +277,7 @@ def _plant_on_floor(
         return res, q, key
     below = min(SETTLE_BELOW, *(i.below_floor_m for i in inputs))
     own = on_own_floor(plan, q.contacts.floor_heights(), below)
-    again = _plant_trials(result, own, inputs, contact_options, legs, ease_swing, bound)
+    again = _plant_trials(result, own, inputs, contact_options, legs, ease_swing, search)
     # kept when it misses the goal by no more (its own floor asks more of it than the plan's)
     return again if again[1] is not None and again[2][:-1] <= key[:-1] else (res, q, key)
 
@@ -258,16 +287,25 @@ def _plant_on_floor(
 _SAME_FLOOR = 1e-6
 
 
-def _change(before: Motion, after: Motion) -> float:
-    """The SRV distance of ``after`` to ``before`` on their common clock (same frames): the
-    norm of the elastic distance without a warp, so an upper bound of it; each motion a curve in
-    ``R^3 x SO(3)^J`` with the skeleton's default weights
+def _change_from(before: Motion) -> Callable[[Motion], float]:
+    """``change(after)``: the SRV distance of ``after`` to ``before`` on their common clock
+    (same frames; ``before``'s SRV function made once, the trials measure against it): the norm
+    of the elastic distance without a warp, so an upper bound of it; each motion a curve in
+    ``R^3 x SO(3)^J`` with ``before``'s skeleton's default weights
     (:func:`~elastic_motion.motion.representations.to_lie_curve`). The SRV is made of
     velocities: a change costs more the faster it varies."""
     w, tw = group_weights([before])
-    return curve_distance(
-        to_lie_curve(before, w, translation_weight=tw), to_lie_curve(after, w, translation_weight=tw)
-    )
+    reference = srv_transform(to_lie_curve(before, w, translation_weight=tw))
+
+    def change(after: Motion) -> float:
+        return srv_distance(reference, srv_transform(to_lie_curve(after, w, translation_weight=tw)))
+
+    return change
+
+
+def _change(before: Motion, after: Motion) -> float:
+    """:func:`_change_from` of ``before`` for one ``after``."""
+    return _change_from(before)(after)
 
 
 def _clearance_lost(q: FootQuality, inputs: Sequence[FootQuality]) -> float:
@@ -289,18 +327,19 @@ def _plant_trials(
     contact_options: ContactOptions,
     legs: Sequence[LegChain],
     ease_swing: bool = True,
-    bound: tuple[float, float] = (math.inf, 0.0),
+    search: _Search | None = None,
 ) -> tuple[CleanupResult, FootQuality | None, tuple[float, ...]]:
     """:func:`plant_plan`'s search over :data:`STEADIER` and :data:`SMOOTHING`: of the trials
-    that meet the goal the one of least change (:func:`_change`), else the nearest; with its
+    that meet the goal the one of least change (:func:`_change_from`), else the nearest; with its
     key: how far it misses the skids, the slid distance, the skating, the depth under its own
     floor (at most :data:`~elastic_motion.apps.cleanup.SETTLE_BELOW`) and the swing clearance
     (all 0 when it meets them), then its change. For each steadier plan the smoothings are tried
     from the largest until one meets the goal, or until one that does not changes the blend
-    more than ``bound[0]`` (a change that met the goal already): less smoothing only changes the
-    blend more (faster); and it ends at a trial that meets the goal with a change of at most
-    ``bound[1]`` (:data:`ENOUGH`)."""
-    most, enough = bound
+    more than ``search.most`` (a change that met the goal already): less smoothing only changes
+    the blend more (faster); and it ends at a trial that meets the goal with a change of at most
+    ``search.enough`` (:data:`ENOUGH`). Default: every trial, measured from ``result``."""
+    search = search if search is not None else _Search(_change_from(result))
+    most, enough = search.most, search.enough
     goal = SKATE_GOAL * min(q.skating.mean_speed for q in inputs if q.contacts.any)
     skids = max(q.skid_count for q in inputs)
     slid = max(q.slid_m for q in inputs)
@@ -323,7 +362,7 @@ def _plant_trials(
                 # change may take a foot down where the unsmoothed one kept it out
                 max(q.below_floor_m - SETTLE_BELOW, 0.0),
                 _clearance_lost(q, inputs),
-                _change(result, res.motion),
+                search.change(res.motion),
             )
             if best is None or key < best[0]:
                 best = (key, res, q)
